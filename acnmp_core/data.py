@@ -1,0 +1,215 @@
+"""Demonstration sets and the context/target sampler used for training.
+
+A demonstration is a trajectory sampled at its own times: ``times`` (T_i,), ``values`` (T_i, D) and
+task parameters (P,). Demonstrations may have different lengths and need not be time-aligned.
+"""
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass, field
+
+import numpy as np
+import torch
+
+from .validation import check_array
+
+
+@dataclass
+class Demonstration:
+    """One trajectory: times (T,) strictly increasing, values (T, D), task_params (P,)."""
+
+    times: np.ndarray
+    values: np.ndarray
+    task_params: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    def __post_init__(self) -> None:
+        self.times = check_array("times", self.times, ndim=1, min_size=2)
+        self.values = check_array("values", self.values, ndim=2)
+        self.task_params = check_array("task_params", self.task_params, ndim=1)
+        if self.values.shape[0] != self.times.shape[0]:
+            raise ValueError(
+                f"values: expected {self.times.shape[0]} rows (one per time), got {self.values.shape[0]}"
+            )
+        if np.any(np.diff(self.times) <= 0):
+            raise ValueError("times: expected strictly increasing times")
+
+
+class DemoSet:
+    """An ordered collection of demonstrations sharing D outputs and P task parameters.
+
+    Parameters
+    ----------
+    demos : list of :class:`Demonstration`; at least one.
+    """
+
+    def __init__(self, demos: list[Demonstration]):
+        if not demos:
+            raise ValueError("demos: expected at least one demonstration")
+        d0 = demos[0]
+        for i, d in enumerate(demos):
+            if d.values.shape[1] != d0.values.shape[1]:
+                raise ValueError(
+                    f"demos[{i}].values: expected {d0.values.shape[1]} output dims, got {d.values.shape[1]}"
+                )
+            if d.task_params.shape != d0.task_params.shape:
+                raise ValueError(
+                    f"demos[{i}].task_params: expected {d0.task_params.shape[0]} task parameters, "
+                    f"got {d.task_params.shape[0]}"
+                )
+        self.demos = list(demos)
+
+    @classmethod
+    def from_arrays(cls, times, values, task_params=None) -> "DemoSet":
+        """Build from arrays: times (N, T) or (T,), values (N, T, D), task_params (N, P) or None."""
+        values = check_array("values", values, ndim=3)
+        n, t, _ = values.shape
+        times = check_array("times", times, ndim=(1, 2))
+        if times.ndim == 1:
+            times = np.broadcast_to(times, (n, times.shape[0]))
+        if times.shape != (n, t):
+            raise ValueError(f"times: expected shape ({n}, {t}) or ({t},), got {times.shape}")
+        if task_params is None:
+            task_params = np.zeros((n, 0))
+        task_params = check_array("task_params", task_params, ndim=2)
+        if task_params.shape[0] != n:
+            raise ValueError(f"task_params: expected {n} rows, got {task_params.shape[0]}")
+        return cls([Demonstration(times[i], values[i], task_params[i]) for i in range(n)])
+
+    def __len__(self) -> int:
+        return len(self.demos)
+
+    def __getitem__(self, i: int) -> Demonstration:
+        return self.demos[i]
+
+    @property
+    def n_outputs(self) -> int:
+        return self.demos[0].values.shape[1]
+
+    @property
+    def n_task_params(self) -> int:
+        return self.demos[0].task_params.shape[0]
+
+    def added(self, demo: Demonstration) -> "DemoSet":
+        """A new DemoSet with ``demo`` appended (this one is unchanged)."""
+        return DemoSet(self.demos + [demo])
+
+    def subset(self, idx) -> "DemoSet":
+        """A new DemoSet with the demonstrations at indices ``idx``."""
+        return DemoSet([self.demos[i] for i in idx])
+
+    def all_times(self) -> np.ndarray:
+        """(sum T_i,) every time stamp."""
+        return np.concatenate([d.times for d in self.demos])
+
+    def all_values(self) -> np.ndarray:
+        """(sum T_i, D) every value."""
+        return np.concatenate([d.values for d in self.demos])
+
+    def all_task_params(self) -> np.ndarray:
+        """(N, P) task parameters, one row per demonstration."""
+        return np.stack([d.task_params for d in self.demos])
+
+    def extent(self) -> float:
+        """The largest per-dimension range of the values (raw units): the demos' spatial extent."""
+        v = self.all_values()
+        return float(np.max(v.max(axis=0) - v.min(axis=0)))
+
+    def content_hash(self) -> str:
+        """SHA-256 of every array in order: identifies the training data in a checkpoint."""
+        h = hashlib.sha256()
+        for d in self.demos:
+            for a in (d.times, d.values, d.task_params):
+                h.update(np.ascontiguousarray(a, dtype=np.float64).tobytes())
+                h.update(str(a.shape).encode())
+        return h.hexdigest()
+
+
+@dataclass
+class PackedDemos:
+    """Demonstrations padded into tensors (normalised units) for fast batched sampling.
+
+    times (N, Tmax, 1), values (N, Tmax, D), task_params (N, P), lengths (N,) int64.
+    """
+
+    times: torch.Tensor
+    values: torch.Tensor
+    task_params: torch.Tensor
+    lengths: torch.Tensor
+
+
+@dataclass
+class Episode:
+    """A batch of context/target sets (normalised units).
+
+    obs_x (B, No, 1+P+2D): [t, task_params, values * dim_mask, dim_mask]; obs_mask (B, No) bool;
+    tgt_x (B, Nt, 1+P): [t, task_params]; tgt_y (B, Nt, D).
+    """
+
+    obs_x: torch.Tensor
+    obs_mask: torch.Tensor
+    tgt_x: torch.Tensor
+    tgt_y: torch.Tensor
+
+
+class EpisodeSampler:
+    """Draws training episodes: per sample a demonstration, 1..max_obs observations, n_targets targets.
+
+    Targets are never among the sample's observations. With probability ``partial_obs_prob`` an
+    observation carries only a random non-empty subset of the output dimensions, which teaches the
+    model to condition on partial observations.
+    """
+
+    def __init__(
+        self,
+        packed: PackedDemos,
+        *,
+        min_obs: int = 1,
+        max_obs: int = 5,
+        n_targets: int = 10,
+        partial_obs_prob: float = 0.2,
+    ) -> None:
+        shortest = int(packed.lengths.min())
+        if min_obs < 1 or max_obs < min_obs:
+            raise ValueError(f"max_obs: expected 1 <= min_obs <= max_obs, got {min_obs}, {max_obs}")
+        if max_obs + 1 > shortest:
+            raise ValueError(f"max_obs: the shortest demonstration has {shortest} points; need max_obs < {shortest}")
+        self.packed = packed
+        self.min_obs, self.max_obs = min_obs, max_obs
+        self.n_targets = max(1, min(n_targets, shortest - max_obs))
+        self.partial_obs_prob = partial_obs_prob
+
+    def sample(self, batch_size: int, gen: torch.Generator, demo_idx: torch.Tensor | None = None) -> Episode:
+        """Draw ``batch_size`` episodes using ``gen``; ``demo_idx`` (B,) picks demos (default uniform)."""
+        p = self.packed
+        n, tmax, d = p.values.shape
+        if demo_idx is None:
+            demo_idx = torch.randint(0, n, (batch_size,), generator=gen)
+        b = demo_idx.shape[0]
+        lengths = p.lengths[demo_idx]
+        # A random permutation of each demo's valid indices: invalid (padded) slots sort last.
+        keys = torch.rand(b, tmax, generator=gen, dtype=torch.float64)
+        keys = torch.where(torch.arange(tmax)[None, :] < lengths[:, None], keys, 2.0)
+        order = torch.argsort(keys, dim=1)
+        obs_idx = order[:, : self.max_obs]
+        tgt_idx = order[:, self.max_obs : self.max_obs + self.n_targets]
+        n_obs = torch.randint(self.min_obs, self.max_obs + 1, (b,), generator=gen)
+        obs_mask = torch.arange(self.max_obs)[None, :] < n_obs[:, None]
+
+        def take(arr: torch.Tensor, idx: torch.Tensor) -> torch.Tensor:
+            return torch.gather(arr[demo_idx], 1, idx[..., None].expand(-1, -1, arr.shape[-1]))
+
+        tp = p.task_params[demo_idx]
+        ot, ov = take(p.times, obs_idx), take(p.values, obs_idx)
+        dim_mask = torch.ones_like(ov)
+        if self.partial_obs_prob > 0 and d > 1:
+            partial = torch.rand(b, self.max_obs, 1, generator=gen) < self.partial_obs_prob
+            rand_mask = (torch.rand(b, self.max_obs, d, generator=gen) < 0.5).to(ov.dtype)
+            # Guarantee at least one observed dimension per observation.
+            first = torch.randint(0, d, (b, self.max_obs), generator=gen)
+            rand_mask.scatter_(2, first[..., None], 1.0)
+            dim_mask = torch.where(partial, rand_mask, dim_mask)
+        tp_o = tp[:, None, :].expand(-1, self.max_obs, -1)
+        obs_x = torch.cat([ot, tp_o, ov * dim_mask, dim_mask], dim=-1)
+        tt, ty = take(p.times, tgt_idx), take(p.values, tgt_idx)
+        tgt_x = torch.cat([tt, tp[:, None, :].expand(-1, tt.shape[1], -1)], dim=-1)
+        return Episode(obs_x.float(), obs_mask, tgt_x.float(), ty.float())

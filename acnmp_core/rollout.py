@@ -1,0 +1,75 @@
+"""The one interface through which every roll-out is evaluated.
+
+In-process tasks, PyBullet robots and remote workers all implement :class:`RolloutEvaluator`, so the
+adaptation code never knows where a trajectory is executed.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+from .validation import check_array
+
+
+@dataclass
+class RolloutBatch:
+    """Outcome of executing a batch of B trajectories of T steps.
+
+    Attributes
+    ----------
+    rewards : (B, T) float64
+        Per-step reward; the return of a roll-out is ``rewards.sum(axis=1)``.
+    success : (B,) bool
+        Whether each roll-out satisfies the task's success criterion.
+    states : dict of str -> (B, T, ...) arrays
+        Executed states (e.g. joint angles, end-effector and object positions), task-specific.
+    """
+
+    rewards: np.ndarray
+    success: np.ndarray
+    states: dict[str, np.ndarray] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        self.rewards = check_array("rewards", self.rewards, ndim=2)
+        b = self.rewards.shape[0]
+        self.success = np.asarray(self.success, dtype=bool).reshape(-1)
+        if self.success.shape != (b,):
+            raise ValueError(f"success: expected shape ({b},), got {self.success.shape}")
+
+    @property
+    def returns(self) -> np.ndarray:
+        """(B,) sum of per-step rewards."""
+        return self.rewards.sum(axis=1)
+
+    def __len__(self) -> int:
+        return self.rewards.shape[0]
+
+    @staticmethod
+    def concat(batches: list["RolloutBatch"]) -> "RolloutBatch":
+        """Concatenate batches along the roll-out axis (states: keys common to all batches)."""
+        if not batches:
+            raise ValueError("batches: expected at least one RolloutBatch")
+        keys = set(batches[0].states)
+        for b in batches[1:]:
+            keys &= set(b.states)
+        return RolloutBatch(
+            rewards=np.concatenate([b.rewards for b in batches]),
+            success=np.concatenate([b.success for b in batches]),
+            states={k: np.concatenate([b.states[k] for b in batches]) for k in sorted(keys)},
+        )
+
+
+@runtime_checkable
+class RolloutEvaluator(Protocol):
+    """Executes trajectories and scores them.
+
+    ``evaluate(trajectories, times, task_params)`` takes trajectories (B, T, D) in the task's raw
+    units, their times (T,) and the task parameters (P,) (empty when the task has none), and returns
+    a :class:`RolloutBatch` with B roll-outs in the same order.
+    """
+
+    def evaluate(
+        self, trajectories: np.ndarray, times: np.ndarray, task_params: np.ndarray | None = None
+    ) -> RolloutBatch: ...
