@@ -1,0 +1,163 @@
+"""The project's demonstration file format (.npz) and its reader and writer.
+
+Format (version 1), a NumPy ``.npz`` archive readable with ``np.load(path, allow_pickle=False)``:
+
+=================== ============= ==========================================================
+key                 shape, dtype  meaning
+=================== ============= ==========================================================
+``format_version``  (), int64     1
+``times``           (N, T) f8     time stamps per demonstration, strictly increasing per row
+                                  (the project uses phase in [0, 1]; any unit is allowed)
+``values``          (N, T, D) f8  the trajectory, raw units (e.g. joint angles in rad)
+``task_params``     (N, P) f8     task parameters per demonstration (P may be 0)
+``lengths``         (N,) int64    optional: valid rows per demonstration; rows past a length
+                                  are padding (demonstrations of different lengths)
+``task_param_names`` (P,) str     optional names of the task parameters
+``value_names``     (D,) str      optional names of the output dimensions
+``roles``           (N,) str      optional role per demonstration, e.g. "train",
+                                  "interpolation", "extrapolation"
+=================== ============= ==========================================================
+
+String arrays are stored as fixed-width unicode (never object arrays), so no pickle is involved.
+"""
+from __future__ import annotations
+
+import io
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .validation import check_array
+
+FORMAT_VERSION = 1
+_STRING_KEYS = ("task_param_names", "value_names", "roles")
+
+
+@dataclass
+class DemoArrays:
+    """A demonstration set as arrays (see the module docstring for the shapes).
+
+    ``demo(i)`` returns demonstration ``i`` trimmed to its length: times (T_i,), values (T_i, D),
+    task_params (P,).
+    """
+
+    times: np.ndarray
+    values: np.ndarray
+    task_params: np.ndarray
+    task_param_names: np.ndarray | None = None
+    value_names: np.ndarray | None = None
+    roles: np.ndarray | None = None
+    lengths: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        self.values = check_array("values", self.values, ndim=3, min_size=1)
+        n, t, d = self.values.shape
+        self.times = check_array("times", self.times, shape=(n, t))
+        self.task_params = check_array("task_params", self.task_params, ndim=2)
+        if self.task_params.shape[0] != n:
+            raise ValueError(f"task_params: expected {n} rows (one per demonstration), got {self.task_params.shape[0]}")
+        if self.lengths is None:
+            lengths = np.full(n, t, dtype=np.int64)
+        else:
+            lengths = check_array("lengths", self.lengths, shape=(n,), dtype=np.int64)
+            if np.any(lengths < 2) or np.any(lengths > t):
+                raise ValueError(f"lengths: expected every length in [2, {t}], got {lengths.tolist()}")
+        for i in range(n):
+            if np.any(np.diff(self.times[i, : lengths[i]]) <= 0):
+                raise ValueError(f"times: row {i} is not strictly increasing")
+        self.lengths = None if self.lengths is None else lengths
+        want = {"task_param_names": self.task_params.shape[1], "value_names": d, "roles": n}
+        for key in _STRING_KEYS:
+            arr = getattr(self, key)
+            if arr is None:
+                continue
+            arr = np.asarray(arr)
+            if arr.dtype.kind not in "US":
+                raise ValueError(f"{key}: expected an array of strings, got dtype {arr.dtype}")
+            arr = arr.astype(str)
+            if arr.shape != (want[key],):
+                raise ValueError(f"{key}: expected shape ({want[key]},), got {arr.shape}")
+            setattr(self, key, arr)
+
+    def __len__(self) -> int:
+        return self.values.shape[0]
+
+    def length(self, i: int) -> int:
+        """Number of valid rows of demonstration ``i``."""
+        return int(self.values.shape[1] if self.lengths is None else self.lengths[i])
+
+    def demo(self, i: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(times (T_i,), values (T_i, D), task_params (P,)) of demonstration ``i``."""
+        k = self.length(i)
+        return self.times[i, :k], self.values[i, :k], self.task_params[i]
+
+    def select(self, idx) -> "DemoArrays":
+        """A new DemoArrays with the rows ``idx`` (a sequence of indices or a boolean mask)."""
+        idx = np.arange(len(self))[np.asarray(idx)]
+
+        def take(a):
+            return None if a is None else a[idx]
+
+        return DemoArrays(self.times[idx], self.values[idx], self.task_params[idx], self.task_param_names,
+                          self.value_names, take(self.roles), take(self.lengths))
+
+    def with_role(self, role: str) -> "DemoArrays":
+        """The demonstrations whose ``roles`` entry equals ``role`` (ValueError without roles)."""
+        if self.roles is None:
+            raise ValueError("role: this demonstration set has no roles")
+        return self.select(self.roles == role)
+
+    def to_demo_set(self):
+        """The same data as an :class:`acnmp_core.data.DemoSet` (imports torch via that module)."""
+        from .data import DemoSet, Demonstration
+
+        return DemoSet([Demonstration(*self.demo(i)) for i in range(len(self))])
+
+
+def save_demos(path: str | os.PathLike, demos: DemoArrays) -> Path:
+    """Write ``demos`` to ``path`` (.npz) atomically (temp file + rename) and return the path."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    arrays = {
+        "format_version": np.array(FORMAT_VERSION, dtype=np.int64),
+        "times": demos.times,
+        "values": demos.values,
+        "task_params": demos.task_params,
+    }
+    if demos.lengths is not None:
+        arrays["lengths"] = np.asarray(demos.lengths, dtype=np.int64)
+    for key in _STRING_KEYS:
+        if getattr(demos, key) is not None:
+            arrays[key] = np.asarray(getattr(demos, key), dtype=str)
+    buf = io.BytesIO()
+    np.savez(buf, **arrays)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    tmp.write_bytes(buf.getvalue())
+    os.replace(tmp, path)
+    return path
+
+
+def load_demos(path: str | os.PathLike) -> DemoArrays:
+    """Read a demonstration file written by :func:`save_demos` (or by hand in the same format).
+
+    Raises ValueError for a missing key, an unknown format version, or arrays that do not fit together.
+    """
+    try:
+        npz = np.load(path, allow_pickle=False)
+    except (OSError, ValueError) as exc:
+        raise ValueError(f"path: cannot read a demonstration file at {os.fspath(path)!r} ({exc})") from None
+    with npz:
+        missing = [k for k in ("times", "values", "task_params") if k not in npz.files]
+        if missing:
+            raise ValueError(f"path: {os.fspath(path)!r} lacks the key(s) {missing}")
+        version = int(npz["format_version"]) if "format_version" in npz.files else FORMAT_VERSION
+        if version != FORMAT_VERSION:
+            raise ValueError(f"path: format_version {version} is not supported (expected {FORMAT_VERSION})")
+        try:
+            opt = {k: npz[k] for k in (*_STRING_KEYS, "lengths") if k in npz.files}
+            arrays = (npz["times"], npz["values"], npz["task_params"])
+        except ValueError as exc:  # e.g. an object array, which would need pickle
+            raise ValueError(f"path: {os.fspath(path)!r} holds an array this format does not allow ({exc})") from None
+        return DemoArrays(*arrays, **opt)

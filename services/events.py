@@ -1,0 +1,210 @@
+"""Event messages: what the learner, model and workers publish and the recorder writes to the .rrd.
+
+Every event is a wire map (services/wire.py) with ``"v": 1``, ``"kind"`` and ``"t"`` (sender wall
+time, seconds since the epoch), published on ``acnmp/<ns>/event/<kind>/<id>`` (services/keys.py).
+The four kinds and their fields (``?`` marks optional ones; ``T`` steps, ``D`` output dims):
+
+rollout       job str, rollout_index int>=0, trajectory (T,D) float, times (T,) float,
+              reward (T,) float (per step), return float, success bool, worker str,
+              condition? {times (K,) float, values (K,D) float}, task_params? (P,) float,
+              iteration? int, skill? str, space? "cartesian"|"joint"
+latent        skill str, version int, latent (L,) float, label? str, robot? str
+model_version skill str, version int, loss? float, n_demos? int, note? str
+job_progress  job str, iteration int, rollouts int, best_return float|None,
+              success_rate? float, state? "running"|"done"|"failed"|"cancelled", skill? str
+
+Unknown extra fields are kept (forward compatible) but must be plain scalars or strings.
+The builders here validate what they build, so a bad event fails at the sender, and
+:func:`validate_event` checks what arrives, so a bad event never reaches the recording.
+"""
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+import zenoh
+
+from services import keys
+from services.wire import WireError, array_field, decode, encode, field
+
+#: Per-kind field that names the event's key chunk.
+_IDENT_FIELD = {"rollout": "job", "job_progress": "job", "latent": "skill", "model_version": "skill"}
+
+JOB_STATES = ("running", "done", "failed", "cancelled")
+
+#: Longest trajectory / latent an event may carry; beyond that an event is surely a bug.
+MAX_STEPS = 100_000
+MAX_DIMS = 64
+MAX_LATENT = 4096
+
+
+def _base(kind: str, t: float | None) -> dict:
+    return {"v": 1, "kind": kind, "t": float(time.time() if t is None else t)}
+
+
+def rollout_event(job: str, rollout_index: int, trajectory, times, reward, *, ret: float | None = None,
+                  success: bool = False, worker: str = "", condition: dict | None = None,
+                  task_params=None, iteration: int | None = None, skill: str | None = None,
+                  space: str = "cartesian", t: float | None = None) -> dict:
+    """Build and validate a ``rollout`` event.
+
+    ``trajectory`` (T,D), ``times`` (T,), ``reward`` (T,) per-step rewards; ``ret`` defaults to
+    ``reward.sum()``; ``condition`` is ``{"times": (K,), "values": (K,D)}``. Returns the message map.
+    """
+    reward = np.asarray(reward, dtype=np.float64)
+    msg = _base("rollout", t)
+    msg.update(job=job, rollout_index=int(rollout_index),
+               trajectory=np.asarray(trajectory, dtype=np.float64),
+               times=np.asarray(times, dtype=np.float64), reward=reward,
+               success=bool(success), worker=str(worker), space=space)
+    msg["return"] = float(reward.sum() if ret is None else ret)
+    if condition is not None:
+        msg["condition"] = {"times": np.asarray(condition["times"], dtype=np.float64),
+                            "values": np.asarray(condition["values"], dtype=np.float64)}
+    if task_params is not None:
+        msg["task_params"] = np.asarray(task_params, dtype=np.float64)
+    if iteration is not None:
+        msg["iteration"] = int(iteration)
+    if skill is not None:
+        msg["skill"] = skill
+    return validate_event(msg)
+
+
+def latent_event(skill: str, version: int, latent, *, label: str | None = None,
+                 robot: str | None = None, t: float | None = None) -> dict:
+    """Build and validate a ``latent`` event (one latent vector ``(L,)`` of a skill's encoder)."""
+    msg = _base("latent", t)
+    msg.update(skill=skill, version=int(version), latent=np.asarray(latent, dtype=np.float64).reshape(-1))
+    if label is not None:
+        msg["label"] = str(label)
+    if robot is not None:
+        msg["robot"] = str(robot)
+    return validate_event(msg)
+
+
+def model_version_event(skill: str, version: int, *, t: float | None = None, **extra: Any) -> dict:
+    """Build and validate a ``model_version`` event; ``extra`` adds loss, n_demos, note, ..."""
+    msg = _base("model_version", t)
+    msg.update(skill=skill, version=int(version), **extra)
+    return validate_event(msg)
+
+
+def job_progress_event(job: str, iteration: int, rollouts: int, best_return: float | None, *,
+                       state: str = "running", t: float | None = None, **extra: Any) -> dict:
+    """Build and validate a ``job_progress`` event (``best_return`` None before any roll-out)."""
+    msg = _base("job_progress", t)
+    msg.update(job=job, iteration=int(iteration), rollouts=int(rollouts),
+               best_return=None if best_return is None else float(best_return), state=state, **extra)
+    return validate_event(msg)
+
+
+def validate_event(msg: dict) -> dict:
+    """Check an event map (built here or decoded from the wire) and return it.
+
+    Raises :class:`WireError` with ``bad_request`` (missing/mistyped field, unknown kind, bad
+    name), ``bad_shape``/``bad_dtype`` (arrays) or ``too_large``.
+    """
+    kind = field(msg, "kind", str)
+    if kind not in _IDENT_FIELD:
+        raise WireError("bad_request", f"unknown event kind {kind!r}; expected one of {keys.EVENT_KINDS}")
+    field(msg, "t", float)
+    ident = field(msg, _IDENT_FIELD[kind], str)
+    try:
+        keys.check_name(_IDENT_FIELD[kind], ident)
+    except ValueError as exc:
+        raise WireError("bad_request", str(exc)) from None
+    if kind == "rollout":
+        _validate_rollout(msg)
+    elif kind == "latent":
+        _nonneg(msg, "version")
+        array_field(msg, "latent", ndim=1, max_elements=MAX_LATENT)
+        field(msg, "label", str, default=None)
+    elif kind == "model_version":
+        _nonneg(msg, "version")
+    elif kind == "job_progress":
+        _nonneg(msg, "iteration")
+        _nonneg(msg, "rollouts")
+        field(msg, "best_return", float, default=None)
+        state = field(msg, "state", str, default="running")
+        if state not in JOB_STATES:
+            raise WireError("bad_request", f"field 'state': {state!r} is not one of {JOB_STATES}")
+    for key, value in msg.items():
+        if isinstance(value, (dict, list)) and key not in ("condition",):
+            raise WireError("bad_request", f"field '{key}': nested values are not allowed in events")
+    return msg
+
+
+def _nonneg(msg: dict, key: str) -> int:
+    value = field(msg, key, int)
+    if value < 0:
+        raise WireError("bad_request", f"field '{key}': must be >= 0, got {value}")
+    return value
+
+
+def _validate_rollout(msg: dict) -> None:
+    _nonneg(msg, "rollout_index")
+    traj = array_field(msg, "trajectory", ndim=2, max_elements=MAX_STEPS * MAX_DIMS)
+    steps, dims = traj.shape
+    if steps < 1 or not 1 <= dims <= MAX_DIMS:
+        raise WireError("bad_shape", f"field 'trajectory': shape {traj.shape}, need T>=1 and 1<=D<={MAX_DIMS}")
+    array_field(msg, "times", shape=(steps,))
+    array_field(msg, "reward", shape=(steps,))
+    field(msg, "return", float)
+    field(msg, "success", bool)
+    field(msg, "worker", str)
+    space = field(msg, "space", str, default="cartesian")
+    if space not in ("cartesian", "joint"):
+        raise WireError("bad_request", f"field 'space': {space!r} is not 'cartesian' or 'joint'")
+    cond = msg.get("condition")
+    if cond is not None:
+        if not isinstance(cond, dict):
+            raise WireError("bad_request", "field 'condition': expected a map {times, values}")
+        ct = array_field(cond, "times", ndim=1, max_elements=MAX_STEPS)
+        array_field(cond, "values", shape=(ct.shape[0], dims))
+    if msg.get("task_params") is not None:
+        array_field(msg, "task_params", ndim=1, max_elements=1024)
+    field(msg, "iteration", int, default=None)
+    field(msg, "skill", str, default=None)
+
+
+def event_key_for(ns: str, msg: dict) -> str:
+    """The key expression an (already validated) event is published on."""
+    kind = msg["kind"]
+    return keys.event_key(ns, kind, msg[_IDENT_FIELD[kind]])
+
+
+def decode_event(payload: bytes) -> dict:
+    """Decode and validate one event payload; raises :class:`WireError`."""
+    return validate_event(decode(payload))
+
+
+class EventPublisher:
+    """Publishes events of namespace ``ns`` on an open session.
+
+    Puts use ``CongestionControl.BLOCK``: an event is a record of what happened (the recorder
+    must count every roll-out once), so it is better to slow the sender than to drop it.
+    """
+
+    def __init__(self, session: zenoh.Session, ns: str):
+        self.session = session
+        self.ns = keys.check_name("namespace", ns)
+
+    def publish(self, msg: dict) -> None:
+        """Validate, encode and put one event (any kind)."""
+        validate_event(msg)
+        self.session.put(event_key_for(self.ns, msg), encode(msg),
+                         congestion_control=zenoh.CongestionControl.BLOCK)
+
+    def wait_for_recorder(self, timeout: float = 10.0) -> bool:
+        """Block until a recorder of this namespace is live (its liveliness token); True if found.
+
+        Call it before the first event: a put made before the subscriber is known is lost.
+        """
+        from services.session import wait_for_liveliness  # local: session imports nothing from here
+
+        try:
+            wait_for_liveliness(self.session, keys.liveliness_pattern(self.ns, "recorder"), timeout=timeout)
+            return True
+        except TimeoutError:
+            return False
