@@ -8,6 +8,7 @@ import os
 import tempfile
 from pathlib import Path
 
+import numpy as np
 import torch
 
 from .cnmp import CNMP, CNMPConfig
@@ -60,3 +61,27 @@ def load_checkpoint(path: str | os.PathLike) -> tuple[CNMP, dict]:
     model.load_state_dict(payload["state_dict"])
     model.eval()
     return model, {"data_hash": payload["data_hash"], "meta": payload["meta"]}
+
+
+def model_to_arrays(model: CNMP) -> tuple[dict, dict[str, "np.ndarray"]]:
+    """(config as plain dict, {parameter/buffer name: numpy array}): a pickle-free form of a model,
+    for sending weights over a wire."""
+    return model.config.to_dict(), {k: v.detach().cpu().numpy().copy() for k, v in model.state_dict().items()}
+
+
+def model_from_arrays(config: dict, arrays: dict) -> CNMP:
+    """Rebuild a model from :func:`model_to_arrays` output; raises ValueError on a mismatch."""
+    model = CNMP(CNMPConfig(**config))
+    expected = model.state_dict()
+    if set(arrays) != set(expected):
+        missing, extra = set(expected) - set(arrays), set(arrays) - set(expected)
+        raise ValueError(f"arrays: parameter names do not match the config (missing {sorted(missing)}, extra {sorted(extra)})")
+    state = {}
+    for k, ref in expected.items():
+        t = torch.as_tensor(np.asarray(arrays[k])).to(ref.dtype)
+        if t.shape != ref.shape:
+            raise ValueError(f"arrays[{k!r}]: expected shape {tuple(ref.shape)}, got {tuple(t.shape)}")
+        state[k] = t
+    model.load_state_dict(state)
+    model.eval()
+    return model
