@@ -1,0 +1,21 @@
+"""``acnmp experiment <name>``: run one of the paper's experiments (modules in clients.experiments)."""
+from __future__ import annotations
+
+import importlib
+import pkgutil
+
+from clients import experiments
+
+
+def register(subparsers) -> None:
+    """Add ``experiment`` with one sub-command per module of :mod:`clients.experiments`."""
+    parser = subparsers.add_parser(
+        "experiment",
+        help="reproduce one of the paper's experiments (E1 viapoint, E2 push, E3 wall)",
+        description="Reproduce one of the paper's experiments in simulation; --json and --plot save results.",
+    )
+    sub = parser.add_subparsers(dest="experiment", metavar="NAME", required=True)
+    for info in sorted(pkgutil.iter_modules(experiments.__path__), key=lambda m: m.name):
+        module = importlib.import_module(f"{experiments.__name__}.{info.name}")
+        if hasattr(module, "register"):
+            module.register(sub)
