@@ -246,12 +246,12 @@ class CNMP(nn.Module):
         self._check_times("obs_times", obs_times)
         self._check_times("query_times", query_times)
         with torch.no_grad():
-            tn = self.time_norm.normalize(torch.as_tensor(obs_times)[:, None])
-            vn = self.value_norm.normalize(torch.as_tensor(obs_values))
-            dm = torch.as_tensor(dims)
-            pn = self.task_norm.normalize(torch.as_tensor(task_params))
+            tn = self.time_norm.normalize(torch.from_numpy(obs_times.copy())[:, None])
+            vn = self.value_norm.normalize(torch.from_numpy(obs_values.copy()))
+            dm = torch.from_numpy(np.array(dims))
+            pn = self.task_norm.normalize(torch.from_numpy(task_params.copy()))
             obs_x = torch.cat([tn, pn.expand(n, p), vn * dm, dm], dim=-1)
-            qn = self.time_norm.normalize(torch.as_tensor(query_times)[:, None])
+            qn = self.time_norm.normalize(torch.from_numpy(query_times.copy())[:, None])
             tgt_x = torch.cat([qn, pn.expand(len(query_times), p)], dim=-1)
         return Query(
             obs_x=obs_x[None].float(),
