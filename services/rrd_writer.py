@@ -13,6 +13,11 @@ entity                             archetype                       from event
 /trajectory/xyz/<job>/condition    Points3D                        rollout.condition
 /trajectory/time/<job>/path        LineStrips2D (t, y_d) per dim   rollout, joint space or D∉{2,3}
 /trajectory/time/<job>/condition   Points2D (t, y_d)               rollout.condition
+/arm/<job>/links                   LineStrips3D (base..tip) per    rollout.joint_angles +
+                                   control step                    link_lengths (a robot arm)
+/arm/<job>/object                  Cylinders3D per control step    rollout.object_xy
+/arm/<job>/object_path             LineStrips3D (whole roll-out)   rollout.object_xy
+/arm/<job>/target                  Points3D                        rollout.task_params (x, y)
 /return/<job>                      Scalars                         rollout.return
 /reward/<job>                      BarChart (per-step reward)      rollout.reward
 /rollouts/<job>                    AnyValues (index, worker, ...)  rollout (one row each)
@@ -27,6 +32,16 @@ entity                             archetype                       from event
 Timelines: ``rollout`` (sequence: the roll-out index of a rollout event, the roll-out count of a
 job_progress event), ``model_version`` (sequence: the version of latent/model_version events) and
 ``wall_time`` (timestamp: the sender's ``t``); Rerun adds ``log_time`` itself.
+
+Robot roll-outs. A rollout event may carry, besides its trajectory, the executed states of a planar
+arm: ``joint_angles`` (T, N) rad, ``link_lengths`` (N,) m and optionally ``object_xy`` (T, 2) m,
+``object_radius`` and ``object_height`` (m). The arm is then drawn in 3D (forward kinematics of
+acnmp_core/robots/kinematics.py, links at ``ARM_Z`` above the table) with the object as a cylinder,
+one frame per control step on the roll-out's own timeline ``step`` (0..T-1), every frame also
+stamped with ``rollout`` = the roll-out index and ``rollout_step`` = index * ``STEP_STRIDE`` + step.
+In the viewer: the ``step`` timeline plays the latest roll-out; ``rollout`` scrubs through the
+roll-outs (each shown at its final pose, beside its reward); ``rollout_step`` plays them one after
+another.
 """
 from __future__ import annotations
 
@@ -44,6 +59,11 @@ APPLICATION_ID = "acnmp"
 #: How many past roll-outs the trajectory views show next to the current one.
 TRAIL = 20
 
+#: Height (m) at which the arm's links are drawn (the URDF's links sit just above the table).
+ARM_Z = 0.03
+#: ``rollout_step`` = rollout_index * STEP_STRIDE + step (more than any roll-out's step count).
+STEP_STRIDE = 100_000
+
 _OK = (70, 190, 110)
 _FAIL = (215, 80, 60)
 
@@ -58,6 +78,7 @@ def default_blueprint() -> rrb.Blueprint:
                 rrb.Spatial2DView(name="Trajectories (x, y)", origin="/trajectory/xy", time_ranges=trail),
                 rrb.Spatial2DView(name="Trajectories over time", origin="/trajectory/time", time_ranges=trail),
                 rrb.Spatial3DView(name="Trajectories (x, y, z)", origin="/trajectory/xyz", time_ranges=trail),
+                rrb.Spatial3DView(name="Arm and object", origin="/arm"),
             ),
             rrb.Vertical(
                 rrb.TimeSeriesView(name="Return per roll-out", origin="/",
@@ -162,7 +183,59 @@ class RrdWriter:
             rollout_index=idx, worker=str(msg.get("worker", "")), success=bool(msg.get("success")),
             ret=ret, steps=int(traj.shape[0]),
             iteration=-1 if msg.get("iteration") is None else int(msg["iteration"])))
+        if msg.get("joint_angles") is not None and msg.get("link_lengths") is not None:
+            self._arm(job, idx, msg, color)
         self.rollouts_per_job[msg["job"]] += 1
+
+    def _arm(self, job: str, idx: int, msg: dict, color) -> None:
+        """Log a planar arm roll-out (see the module docstring): one arm frame per control step."""
+        from acnmp_core.robots.kinematics import planar_fk
+
+        q = np.asarray(msg["joint_angles"], dtype=np.float64)
+        lengths = np.asarray(msg["link_lengths"], dtype=np.float64).reshape(-1)
+        if q.ndim != 2 or q.shape[1] != lengths.shape[0] or not 1 <= q.shape[0] < STEP_STRIDE:
+            raise ValueError(f"joint_angles: expected (T, {lengths.shape[0]}) with 1 <= T < {STEP_STRIDE}, "
+                             f"got {q.shape}")
+        steps, n = q.shape
+        # Base, then the end of every link: the FK of each prefix of the chain.
+        pts = np.zeros((steps, n + 1, 3))
+        for i in range(1, n + 1):
+            pts[:, i, :2] = planar_fk(q[:, :i], lengths[:i])[:, :2]
+        pts[:, :, 2] = ARM_Z
+        seq = np.arange(steps, dtype=np.int64)
+        ones = np.ones(steps, dtype=np.int64)
+        # Columns, not one log call per step: one chunk per roll-out and entity, cheap for T = 300.
+        # Every component is a column (one value per step) so each frame is complete on every timeline.
+        indexes = [rr.TimeColumn("step", sequence=seq),
+                   rr.TimeColumn("rollout", sequence=np.full(steps, idx, dtype=np.int64)),
+                   rr.TimeColumn("rollout_step", sequence=idx * STEP_STRIDE + seq),
+                   rr.TimeColumn("wall_time", timestamp=np.full(steps, float(msg["t"])))]
+        self.rec.send_columns(
+            f"arm/{job}/links", indexes=indexes,
+            columns=rr.LineStrips3D.columns(strips=list(pts.astype(np.float32)), colors=[color] * steps,
+                                            radii=np.full(steps, 0.006, np.float32)).partition(ones))
+        # The per-roll-out markers appear from the roll-out's first step on every timeline.
+        self.rec.set_time("step", sequence=0)
+        self.rec.set_time("rollout_step", sequence=idx * STEP_STRIDE)
+        obj = msg.get("object_xy")
+        if obj is not None:
+            obj = np.asarray(obj, dtype=np.float64)
+            if obj.shape != (steps, 2):
+                raise ValueError(f"object_xy: expected ({steps}, 2), got {obj.shape}")
+            radius = float(msg.get("object_radius", 0.03))
+            height = float(msg.get("object_height", 0.06))
+            centers = np.concatenate([obj, np.full((steps, 1), height / 2)], axis=1).astype(np.float32)
+            self.rec.send_columns(
+                f"arm/{job}/object", indexes=indexes,
+                columns=rr.Cylinders3D.columns(centers=centers, lengths=np.full(steps, height, np.float32),
+                                               radii=np.full(steps, radius, np.float32),
+                                               colors=[(200, 40, 40)] * steps).partition(ones))
+            self.rec.log(f"arm/{job}/object_path", rr.LineStrips3D(
+                [np.concatenate([obj, np.zeros((steps, 1))], axis=1)], colors=[color], labels=[f"#{idx}"]))
+        tp = msg.get("task_params")
+        if tp is not None and np.asarray(tp).shape == (2,):
+            self.rec.log(f"arm/{job}/target", rr.Points3D([[*np.asarray(tp, dtype=np.float64), 0.0]], radii=[0.01],
+                                                          colors=[(40, 120, 220)], labels=["target"]))
 
     def _latent(self, msg: dict) -> None:
         self.rec.set_time("model_version", sequence=int(msg["version"]))

@@ -1,0 +1,341 @@
+"""E2: a 3-DoF planar arm pushes a cylinder to a target; ACNMP vs adaptive ProMP + RL (paper Sec. 4.2).
+
+Per seed, both methods face two test targets of :func:`~acnmp_core.tasks.push_demos.push_targets`:
+the held-out **interpolation** target (inside the 9 training targets' range) and the
+**extrapolation** target (outside it).
+
+* ACNMP: a CNMP trained on the 9 joint-space demonstrations (task parameters: target x, y) is
+  conditioned on the test target and on the start configuration (an observation at t = 0); its
+  mean trajectory is executed once (LfD). If it misses, :func:`~acnmp_core.adaptation.adapt`
+  (mode "acnmp": RL with simultaneous SL on the demos) runs until success or the budget.
+* ProMP + RL: :func:`~acnmp_core.promp_rl.adapt_promp`, initialised from the nearest demonstrated
+  skill (Stark et al. 2019), episodic REPS over the ProMP weights until success or the budget.
+
+Both run through the same :class:`~acnmp_core.rollout.RolloutEvaluator` (by default one in-process
+:class:`~acnmp_core.robots.planar_arm.PlanarPushTask`; ``evaluator_factory`` plugs remote workers in).
+Reward: minus the distance (m) between the cylinder's final position and the target; success: that
+distance is at most ``tolerance`` (0.03 m, the cylinder's radius).
+
+Everything here is plain library code; ``acnmp experiment push`` is a thin adapter around
+:func:`run_push`, whose result is a JSON-ready dict.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, replace
+from typing import Callable
+
+import numpy as np
+import torch
+
+from ..adaptation import AdaptConfig, AdaptTarget, adapt
+from ..cnmp import CNMP, CNMPConfig
+from ..data import DemoSet
+from ..demo_io import DemoArrays
+from ..promp_rl import PrompRLConfig, adapt_promp
+from ..rollout import RolloutEvaluator
+from ..training import TrainConfig, train
+
+METHODS = ("acnmp", "promp_rl")
+CASES = ("interpolation", "extrapolation")
+#: Success tolerance (m) on the cylinder's final distance to the target: one cylinder radius.
+TOLERANCE = 0.03
+
+#: What E2 changes from AdaptConfig's defaults (tuned on E1); see docs/experiments/e2_push.md.
+#: The push reward arrives only at the last step, so the "per_step" advantage (which credits each
+#: step with the reward change near it) would adapt only the final hold phase; "episodic" credits
+#: the whole trajectory with the change of the return, which is what moves the push direction.
+ACNMP_DEFAULTS = dict(advantage="episodic", max_rollouts=300)
+#: The ProMP + RL settings the baseline uses (Stark et al. 2019 style: nearest skill, REPS).
+PROMP_DEFAULTS = dict(method="reps", n_samples=10, max_rollouts=1500)
+
+
+@dataclass
+class PushSetup:
+    """Everything that defines an E2 run.
+
+    demos : the 9 training demonstrations (times phase (300,), joint angles (300, 3) rad, target (2,) m).
+    targets : {"interpolation": (2,), "extrapolation": (2,)} test targets (m).
+    times : (300,) query times (phase in [0, 1]).
+    q0 : (3,) start configuration (rad), shared by every demonstration.
+    n_joints : arm DoF. tolerance : success tolerance (m).
+    """
+
+    demos: DemoSet
+    targets: dict[str, np.ndarray]
+    times: np.ndarray
+    q0: np.ndarray
+    n_joints: int = 3
+    tolerance: float = TOLERANCE
+
+
+def make_setup(demo_path: str | None = None, n_joints: int = 3) -> PushSetup:
+    """Load (or generate and cache, ~2 s) the E2 demonstrations and split them by role.
+
+    ``demo_path`` : .npz in the project's demo format (default: the cache of
+    :func:`~acnmp_core.tasks.push_demos.push_demos`).
+    """
+    from ..tasks.push_demos import push_demos
+
+    arrays: DemoArrays = push_demos(n_joints, path=demo_path)
+    train_arr = arrays.with_role("train")
+    targets = {case: arrays.with_role(case).task_params[0].copy() for case in CASES}
+    times = train_arr.times[0].copy()
+    return PushSetup(demos=train_arr.to_demo_set(), targets=targets, times=times,
+                     q0=train_arr.values[0, 0].copy(), n_joints=n_joints)
+
+
+def make_target(setup: PushSetup, case: str) -> AdaptTarget:
+    """The CNMP conditioning for ``case``: target (x, y) as task parameters, q0 observed at t = 0."""
+    return AdaptTarget(obs_times=setup.times[:1].copy(), obs_values=setup.q0[None].copy(),
+                       task_params=setup.targets[case].copy(), query_times=setup.times.copy())
+
+
+def train_push_cnmp(demos: DemoSet, seed: int, steps: int = 3000, progress: bool = False) -> CNMP:
+    """The LfD model of E2: a default-size CNMP over joint angles with 2 task parameters."""
+    model = CNMP(CNMPConfig(n_outputs=demos.n_outputs, n_task_params=demos.n_task_params,
+                            output_names=[f"joint{i + 1}" for i in range(demos.n_outputs)],
+                            task_param_names=["target_x", "target_y"]), seed=seed)
+    train(model, demos, TrainConfig(steps=steps), seed=seed, progress=progress)
+    return model
+
+
+def _final_error(evaluator: RolloutEvaluator, traj: np.ndarray, times: np.ndarray, target: np.ndarray) -> float:
+    """Distance (m) of the cylinder's final position to ``target`` after executing ``traj`` (T, D)."""
+    return float(-evaluator.evaluate(traj[None], times, target).returns[0])
+
+
+def run_acnmp_case(model: CNMP, setup: PushSetup, case: str, evaluator: RolloutEvaluator,
+                   cfg: AdaptConfig, seed: int, on_iteration: Callable | None = None) -> dict:
+    """ACNMP on one test target: LfD roll-out, then adaptation if it missed.
+
+    ``model`` is adapted in place (pass a copy). Returns ``{"rollouts", "success", "final_error",
+    "lfd_error", "lfd_success", "adapted", "curve": [[roll-outs, error of the mean], ...]}``.
+    Roll-outs count every executed trajectory: the LfD roll-out plus all of adapt()'s (whose first
+    mean roll-out repeats the LfD one; it is counted again because it is executed again).
+    """
+    target = make_target(setup, case)
+    lfd = adapt(model, setup.demos, target, evaluator, replace(cfg, mode="lfd_only"), seed=seed,
+                on_iteration=on_iteration)
+    lfd_err = -lfd.history[0].mean_return
+    out = {"lfd_error": lfd_err, "lfd_success": bool(lfd.success), "adapted": False,
+           "curve": [[1, lfd_err]]}
+    if lfd.success:
+        return {**out, "rollouts": 1, "success": True, "final_error": lfd_err}
+    res = adapt(model, setup.demos, target, evaluator, replace(cfg, mode="acnmp"), seed=seed,
+                on_iteration=on_iteration)
+    # The curve is the error of the mean roll-out against roll-outs used, as in the paper's Fig. 5(b).
+    out["curve"] += [[1 + h.rollouts, -h.mean_return] for h in res.history]
+    final_err = -res.history[-1].mean_return
+    if not res.success:
+        # adapt() ends after an update it did not execute; measure the final mean once (not counted).
+        final_err = _final_error(evaluator, res.trajectory, res.times, setup.targets[case])
+    return {**out, "adapted": True, "rollouts": 1 + res.rollouts, "success": bool(res.success),
+            "final_error": final_err}
+
+
+def run_promp_case(setup: PushSetup, case: str, evaluator: RolloutEvaluator, cfg: PrompRLConfig,
+                   n_basis: int = 20) -> dict:
+    """Adaptive ProMP + RL on one test target. Returns the same keys as :func:`run_acnmp_case`
+    (``lfd_*`` is the initial nearest-skill trajectory)."""
+    times = setup.times
+    tv = np.stack([d.times for d in setup.demos])
+    vals = np.stack([d.values for d in setup.demos])
+    tps = np.stack([d.task_params for d in setup.demos])
+    res = adapt_promp(tv, vals, tps, evaluator, times, setup.targets[case], cfg, n_basis=n_basis)
+    errs = -res.learning_curve
+    return {"rollouts": int(res.n_rollouts), "success": bool(res.success), "final_error": float(errs[-1]),
+            "lfd_error": float(errs[0]), "lfd_success": bool(errs[0] <= setup.tolerance),
+            "adapted": res.n_iterations > 0,
+            "curve": [[int(r), float(e)] for r, e in zip(res.rollouts_at, errs)]}
+
+
+def _summarise(runs: list[dict]) -> dict:
+    """Median roll-outs / error and success rate over seeds of one (method, case)."""
+    return {
+        "rollouts_median": float(np.median([r["rollouts"] for r in runs])),
+        "rollouts": [int(r["rollouts"]) for r in runs],
+        "success_rate": float(np.mean([r["success"] for r in runs])),
+        "final_error_median": float(np.median([r["final_error"] for r in runs])),
+        "lfd_error_median": float(np.median([r["lfd_error"] for r in runs])),
+        "lfd_success_rate": float(np.mean([r["lfd_success"] for r in runs])),
+    }
+
+
+def run_push(
+    seeds: int | list[int] = 3,
+    *,
+    train_steps: int = 3000,
+    adapt_config: AdaptConfig | None = None,
+    promp_config: PrompRLConfig | None = None,
+    cases: tuple[str, ...] = CASES,
+    methods: tuple[str, ...] = METHODS,
+    demo_path: str | None = None,
+    evaluator_factory: Callable[[PushSetup, str, str], RolloutEvaluator] | None = None,
+    on_iteration: Callable[[str, str, int], Callable] | None = None,
+    progress: bool = False,
+    log: Callable[[str], None] | None = None,
+) -> dict:
+    """Run E2 over several seeds and return the JSON-ready result.
+
+    Parameters
+    ----------
+    seeds : a count N (seeds 0..N-1) or an explicit list; each seeds CNMP init/training,
+        exploration and ProMP sampling.
+    train_steps : supervised CNMP training steps (batch 32).
+    adapt_config : ACNMP settings (default: AdaptConfig(**ACNMP_DEFAULTS)); ``mode`` is set here.
+    promp_config : ProMP + RL settings (default: PrompRLConfig(**PROMP_DEFAULTS)); its seed is
+        replaced by each run's seed.
+    cases, methods : subsets of CASES and METHODS to run.
+    demo_path : demonstration file (default: the cached generated set).
+    evaluator_factory : ``(setup, method, case) -> RolloutEvaluator``, called once per (seed,
+        method, case); default: one in-process PlanarPushTask shared by all runs (closed at the end).
+    on_iteration : ``(method, case, seed) -> callback`` for adapt() (ACNMP only), e.g. to record.
+    progress : training progress bars. log : called with one line per finished run.
+
+    Returns
+    -------
+    dict with ``experiment`` "push", ``seeds`` N, ``seed_list``, ``wall_time_s``, ``tolerance`` (m),
+    ``targets`` {case: [x, y]}, ``methods`` {method: {case: {rollouts_median, rollouts, success_rate,
+    final_error_median, lfd_error_median, lfd_success_rate}}}, ``rollout_ratio_promp_over_acnmp``
+    {case: ratio of medians or None}, ``config`` (settings used) and ``runs`` (per seed, method and
+    case: rollouts, success, final_error, lfd_error, curve [[roll-outs, error], ...]).
+    """
+    seed_list = list(range(seeds)) if isinstance(seeds, int) else [int(s) for s in seeds]
+    if not seed_list:
+        raise ValueError("seeds: expected at least one seed")
+    for c in cases:
+        if c not in CASES:
+            raise ValueError(f"cases: expected a subset of {CASES}, got {c!r}")
+    for m in methods:
+        if m not in METHODS:
+            raise ValueError(f"methods: expected a subset of {METHODS}, got {m!r}")
+    acfg = adapt_config or AdaptConfig(**ACNMP_DEFAULTS)
+    pcfg = promp_config or PrompRLConfig(**PROMP_DEFAULTS)
+    t0 = time.perf_counter()
+    setup = make_setup(demo_path)
+    shared = None
+    if evaluator_factory is None:
+        from ..robots.planar_arm import PlanarPushTask
+
+        shared = PlanarPushTask(setup.n_joints, tolerance=setup.tolerance)
+
+    def evaluator(method: str, case: str) -> RolloutEvaluator:
+        return shared if shared is not None else evaluator_factory(setup, method, case)
+
+    runs: list[dict] = []
+    try:
+        for seed in seed_list:
+            torch.manual_seed(seed)
+            model = train_push_cnmp(setup.demos, seed, train_steps, progress) if "acnmp" in methods else None
+            for method in methods:
+                for case in cases:
+                    t1 = time.perf_counter()
+                    ev = evaluator(method, case)
+                    if method == "acnmp":
+                        import copy
+
+                        cb = on_iteration(method, case, seed) if on_iteration else None
+                        r = run_acnmp_case(copy.deepcopy(model), setup, case, ev, acfg, seed, cb)
+                    else:
+                        r = run_promp_case(setup, case, ev, replace(pcfg, seed=seed))
+                    r = {"seed": seed, "method": method, "case": case, **r,
+                         "time_s": round(time.perf_counter() - t1, 2)}
+                    runs.append(r)
+                    if log:
+                        log(f"seed {seed} {method:<8} {case:<13} roll-outs {r['rollouts']:>5} "
+                            f"success {str(r['success']):<5} error {r['final_error']:.4f} m "
+                            f"(initial {r['lfd_error']:.4f} m) {r['time_s']:.1f} s")
+    finally:
+        if shared is not None:
+            shared.close()
+
+    summary = {m: {c: _summarise([r for r in runs if r["method"] == m and r["case"] == c]) for c in cases}
+               for m in methods}
+    ratio = {}
+    if set(METHODS) <= set(methods):
+        for c in cases:
+            a = summary["acnmp"][c]["rollouts_median"]
+            ratio[c] = round(summary["promp_rl"][c]["rollouts_median"] / a, 3) if a > 0 else None
+    return {
+        "experiment": "push",
+        "seeds": len(seed_list),
+        "seed_list": seed_list,
+        "wall_time_s": round(time.perf_counter() - t0, 2),
+        "tolerance": setup.tolerance,
+        "targets": {c: setup.targets[c].tolist() for c in CASES},
+        "methods": summary,
+        "rollout_ratio_promp_over_acnmp": ratio,
+        "config": {"train_steps": train_steps, "acnmp": _plain(vars(acfg)), "promp_rl": _plain(vars(pcfg))},
+        "runs": runs,
+    }
+
+
+def _plain(d: dict) -> dict:
+    """Config dict with JSON-friendly values (tuples/arrays to lists)."""
+    out = {}
+    for k, v in d.items():
+        if isinstance(v, np.ndarray):
+            v = v.tolist()
+        elif isinstance(v, tuple):
+            v = list(v)
+        out[k] = v
+    return out
+
+
+def curve_band(curves: list[list[list[float]]], grid: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Median, 25th and 75th percentile over runs of the error-vs-roll-outs step curves on ``grid``.
+
+    Each curve is [[roll-outs, error], ...] (increasing roll-outs); between measurements the last
+    error holds, and after a run stops (success) its last error holds too. Returns three (G,) arrays.
+    """
+    vals = np.empty((len(curves), len(grid)))
+    for i, c in enumerate(curves):
+        c = np.asarray(c, dtype=np.float64)
+        idx = np.searchsorted(c[:, 0], grid, side="right") - 1
+        vals[i] = np.where(idx >= 0, c[np.clip(idx, 0, None), 1], c[0, 1])
+    return np.median(vals, axis=0), np.percentile(vals, 25, axis=0), np.percentile(vals, 75, axis=0)
+
+
+def plot_push(result: dict, path) -> "object":
+    """Write learning curves like the paper's Fig. 5(b): final-position error of the mean trajectory
+    vs roll-outs, median and inter-quartile band over seeds, per method, one panel per case.
+    Returns the written path."""
+    from pathlib import Path
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    colors = {"acnmp": "tab:green", "promp_rl": "tab:purple"}
+    labels = {"acnmp": "ACNMP", "promp_rl": "ProMP + RL (REPS)"}
+    cases = [c for c in CASES if any(r["case"] == c for r in result["runs"])]
+    fig, axes = plt.subplots(1, len(cases), figsize=(5.5 * len(cases), 4.2), squeeze=False)
+    for ax, case in zip(axes[0], cases):
+        runs = [r for r in result["runs"] if r["case"] == case]
+        top = max(r["curve"][-1][0] for r in runs)
+        grid = np.arange(1, top + 1)
+        for m in METHODS:
+            curves = [r["curve"] for r in runs if r["method"] == m]
+            if not curves:
+                continue
+            med, lo, hi = curve_band(curves, grid)
+            s = result["methods"][m][case]
+            ax.plot(grid, med, color=colors[m],
+                    label=f"{labels[m]}: median {s['rollouts_median']:.0f} roll-outs, "
+                          f"success {100 * s['success_rate']:.0f} %")
+            ax.fill_between(grid, lo, hi, color=colors[m], alpha=0.25)
+        ax.axhline(result["tolerance"], color="k", ls="--", lw=1, label=f"tolerance {result['tolerance']} m")
+        ax.set_xscale("log")
+        ax.set_xlim(left=1)
+        ax.set_xlabel("roll-outs")
+        ax.set_ylabel("object's final distance to target (m)")
+        ax.set_title(f"E2 push, {case} ({result['seeds']} seeds)")
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path

@@ -1,0 +1,106 @@
+"""``acnmp experiment push``: E2, ACNMP vs adaptive ProMP + RL, a 3-DoF arm pushing a cylinder."""
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+#: --quick: enough to see both methods run end to end in about a minute.
+QUICK = dict(train_steps=1500, acnmp_budget=60, promp_budget=150)
+
+
+def register(subparsers) -> None:
+    """Add the ``push`` experiment parser."""
+    p = subparsers.add_parser(
+        "push",
+        help="E2: planar arm pushes a cylinder to an interpolated and an extrapolated target",
+        description=(
+            "Train a CNMP on 9 pushing demonstrations (task parameter: target x, y), then run ACNMP "
+            "and adaptive ProMP + RL (REPS) side by side on a held-out interpolation target and an "
+            "extrapolation target, over several seeds. Prints a table; --json and --plot save results."
+        ),
+    )
+    p.add_argument("--seeds", type=int, default=3, help="number of seeds 0..N-1 (default 3)")
+    p.add_argument("--train-steps", type=int, default=3000, help="CNMP training steps (default 3000)")
+    p.add_argument("--acnmp-budget", type=int, default=None, help="ACNMP roll-out budget per target (default 300)")
+    p.add_argument("--promp-budget", type=int, default=None,
+                   help="ProMP + RL roll-out budget per target (default 1500)")
+    p.add_argument("--quick", action="store_true",
+                   help=f"small run for a smoke test ({QUICK['train_steps']} training steps, budgets "
+                        f"{QUICK['acnmp_budget']}/{QUICK['promp_budget']})")
+    p.add_argument("--json", metavar="FILE", help="write the results as JSON")
+    p.add_argument("--plot", metavar="FILE", help="write learning curves like the paper's Fig. 5(b) (PNG)")
+    p.add_argument("--distributed", action="store_true",
+                   help="run the roll-outs on a local zenoh deployment (planar3 workers + recorder)")
+    p.add_argument("--workers", type=int, default=2, help="workers of the --distributed deployment (default 2)")
+    p.add_argument("--record", metavar="FILE.rrd", help="with --distributed: where the recorder writes")
+    p.add_argument("--quiet", action="store_true", help="no per-run lines, no progress bars")
+    p.set_defaults(func=run)
+
+
+def _distributed(args):
+    """A (context manager, evaluator_factory) pair for --distributed, or None with a message printed
+    when the deployment modules are not available in this checkout."""
+    try:
+        from services.launcher import LocalDeployment
+        from services.remote_evaluator import RemoteEvaluator
+    except ImportError as exc:
+        print(f"acnmp experiment push: --distributed is not available yet ({exc}); "
+              "run without --distributed to use the in-process simulator", file=sys.stderr)
+        return None
+    deployment = LocalDeployment(workers=args.workers, robot="planar3", record=args.record)
+
+    def factory(setup, method, case):
+        # LocalDeployment's session/namespace attribute names are assumed (launcher not written yet).
+        return RemoteEvaluator(deployment.session, deployment.namespace, "planar3", "push",
+                               {"n_joints": setup.n_joints, "tolerance": setup.tolerance})
+
+    return deployment, factory
+
+
+def run(args) -> int:
+    """Run E2 as asked by ``args`` and print a summary table; returns the exit code."""
+    import torch
+
+    from acnmp_core.adaptation import AdaptConfig
+    from acnmp_core.experiments.push import ACNMP_DEFAULTS, PROMP_DEFAULTS, plot_push, run_push
+    from acnmp_core.promp_rl import PrompRLConfig
+
+    torch.set_num_threads(1)  # the CNMP is small; threads only contend with the simulator
+    q = QUICK if args.quick else {}
+    train_steps = q.get("train_steps", args.train_steps)
+    acnmp_budget = args.acnmp_budget or q.get("acnmp_budget") or ACNMP_DEFAULTS["max_rollouts"]
+    promp_budget = args.promp_budget or q.get("promp_budget") or PROMP_DEFAULTS["max_rollouts"]
+    if args.seeds < 1 or train_steps < 1 or acnmp_budget < 1 or promp_budget < 3:
+        raise ValueError("--seeds, --train-steps, --acnmp-budget: expected positive integers; --promp-budget >= 3")
+    kwargs = dict(
+        train_steps=train_steps,
+        adapt_config=AdaptConfig(**{**ACNMP_DEFAULTS, "max_rollouts": acnmp_budget}),
+        promp_config=PrompRLConfig(**{**PROMP_DEFAULTS, "max_rollouts": promp_budget}),
+        log=None if args.quiet else print,
+    )
+    if args.distributed:
+        made = _distributed(args)
+        if made is None:
+            return 2
+        deployment, factory = made
+        with deployment:
+            result = run_push(args.seeds, evaluator_factory=factory, **kwargs)
+    else:
+        result = run_push(args.seeds, **kwargs)
+    print(f"E2 push, {result['seeds']} seed(s), tolerance {result['tolerance']} m, {result['wall_time_s']:.1f} s")
+    print(f"{'method':<9} {'case':<14} {'roll-outs (median)':>18} {'success':>8} {'error (m)':>10} {'initial (m)':>11}")
+    for m, cases in result["methods"].items():
+        for c, s in cases.items():
+            print(f"{m:<9} {c:<14} {s['rollouts_median']:>18.0f} {100 * s['success_rate']:>7.0f}% "
+                  f"{s['final_error_median']:>10.4f} {s['lfd_error_median']:>11.4f}")
+    for c, ratio in result["rollout_ratio_promp_over_acnmp"].items():
+        print(f"ProMP+RL / ACNMP roll-outs ({c}): {'-' if ratio is None else f'{ratio:.2f}x'}")
+    if args.json:
+        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
+        Path(args.json).write_text(json.dumps(result, indent=2))
+        print(f"wrote {args.json}")
+    if args.plot:
+        print(f"wrote {plot_push(result, args.plot)}")
+    sys.stdout.flush()
+    return 0

@@ -1,0 +1,72 @@
+"""E2 in small: one seed, reduced training and budgets. ACNMP pushes the cylinder to the held-out
+interpolation target with no adaptation; the result dict (and so --json) has the documented keys."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import torch
+
+from acnmp_core.adaptation import AdaptConfig
+from acnmp_core.experiments.push import CASES, METHODS, curve_band, make_setup, make_target, plot_push, run_push
+from acnmp_core.promp_rl import PrompRLConfig
+
+torch.set_num_threads(1)
+
+
+@pytest.fixture(scope="module")
+def demo_path(tmp_path_factory):
+    return str(tmp_path_factory.mktemp("push") / "push_demos_3dof.npz")
+
+
+@pytest.fixture(scope="module")
+def result(demo_path):
+    return run_push([0], train_steps=2000, demo_path=demo_path,
+                    adapt_config=AdaptConfig(advantage="episodic", max_rollouts=7),
+                    promp_config=PrompRLConfig(n_samples=4, max_rollouts=11))
+
+
+def test_setup_conditions_on_target_and_start(demo_path):
+    setup = make_setup(demo_path)
+    assert len(setup.demos) == 9 and setup.demos.n_task_params == 2 and setup.demos.n_outputs == 3
+    for case in CASES:
+        t = make_target(setup, case)
+        np.testing.assert_array_equal(t.task_params, setup.targets[case])
+        assert t.obs_times.tolist() == [0.0]
+        np.testing.assert_array_equal(t.obs_values[0], setup.q0)
+        assert t.query_times.shape == (300,)
+    # every demonstration starts from the same configuration, the one conditioned on
+    for d in setup.demos:
+        np.testing.assert_allclose(d.values[0], setup.q0)
+
+
+def test_acnmp_interpolates_without_adaptation(result):
+    s = result["methods"]["acnmp"]["interpolation"]
+    assert s["success_rate"] == 1.0
+    assert s["rollouts_median"] == 1  # the LfD roll-out alone
+    assert s["final_error_median"] <= result["tolerance"]
+    run = next(r for r in result["runs"] if r["method"] == "acnmp" and r["case"] == "interpolation")
+    assert not run["adapted"]
+
+
+def test_result_has_documented_keys(result, tmp_path):
+    r = json.loads(json.dumps(result))  # JSON-ready
+    assert r["experiment"] == "push" and r["seeds"] == 1 and r["wall_time_s"] > 0
+    for m in METHODS:
+        for c in CASES:
+            s = r["methods"][m][c]
+            assert {"rollouts_median", "success_rate", "final_error_median"} <= set(s)
+            assert 0.0 <= s["success_rate"] <= 1.0
+    assert set(r["rollout_ratio_promp_over_acnmp"]) == set(CASES)
+    # budgets are respected (ACNMP: the LfD roll-out plus adapt()'s budget)
+    for run in r["runs"]:
+        assert run["rollouts"] <= (1 + 7 if run["method"] == "acnmp" else 11)
+        assert run["curve"][-1][0] == run["rollouts"]
+    assert plot_push(r, tmp_path / "fig.png").stat().st_size > 0
+
+
+def test_curve_band_holds_last_value():
+    med, lo, hi = curve_band([[[1, 0.5], [4, 0.1]], [[1, 0.3]]], np.arange(1, 6))
+    np.testing.assert_allclose(med, [0.4, 0.4, 0.4, 0.2, 0.2])
+    assert np.all(lo <= med) and np.all(med <= hi)
