@@ -1,0 +1,242 @@
+"""A Python client for an ACNMP deployment: predict/info on the model service, train/adapt/job
+status on the learner (key expressions and messages: docs/PROTOCOL.md).
+
+    with ACNMPClient(connect=["tcp/127.0.0.1:7447"]) as client:
+        p = client.predict("reach", obs_times=[0.0], obs_values=[[0.0, 0.0]], n_steps=200)
+        p.mean  # (200, 2) numpy array, raw units
+
+Every error reply becomes a :class:`ClientError` carrying the service's code (services/wire.py
+``ERROR_CODES``) and message; nothing answering is ``unavailable``, no answer in time ``timeout``.
+"""
+from __future__ import annotations
+
+import contextlib
+import os
+import time
+from dataclasses import dataclass
+from typing import Any, Sequence
+
+import numpy as np
+import zenoh
+
+from services import keys
+from services.session import open_session
+from services.wire import WireError, decode, encode, error_from_payload
+
+#: Where the client connects when neither ``connect`` nor $ACNMP_CONNECT says: the router default.
+DEFAULT_CONNECT = "tcp/127.0.0.1:7447"
+
+TERMINAL_JOB_STATES = ("done", "failed", "cancelled")
+
+
+class ClientError(WireError):
+    """An error reply (or no reply) from the deployment: ``code`` and ``message`` as on the wire."""
+
+
+@dataclass
+class PredictResult:
+    """A model service's prediction, raw units: times (T,), mean (T, D), std (T, D), latent (L,),
+    samples (S, T, D) or None; the skill and the model version that answered."""
+
+    skill: str
+    version: int
+    times: np.ndarray
+    mean: np.ndarray
+    std: np.ndarray
+    latent: np.ndarray
+    samples: np.ndarray | None = None
+
+    @classmethod
+    def from_reply(cls, reply: dict) -> "PredictResult":
+        """Build from one decoded predict reply map."""
+        return cls(reply["skill"], reply["version"], reply["times"], reply["mean"], reply["std"],
+                   reply["latent"], reply.get("samples"))
+
+
+def predict_request(obs_times, obs_values, task_params=None, query_times=None, *, n_steps: int | None = None,
+                    obs_dims_mask=None, n_samples: int | None = None, seed: int | None = None) -> dict:
+    """Build a predict request map (arrays as float64/bool numpy arrays; see docs/PROTOCOL.md).
+
+    obs_times (N,), obs_values (N, D), task_params (P,) or None, query_times (T,) or ``n_steps``,
+    obs_dims_mask (N, D) bool or None, ``n_samples`` with ``seed`` for sampled trajectories.
+    """
+    req: dict[str, Any] = {"v": 1, "obs_times": np.asarray(obs_times, dtype=np.float64).reshape(-1),
+                           "obs_values": np.atleast_2d(np.asarray(obs_values, dtype=np.float64))}
+    if task_params is not None:
+        req["task_params"] = np.asarray(task_params, dtype=np.float64).reshape(-1)
+    if query_times is not None:
+        req["query_times"] = np.asarray(query_times, dtype=np.float64).reshape(-1)
+    if n_steps is not None:
+        req["n_steps"] = int(n_steps)
+    if obs_dims_mask is not None:
+        req["obs_dims_mask"] = np.asarray(obs_dims_mask, dtype=bool)
+    if n_samples is not None:
+        req["n_samples"] = int(n_samples)
+    if seed is not None:
+        req["seed"] = int(seed)
+    return req
+
+
+class ACNMPClient:
+    """A zenoh session plus the request/reply plumbing of the ACNMP protocol.
+
+    Parameters
+    ----------
+    namespace : deployment namespace (``acnmp/<namespace>/...``).
+    connect : endpoints to connect to; default ``$ACNMP_CONNECT`` (comma-separated) or
+        :data:`DEFAULT_CONNECT`.
+    mode : zenoh mode of the client's own session, ``peer`` (default) or ``client``.
+    listen, config_file : passed to :func:`services.session.open_session`.
+    timeout : default seconds per query.
+
+    Use as a context manager, or call :meth:`close`: an open session keeps the process from exiting.
+    """
+
+    def __init__(self, namespace: str = keys.DEFAULT_NAMESPACE, connect: Sequence[str] | None = None,
+                 mode: str = "peer", listen: Sequence[str] | None = None, config_file: str | None = None,
+                 timeout: float = 10.0, session: zenoh.Session | None = None):
+        self.namespace = keys.check_name("namespace", namespace)
+        self.timeout = float(timeout)
+        self._stack = contextlib.ExitStack()
+        if session is None:
+            if connect is None:
+                env = os.environ.get("ACNMP_CONNECT", "")
+                connect = [e for e in env.split(",") if e] or [DEFAULT_CONNECT]
+            session = self._stack.enter_context(open_session(mode, listen, list(connect), config_file))
+        self.session = session
+
+    def close(self) -> None:
+        """Close the session (if the client opened it)."""
+        self._stack.close()
+
+    def __enter__(self) -> "ACNMPClient":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    # ----- plumbing --------------------------------------------------------------------------
+    def request(self, key: str, payload: dict | None = None, timeout: float | None = None) -> dict:
+        """Send one query on ``key`` and return the decoded reply map.
+
+        If several services answer, the first successful reply wins over error replies (a
+        catch-all ``unknown_skill`` from one model process must not hide another's answer).
+        Raises :class:`ClientError`.
+        """
+        timeout = self.timeout if timeout is None else float(timeout)
+        body = encode(payload) if payload is not None else None
+        start = time.monotonic()
+        first_err: WireError | None = None
+        try:
+            for reply in self.session.get(key, payload=body, timeout=timeout):
+                if reply.ok is not None:
+                    return decode(reply.ok.payload.to_bytes())
+                if first_err is None:
+                    first_err = error_from_payload(reply.err.payload.to_bytes())
+        except WireError as exc:
+            raise ClientError(exc.code, f"{key}: {exc.message}") from None
+        if first_err is not None:
+            raise ClientError(first_err.code, first_err.message)
+        if time.monotonic() - start < 0.9 * timeout:
+            raise ClientError("unavailable", f"no service answered on {key}")
+        raise ClientError("timeout", f"no reply on {key} within {timeout}s")
+
+    # ----- model service ---------------------------------------------------------------------
+    def predict(self, skill: str, obs_times, obs_values, task_params=None, query_times=None, *,
+                n_steps: int | None = None, obs_dims_mask=None, n_samples: int | None = None,
+                seed: int | None = None, timeout: float | None = None) -> PredictResult:
+        """Condition ``skill`` on observations (and task parameters) and predict a trajectory.
+
+        obs_times (N,), obs_values (N, D), task_params (P,), query_times (T,) or ``n_steps`` (a
+        uniform grid over the trained time range); ``obs_dims_mask`` (N, D) bool marks which
+        dimensions each observation carries. Returns a :class:`PredictResult` (raw units).
+        """
+        req = predict_request(obs_times, obs_values, task_params, query_times, n_steps=n_steps,
+                              obs_dims_mask=obs_dims_mask, n_samples=n_samples, seed=seed)
+        return PredictResult.from_reply(self.request(keys.skill_predict_key(self.namespace, skill), req, timeout))
+
+    def predict_batch(self, skill: str, requests: Sequence[dict], timeout: float | None = None) -> list[PredictResult]:
+        """Several predict requests (maps from :func:`predict_request`) in one query, answered by one
+        model version. Returns one :class:`PredictResult` per request, in order."""
+        reply = self.request(keys.skill_predict_key(self.namespace, skill),
+                             {"v": 1, "batch": list(requests)}, timeout)
+        return [PredictResult.from_reply(r) for r in reply["results"]]
+
+    def info(self, skill: str, timeout: float | None = None) -> dict:
+        """The served model of ``skill``: dimensions, names, ranges, version, data hash, n_demos."""
+        return self.request(keys.skill_info_key(self.namespace, skill), None, timeout)
+
+    def skills(self, timeout: float = 2.0) -> list[str]:
+        """Names of the skills some model service has weights for now (liveliness tokens)."""
+        pattern = f"{keys.prefix(self.namespace)}/model/*"
+        found = set()
+        for reply in self.session.liveliness().get(pattern, timeout=timeout):
+            if reply.ok is not None:
+                found.add(str(reply.ok.key_expr).rsplit("/", 1)[-1])
+        return sorted(found)
+
+    # ----- learner ---------------------------------------------------------------------------
+    def train(self, skill: str, times, values, task_params=None, timeout: float | None = None, **options) -> str:
+        """Ask the learner to train ``skill`` on demonstrations; returns the job id.
+
+        times (N, T) or (T,), values (N, T, D), task_params (N, P) or None; ``options`` are extra
+        request fields (e.g. ``steps``) passed as they are.
+        """
+        req: dict[str, Any] = {"v": 1, "times": np.asarray(times, dtype=np.float64),
+                               "values": np.asarray(values, dtype=np.float64), **options}
+        if task_params is not None:
+            req["task_params"] = np.asarray(task_params, dtype=np.float64)
+        return self._job(self.request(keys.skill_train_key(self.namespace, skill), req, timeout))
+
+    def adapt(self, skill: str, timeout: float | None = None, **request) -> str:
+        """Queue an adaptation job for ``skill``; ``request`` holds the learner's adapt fields (task,
+        condition, task_params, budget, ...; docs/PROTOCOL.md). Returns the job id."""
+        return self._job(self.request(keys.skill_adapt_key(self.namespace, skill), {"v": 1, **request}, timeout))
+
+    @staticmethod
+    def _job(reply: dict) -> str:
+        job = reply.get("job")
+        if not isinstance(job, str):
+            raise ClientError("internal", f"learner reply has no job id: {sorted(reply)}")
+        return job
+
+    def job_status(self, job: str, timeout: float | None = None) -> dict:
+        """The learner's status map of ``job`` (state, iteration, rollouts, ...)."""
+        return self.request(keys.job_status_key(self.namespace, job), None, timeout)
+
+    def wait_job(self, job: str, timeout: float = 600.0, *, poll: float = 0.5, progress: bool = True) -> dict:
+        """Poll ``job`` until it is done, failed or cancelled; return its last status map.
+
+        With ``progress`` a tqdm bar shows roll-outs used (out of the budget when the status has
+        one). Raises ClientError ``timeout`` after ``timeout`` seconds.
+        """
+        bar = None
+        deadline = time.monotonic() + timeout
+        try:
+            while True:
+                status = self.job_status(job)
+                if progress:
+                    bar = _update_bar(bar, job, status)
+                if status.get("state") in TERMINAL_JOB_STATES:
+                    return status
+                if time.monotonic() > deadline:
+                    raise ClientError("timeout", f"job {job} not finished after {timeout}s (state {status.get('state')!r})")
+                time.sleep(poll)
+        finally:
+            if bar is not None:
+                bar.close()
+
+
+def _update_bar(bar, job: str, status: dict):
+    """Create or advance a tqdm bar from a job status (roll-outs, out of ``budget`` if known)."""
+    from tqdm import tqdm
+
+    total = status.get("budget") if isinstance(status.get("budget"), int) else None
+    if bar is None:
+        bar = tqdm(total=total, desc=f"job {job}", unit="rollout")
+    done = status.get("rollouts")
+    if isinstance(done, int) and done > bar.n:
+        bar.update(done - bar.n)
+    best = status.get("best_return")
+    bar.set_postfix(state=status.get("state"), best=None if best is None else f"{best:.3g}", refresh=True)
+    return bar

@@ -1,0 +1,212 @@
+"""``acnmp query predict|info|skills``: ask a running deployment's model service from the shell."""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+import numpy as np
+
+from services import keys
+
+EPILOG = """\
+examples:
+  acnmp query skills --connect tcp/127.0.0.1:7447
+  acnmp query info --skill reach
+  acnmp query predict --skill reach --obs 0:0.0,0.0 --obs 1:1.0,0.2 --steps 200
+  acnmp query predict --skill push --obs 0:0.1,0.2,_ --task-params 0.4,0.3 --times 0,0.5,1 --json
+  acnmp query predict --skill reach --obs-json '[[0.0, [0.0, 0.0]]]' --samples 5 --seed 1
+
+An observation is TIME:V1,V2,... with one value per output dimension; write _ for a dimension the
+observation does not carry (it is masked out). The connection defaults to $ACNMP_CONNECT or
+tcp/127.0.0.1:7447 (the router's default address).
+"""
+
+
+def register(subparsers) -> None:
+    """Add ``query`` with the ``predict``, ``info`` and ``skills`` sub-commands."""
+    parser = subparsers.add_parser(
+        "query", help="query a running model service (predict, info, skills)",
+        description="Query a running deployment's model service over zenoh.",
+        epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = parser.add_subparsers(dest="query_command", metavar="WHAT", required=True)
+
+    predict = sub.add_parser("predict", help="condition a skill on observations and predict a trajectory",
+                             description="Condition a skill on observations (and task parameters) and print the "
+                                         "predicted mean and std per step.",
+                             epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    _common(predict)
+    predict.add_argument("--obs", action="append", default=[], metavar="T:V1,V2,...",
+                         help="one observation: time, then a value per output dimension (_ = not observed). Repeatable")
+    predict.add_argument("--obs-json", metavar="JSON",
+                         help='observations as JSON: [[t, [v1, v2, ...]], ...] (null = not observed), or @FILE')
+    predict.add_argument("--task-params", metavar="P1,P2,...", help="task parameters, comma-separated")
+    when = predict.add_mutually_exclusive_group()
+    when.add_argument("--steps", type=int, default=None, metavar="N",
+                      help="predict at N times spread over the trained time range (default: 100)")
+    when.add_argument("--times", metavar="T1,T2,...", help="predict at these times")
+    predict.add_argument("--samples", type=int, default=None, metavar="S", help="also draw S sampled trajectories")
+    predict.add_argument("--seed", type=int, default=None, help="seed of the samples")
+    predict.set_defaults(func=_run_predict)
+
+    info = sub.add_parser("info", help="describe a served skill (dimensions, names, ranges, version)",
+                          description="Describe the model serving a skill.")
+    _common(info)
+    info.set_defaults(func=_run_info)
+
+    skills = sub.add_parser("skills", help="list the skills some model service has weights for",
+                            description="List the skills that have a live model service (liveliness tokens).")
+    _common(skills, skill=False)
+    skills.set_defaults(func=_run_skills)
+
+
+def _common(parser: argparse.ArgumentParser, skill: bool = True) -> None:
+    parser.add_argument("--namespace", "-n", default=keys.DEFAULT_NAMESPACE,
+                        help="deployment namespace (default: %(default)s)")
+    parser.add_argument("--connect", action="append", default=None, metavar="EP",
+                        help="zenoh endpoint to connect to (repeatable; default: $ACNMP_CONNECT or tcp/127.0.0.1:7447)")
+    parser.add_argument("--mode", choices=("peer", "client"), default="peer",
+                        help="zenoh mode of this command's session (default: %(default)s)")
+    parser.add_argument("--timeout", type=float, default=10.0, help="seconds to wait for a reply (default: %(default)s)")
+    parser.add_argument("--json", action="store_true", help="print the full reply as JSON")
+    if skill:
+        parser.add_argument("--skill", "-s", required=True, help="skill name")
+
+
+def parse_obs(items: list[str]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``["t:v1,v2", ...]`` -> times (N,), values (N, D), mask (N, D) bool (False where ``_``)."""
+    times, rows, masks = [], [], []
+    for item in items:
+        t, sep, vals = item.partition(":")
+        if not sep:
+            raise ValueError(f"--obs {item!r}: expected TIME:V1,V2,...")
+        parts = [v.strip() for v in vals.split(",")]
+        times.append(float(t))
+        rows.append([0.0 if v in ("_", "") else float(v) for v in parts])
+        masks.append([v not in ("_", "") for v in parts])
+    return _stack_obs(times, rows, masks)
+
+
+def parse_obs_json(text: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``[[t, [v1, v2|null, ...]], ...]`` (or ``@FILE`` holding it) -> times, values, mask."""
+    if text.startswith("@"):
+        with open(text[1:], encoding="utf-8") as f:
+            text = f.read()
+    data = json.loads(text)
+    if not isinstance(data, list):
+        raise ValueError("--obs-json: expected a list of [t, [values...]]")
+    times, rows, masks = [], [], []
+    for entry in data:
+        if not (isinstance(entry, list) and len(entry) == 2 and isinstance(entry[1], list)):
+            raise ValueError(f"--obs-json: entry {entry!r} is not [t, [values...]]")
+        times.append(float(entry[0]))
+        rows.append([0.0 if v is None else float(v) for v in entry[1]])
+        masks.append([v is not None for v in entry[1]])
+    return _stack_obs(times, rows, masks)
+
+
+def _stack_obs(times, rows, masks):
+    if not times:
+        raise ValueError("give at least one observation (--obs or --obs-json)")
+    if len({len(r) for r in rows}) != 1:
+        raise ValueError("every observation needs the same number of values")
+    return np.array(times), np.array(rows), np.array(masks, dtype=bool)
+
+
+def _floats(text: str | None, name: str) -> np.ndarray | None:
+    if text is None:
+        return None
+    try:
+        return np.array([float(v) for v in text.split(",") if v.strip()])
+    except ValueError:
+        raise ValueError(f"{name}: expected comma-separated numbers, got {text!r}") from None
+
+
+def _client(args):
+    from clients.client import ACNMPClient  # zenoh is imported only when a query really runs
+
+    return ACNMPClient(args.namespace, connect=args.connect, mode=args.mode, timeout=args.timeout)
+
+
+def _to_json(value):
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, dict):
+        return {k: _to_json(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_to_json(v) for v in value]
+    return value
+
+
+def _fail(exc) -> int:
+    print(f"acnmp query: {exc.code}: {exc.message}", file=sys.stderr)
+    return 1
+
+
+def _run_predict(args) -> int:
+    from clients.client import ClientError
+
+    if args.obs_json:
+        times, values, mask = parse_obs_json(args.obs_json)
+    else:
+        times, values, mask = parse_obs(args.obs)
+    query_times = _floats(args.times, "--times")
+    n_steps = None if query_times is not None else (args.steps or 100)
+    with _client(args) as client:
+        try:
+            p = client.predict(args.skill, times, values, _floats(args.task_params, "--task-params"),
+                               query_times, n_steps=n_steps, obs_dims_mask=None if mask.all() else mask,
+                               n_samples=args.samples, seed=args.seed)
+        except ClientError as exc:
+            return _fail(exc)
+    if args.json:
+        out = {"skill": p.skill, "version": p.version, "times": p.times, "mean": p.mean, "std": p.std,
+               "latent": p.latent}
+        if p.samples is not None:
+            out["samples"] = p.samples
+        print(json.dumps(_to_json(out)))
+        return 0
+    steps, dims = p.mean.shape
+    print(f"skill {p.skill} version {p.version}: {steps} steps x {dims} dims (mean ± std); "
+          f"latent {p.latent.shape[0]}-D" + (f"; {p.samples.shape[0]} samples (use --json)" if p.samples is not None else ""))
+    shown = np.unique(np.linspace(0, steps - 1, min(steps, 11)).round().astype(int))
+    for i in shown:
+        cells = "  ".join(f"{m:+.4f} ± {s:.4f}" for m, s in zip(p.mean[i], p.std[i]))
+        print(f"  t={p.times[i]:<8.4g} {cells}")
+    if len(shown) < steps:
+        print(f"  ({len(shown)} of {steps} steps shown; --json prints all)")
+    return 0
+
+
+def _run_info(args) -> int:
+    from clients.client import ClientError
+
+    with _client(args) as client:
+        try:
+            info = client.info(args.skill)
+        except ClientError as exc:
+            return _fail(exc)
+    if args.json:
+        print(json.dumps(_to_json(info)))
+        return 0
+    print(f"skill {info['skill']} version {info['version']} ({info['source']})")
+    print(f"  outputs ({info['n_outputs']}): {', '.join(info['output_names'])}")
+    lo, hi = info["value_low"], info["value_high"]
+    for name, a, b in zip(info["output_names"], lo, hi):
+        print(f"    {name}: demos span [{a:g}, {b:g}]")
+    print(f"  task parameters ({info['n_task_params']}): {', '.join(info['task_param_names']) or 'none'}")
+    for name, a, b in zip(info["task_param_names"], info["task_param_low"], info["task_param_high"]):
+        print(f"    {name}: [{a:g}, {b:g}]")
+    print(f"  time range: [{info['time_range'][0]:g}, {info['time_range'][1]:g}]; latent dim {info['latent_dim']}")
+    print(f"  trained on {info['n_demos']} demos, data hash {info['data_hash'][:16] or '-'}")
+    return 0
+
+
+def _run_skills(args) -> int:
+    with _client(args) as client:
+        names = client.skills()
+    if args.json:
+        print(json.dumps(names))
+    else:
+        print("\n".join(names) if names else "no skill is served (no model liveliness token found)")
+    return 0
