@@ -1,0 +1,56 @@
+"""``acnmp up``: start a whole local deployment (recorder, learner, model, workers) with no configuration."""
+from __future__ import annotations
+
+import sys
+
+
+def register(subparsers) -> None:
+    """Add the ``up`` sub-command."""
+    p = subparsers.add_parser("up", help="start a local deployment on 127.0.0.1 until Ctrl-C / SIGTERM",
+                              description=__doc__.splitlines()[0])
+    p.add_argument("--namespace", "-n", default="default", help="key prefix acnmp/<namespace>/ (default: %(default)s)")
+    p.add_argument("--workers", type=int, default=2, help="number of workers (default: %(default)s)")
+    p.add_argument("--robot", default="point2d", choices=("point2d", "planar3", "planar4"),
+                   help="robot kind of the workers (default: %(default)s)")
+    p.add_argument("--record", default=None, metavar="FILE.rrd", help="start a recorder writing this file")
+    p.add_argument("--state-dir", default="runs/state", metavar="DIR",
+                   help="learner checkpoints and process logs (default: %(default)s)")
+    p.add_argument("--no-model", action="store_true", help="do not start the model service")
+    p.add_argument("--demos", action="append", default=[], metavar="SKILL=FILE.npz",
+                   help="have the learner train SKILL from a demonstration file at start (repeatable)")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    """Start the deployment, print what runs where, wait for SIGINT/SIGTERM, stop everything; exit 0."""
+    from services.launcher import LocalDeployment
+    from services.session import install_shutdown_handlers
+
+    stop = install_shutdown_handlers()
+    learner_args = [a for spec in args.demos for a in ("--demos", spec)]
+    dep = LocalDeployment(args.namespace, args.workers, args.robot, record=args.record, state_dir=args.state_dir,
+                          model=not args.no_model, learner_args=learner_args)
+    try:
+        dep.start()
+        print(dep.describe(), flush=True)
+        print("deployment is up; Ctrl-C or SIGTERM stops it", flush=True)
+        while not stop.is_set():
+            wait_until_stopped_or_child_exit(dep, stop)
+    finally:
+        codes = dep.stop()
+    bad = {n: c for n, c in codes.items() if c not in (0, None)}
+    if bad:
+        print(f"acnmp up: processes ended with errors: {bad}", file=sys.stderr)
+    print("deployment stopped", flush=True)
+    return 0
+
+
+def wait_until_stopped_or_child_exit(dep, stop, poll: float = 0.5) -> None:
+    """Wait ``poll`` seconds for ``stop``; report (once) a child that exited on its own."""
+    if stop.wait(poll):
+        return
+    for name, child in dep.children.items():
+        if child.proc.poll() is not None and not getattr(child, "_reported", False):
+            child._reported = True
+            print(f"acnmp up: {name} (pid {child.pid}) exited with code {child.proc.returncode}; log {child.log}",
+                  file=sys.stderr, flush=True)

@@ -1,0 +1,94 @@
+"""A whole local deployment: an E1 adaptation job end to end with a recorder (what the recorder
+logged is what the learner used; the .rrd verifies), and `acnmp up` stopping cleanly on SIGTERM."""
+from __future__ import annotations
+
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from acnmp_core.experiments.viapoint import make_setup
+from services import keys
+from services.launcher import LocalDeployment
+from services.replay import summarize
+from services.session import query
+
+ROOT = Path(__file__).resolve().parents[1]
+RERUN = Path(sys.executable).with_name("rerun")
+NS = "e2e"
+
+
+def test_e1_job_end_to_end_is_recorded_exactly(tmp_path):
+    setup = make_setup()
+    demos, tg = setup.demos, setup.target
+    rrd = tmp_path / "run.rrd"
+    with LocalDeployment(NS, workers=2, record=rrd, state_dir=tmp_path / "state") as dep:
+        s = dep.session
+        train = {"times": np.stack([d.times for d in demos]), "values": np.stack([d.values for d in demos]),
+                 "model": {"encoder_widths": [64, 64], "decoder_widths": [64, 64]}, "train": {"steps": 400}}
+        assert query(s, keys.skill_train_key(NS, "e1"), train, timeout=60)["version"] == 0
+        job = query(s, keys.skill_adapt_key(NS, "e1"), {
+            "target": {"obs_times": tg.obs_times, "obs_values": tg.obs_values, "query_times": tg.query_times},
+            "task": "viapoint", "task_config": setup.task_config, "robot": "point2d", "seed": 0, "commit": True,
+            "assimilate_steps": 50,
+            "config": {"max_rollouts": 15, "explore_from_return": 1.0, "rl_steps_per_iter": 10}}, timeout=10)["job"]
+        deadline = time.monotonic() + 90
+        while (st := query(s, keys.job_status_key(NS, job)))["state"] not in ("done", "failed"):
+            assert time.monotonic() < deadline, st
+            time.sleep(0.2)
+        assert st["state"] == "done", st["error"]
+        # the model service picked up the learner's newest weights
+        want = st["committed_version"] if st["committed_version"] is not None else 0
+        deadline = time.monotonic() + 20
+        while (info := query(s, keys.skill_info_key(NS, "e1"), None, timeout=10))["version"] != want:
+            assert time.monotonic() < deadline, info
+            time.sleep(0.2)
+    # the deployment is down: the recorder finalised the file
+    used = st["result"]["rollouts"]
+    summary = summarize(rrd)
+    rec = summary["jobs"][job]
+    assert rec["rollouts"] == rec["unique_rollouts"] == used == st["rollouts_executed"]
+    assert rec["duplicates"] == []
+    assert sum(rec["workers"].values()) == used and set(rec["workers"]) <= {"point2d-0", "point2d-1"}
+    versions = summary["skills"]["e1"]["versions"]
+    assert versions == ([0] if st["committed_version"] is None else [0, st["committed_version"]])
+    assert summary["footer"] is not False
+    if RERUN.exists():
+        out = subprocess.run([str(RERUN), "rrd", "verify", str(rrd)], capture_output=True, text=True, timeout=60)
+        assert out.returncode == 0, out.stderr
+
+
+def test_acnmp_up_stops_cleanly_on_sigterm(tmp_path):
+    env = dict(os.environ, PYTHONPATH=str(ROOT), RERUN_ANALYTICS="0")
+    proc = subprocess.Popen([sys.executable, "-m", "clients.cli", "up", "--namespace", "upt", "--workers", "1",
+                             "--record", str(tmp_path / "up.rrd"), "--state-dir", str(tmp_path / "state")],
+                            cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    lines = []
+    try:
+        for line in proc.stdout:
+            lines.append(line)
+            if "deployment is up" in line:
+                break
+        assert any("deployment is up" in ln for ln in lines), "".join(lines)
+        pids = [int(m.group(1)) for ln in lines if (m := re.match(r"\s+(?:recorder|learner|model|worker\S*)\s+(\d+)\s", ln))]
+        assert len(pids) == 4, "".join(lines)  # recorder, learner, model, one worker
+        proc.send_signal(signal.SIGTERM)
+        rest, _ = proc.communicate(timeout=20)
+        assert proc.returncode == 0, rest
+        assert "deployment stopped" in rest
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    for pid in pids:  # every child was reaped by the launcher
+        assert not Path(f"/proc/{pid}").exists() or "zombie" in Path(f"/proc/{pid}/status").read_text().lower()
+    if RERUN.exists():
+        out = subprocess.run([str(RERUN), "rrd", "verify", str(tmp_path / "up.rrd")], capture_output=True,
+                             text=True, timeout=60)
+        assert out.returncode == 0, out.stderr
