@@ -42,6 +42,10 @@ class AdaptConfig:
     adapt_exploration : grow the std by ``explore_up`` when more than 40 % of the noisy roll-outs
         beat the mean, shrink it by ``explore_down`` when fewer than 20 % do (a 1/5th-success rule), within
         [explore_min, explore_max] times the initial std.
+    explore_from_return : when set to k, the exploration std (raw units) is k * |return of the
+        mean roll-out| (within [explore_min, explore_max] times the initial std) instead of the
+        1/5th rule: the authors' rule for rewards that are distances, so exploration is as wide as
+        the remaining error.
     n_knots : knots of the time-correlated noise.
     mirrored : draw the noise in antithetic pairs (eps, -eps).
     advantage : "episodic" (return of the noisy roll-out minus that of the mean, credited to every
@@ -68,6 +72,7 @@ class AdaptConfig:
     explore_down: float = 0.8
     explore_min: float = 0.1
     explore_max: float = 3.0
+    explore_from_return: float | None = None
     n_knots: int = 8
     mirrored: bool = True
     advantage: str = "per_step"
@@ -75,7 +80,7 @@ class AdaptConfig:
     rl_steps_per_iter: int = 60
     sl_steps_per_rl_step: int = 1
     sl_batch_size: int = 8
-    temperature: float = 0.1
+    temperature: float = 0.03
     is_clip: float = 2.0
     reuse_iters: int = 3
     stop_on_success: bool = True
@@ -139,29 +144,29 @@ class AdaptResult:
     history: list[IterationLog] = field(default_factory=list)
 
 
-def _weights(rewards: np.ndarray, kind: str, temperature: float, kernel: np.ndarray) -> np.ndarray:
-    """Advantage weights (1+K, T) of the roll-outs of one iteration, row 0 the mean roll-out.
+def _weights(rewards: np.ndarray, kind: str, temperature: float, kernel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Advantage weights of the roll-outs of one iteration (row 0 is the mean roll-out).
+
+    Returns ``(w, relevance)``: ``w`` (1+K, T) normalised over the roll-outs at each step, and
+    ``relevance`` (T,) in [0, 1], how much the reward says about each step.
 
     The advantage of a roll-out is its reward minus that of the mean roll-out: "episodic" uses the
     returns and credits every step alike; "per_step" uses per-step rewards spread over time by
     ``kernel`` (T, T), the exploration noise's correlation, because the noise at one step also moved
-    its correlated neighbours. Weights are ``exp(advantage / (temperature * spread))`` normalised
-    over the roll-outs at each step. Where the advantages carry little information (their range is
-    small next to the largest range) the weight goes back to the mean roll-out, so the policy does
-    not wander where the reward says nothing.
+    its correlated neighbours. Weights are ``exp(advantage / (temperature * spread))``. The
+    relevance of a step is the spread of its advantages over the largest spread: steps the reward
+    does not depend on get no policy-gradient signal at all, so what the network does there is left
+    to what it learnt from the demonstrations (ACNMP) or to chance (RL only).
     """
     if kind == "episodic":
         adv = np.repeat((rewards.sum(axis=1) - rewards[0].sum())[:, None], rewards.shape[1], axis=1)
     else:
         adv = (rewards - rewards[0:1]) @ kernel.T
-    spread = adv.max(axis=0, keepdims=True) - adv.min(axis=0, keepdims=True)
+    spread = adv.max(axis=0) - adv.min(axis=0)
     z = (adv - adv.max(axis=0, keepdims=True)) / (temperature * np.maximum(spread, 1e-12))
     w = np.exp(z)
     w /= w.sum(axis=0, keepdims=True)
-    informative = spread / max(float(spread.max()), 1e-12)  # (1, T) in [0, 1]
-    w *= informative
-    w[0] += 1.0 - informative[0]
-    return w
+    return w, spread / max(float(spread.max()), 1e-12)
 
 
 def adapt(
@@ -222,6 +227,9 @@ def adapt(
         with torch.no_grad():
             mu = model.mean_normalized(query).double().numpy()  # (T, D)
         k = 0 if cfg.mode == "lfd_only" else min(cfg.noisy_per_iter, cfg.max_rollouts - rollouts - 1)
+        if cfg.explore_from_return is not None and it > 0:
+            std = np.clip(cfg.explore_from_return * abs(history[-1].mean_return) / scale,
+                          cfg.explore_min * std0, cfg.explore_max * std0)
         if cfg.mirrored and k >= 2:
             # Antithetic pairs (eps, -eps): the pair's reward difference is a finite-difference
             # estimate along eps, far less noisy than two independent samples.
@@ -245,12 +253,12 @@ def adapt(
         it += 1
         if (success and cfg.stop_on_success) or k == 0:
             break
-        weights = _weights(batch.rewards, cfg.advantage, cfg.temperature, kernel)
+        weights, relevance = _weights(batch.rewards, cfg.advantage, cfg.temperature, kernel)
         for j in range(1 + k):
-            buffer.append({"tau": trajs_n[j], "adv": weights[j], "std": std.copy(),
+            buffer.append({"tau": trajs_n[j], "adv": weights[j] * relevance, "std": std.copy(),
                            "logp": _logp(mu, trajs_n[j], std), "born": it})
         buffer = [b for b in buffer if it - b["born"] < cfg.reuse_iters]
-        if cfg.adapt_exploration:
+        if cfg.adapt_exploration and cfg.explore_from_return is None:
             # Rechenberg's 1/5th rule, coarsened for a handful of samples: widen while many noisy
             # roll-outs beat the mean (the optimum is far), narrow when none does (it is near).
             frac = float(np.mean(returns[1:] > returns[0]))
@@ -296,7 +304,7 @@ def _update(model, opt, query, buffer, cfg: AdaptConfig, sampler, gen, train_cfg
         # with positive, normalised weights, whose maximiser is the weighted mean of the roll-outs,
         # so repeated steps converge instead of running away as the signed-advantage surrogate does.
         # Multiplying by std^2 makes the step size independent of the exploration std.
-        loss = -(w * adv * logp_t).sum() / max(float((w * adv).sum()), 1e-6) * float((std**2).mean())
+        loss = -(w * adv * logp_t).sum() / max(float(w.sum(0).max()), 1e-6) * float((std**2).mean())
         opt.zero_grad(set_to_none=True)
         loss.backward()
         opt.step()

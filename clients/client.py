@@ -176,17 +176,19 @@ class ACNMPClient:
         return sorted(found)
 
     # ----- learner ---------------------------------------------------------------------------
-    def train(self, skill: str, times, values, task_params=None, timeout: float | None = None, **options) -> str:
-        """Ask the learner to train ``skill`` on demonstrations; returns the job id.
+    def train(self, skill: str, times, values, task_params=None, timeout: float | None = None, **options) -> dict:
+        """Ask the learner to train ``skill`` on demonstrations and wait until it has.
 
         times (N, T) or (T,), values (N, T, D), task_params (N, P) or None; ``options`` are extra
-        request fields (e.g. ``steps``) passed as they are.
+        request fields passed as they are (``train``: TrainConfig overrides, ``model``: CNMPConfig
+        overrides, ``seed``, ``value_names``, ``task_param_names``). Returns the learner's reply:
+        ``{"skill", "version", "data_hash", "n_demos"}``.
         """
         req: dict[str, Any] = {"v": 1, "times": np.asarray(times, dtype=np.float64),
                                "values": np.asarray(values, dtype=np.float64), **options}
         if task_params is not None:
             req["task_params"] = np.asarray(task_params, dtype=np.float64)
-        return self._job(self.request(keys.skill_train_key(self.namespace, skill), req, timeout))
+        return self.request(keys.skill_train_key(self.namespace, skill), req, timeout)
 
     def adapt(self, skill: str, timeout: float | None = None, **request) -> str:
         """Queue an adaptation job for ``skill``; ``request`` holds the learner's adapt fields (task,

@@ -47,7 +47,9 @@ from acnmp_core.demo_io import load_demos
 from acnmp_core.tasks.registry import task_names
 from acnmp_core.training import TrainConfig, train
 from services import keys
-from services.events import EventPublisher, job_progress_event, model_version_event, rollout_event, validate_event
+from services.events import (
+    EventPublisher, job_progress_event, latent_event, model_version_event, rollout_event, validate_event,
+)
 from services.jobs import UNFINISHED, JobStore, SkillState, SkillStore, new_job
 from services.remote_evaluator import RemoteEvaluator
 from services.session import (add_session_arguments, declare_rpc, install_shutdown_handlers,
@@ -197,6 +199,10 @@ class Learner:
                          congestion_control=zenoh.CongestionControl.BLOCK)
         self._publish(model_version_event(state.name, state.version, n_demos=len(state.demos),
                                           **{k: v for k, v in extra.items() if v is not None}))
+        # The latent of every demonstration under this version, for the recording's latent view.
+        for i, demo in enumerate(state.demos):
+            latent = state.model.encode_demo(demo.times, demo.values, demo.task_params)
+            self._publish(latent_event(state.name, state.version, latent, label=f"demo{i}"))
         log.info("skill %s: version %d (%d demos)", state.name, state.version, len(state.demos))
 
     def _publish(self, event: dict) -> None:

@@ -96,7 +96,10 @@ def summarize(path: str | Path) -> dict:
         returns = [r["ret"] for r in rows if r["ret"] is not None]
         last = None
         if progress.get(job):
-            last = max(progress[job], key=lambda p: (p["rollouts"] or 0, p["iteration"] or 0))
+            # Ties (the final "done" event repeats the last "running" counts) go to the finished
+            # state, then to the later row.
+            last = max(enumerate(progress[job]), key=lambda ip: (
+                ip[1]["rollouts"] or 0, ip[1]["iteration"] or 0, ip[1].get("state") in ("done", "failed"), ip[0]))[1]
         jobs[job] = {
             "rollouts": len(rows),
             "unique_rollouts": len(idx),

@@ -64,38 +64,66 @@ def extrapolated_viapoint(variant: str = "2d", t_v: float = 0.25) -> tuple[float
     raise ValueError(f"variant: expected '1d' or '2d', got {variant!r}")
 
 
+def extrapolation_conditions(variant: str = "2d", t_v: float = 0.25) -> tuple[np.ndarray, np.ndarray]:
+    """The conditions of the extrapolation case as the authors set them: the common start, the
+    extrapolated via-point and the common end. Returns times (3,) and values (3, D)."""
+    times = np.array([0.0, t_v, 1.0])
+    y = two_bump(times, EXTRAPOLATION_AMPLITUDE)
+    if variant == "2d":
+        return times, np.stack([times, y], axis=1)
+    if variant == "1d":
+        return times, y[:, None]
+    raise ValueError(f"variant: expected '1d' or '2d', got {variant!r}")
+
+
 @dataclass
 class ViaPointTask:
-    """Reward for passing a via-point: implements :class:`~acnmp_core.rollout.RolloutEvaluator`.
+    """Reward for passing through via-points: implements :class:`~acnmp_core.rollout.RolloutEvaluator`.
 
-    The per-step reward is minus the Euclidean distance to ``point`` (raw units) at the step
-    nearest ``t_v``, zero elsewhere. Success: that distance is at most ``tolerance``.
-    The executed states are the trajectories themselves (a point mass follows them exactly).
+    Parameters
+    ----------
+    t_v : time of each via-point, a float or (K,) array.
+    point : the via-points, (D,) for one or (K, D).
+    tolerance : success radius (raw units), one for all via-points or (K,) one each.
+
+    The per-step reward is minus the Euclidean distance to a via-point at the step nearest its
+    time, zero elsewhere (the authors' form). Success: every via-point is passed within
+    ``tolerance``. The executed states are the trajectories themselves (a point mass follows them).
     """
 
-    t_v: float
+    t_v: float | np.ndarray
     point: np.ndarray
-    tolerance: float
+    tolerance: float | np.ndarray
 
     def __post_init__(self) -> None:
-        self.point = check_array("point", self.point, ndim=1, min_size=1)
-        if not self.tolerance > 0:
-            raise ValueError(f"tolerance: expected > 0, got {self.tolerance}")
+        self.t_v = check_array("t_v", np.atleast_1d(self.t_v), ndim=1, min_size=1)
+        self.point = check_array("point", np.atleast_2d(self.point), ndim=2, shape=(len(self.t_v), None))
+        tol = check_array("tolerance", self.tolerance, ndim=(0, 1))
+        if np.any(tol <= 0) or tol.size not in (1, len(self.t_v)):
+            raise ValueError(f"tolerance: expected one positive value or {len(self.t_v)}, got {tol}")
+        self.tolerance = float(tol) if tol.size == 1 and tol.ndim == 0 else tol
 
-    def errors(self, trajectories: np.ndarray, times: np.ndarray) -> np.ndarray:
-        """(B,) distance of each trajectory (B, T, D) at the step nearest t_v to the via-point."""
-        trajectories = check_array("trajectories", trajectories, ndim=3, shape=(None, None, len(self.point)))
+    def distances(self, trajectories, times) -> np.ndarray:
+        """(B, K) distance of each trajectory (B, T, D) to each via-point at its nearest step."""
+        trajectories = check_array("trajectories", trajectories, ndim=3, shape=(None, None, self.point.shape[1]))
         times = check_array("times", times, ndim=1, shape=(trajectories.shape[1],))
-        i = int(np.argmin(np.abs(times - self.t_v)))
-        return np.linalg.norm(trajectories[:, i] - self.point, axis=-1)
+        idx = self._steps(times)
+        return np.linalg.norm(trajectories[:, idx] - self.point[None], axis=-1)
+
+    def errors(self, trajectories, times) -> np.ndarray:
+        """(B,) the largest via-point distance of each trajectory (B, T, D)."""
+        return self.distances(trajectories, times).max(axis=1)
+
+    def _steps(self, times: np.ndarray) -> np.ndarray:
+        return np.abs(times[None, :] - self.t_v[:, None]).argmin(axis=1)
 
     def evaluate(self, trajectories, times, task_params=None) -> RolloutBatch:
         """trajectories (B, T, D), times (T,) -> RolloutBatch with rewards (B, T)."""
-        err = self.errors(trajectories, times)
-        times = np.asarray(times, dtype=np.float64)
-        rewards = np.zeros(np.asarray(trajectories).shape[:2])
-        rewards[:, int(np.argmin(np.abs(times - self.t_v)))] = -err
-        return RolloutBatch(rewards, err <= self.tolerance, {"path": np.asarray(trajectories, dtype=np.float64)})
+        dist = self.distances(trajectories, times)
+        trajectories = np.asarray(trajectories, dtype=np.float64)
+        rewards = np.zeros(trajectories.shape[:2])
+        np.add.at(rewards, (slice(None), self._steps(np.asarray(times, dtype=np.float64))), -dist)
+        return RolloutBatch(rewards, np.all(dist <= self.tolerance, axis=1), {"path": trajectories})
 
 
 def shape_error(trajectory: np.ndarray, times: np.ndarray, demos: DemoSet) -> float:

@@ -34,7 +34,13 @@ def register(subparsers) -> None:
 
 def run(args) -> int:
     """Run E1 as asked by ``args`` and print a summary table; returns the exit code."""
+    import torch
+
     from acnmp_core.experiments.viapoint import run_viapoint
+
+    # One intra-op thread: the learner's jobs run with one too, and float reductions then happen
+    # in the same order, so the in-process and the distributed runs give the same numbers.
+    torch.set_num_threads(1)
 
     if args.budget < 1 or args.train_steps < 1:
         raise ValueError("--budget and --train-steps: expected positive integers")

@@ -1,0 +1,415 @@
+"""E3: self-improvement over many wall-with-a-hole environments; ACNMP vs a conditional ProMP + RL.
+
+The loop (paper Sec. 4.2, Fig. 5 d, e), run for each method on the *same* stream of environments:
+
+1. Start from ``n_initial`` random environments with one demonstration each
+   (:func:`~acnmp_core.tasks.wall.make_demo_set`; uniform speed, so the demonstrations cross the wall
+   at different times) and learn the skill from them.
+2. Repeatedly draw a new environment and generate one trajectory for it (one roll-out). When it
+   fails, adapt until success or the budget; when the adaptation succeeds, add the solution to the
+   demonstration set and update the skill; go on.
+3. Every ``eval_every`` new environments, generate (without any roll-out) a trajectory for each of
+   the fixed test environments (:func:`~acnmp_core.tasks.wall.test_environments`) and record the
+   success rate and the mean test error against environments seen and trajectories sampled.
+
+Methods:
+
+* **ACNMP**: a CNMP conditioned on the start point (an observation at t = 0) and the four task
+  parameters. Adaptation is :func:`~acnmp_core.adaptation.adapt` (mode "acnmp": RL with
+  simultaneous SL on the current demonstrations) on a copy of the model; a successful copy replaces
+  the model, its solution is added to the DemoSet and training continues for ``assimilate_steps``.
+* **ProMP + RL** (``promp_rl``): a ProMP over all demonstrations with a joint Gaussian over (weights,
+  task parameters), conditioned on the new task parameters (linear regression from task to weights,
+  :meth:`~acnmp_core.promp_rl.AdaptiveProMP.initial_promp` with ``init="conditional"``). Adaptation is
+  episodic REPS over the ProMP weights (:func:`~acnmp_core.promp_rl.promp_rl`) from that conditional
+  distribution; a solution is added to the demonstrations and the ProMP is refitted.
+
+Roll-out accounting is the same for both: the generated trajectory of each new environment is one
+roll-out; an adaptation adds every trajectory it executes (its first mean roll-out repeats the
+generated one and is counted again, because it is executed again). Test evaluations execute
+nothing and cost no roll-outs. Demonstrations are given, not sampled.
+
+Library code only: ``acnmp experiment wall`` and ``benchmarks/e3_wall.py`` are thin adapters around
+:func:`run_wall`, whose result is a JSON-ready dict.
+"""
+from __future__ import annotations
+
+import copy
+import time
+from dataclasses import dataclass, replace
+from typing import Callable
+
+import numpy as np
+import torch
+
+from ..adaptation import AdaptConfig, AdaptTarget, adapt
+from ..cnmp import CNMP, CNMPConfig
+from ..data import Demonstration, DemoSet
+from ..promp_rl import AdaptiveProMP, PrompRLConfig, promp_rl
+from ..rollout import RolloutEvaluator
+from ..tasks import wall as W
+from ..training import TrainConfig, train
+from ..validation import check_array, check_positive_int
+
+METHODS = ("acnmp", "promp_rl")
+LABELS = {"acnmp": "ACNMP", "promp_rl": "ProMP + RL (REPS)"}
+COLORS = {"acnmp": "tab:green", "promp_rl": "tab:purple"}
+
+#: What E3 changes from AdaptConfig's defaults (tuned on E1): only the budget. The per-step
+#: advantage fits this reward (start, clearance and goal terms at different steps), and in a
+#: trial on 8 failing environments it needed half the roll-outs of "episodic" (median ~20 vs ~50).
+ACNMP_DEFAULTS = dict(max_rollouts=1000)
+#: The ProMP + RL baseline: REPS from the task-conditional ProMP, same per-environment budget.
+PROMP_DEFAULTS = dict(method="reps", n_samples=10, max_rollouts=1000, init="conditional")
+#: Supervised steps (batch 32) of the first training and after each assimilation.
+TRAIN_DEFAULTS = dict(train_steps=3000, assimilate_steps=300, assimilate_lr=3e-4)
+
+
+@dataclass
+class WallSetup:
+    """The environments of one E3 run, shared by all methods.
+
+    times : (T,) normalised time of every trajectory.
+    initial : DemoSet of the ``n_initial`` demonstrated environments.
+    stream : (E, 4) the new environments, in the order they are drawn.
+    test : (N, 4) the fixed test environments.
+    """
+
+    times: np.ndarray
+    initial: DemoSet
+    stream: np.ndarray
+    test: np.ndarray
+
+
+def make_setup(envs: int, seed: int = 0, *, n_initial: int = 30, n_test: int = 1000,
+               n_steps: int = 100) -> WallSetup:
+    """Draw the environments of a run: demonstrations, the stream of new ones, the test set.
+
+    Parameters
+    ----------
+    envs : E, new environments in the self-improvement loop (>= 1).
+    seed : seeds the demonstrated and the new environments (the test set has its own fixed seed).
+    n_initial : demonstrated environments. n_test : test environments (a prefix of the fixed set).
+    n_steps : T, samples per trajectory.
+    """
+    check_positive_int("envs", envs)
+    rng = np.random.default_rng(seed)
+    t, v, p = W.make_demo_set(n_initial, rng, n_steps=n_steps)
+    stream = W.sample_environments(envs, np.random.default_rng([seed, 1]))
+    return WallSetup(times=t[0].copy(), initial=DemoSet.from_arrays(t, v, p), stream=stream,
+                     test=W.test_environments(n_test))
+
+
+# --------------------------------------------------------------------------------------------------
+# Generating trajectories for many environments at once
+# --------------------------------------------------------------------------------------------------
+
+
+def cnmp_trajectories(model: CNMP, task_params, times) -> np.ndarray:
+    """Mean trajectories of ``model`` conditioned on the start point at t = 0 and task parameters.
+
+    One batched forward pass (the same result as :meth:`CNMP.predict` per environment).
+
+    Parameters
+    ----------
+    model : a trained CNMP with 2 outputs and 4 task parameters.
+    task_params : (B, 4) environments ``(x_c, y_c, x_g, y_g)``.
+    times : (T,) query times (normalised time).
+
+    Returns
+    -------
+    (B, T, 2) positions (world units).
+    """
+    c = check_array("task_params", task_params, ndim=2)
+    t = check_array("times", times, ndim=1, min_size=2)
+    b, n = c.shape[0], t.shape[0]
+    with torch.no_grad():
+        tn = model.time_norm.normalize(torch.zeros(b, 1, 1, dtype=torch.float64))
+        start = torch.tensor(W.START, dtype=torch.float64).expand(b, 1, 2)
+        pn = model.task_norm.normalize(torch.from_numpy(c.copy()))[:, None, :]
+        obs = torch.cat([tn, pn, model.value_norm.normalize(start), torch.ones(b, 1, 2, dtype=torch.float64)], -1)
+        qn = model.time_norm.normalize(torch.from_numpy(t.copy())[:, None]).expand(b, n, 1)
+        tgt = torch.cat([qn, pn.expand(b, n, c.shape[1])], -1)
+        mean, _, _ = model(obs.float(), torch.ones(b, 1, dtype=torch.bool), tgt.float())
+        return model.value_norm.denormalize(mean.double()).numpy()
+
+
+def promp_trajectories(lib: AdaptiveProMP, task_params, times) -> np.ndarray:
+    """Mean trajectories of the task-conditional ProMP for many environments at once.
+
+    The same mean as ``lib.initial_promp(c, init="conditional")`` for each row ``c`` (a joint Gaussian
+    over ProMP weights and task parameters, conditioned on the task parameters), computed with one
+    gain for the whole batch.
+
+    task_params : (B, 4); times : (T,). Returns (B, T, 2) positions (world units).
+    """
+    c = check_array("task_params", task_params, ndim=2)
+    t = check_array("times", times, ndim=1, min_size=2)
+    nw = lib.promp.n_weights
+    z = np.hstack([lib.demo_weights, lib.task_params])
+    mu = z.mean(axis=0)
+    s = np.cov(z, rowvar=False, ddof=1) + 1e-6 * np.eye(z.shape[1])
+    gain = np.linalg.solve(s[nw:, nw:], s[:nw, nw:].T).T  # (nw, P)
+    w = mu[:nw] + (c - mu[nw:]) @ gain.T  # (B, nw)
+    return lib.promp.trajectories_from_weights(w, t)
+
+
+def _make_cnmp(demos: DemoSet, seed: int) -> CNMP:
+    return CNMP(CNMPConfig(n_outputs=2, n_task_params=4, output_names=["x", "y"],
+                           task_param_names=["x_c", "y_c", "x_g", "y_g"]), seed=seed)
+
+
+def _promp_lib(demos: DemoSet, n_basis: int) -> AdaptiveProMP:
+    return AdaptiveProMP(np.stack([d.times for d in demos]), np.stack([d.values for d in demos]),
+                         demos.all_task_params(), n_basis=n_basis)
+
+
+# --------------------------------------------------------------------------------------------------
+# The learners: one interface, so the loop is the same for both methods
+# --------------------------------------------------------------------------------------------------
+
+
+class _AcnmpLearner:
+    """CNMP + ACNMP adaptation + assimilation."""
+
+    def __init__(self, setup: WallSetup, seed: int, cfg: AdaptConfig, train_steps: int,
+                 assimilate_steps: int, assimilate_lr: float, progress: bool) -> None:
+        self.demos, self.times, self.seed, self.cfg = setup.initial, setup.times, seed, cfg
+        self.assimilate = TrainConfig(steps=assimilate_steps, lr=assimilate_lr, val_every=max(assimilate_steps, 1))
+        self.model = _make_cnmp(self.demos, seed)
+        train(self.model, self.demos, TrainConfig(steps=train_steps), seed=seed, progress=progress)
+
+    def generate(self, task_params: np.ndarray) -> np.ndarray:
+        return cnmp_trajectories(self.model, task_params, self.times)
+
+    def improve(self, c: np.ndarray, evaluator: RolloutEvaluator, seed: int) -> tuple[bool, int]:
+        candidate = copy.deepcopy(self.model)  # a failed adaptation must not damage the skill
+        target = AdaptTarget(np.zeros(1), np.asarray([W.START]), c, self.times)
+        res = adapt(candidate, self.demos, target, evaluator, replace(self.cfg, mode="acnmp"), seed=seed)
+        if res.success:
+            self.model = candidate
+            self.demos = self.demos.added(Demonstration(self.times.copy(), res.trajectory, c.copy()))
+            if self.assimilate.steps:
+                # Normalisation stays that of the first demos: the new environments come from the
+                # same ranges, and refitting would shift what the network has learnt.
+                train(self.model, self.demos, self.assimilate, seed=seed, fit_normalization=False, progress=False)
+        return bool(res.success), int(res.rollouts)
+
+
+class _PrompLearner:
+    """Task-conditional ProMP + REPS + refit."""
+
+    def __init__(self, setup: WallSetup, cfg: PrompRLConfig, n_basis: int) -> None:
+        self.demos, self.times, self.cfg, self.n_basis = setup.initial, setup.times, cfg, n_basis
+        self.lib = _promp_lib(self.demos, n_basis)
+
+    def generate(self, task_params: np.ndarray) -> np.ndarray:
+        return promp_trajectories(self.lib, task_params, self.times)
+
+    def improve(self, c: np.ndarray, evaluator: RolloutEvaluator, seed: int) -> tuple[bool, int]:
+        cfg = replace(self.cfg, seed=seed)
+        init = self.lib.initial_promp(c, init=cfg.init, cov_scale=cfg.init_cov_scale, min_std=cfg.min_std)
+        res = promp_rl(init, evaluator, self.times, c, cfg)
+        if res.success:
+            self.demos = self.demos.added(Demonstration(self.times.copy(), res.trajectory, c.copy()))
+            self.lib = _promp_lib(self.demos, self.n_basis)
+        return bool(res.success), int(res.n_rollouts)
+
+
+# --------------------------------------------------------------------------------------------------
+# The loop
+# --------------------------------------------------------------------------------------------------
+
+
+def evaluate_test(generate: Callable[[np.ndarray], np.ndarray], test: np.ndarray) -> tuple[float, float]:
+    """(success rate, mean error in world units) of ``generate`` on the test environments (N, 4).
+
+    ``generate`` maps (N, 4) task parameters to (N, T, 2) trajectories; nothing is executed through
+    an evaluator (the analytic scoring of :mod:`acnmp_core.tasks.wall` is used), so no roll-out counts.
+    """
+    y = generate(test)
+    s = W.wall_scores(y, test)
+    return float(np.mean(W._success_from_scores(s, W.START_TOLERANCE, W.GOAL_TOLERANCE))), \
+        float(np.mean(W._errors_from_scores(s)))
+
+
+def self_improve(learner, setup: WallSetup, evaluator: RolloutEvaluator, *, seed: int, eval_every: int,
+                 log: Callable[[str], None] | None = None, name: str = "") -> dict:
+    """Run the self-improvement loop of one method over ``setup.stream``.
+
+    Returns ``{"curve": [{"envs_new", "envs_seen", "trajectories", "test_success_rate",
+    "test_error_mean"}, ...], "per_env": [{"initial_success", "success", "rollouts"}, ...]}``;
+    ``envs_seen`` counts the demonstrated environments too, ``trajectories`` is cumulative roll-outs.
+    """
+    curve, per_env = [], []
+    total = 0
+
+    def record(k: int) -> None:
+        sr, err = evaluate_test(learner.generate, setup.test)
+        curve.append({"envs_new": k, "envs_seen": len(setup.initial) + k, "trajectories": total,
+                      "test_success_rate": sr, "test_error_mean": err})
+        if log:
+            log(f"{name:<8} envs {len(setup.initial) + k:>4}  trajectories {total:>6}  "
+                f"test success {100 * sr:5.1f} %  error {err:.3f}")
+
+    record(0)
+    for k, c in enumerate(setup.stream, start=1):
+        y = learner.generate(c[None])
+        batch = evaluator.evaluate(y, setup.times, c)
+        n, ok0 = 1, bool(batch.success[0])
+        ok = ok0
+        if not ok0:
+            ok, used = learner.improve(c, evaluator, seed=seed * 100_003 + k)
+            n += used
+        total += n
+        per_env.append({"initial_success": ok0, "success": ok, "rollouts": n})
+        if k % eval_every == 0 or k == len(setup.stream):
+            record(k)
+    return {"curve": curve, "per_env": per_env}
+
+
+def _summary(out: dict) -> dict:
+    """The headline numbers of one method's loop."""
+    r = np.array([e["rollouts"] for e in out["per_env"]])
+    last = out["curve"][-1]
+    return {
+        "test_success_rate": last["test_success_rate"],
+        "test_error_mean": last["test_error_mean"],
+        "test_success_rate_initial": out["curve"][0]["test_success_rate"],
+        "test_error_mean_initial": out["curve"][0]["test_error_mean"],
+        "trajectories_total": int(r.sum()),
+        "trajectories_per_env_max": int(r.max()),
+        "trajectories_per_env_median": float(np.median(r)),
+        "trajectories_per_failed_env_median": float(np.median(r[r > 1])) if np.any(r > 1) else 0.0,
+        "generated_success_rate": float(np.mean([e["initial_success"] for e in out["per_env"]])),
+        "adaptations": int(np.sum(r > 1)),
+        "adaptations_failed": int(sum(not e["success"] for e in out["per_env"])),
+    }
+
+
+def run_wall(
+    envs: int = 100,
+    seed: int = 0,
+    *,
+    n_initial: int = 30,
+    n_test: int = 1000,
+    n_steps: int = 100,
+    eval_every: int = 10,
+    train_steps: int = TRAIN_DEFAULTS["train_steps"],
+    assimilate_steps: int = TRAIN_DEFAULTS["assimilate_steps"],
+    assimilate_lr: float = TRAIN_DEFAULTS["assimilate_lr"],
+    adapt_config: AdaptConfig | None = None,
+    promp_config: PrompRLConfig | None = None,
+    n_basis: int = 20,
+    methods: tuple[str, ...] = METHODS,
+    evaluator_factory: Callable[[str], RolloutEvaluator] | None = None,
+    progress: bool = False,
+    log: Callable[[str], None] | None = None,
+) -> dict:
+    """Run E3 for each method on the same environments and return the JSON-ready result.
+
+    Parameters
+    ----------
+    envs : new environments in the self-improvement loop (the paper's x-axis runs to ~1000s).
+    seed : seeds the environments, the CNMP's initialisation and training, and all exploration.
+    n_initial : demonstrated environments (the paper: 30). n_test : test environments (paper: 1000).
+    n_steps : samples per trajectory. eval_every : new environments between test evaluations.
+    train_steps : first CNMP training (batch 32). assimilate_steps, assimilate_lr : continued
+        training after each assimilated solution.
+    adapt_config : ACNMP adaptation (default ``AdaptConfig(**ACNMP_DEFAULTS)``).
+    promp_config : ProMP + RL (default ``PrompRLConfig(**PROMP_DEFAULTS)``); its seed is set per env.
+    n_basis : ProMP basis functions per dimension.
+    methods : subset of METHODS, run one after the other.
+    evaluator_factory : ``method -> RolloutEvaluator`` executing the roll-outs (e.g. remote workers);
+        default an in-process :class:`~acnmp_core.tasks.wall.WallTask`.
+    progress : training progress bars. log : called with one line per test evaluation.
+
+    Returns
+    -------
+    dict with ``experiment`` "wall", ``seed``, ``wall_time_s``, ``envs``, ``n_initial``, ``n_test``,
+    ``methods`` {method: {test_success_rate, test_error_mean, trajectories_total,
+    trajectories_per_env_max, trajectories_per_env_median, ... , time_s}},
+    ``trajectory_ratio_promp_over_acnmp`` (totals; None unless both ran), ``curves`` {method: [...]}
+    (see :func:`self_improve`), ``rollouts_per_env`` {method: [...]} and ``config``.
+    """
+    for m in methods:
+        if m not in METHODS:
+            raise ValueError(f"methods: expected a subset of {METHODS}, got {m!r}")
+    check_positive_int("eval_every", eval_every)
+    acfg = adapt_config or AdaptConfig(**ACNMP_DEFAULTS)
+    pcfg = promp_config or PrompRLConfig(**PROMP_DEFAULTS)
+    t0 = time.perf_counter()
+    setup = make_setup(envs, seed, n_initial=n_initial, n_test=n_test, n_steps=n_steps)
+    methods_out, curves, per_env = {}, {}, {}
+    for m in methods:
+        t1 = time.perf_counter()
+        torch.manual_seed(seed)
+        ev = evaluator_factory(m) if evaluator_factory is not None else W.WallTask()
+        if m == "acnmp":
+            learner = _AcnmpLearner(setup, seed, acfg, train_steps, assimilate_steps, assimilate_lr, progress)
+        else:
+            learner = _PrompLearner(setup, pcfg, n_basis)
+        out = self_improve(learner, setup, ev, seed=seed, eval_every=eval_every, log=log, name=m)
+        methods_out[m] = {**_summary(out), "time_s": round(time.perf_counter() - t1, 2)}
+        curves[m] = out["curve"]
+        per_env[m] = [e["rollouts"] for e in out["per_env"]]
+    ratio = None
+    if set(METHODS) <= set(methods) and methods_out["acnmp"]["trajectories_total"] > 0:
+        ratio = round(methods_out["promp_rl"]["trajectories_total"] / methods_out["acnmp"]["trajectories_total"], 3)
+    return {
+        "experiment": "wall",
+        "seed": seed,
+        "wall_time_s": round(time.perf_counter() - t0, 2),
+        "envs": envs,
+        "n_initial": n_initial,
+        "n_test": n_test,
+        "n_steps": n_steps,
+        "methods": methods_out,
+        "trajectory_ratio_promp_over_acnmp": ratio,
+        "curves": curves,
+        "rollouts_per_env": per_env,
+        "config": {"train_steps": train_steps, "assimilate_steps": assimilate_steps,
+                   "assimilate_lr": assimilate_lr, "eval_every": eval_every, "n_basis": n_basis,
+                   "acnmp": _plain(vars(acfg)), "promp_rl": _plain(vars(pcfg))},
+    }
+
+
+def _plain(d: dict) -> dict:
+    """Config dict with JSON-friendly values (tuples/arrays to lists)."""
+    return {k: (v.tolist() if isinstance(v, np.ndarray) else list(v) if isinstance(v, tuple) else v)
+            for k, v in d.items()}
+
+
+def plot_wall(result: dict, path) -> "object":
+    """Write the paper's Fig. 5 d, e: test error and success rate against environments seen (left)
+    and against trajectories sampled (right), one line per method. Returns the written path."""
+    from pathlib import Path
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig, axes = plt.subplots(2, 2, figsize=(11, 7), sharey="row")
+    for m, curve in result["curves"].items():
+        envs = [p["envs_seen"] for p in curve]
+        traj = [max(p["trajectories"], 1) for p in curve]
+        s = result["methods"][m]
+        label = f"{LABELS[m]}: {s['trajectories_total']} trajectories, max {s['trajectories_per_env_max']}/env"
+        for col, x in enumerate((envs, traj)):
+            axes[0, col].plot(x, [p["test_error_mean"] for p in curve], color=COLORS[m], label=label)
+            axes[1, col].plot(x, [100 * p["test_success_rate"] for p in curve], color=COLORS[m], label=label)
+    for row, ylab in enumerate(("mean test error (world units)", "test success (%)")):
+        axes[row, 0].set_ylabel(ylab)
+        axes[row, 0].set_xlabel("environments seen")
+        axes[row, 1].set_xlabel("trajectories sampled")
+        axes[row, 1].set_xscale("log")
+    axes[0, 0].legend(fontsize=8)
+    fig.suptitle(f"E3 wall: {result['n_initial']} demonstrated + {result['envs']} new environments, "
+                 f"{result['n_test']} test environments (seed {result['seed']})")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
