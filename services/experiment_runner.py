@@ -8,6 +8,7 @@ so the numbers are the same as in one process.
 """
 from __future__ import annotations
 
+import dataclasses
 import os
 import time
 from pathlib import Path
@@ -15,6 +16,7 @@ from pathlib import Path
 import numpy as np
 from tqdm.auto import tqdm
 
+from acnmp_core.adaptation import AdaptConfig
 from acnmp_core.experiments.viapoint import (
     ASSIMILATION_STEPS, METHODS, ViaPointRun, adapt_config, make_setup,
 )
@@ -29,11 +31,12 @@ SKILL = "e1"
 def _adapt_request(setup, method: str, budget: int, seed: int, overrides: dict) -> dict:
     """The learner's adapt request equivalent to the in-process E1 run of ``method``."""
     cfg = adapt_config(method, budget, **overrides)
+    defaults = dataclasses.asdict(AdaptConfig())
     t = setup.target
     return {
         "target": {"obs_times": t.obs_times, "obs_values": t.obs_values, "query_times": t.query_times},
         "task": "viapoint", "task_config": setup.task_config, "robot": "point2d",
-        "config": {"mode": cfg.mode, "max_rollouts": cfg.max_rollouts, **overrides},
+        "config": {k: v for k, v in dataclasses.asdict(cfg).items() if v != defaults[k]},
         "seed": seed, "commit": method == "acnmp", "assimilate_steps": ASSIMILATION_STEPS,
     }
 

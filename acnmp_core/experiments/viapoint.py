@@ -24,6 +24,8 @@ METHODS = ("lfd_only", "rl_only", "acnmp")
 #: Success: the via-point error is at most this fraction of the demonstrations' extent.
 TOLERANCE_FRACTION = 0.02
 N_STEPS = 101  # 0.25 and 0.5 lie on the grid, so the via-point time is a query time
+#: Exploration std = this times the mean roll-out's via-point error (the authors' min(0.1, |R|)).
+E1_EXPLORE_FROM_RETURN = 0.75
 #: Continued training after the ACNMP solution joins the demonstrations.
 ASSIMILATION_STEPS = 1500
 
@@ -71,7 +73,8 @@ class ViaPointRun:
 def adapt_config(method: str, budget: int, **overrides) -> AdaptConfig:
     """The adaptation settings of E1 for ``method`` (see docs/experiments/e1_viapoint.md);
     ``overrides`` replace AdaptConfig fields (for ablations and tuning)."""
-    return AdaptConfig(**{"mode": method, "max_rollouts": budget, **overrides})
+    return AdaptConfig(**{"mode": method, "max_rollouts": budget,
+                          "explore_from_return": E1_EXPLORE_FROM_RETURN, **overrides})
 
 
 def train_lfd(demos: DemoSet, seed: int, steps: int, progress: bool = False) -> CNMP:

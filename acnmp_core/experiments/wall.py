@@ -154,7 +154,7 @@ def promp_trajectories(lib: AdaptiveProMP, task_params, times) -> np.ndarray:
     return lib.promp.trajectories_from_weights(w, t)
 
 
-def _make_cnmp(demos: DemoSet, seed: int) -> CNMP:
+def _make_cnmp(seed: int) -> CNMP:
     return CNMP(CNMPConfig(n_outputs=2, n_task_params=4, output_names=["x", "y"],
                            task_param_names=["x_c", "y_c", "x_g", "y_g"]), seed=seed)
 
@@ -176,7 +176,7 @@ class _AcnmpLearner:
                  assimilate_steps: int, assimilate_lr: float, progress: bool) -> None:
         self.demos, self.times, self.seed, self.cfg = setup.initial, setup.times, seed, cfg
         self.assimilate = TrainConfig(steps=assimilate_steps, lr=assimilate_lr, val_every=max(assimilate_steps, 1))
-        self.model = _make_cnmp(self.demos, seed)
+        self.model = _make_cnmp(seed)
         train(self.model, self.demos, TrainConfig(steps=train_steps), seed=seed, progress=progress)
 
     def generate(self, task_params: np.ndarray) -> np.ndarray:
@@ -221,36 +221,45 @@ class _PrompLearner:
 # --------------------------------------------------------------------------------------------------
 
 
-def evaluate_test(generate: Callable[[np.ndarray], np.ndarray], test: np.ndarray) -> tuple[float, float]:
-    """(success rate, mean error in world units) of ``generate`` on the test environments (N, 4).
+def evaluate_test(generate: Callable[[np.ndarray], np.ndarray], test: np.ndarray) -> dict:
+    """Score ``generate`` on the test environments (N, 4), without executing anything.
 
-    ``generate`` maps (N, 4) task parameters to (N, T, 2) trajectories; nothing is executed through
-    an evaluator (the analytic scoring of :mod:`acnmp_core.tasks.wall` is used), so no roll-out counts.
+    ``generate`` maps (N, 4) task parameters to (N, T, 2) trajectories; the analytic scoring of
+    :mod:`acnmp_core.tasks.wall` is used, so no roll-out counts.
+
+    Returns ``{"test_success_rate", "test_error_mean", "test_goal_error_mean",
+    "test_through_hole_rate"}``: success share, mean error (world units), mean distance of the
+    last point from the goal (world units), share of paths that pass the hole without touching it.
     """
     y = generate(test)
     s = W.wall_scores(y, test)
-    return float(np.mean(W._success_from_scores(s, W.START_TOLERANCE, W.GOAL_TOLERANCE))), \
-        float(np.mean(W._errors_from_scores(s)))
+    return {
+        "test_success_rate": float(np.mean(W.wall_success(y, test))),
+        "test_error_mean": float(np.mean(W.wall_errors(y, test))),
+        "test_goal_error_mean": float(np.mean(s.goal_error)),
+        "test_through_hole_rate": float(np.mean(s.reaches_wall & (s.min_margin > 0))),
+    }
 
 
 def self_improve(learner, setup: WallSetup, evaluator: RolloutEvaluator, *, seed: int, eval_every: int,
                  log: Callable[[str], None] | None = None, name: str = "") -> dict:
     """Run the self-improvement loop of one method over ``setup.stream``.
 
-    Returns ``{"curve": [{"envs_new", "envs_seen", "trajectories", "test_success_rate",
-    "test_error_mean"}, ...], "per_env": [{"initial_success", "success", "rollouts"}, ...]}``;
+    Returns ``{"curve": [{"envs_new", "envs_seen", "trajectories", **evaluate_test(...)}, ...],
+    "per_env": [{"initial_success", "success", "rollouts"}, ...]}``;
     ``envs_seen`` counts the demonstrated environments too, ``trajectories`` is cumulative roll-outs.
     """
     curve, per_env = [], []
     total = 0
 
     def record(k: int) -> None:
-        sr, err = evaluate_test(learner.generate, setup.test)
-        curve.append({"envs_new": k, "envs_seen": len(setup.initial) + k, "trajectories": total,
-                      "test_success_rate": sr, "test_error_mean": err})
+        scores = evaluate_test(learner.generate, setup.test)
+        curve.append({"envs_new": k, "envs_seen": len(setup.initial) + k, "trajectories": total, **scores})
         if log:
             log(f"{name:<8} envs {len(setup.initial) + k:>4}  trajectories {total:>6}  "
-                f"test success {100 * sr:5.1f} %  error {err:.3f}")
+                f"test success {100 * scores['test_success_rate']:5.1f} %  "
+                f"error {scores['test_error_mean']:.3f}  goal error {scores['test_goal_error_mean']:.3f}  "
+                f"through hole {100 * scores['test_through_hole_rate']:5.1f} %")
 
     record(0)
     for k, c in enumerate(setup.stream, start=1):
@@ -277,6 +286,8 @@ def _summary(out: dict) -> dict:
         "test_error_mean": last["test_error_mean"],
         "test_success_rate_initial": out["curve"][0]["test_success_rate"],
         "test_error_mean_initial": out["curve"][0]["test_error_mean"],
+        "test_goal_error_mean": last["test_goal_error_mean"],
+        "test_through_hole_rate": last["test_through_hole_rate"],
         "trajectories_total": int(r.sum()),
         "trajectories_per_env_max": int(r.max()),
         "trajectories_per_env_median": float(np.median(r)),
@@ -395,7 +406,7 @@ def plot_wall(result: dict, path) -> "object":
     fig, axes = plt.subplots(2, 2, figsize=(11, 7), sharey="row")
     for m, curve in result["curves"].items():
         envs = [p["envs_seen"] for p in curve]
-        traj = [max(p["trajectories"], 1) for p in curve]
+        traj = [p["trajectories"] for p in curve]
         s = result["methods"][m]
         label = f"{LABELS[m]}: {s['trajectories_total']} trajectories, max {s['trajectories_per_env_max']}/env"
         for col, x in enumerate((envs, traj)):
@@ -405,7 +416,6 @@ def plot_wall(result: dict, path) -> "object":
         axes[row, 0].set_ylabel(ylab)
         axes[row, 0].set_xlabel("environments seen")
         axes[row, 1].set_xlabel("trajectories sampled")
-        axes[row, 1].set_xscale("log")
     axes[0, 0].legend(fontsize=8)
     fig.suptitle(f"E3 wall: {result['n_initial']} demonstrated + {result['envs']} new environments, "
                  f"{result['n_test']} test environments (seed {result['seed']})")
