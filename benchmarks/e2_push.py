@@ -7,7 +7,6 @@ Usage: ``python benchmarks/e2_push.py [--seeds N] [--out FILE]``; about 40-80 s 
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
@@ -17,6 +16,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from acnmp_core.experiments.push import plot_push, run_push  # noqa: E402
+from benchmarks._results import save_result  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -27,13 +27,7 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     torch.set_num_threads(1)
     result = run_push(args.seeds, log=lambda s: print(s, flush=True))
-    out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(result, indent=2))
-    plot_push(result, out.with_suffix(".png"))
-    print(json.dumps({"methods": result["methods"], "ratio": result["rollout_ratio_promp_over_acnmp"],
-                      "wall_time_s": result["wall_time_s"]}, indent=1))
-    print(f"wrote {out} and {out.with_suffix('.png')}")
+    save_result(result, args.out, plot_push, "rollout_ratio_promp_over_acnmp")
     return 0
 
 

@@ -8,7 +8,6 @@ development machine (527 s under heavier load), inside the 30-minute limit.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
@@ -18,6 +17,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from acnmp_core.experiments.wall import plot_wall, run_wall  # noqa: E402
+from benchmarks._results import save_result  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -30,13 +30,7 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     torch.set_num_threads(1)
     result = run_wall(args.envs, args.seed, eval_every=args.eval_every, log=lambda s: print(s, flush=True))
-    out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(result, indent=2))
-    plot_wall(result, out.with_suffix(".png"))
-    print(json.dumps({"methods": result["methods"], "ratio": result["trajectory_ratio_promp_over_acnmp"],
-                      "wall_time_s": result["wall_time_s"]}, indent=1))
-    print(f"wrote {out} and {out.with_suffix('.png')}")
+    save_result(result, args.out, plot_wall, "trajectory_ratio_promp_over_acnmp")
     return 0
 
 

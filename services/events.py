@@ -71,6 +71,52 @@ def rollout_event(job: str, rollout_index: int, trajectory, times, reward, *, re
     return validate_event(msg)
 
 
+def arm_drawing(robot: str) -> dict | None:
+    """Drawing fields of a robot kind for rollout events: ``{"link_lengths": (N,) m,
+    "object_radius": m, "object_height": m}`` for ``planar<N>`` (the geometry its workers simulate),
+    None for robots without an arm."""
+    if not robot.startswith("planar"):
+        return None
+    from acnmp_core.robots.planar_arm import DEFAULT_LINK_LENGTHS, PushObject  # pybullet only when needed
+
+    obj = PushObject()
+    return {"link_lengths": np.asarray(DEFAULT_LINK_LENGTHS[int(robot[len("planar"):])], dtype=np.float64),
+            "object_radius": float(obj.radius), "object_height": float(obj.height)}
+
+
+def batch_rollout_events(job: str, first_index: int, trajectories, times, batch, workers, *,
+                         task_params=None, condition: dict | None = None, iteration: int | None = None,
+                         skill: str | None = None, space: str = "cartesian", arm: dict | None = None) -> list[dict]:
+    """One validated ``rollout`` event per roll-out of an executed batch, indices from ``first_index``.
+
+    ``trajectories`` (B,T,D) as commanded, ``times`` (T,), ``task_params`` (P,) for all or (B,P) one
+    row per roll-out, ``batch`` the RolloutBatch that came back
+    (rewards (B,T), success (B,), states {name: (B,T,...)}), ``workers`` B worker ids. With ``arm``
+    (see :func:`arm_drawing`) and ``joint_angles`` (B,T,N) in the states, each event also carries the
+    executed joint angles, the link lengths and, when present, ``object_xy`` (B,T,2), so the recorder
+    draws the arm and the object moving through the roll-out.
+    """
+    trajectories = np.asarray(trajectories, dtype=np.float64)
+    if len(workers) != len(trajectories) or batch.rewards.shape[0] != len(trajectories):
+        raise ValueError(f"workers, batch: expected {len(trajectories)} roll-outs, got {len(workers)} worker ids "
+                         f"and {batch.rewards.shape[0]} rewards")
+    tp = None if task_params is None else np.asarray(task_params, dtype=np.float64)
+    if tp is not None and tp.ndim < 2:
+        tp = np.broadcast_to(tp.reshape(-1), (len(trajectories), tp.size))
+    out = []
+    for j in range(len(trajectories)):
+        ev = rollout_event(job, first_index + j, trajectories[j], times, batch.rewards[j],
+                           success=bool(batch.success[j]), worker=str(workers[j]), condition=condition,
+                           task_params=None if tp is None else tp[j], iteration=iteration, skill=skill,
+                           space=space)
+        if arm is not None and "joint_angles" in batch.states:
+            ev.update(arm, joint_angles=np.asarray(batch.states["joint_angles"][j], dtype=np.float64))
+            if "object_xy" in batch.states:
+                ev["object_xy"] = np.asarray(batch.states["object_xy"][j], dtype=np.float64)
+        out.append(validate_event(ev))
+    return out
+
+
 def latent_event(skill: str, version: int, latent, *, label: str | None = None,
                  robot: str | None = None, t: float | None = None) -> dict:
     """Build and validate a ``latent`` event (one latent vector ``(L,)`` of a skill's encoder)."""

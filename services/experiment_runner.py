@@ -1,6 +1,8 @@
 """The paper's experiments run across a local deployment (``acnmp experiment ... --distributed``).
 
-E1 runs as a client of the services: the learner trains the skill from the demonstrations and runs
+E2 and E3 drive their loops in this process and only execute roll-outs remotely:
+:func:`remote_rollouts` starts workers (and a recorder) and hands out evaluators that send the
+roll-outs to the workers and publish each one for the recording. E1 runs as a client of the services: the learner trains the skill from the demonstrations and runs
 one adaptation job per method, the jobs' roll-outs go to the workers, the recorder logs every one,
 and the assimilated model is read back through the model service. The learner calls the same
 library functions with the same seeds as :func:`acnmp_core.experiments.viapoint.run_viapoint`,
@@ -9,9 +11,12 @@ so the numbers are the same as in one process.
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import os
 import time
+from contextlib import contextmanager
 from pathlib import Path
+from typing import Callable, Iterator
 
 import numpy as np
 from tqdm.auto import tqdm
@@ -23,9 +28,42 @@ from acnmp_core.experiments.viapoint import (
 from acnmp_core.tasks.viapoint import shape_error
 from clients.client import ACNMPClient
 
+from .events import EventPublisher
 from .launcher import LocalDeployment
+from .recorded_evaluator import RecordedEvaluator
+from .remote_evaluator import RemoteEvaluator
 
 SKILL = "e1"
+
+
+@contextmanager
+def remote_rollouts(robot: str, task: str, *, workers: int = 2, record: str | None = None,
+                    prefix: str = "exp", progress: bool = True) -> Iterator[Callable[..., object]]:
+    """Start ``workers`` workers of ``robot`` (and a recorder writing ``record`` when given) on a
+    fresh local deployment; yield ``make(job, task_config=None)``, which returns an evaluator that
+    executes roll-outs of ``task`` on those workers (with fail-over) and, when recording, publishes
+    every roll-out under the job name ``<job>-<n>`` (n counts the evaluators made, so repeated runs
+    of one method never share roll-out indices). Everything stops when the block exits."""
+    ns = f"{prefix}-{os.getpid()}"
+    if record:
+        Path(record).parent.mkdir(parents=True, exist_ok=True)
+    with LocalDeployment(ns, workers=workers, robot=robot, record=record, model=False, learner=False) as dep:
+        if progress:
+            print(dep.describe(), flush=True)
+        publisher = None
+        if record:
+            publisher = EventPublisher(dep.session, ns)
+            if not publisher.wait_for_recorder(timeout=30):
+                raise RuntimeError(f"the recorder of deployment {ns!r} did not come up")
+        counter = itertools.count()
+
+        def make(job: str, task_config: dict | None = None):
+            remote = RemoteEvaluator(dep.session, ns, robot, task, task_config)
+            if publisher is None:
+                return remote
+            return RecordedEvaluator(remote, publisher, f"{job}-{next(counter)}", robot)
+
+        yield make
 
 
 def _adapt_request(setup, method: str, budget: int, seed: int, overrides: dict) -> dict:

@@ -48,7 +48,8 @@ from acnmp_core.tasks.registry import task_names
 from acnmp_core.training import TrainConfig, train
 from services import keys
 from services.events import (
-    EventPublisher, job_progress_event, latent_event, model_version_event, rollout_event, validate_event,
+    EventPublisher, arm_drawing, batch_rollout_events, job_progress_event, latent_event, model_version_event,
+    validate_event,
 )
 from services.jobs import UNFINISHED, JobStore, SkillState, SkillStore, new_job
 from services.remote_evaluator import RemoteEvaluator
@@ -387,7 +388,8 @@ class Learner:
         if job["result"] is None:
             evaluator = RemoteEvaluator(self.session, self.ns, req["robot"], req["task"], req["task_config"],
                                         timeout=self.chunk_timeout)
-            space = "joint" if req["robot"].startswith("planar") else "cartesian"
+            arm = arm_drawing(req["robot"])
+            space = "cartesian" if arm is None else "joint"
             condition = {"times": target.obs_times, "values": target.obs_values}
 
             def on_iteration(it_log, trajectories, batch) -> None:
@@ -402,13 +404,13 @@ class Learner:
                     best = float(np.max(batch.returns))
                     job["best_return"] = best if job["best_return"] is None else max(job["best_return"], best)
                     self.job_store.save(job)
-                for j in range(b):
-                    ev = rollout_event(job["job"], first + j, trajectories[j], target.query_times, batch.rewards[j],
-                                       success=bool(batch.success[j]), worker=evaluator.last_workers[j],
-                                       condition=condition if space == "cartesian" else None, task_params=tp,
-                                       iteration=it_log.iteration, skill=job["skill"], space=space)
+                for ev in batch_rollout_events(job["job"], first, trajectories, target.query_times, batch,
+                                               evaluator.last_workers, task_params=tp,
+                                               condition=condition if space == "cartesian" else None,
+                                               iteration=it_log.iteration, skill=job["skill"], space=space,
+                                               arm=arm):
                     ev["attempt"] = int(job["attempt"])
-                    self._publish(validate_event(ev))
+                    self._publish(ev)
                 self._publish(self._progress_event(job, "running"))
 
             res = adapt(model, demos, target, evaluator, AdaptConfig(**req["config"]), seed=req["seed"],

@@ -1,9 +1,7 @@
 """``acnmp experiment push``: E2, ACNMP vs adaptive ProMP + RL, a 3-DoF arm pushing a cylinder."""
 from __future__ import annotations
 
-import json
-import sys
-from pathlib import Path
+from .common import add_deployment_arguments, add_output_arguments, check_deployment_arguments, write_json
 
 #: --quick: enough to see both methods run end to end in about a minute.
 QUICK = dict(train_steps=1500, acnmp_budget=60, promp_budget=150)
@@ -28,34 +26,10 @@ def register(subparsers) -> None:
     p.add_argument("--quick", action="store_true",
                    help=f"small run for a smoke test ({QUICK['train_steps']} training steps, budgets "
                         f"{QUICK['acnmp_budget']}/{QUICK['promp_budget']})")
-    p.add_argument("--json", metavar="FILE", help="write the results as JSON")
-    p.add_argument("--plot", metavar="FILE", help="write learning curves like the paper's Fig. 5(b) (PNG)")
-    p.add_argument("--distributed", action="store_true",
-                   help="run the roll-outs on a local zenoh deployment (planar3 workers + recorder)")
-    p.add_argument("--workers", type=int, default=2, help="workers of the --distributed deployment (default 2)")
-    p.add_argument("--record", metavar="FILE.rrd", help="with --distributed: where the recorder writes")
+    add_output_arguments(p, "write learning curves like the paper's Fig. 5(b) (PNG)")
+    add_deployment_arguments(p, "the roll-outs on planar3 PyBullet workers")
     p.add_argument("--quiet", action="store_true", help="no per-run lines, no progress bars")
     p.set_defaults(func=run)
-
-
-def _distributed(args):
-    """A (context manager, evaluator_factory) pair for --distributed, or None with a message printed
-    when the deployment modules are not available in this checkout."""
-    try:
-        from services.launcher import LocalDeployment
-        from services.remote_evaluator import RemoteEvaluator
-    except ImportError as exc:
-        print(f"acnmp experiment push: --distributed is not available yet ({exc}); "
-              "run without --distributed to use the in-process simulator", file=sys.stderr)
-        return None
-    deployment = LocalDeployment(workers=args.workers, robot="planar3", record=args.record)
-
-    def factory(setup, method, case):
-        # LocalDeployment's session/namespace attribute names are assumed (launcher not written yet).
-        return RemoteEvaluator(deployment.session, deployment.namespace, "planar3", "push",
-                               {"n_joints": setup.n_joints, "tolerance": setup.tolerance})
-
-    return deployment, factory
 
 
 def run(args) -> int:
@@ -79,13 +53,14 @@ def run(args) -> int:
         promp_config=PrompRLConfig(**{**PROMP_DEFAULTS, "max_rollouts": promp_budget}),
         log=None if args.quiet else print,
     )
+    check_deployment_arguments(args)
     if args.distributed:
-        made = _distributed(args)
-        if made is None:
-            return 2
-        deployment, factory = made
-        with deployment:
-            result = run_push(args.seeds, evaluator_factory=factory, **kwargs)
+        from services.experiment_runner import remote_rollouts
+
+        with remote_rollouts("planar3", "push", workers=args.workers, record=args.record, prefix="e2",
+                             progress=not args.quiet) as make:
+            result = run_push(args.seeds, evaluator_factory=lambda setup, method, case: make(
+                f"push-{method}-{case}", {"n_joints": setup.n_joints, "tolerance": setup.tolerance}), **kwargs)
     else:
         result = run_push(args.seeds, **kwargs)
     print(f"E2 push, {result['seeds']} seed(s), tolerance {result['tolerance']} m, {result['wall_time_s']:.1f} s")
@@ -96,11 +71,7 @@ def run(args) -> int:
                   f"{s['final_error_median']:>10.4f} {s['lfd_error_median']:>11.4f}")
     for c, ratio in result["rollout_ratio_promp_over_acnmp"].items():
         print(f"ProMP+RL / ACNMP roll-outs ({c}): {'-' if ratio is None else f'{ratio:.2f}x'}")
-    if args.json:
-        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.json).write_text(json.dumps(result, indent=2))
-        print(f"wrote {args.json}")
+    write_json(result, args.json)
     if args.plot:
-        print(f"wrote {plot_push(result, args.plot)}")
-    sys.stdout.flush()
+        print(f"wrote {plot_push(result, args.plot)}", flush=True)
     return 0

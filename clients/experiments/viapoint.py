@@ -1,9 +1,9 @@
 """``acnmp experiment viapoint``: E1, LfD-only vs RL-only vs ACNMP on an extrapolated via-point."""
 from __future__ import annotations
 
-import json
 import sys
-from pathlib import Path
+
+from .common import add_deployment_arguments, add_output_arguments, check_deployment_arguments, write_json
 
 
 def register(subparsers) -> None:
@@ -22,12 +22,8 @@ def register(subparsers) -> None:
                    help="2d paths around obstacles (default) or the authors' 1-D two-bump function")
     p.add_argument("--budget", type=int, default=100, help="roll-out budget per method (default 100)")
     p.add_argument("--train-steps", type=int, default=3000, help="supervised training steps (default 3000)")
-    p.add_argument("--json", metavar="FILE", help="write the results as JSON")
-    p.add_argument("--plot", metavar="FILE", help="write Fig. 3-like PNG (and FILE_latents.png like Fig. 4)")
-    p.add_argument("--distributed", action="store_true",
-                   help="run the roll-outs on a local zenoh deployment (workers + recorder)")
-    p.add_argument("--workers", type=int, default=2, help="workers of the --distributed deployment (default 2)")
-    p.add_argument("--record", metavar="FILE.rrd", help="with --distributed: where the recorder writes")
+    add_output_arguments(p, "write Fig. 3-like PNG (and FILE_latents.png like Fig. 4)")
+    add_deployment_arguments(p, "training and adaptation jobs on the learner, roll-outs on point2d workers")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.set_defaults(func=run)
 
@@ -46,6 +42,7 @@ def run(args) -> int:
         raise ValueError("--budget and --train-steps: expected positive integers")
     kwargs = dict(seed=args.seed, variant=args.variant, budget=args.budget, train_steps=args.train_steps,
                   progress=not args.quiet)
+    check_deployment_arguments(args)
     if args.distributed:
         from services.experiment_runner import run_viapoint_distributed
 
@@ -62,10 +59,7 @@ def run(args) -> int:
     if a.get("performed"):
         print(f"assimilation: via-point error after {a['viapoint_error_after']:.4f}, old demos RMSE "
               f"{a['old_demos_reproduction_rmse_before']:.4f} -> {a['old_demos_reproduction_rmse_after']:.4f}")
-    if args.json:
-        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.json).write_text(json.dumps(s, indent=2))
-        print(f"wrote {args.json}")
+    write_json(s, args.json)
     if args.plot:
         from acnmp_core.plots import plot_viapoint
 

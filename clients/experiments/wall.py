@@ -1,9 +1,7 @@
 """``acnmp experiment wall``: E3, self-improvement over wall-with-a-hole environments, ACNMP vs ProMP + RL."""
 from __future__ import annotations
 
-import json
-import sys
-from pathlib import Path
+from .common import add_deployment_arguments, add_output_arguments, check_deployment_arguments, write_json
 
 
 def register(subparsers) -> None:
@@ -23,34 +21,10 @@ def register(subparsers) -> None:
     p.add_argument("--initial", type=int, default=30, help="demonstrated environments (default 30)")
     p.add_argument("--test", type=int, default=1000, help="test environments (default 1000)")
     p.add_argument("--eval-every", type=int, default=10, help="new environments between test evaluations (default 10)")
-    p.add_argument("--json", metavar="FILE", help="write the results as JSON")
-    p.add_argument("--plot", metavar="FILE", help="write test error / success vs environments and trajectories (PNG)")
-    p.add_argument("--distributed", action="store_true",
-                   help="execute the roll-outs on a local zenoh deployment (point2d workers)")
-    p.add_argument("--workers", type=int, default=2, help="workers of the --distributed deployment (default 2)")
-    p.add_argument("--record", metavar="FILE.rrd", help="with --distributed: where the recorder writes")
+    add_output_arguments(p, "write test error / success vs environments and trajectories (PNG)")
+    add_deployment_arguments(p, "the roll-outs on point2d workers")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
     p.set_defaults(func=run)
-
-
-def _distributed(args):
-    """A (context manager, evaluator_factory) pair for --distributed, or None with a message printed
-    when the deployment modules are not available in this checkout."""
-    try:
-        from services.launcher import LocalDeployment
-        from services.remote_evaluator import RemoteEvaluator
-    except ImportError as exc:
-        print(f"acnmp experiment wall: --distributed is not available yet ({exc}); "
-              "run without --distributed to score roll-outs in-process", file=sys.stderr)
-        return None
-    # Only workers (and the recorder when asked): the experiment drives the loop itself.
-    deployment = LocalDeployment(workers=args.workers, robot="point2d", record=args.record,
-                                 model=False, learner=False)
-
-    def factory(method):
-        return RemoteEvaluator(deployment.session, deployment.namespace, "point2d", "wall")
-
-    return deployment, factory
 
 
 def run(args) -> int:
@@ -65,13 +39,14 @@ def run(args) -> int:
             raise ValueError(f"--{name.replace('_', '-')}: expected a positive integer, got {getattr(args, name)}")
     kwargs = dict(n_initial=args.initial, n_test=args.test, eval_every=args.eval_every,
                   log=None if args.quiet else (lambda s: print(s, flush=True)))
+    check_deployment_arguments(args)
     if args.distributed:
-        made = _distributed(args)
-        if made is None:
-            return 2
-        deployment, factory = made
-        with deployment:
-            result = run_wall(args.envs, args.seed, evaluator_factory=factory, **kwargs)
+        from services.experiment_runner import remote_rollouts
+
+        with remote_rollouts("point2d", "wall", workers=args.workers, record=args.record, prefix="e3",
+                             progress=not args.quiet) as make:
+            result = run_wall(args.envs, args.seed, evaluator_factory=lambda method: make(f"wall-{method}"),
+                              **kwargs)
     else:
         result = run_wall(args.envs, args.seed, **kwargs)
     print(f"E3 wall, {result['n_initial']} demonstrated + {result['envs']} new environments, "
@@ -83,11 +58,7 @@ def run(args) -> int:
     ratio = result["trajectory_ratio_promp_over_acnmp"]
     if ratio is not None:
         print(f"ProMP+RL / ACNMP trajectories: {ratio:.2f}x")
-    if args.json:
-        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.json).write_text(json.dumps(result, indent=2))
-        print(f"wrote {args.json}")
+    write_json(result, args.json)
     if args.plot:
-        print(f"wrote {plot_wall(result, args.plot)}")
-    sys.stdout.flush()
+        print(f"wrote {plot_wall(result, args.plot)}", flush=True)
     return 0

@@ -1,0 +1,37 @@
+"""What every ``acnmp experiment`` command shares: the deployment options and writing results."""
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+
+def add_output_arguments(p, plot_help: str) -> None:
+    """Add ``--json FILE`` and ``--plot FILE`` (with ``plot_help``) to parser ``p``."""
+    p.add_argument("--json", metavar="FILE", help="write the results as JSON")
+    p.add_argument("--plot", metavar="FILE", help=plot_help)
+
+
+def add_deployment_arguments(p, what: str) -> None:
+    """Add ``--distributed`` (help: ``what`` runs where), ``--workers N`` and ``--record FILE.rrd``."""
+    p.add_argument("--distributed", action="store_true", help=f"run {what} on a local zenoh deployment")
+    p.add_argument("--workers", type=int, default=2, help="workers of the --distributed deployment (default 2)")
+    p.add_argument("--record", metavar="FILE.rrd",
+                   help="with --distributed: the recorder writes every roll-out to this Rerun file")
+
+
+def check_deployment_arguments(args) -> None:
+    """ValueError when the deployment options do not fit together."""
+    if args.distributed and args.workers < 1:
+        raise ValueError(f"--workers: expected at least 1, got {args.workers}")
+    if args.record and not args.distributed:
+        raise ValueError("--record: only with --distributed (the recorder is a process of the deployment)")
+
+
+def write_json(result: dict, path: str | None) -> None:
+    """Write ``result`` as indented JSON to ``path`` (parents created) and say so; no-op for None."""
+    if path:
+        Path(path).parent.mkdir(parents=True, exist_ok=True)
+        Path(path).write_text(json.dumps(result, indent=2))
+        print(f"wrote {path}")
+    sys.stdout.flush()

@@ -1,0 +1,115 @@
+"""Experiments that drive their own loop (E2, E3 --distributed) execute roll-outs on workers and
+the recorder logs every one: counted once per job, with the arm and the object for a planar arm."""
+from __future__ import annotations
+
+import numpy as np
+import rerun as rr
+
+from acnmp_core.robots.planar_arm import DEFAULT_LINK_LENGTHS, PlanarPushTask
+from acnmp_core.tasks.wall import WallTask
+from services.events import arm_drawing, batch_rollout_events
+from services.experiment_runner import remote_rollouts
+from services.recorded_evaluator import RecordedEvaluator
+from services.replay import summarize
+
+T = 30
+
+
+def _arm_trajectories(b: int) -> np.ndarray:
+    """(b, T, 3) joint trajectories: a slow sweep from a folded pose, away from the cylinder."""
+    base = np.array([-0.8, 1.2, -1.0])
+    sweep = np.linspace(0.0, 0.3, T)[:, None] * np.array([1.0, -0.5, 0.2])
+    return np.stack([base + (1 + 0.2 * i) * sweep for i in range(b)])
+
+
+def _wall_trajectories(b: int) -> np.ndarray:
+    """(b, T, 2) straight lines from the start (0, 5) to different heights at x = 10."""
+    s = np.linspace(0, 1, T)[:, None]
+    return np.stack([np.hstack([10 * s, 5 + (i - 1) * s]) for i in range(b)])
+
+
+class _Collect:
+    def __init__(self):
+        self.events = []
+
+    def publish(self, msg):
+        self.events.append(msg)
+
+
+def test_events_carry_the_executed_arm_and_object():
+    task = PlanarPushTask(3)
+    try:
+        rec = _Collect()
+        ev = RecordedEvaluator(task, rec, "push-a", "planar3")
+        traj, times = _arm_trajectories(2), np.linspace(0, 1, T)
+        batch = ev.evaluate(traj, times, np.array([0.4, 0.1]))
+        batch2 = ev.evaluate(traj[:1], times, np.array([0.4, 0.1]))
+    finally:
+        task.close()
+    assert [e["rollout_index"] for e in rec.events] == [0, 1, 2] and ev.rollouts == 3
+    e = rec.events[1]
+    assert e["space"] == "joint" and e["worker"] == "local"
+    np.testing.assert_allclose(e["joint_angles"], batch.states["joint_angles"][1])
+    np.testing.assert_allclose(e["object_xy"], batch.states["object_xy"][1])
+    np.testing.assert_allclose(e["link_lengths"], DEFAULT_LINK_LENGTHS[3])
+    np.testing.assert_allclose(e["task_params"], [0.4, 0.1])
+    assert e["return"] == float(batch.rewards[1].sum())
+    assert rec.events[2]["return"] == float(batch2.rewards[0].sum())
+
+
+def test_per_rollout_task_params_and_no_arm_for_point_robots():
+    traj = _wall_trajectories(3)
+    params = np.array([[5.0, 5.0, 9.0, 5.0], [5.0, 4.0, 9.0, 6.0], [5.0, 6.0, 9.0, 5.5]])
+    batch = WallTask().evaluate_batch(traj, np.linspace(0, 1, T), params)
+    events = batch_rollout_events("w", 4, traj, np.linspace(0, 1, T), batch, ["a", "b", "c"], task_params=params,
+                                  arm=arm_drawing("point2d"))
+    assert [e["rollout_index"] for e in events] == [4, 5, 6]
+    for e, p in zip(events, params):
+        np.testing.assert_allclose(e["task_params"], p)
+        assert "joint_angles" not in e and e["space"] == "cartesian"
+
+
+def test_remote_rollouts_are_recorded_once_each(tmp_path):
+    path = tmp_path / "remote.rrd"
+    times = np.linspace(0, 1, T)
+    with remote_rollouts("planar3", "push", workers=2, record=str(path), prefix="t-rec", progress=False) as make:
+        first = make("push-acnmp-extrapolation", {"n_joints": 3, "tolerance": 0.03})
+        second = make("push-acnmp-extrapolation", {"n_joints": 3, "tolerance": 0.03})
+        b1 = first.evaluate(_arm_trajectories(5), times, np.array([0.4, 0.1]))
+        b2 = first.evaluate(_arm_trajectories(3), times, np.array([0.4, 0.1]))
+        second.evaluate(_arm_trajectories(2), times, np.array([0.4, 0.1]))
+    s = summarize(path)
+    assert s["footer"] is True
+    jobs = s["jobs"]
+    assert set(jobs) == {"push-acnmp-extrapolation-0", "push-acnmp-extrapolation-1"}
+    assert (jobs["push-acnmp-extrapolation-0"]["rollouts"], jobs["push-acnmp-extrapolation-0"]["unique_rollouts"]) == (8, 8)
+    assert (jobs["push-acnmp-extrapolation-1"]["rollouts"], jobs["push-acnmp-extrapolation-1"]["duplicates"]) == (2, [])
+    assert sum(jobs["push-acnmp-extrapolation-0"]["workers"].values()) == 8
+    np.testing.assert_allclose(jobs["push-acnmp-extrapolation-0"]["best_return"],
+                               max(b1.returns.max(), b2.returns.max()))
+
+    reader = rr.chunk.RrdReader(path)
+    arm_paths = {c.entity_path for c in reader.stream(store=reader.recordings()[0])
+                 if c.entity_path.startswith("/arm") and not c.is_static}
+    assert "/arm/push-acnmp-extrapolation-0/links" in arm_paths
+    assert "/arm/push-acnmp-extrapolation-0/object" in arm_paths
+
+
+def test_distributed_wall_loop_matches_in_process_and_records_what_it_counts(tmp_path):
+    import torch
+
+    from acnmp_core.experiments.wall import run_wall
+
+    torch.set_num_threads(1)
+    kw = dict(envs=3, seed=4, n_initial=10, n_test=30, eval_every=3, train_steps=400, assimilate_steps=50)
+    local = run_wall(**kw)
+    path = tmp_path / "wall.rrd"
+    with remote_rollouts("point2d", "wall", workers=2, record=str(path), prefix="t-wall", progress=False) as make:
+        remote = run_wall(**kw, evaluator_factory=lambda method: make(f"wall-{method}"))
+    assert remote["rollouts_per_env"] == local["rollouts_per_env"]
+    for m in ("acnmp", "promp_rl"):
+        assert remote["methods"][m]["test_success_rate"] == local["methods"][m]["test_success_rate"]
+    jobs = summarize(path)["jobs"]
+    assert jobs["wall-acnmp-0"]["unique_rollouts"] == jobs["wall-acnmp-0"]["rollouts"] \
+        == local["methods"]["acnmp"]["trajectories_total"]
+    assert jobs["wall-promp_rl-1"]["rollouts"] == local["methods"]["promp_rl"]["trajectories_total"]
