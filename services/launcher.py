@@ -33,7 +33,7 @@ from typing import Sequence
 import zenoh
 
 from services import keys
-from services.session import free_port, loopback_endpoint, open_session, wait_for_liveliness
+from services.session import PARENT_PID_ENV, free_port, loopback_endpoint, open_session, wait_for_liveliness
 from services.worker import ROBOTS
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -246,9 +246,11 @@ class LocalDeployment:
 
 
 def _popen(argv: list[str], log: Path) -> subprocess.Popen:
-    """Start a child in its own session (a terminal's Ctrl-C reaches only the launcher), output to ``log``."""
+    """Start a child in its own session (a terminal's Ctrl-C reaches only the launcher), output to ``log``;
+    it watches the launcher's pid (services.session.watch_parent)."""
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])),
                RERUN_ANALYTICS="0", OMP_NUM_THREADS="1", PYTHONUNBUFFERED="1")
+    env[PARENT_PID_ENV] = str(os.getpid())  # children stop when the launcher dies (even by kill -9)
     env.pop("RERUN", None)  # RERUN=off would silence the recorder
     with open(log, "ab") as out:
         return subprocess.Popen(argv, cwd=ROOT, env=env, stdin=subprocess.DEVNULL, stdout=out,

@@ -22,6 +22,7 @@ import argparse
 import contextlib
 import json
 import logging
+import os
 import signal
 import socket
 import threading
@@ -156,7 +157,41 @@ def install_shutdown_handlers(stop: threading.Event | None = None) -> threading.
 
     signal.signal(signal.SIGTERM, handler)
     signal.signal(signal.SIGINT, handler)
+    watch_parent(stop)
     return stop
+
+
+#: Set by the launcher in its children's environment: the launcher's pid.
+PARENT_PID_ENV = "ACNMP_PARENT_PID"
+
+
+def watch_parent(stop: threading.Event, poll: float = 0.5) -> threading.Thread | None:
+    """When this process was started by a launcher (``ACNMP_PARENT_PID`` in the environment), set
+    ``stop`` as soon as that launcher is gone (killed with ``kill -9``, say), so no child outlives its
+    deployment and the recorder still finalises its file. Returns the watching thread, or None when
+    there is no launcher to watch."""
+    raw = os.environ.get(PARENT_PID_ENV)
+    if not raw:
+        return None
+    try:
+        parent = int(raw)
+    except ValueError:
+        log.warning("%s=%r is not a pid; not watching the launcher", PARENT_PID_ENV, raw)
+        return None
+
+    def run() -> None:
+        # A dead parent's children are re-parented (to init or a subreaper): getppid() changes.
+        while not stop.wait(poll):
+            if os.getppid() != parent:
+                log.warning("launcher (pid %d) is gone: shutting down", parent)
+                stop.set()
+                return
+
+    if os.getppid() != parent:  # started by something else that merely passed the variable on
+        return None
+    thread = threading.Thread(target=run, name="watch-launcher", daemon=True)
+    thread.start()
+    return thread
 
 
 def wait_until_stopped(stop: threading.Event, poll: float = 0.2) -> None:

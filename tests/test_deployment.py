@@ -92,3 +92,46 @@ def test_acnmp_up_stops_cleanly_on_sigterm(tmp_path):
         out = subprocess.run([str(RERUN), "rrd", "verify", str(tmp_path / "up.rrd")], capture_output=True,
                              text=True, timeout=60)
         assert out.returncode == 0, out.stderr
+
+
+def test_children_stop_and_the_recording_is_valid_when_the_launcher_is_killed(tmp_path):
+    env = dict(os.environ, PYTHONPATH=str(ROOT), RERUN_ANALYTICS="0")
+    rrd = tmp_path / "orphan.rrd"
+    proc = subprocess.Popen([sys.executable, "-m", "clients.cli", "up", "--namespace", "upk", "--workers", "1",
+                             "--record", str(rrd), "--state-dir", str(tmp_path / "state")],
+                            cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    lines, pids = [], []
+    try:
+        for line in proc.stdout:
+            lines.append(line)
+            if "deployment is up" in line:
+                break
+        pids = [int(m.group(1)) for ln in lines if (m := re.match(r"\s+(?:recorder|learner|model|worker\S*)\s+(\d+)\s", ln))]
+        assert len(pids) == 4, "".join(lines)
+        proc.kill()  # SIGKILL: the launcher cannot stop its children itself
+        proc.wait(timeout=10)
+        deadline = time.monotonic() + 30
+        alive = pids
+        while alive and time.monotonic() < deadline:
+            time.sleep(0.2)
+            alive = [p for p in pids if _running(p)]
+        assert alive == [], f"children still running 30 s after the launcher died: {alive}"
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+        for p in pids:
+            if _running(p):
+                os.kill(p, signal.SIGKILL)
+    if RERUN.exists():
+        out = subprocess.run([str(RERUN), "rrd", "verify", str(rrd)], capture_output=True, text=True, timeout=60)
+        assert out.returncode == 0, out.stderr
+
+
+def _running(pid: int) -> bool:
+    """True while ``pid`` exists and is not a zombie (orphans are reaped by init, not by us)."""
+    try:
+        status = Path(f"/proc/{pid}/status").read_text()
+    except OSError:
+        return False
+    return "zombie" not in status.lower()
