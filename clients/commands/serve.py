@@ -28,7 +28,7 @@ def register(subparsers) -> None:
         p = sub.add_parser(name, help=help_text)
         try:
             module = importlib.import_module(module_name)
-        except ImportError as exc:  # e.g. a service not written yet in this checkout
+        except ImportError as exc:  # e.g. a dependency missing: say so when it is run, keep the other commands
             p.set_defaults(func=_unavailable(name, exc))
             continue
         module.add_arguments(p)
