@@ -162,7 +162,7 @@ def run_viapoint_distributed(seed: int = 0, variant: str = "2d", *, budget: int 
         "wall_time_s": round(time.perf_counter() - t0, 2), "tolerance": task.tolerance,
         "demo_extent": demos.extent(),
         "viapoint": {"t": float(setup.target.obs_times[0]), "value": setup.target.obs_values[0].tolist()},
-        "methods": methods, "assimilation": assim,
+        "methods": methods, "lfd_reproduction_rmse": repro_before, "assimilation": assim,
     }
     return ViaPointRun(summary, demos, trajs, setup.target.query_times,
                        (float(setup.target.obs_times[0]), setup.target.obs_values[0]),

@@ -18,6 +18,8 @@ def test_distributed_e1_matches_in_process_and_records_every_rollout(tmp_path):
     for m in ("lfd_only", "rl_only", "acnmp"):
         for k in ("rollouts", "success", "error", "shape_error"):
             assert a["methods"][m][k] == b["methods"][m][k], (m, k)
+    # the model service serves the learner's LfD model: it reproduces the demos as the local one does
+    assert abs(a["lfd_reproduction_rmse"] - b["lfd_reproduction_rmse"]) < 1e-5
     # the recording is finalised and holds exactly the roll-outs each job used
     verify = subprocess.run([str(Path(sys.executable).parent / "rerun"), "rrd", "verify", str(rrd)],
                             capture_output=True, text=True)

@@ -113,6 +113,9 @@ def run_viapoint(
     setup = make_setup(variant)
     demos, target, task = setup.demos, setup.target, setup.task
     model = train_lfd(demos, seed, train_steps, progress)
+    # "Before" is the LfD model, as the model service holds it before any job commits a solution.
+    latents_before = _latents(model, demos)
+    repro_before = reproduction_error(model, demos)
     times = target.query_times
     methods, trajs, curves = {}, {}, {}
     adapted: dict[str, CNMP] = {}
@@ -136,8 +139,6 @@ def run_viapoint(
 
     # Assimilation: the ACNMP solution becomes a demonstration and the model trains on.
     acnmp = adapted["acnmp"]
-    latents_before = _latents(acnmp, demos)
-    repro_before = reproduction_error(acnmp, demos)
     assim = {"performed": False}
     if methods["acnmp"]["success"]:
         new_demos = demos.added(Demonstration(times, trajs["acnmp"], np.zeros(0)))
@@ -164,6 +165,7 @@ def run_viapoint(
         "demo_extent": demos.extent(),
         "viapoint": {"t": float(target.obs_times[0]), "value": target.obs_values[0].tolist()},
         "methods": methods,
+        "lfd_reproduction_rmse": repro_before,
         "assimilation": assim,
     }
     return ViaPointRun(summary, demos, trajs, times, (float(target.obs_times[0]), target.obs_values[0]),
