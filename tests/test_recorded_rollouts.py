@@ -113,3 +113,22 @@ def test_distributed_wall_loop_matches_in_process_and_records_what_it_counts(tmp
     assert jobs["wall-acnmp-0"]["unique_rollouts"] == jobs["wall-acnmp-0"]["rollouts"] \
         == local["methods"]["acnmp"]["trajectories_total"]
     assert jobs["wall-promp_rl-1"]["rollouts"] == local["methods"]["promp_rl"]["trajectories_total"]
+
+
+def test_push_cli_distributed_records_every_rollout(tmp_path):
+    import json
+
+    from clients.cli import main
+
+    rrd, out = tmp_path / "e2.rrd", tmp_path / "e2.json"
+    assert main(["experiment", "push", "--seeds", "1", "--train-steps", "200", "--acnmp-budget", "4",
+                 "--promp-budget", "5", "--distributed", "--workers", "2", "--record", str(rrd),
+                 "--json", str(out), "--quiet"]) == 0
+    runs = json.loads(out.read_text())["runs"]
+    jobs = summarize(rrd)["jobs"]
+    assert len(jobs) == len(runs) == 4
+    for n, r in enumerate(runs):  # evaluators are made in run order: job <method>-<case>-<n>
+        job = jobs[f"push-{r['method']}-{r['case']}-{n}"]
+        # a failed ACNMP run executes its final mean once more to measure it (not counted)
+        extra = 1 if r["method"] == "acnmp" and r["adapted"] and not r["success"] else 0
+        assert job["rollouts"] == job["unique_rollouts"] == r["rollouts"] + extra
