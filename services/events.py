@@ -86,7 +86,7 @@ def arm_drawing(robot: str) -> dict | None:
 
 def batch_rollout_events(job: str, first_index: int, trajectories, times, batch, workers, *,
                          task_params=None, condition: dict | None = None, iteration: int | None = None,
-                         skill: str | None = None, space: str = "cartesian", arm: dict | None = None) -> list[dict]:
+                         skill: str | None = None, arm: dict | None = None) -> list[dict]:
     """One validated ``rollout`` event per roll-out of an executed batch, indices from ``first_index``.
 
     ``trajectories`` (B,T,D) as commanded, ``times`` (T,), ``task_params`` (P,) for all or (B,P) one
@@ -94,7 +94,8 @@ def batch_rollout_events(job: str, first_index: int, trajectories, times, batch,
     (rewards (B,T), success (B,), states {name: (B,T,...)}), ``workers`` B worker ids. With ``arm``
     (see :func:`arm_drawing`) and ``joint_angles`` (B,T,N) in the states, each event also carries the
     executed joint angles, the link lengths and, when present, ``object_xy`` (B,T,2), so the recorder
-    draws the arm and the object moving through the roll-out.
+    draws the arm and the object moving through the roll-out; the events' ``space`` is then "joint",
+    else "cartesian".
     """
     trajectories = np.asarray(trajectories, dtype=np.float64)
     if len(workers) != len(trajectories) or batch.rewards.shape[0] != len(trajectories):
@@ -108,12 +109,12 @@ def batch_rollout_events(job: str, first_index: int, trajectories, times, batch,
         ev = rollout_event(job, first_index + j, trajectories[j], times, batch.rewards[j],
                            success=bool(batch.success[j]), worker=str(workers[j]), condition=condition,
                            task_params=None if tp is None else tp[j], iteration=iteration, skill=skill,
-                           space=space)
+                           space="cartesian" if arm is None else "joint")
         if arm is not None and "joint_angles" in batch.states:
             ev.update(arm, joint_angles=np.asarray(batch.states["joint_angles"][j], dtype=np.float64))
             if "object_xy" in batch.states:
                 ev["object_xy"] = np.asarray(batch.states["object_xy"][j], dtype=np.float64)
-        out.append(validate_event(ev))
+        out.append(ev)  # rollout_event validated it; the arm fields are flat arrays and scalars
     return out
 
 

@@ -2,7 +2,9 @@
 
 E2 and E3 drive their loops in this process and only execute roll-outs remotely:
 :func:`remote_rollouts` starts workers (and a recorder) and hands out evaluators that send the
-roll-outs to the workers and publish each one for the recording. E1 runs as a client of the services: the learner trains the skill from the demonstrations and runs
+roll-outs to the workers and publish each one for the recording.
+
+E1 runs as a client of the services: the learner trains the skill from the demonstrations and runs
 one adaptation job per method, the jobs' roll-outs go to the workers, the recorder logs every one,
 and the assimilated model is read back through the model service. The learner calls the same
 library functions with the same seeds as :func:`acnmp_core.experiments.viapoint.run_viapoint`,
@@ -15,7 +17,6 @@ import itertools
 import os
 import time
 from contextlib import contextmanager
-from pathlib import Path
 from typing import Callable, Iterator
 
 import numpy as np
@@ -45,8 +46,6 @@ def remote_rollouts(robot: str, task: str, *, workers: int = 2, record: str | No
     every roll-out under the job name ``<job>-<n>`` (n counts the evaluators made, so repeated runs
     of one method never share roll-out indices). Everything stops when the block exits."""
     ns = f"{prefix}-{os.getpid()}"
-    if record:
-        Path(record).parent.mkdir(parents=True, exist_ok=True)
     with LocalDeployment(ns, workers=workers, robot=robot, record=record, model=False, learner=False) as dep:
         if progress:
             print(dep.describe(), flush=True)
@@ -116,8 +115,6 @@ def run_viapoint_distributed(seed: int = 0, variant: str = "2d", *, budget: int 
     setup = make_setup(variant)
     demos, task = setup.demos, setup.task
     ns = f"e1-{os.getpid()}"
-    if record:
-        Path(record).parent.mkdir(parents=True, exist_ok=True)
     with LocalDeployment(ns, workers=workers, robot="point2d", record=record) as dep, \
             ACNMPClient(ns, session=dep.session, timeout=30) as client:
         if progress:

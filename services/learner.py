@@ -389,7 +389,6 @@ class Learner:
             evaluator = RemoteEvaluator(self.session, self.ns, req["robot"], req["task"], req["task_config"],
                                         timeout=self.chunk_timeout)
             arm = arm_drawing(req["robot"])
-            space = "cartesian" if arm is None else "joint"
             condition = {"times": target.obs_times, "values": target.obs_values}
 
             def on_iteration(it_log, trajectories, batch) -> None:
@@ -406,9 +405,8 @@ class Learner:
                     self.job_store.save(job)
                 for ev in batch_rollout_events(job["job"], first, trajectories, target.query_times, batch,
                                                evaluator.last_workers, task_params=tp,
-                                               condition=condition if space == "cartesian" else None,
-                                               iteration=it_log.iteration, skill=job["skill"], space=space,
-                                               arm=arm):
+                                               condition=condition if arm is None else None,
+                                               iteration=it_log.iteration, skill=job["skill"], arm=arm):
                     ev["attempt"] = int(job["attempt"])
                     self._publish(ev)
                 self._publish(self._progress_event(job, "running"))

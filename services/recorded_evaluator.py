@@ -27,7 +27,6 @@ class RecordedEvaluator:
     def __init__(self, inner, publisher: EventPublisher, job: str, robot: str):
         self.inner, self.publisher, self.job = inner, publisher, job
         self.arm = arm_drawing(robot)
-        self.space = "cartesian" if self.arm is None else "joint"
         self.rollouts = 0
 
     def evaluate(self, trajectories, times, task_params=None) -> RolloutBatch:
@@ -37,7 +36,7 @@ class RecordedEvaluator:
         n = len(batch.rewards)
         workers = list(getattr(self.inner, "last_workers", None) or ["local"] * n)
         for ev in batch_rollout_events(self.job, self.rollouts, trajectories, times, batch, workers,
-                                       task_params=task_params, space=self.space, arm=self.arm):
+                                       task_params=task_params, arm=self.arm):
             self.publisher.publish(ev)
         self.rollouts += n
         return batch
