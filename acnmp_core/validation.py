@@ -1,9 +1,15 @@
-"""Input checks shared by every public function: clear ValueErrors naming the argument."""
+"""Input checks shared by every public function: clear ValueErrors naming the argument.
+
+The errors are the typed subclasses of :mod:`acnmp_core.errors` (all ValueErrors): a wrong shape
+raises :class:`ShapeError`, NaN/inf :class:`NonFiniteError`, anything else :class:`InputError`.
+"""
 from __future__ import annotations
 
-from typing import Sequence
+from typing import Any, Sequence
 
 import numpy as np
+
+from .errors import InputError, NonFiniteError, ShapeError
 
 
 def check_array(
@@ -26,32 +32,54 @@ def check_array(
     finite : reject NaN and inf.
     min_size : reject arrays with fewer elements.
 
-    Returns the array as ``dtype``. Raises ValueError naming ``name`` and what was expected.
+    Returns the array as ``dtype``. Raises ValueError naming ``name`` and what was expected:
+    :class:`ShapeError` (``ndim``, ``shape``, ``min_size``), :class:`NonFiniteError` (``finite``)
+    or :class:`InputError` (not numeric, ragged).
     """
     try:
         arr = np.asarray(value, dtype=dtype)
     except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name}: expected a numeric array, got {type(value).__name__} ({exc})") from None
+        raise InputError(f"{name}: expected a numeric array, got {type(value).__name__} ({exc})") from None
     if ndim is not None:
         allowed = (ndim,) if isinstance(ndim, int) else tuple(ndim)
         if arr.ndim not in allowed:
             want = " or ".join(str(a) for a in allowed)
-            raise ValueError(f"{name}: expected a {want}-D array, got shape {arr.shape}")
+            raise ShapeError(f"{name}: expected a {want}-D array, got shape {arr.shape}")
     if shape is not None:
         if arr.ndim != len(shape) or any(s is not None and s != a for s, a in zip(shape, arr.shape)):
             want = "(" + ", ".join("*" if s is None else str(s) for s in shape) + ")"
-            raise ValueError(f"{name}: expected shape {want}, got {arr.shape}")
+            raise ShapeError(f"{name}: expected shape {want}, got {arr.shape}")
     if arr.size < min_size:
-        raise ValueError(f"{name}: expected at least {min_size} element(s), got {arr.size}")
+        raise ShapeError(f"{name}: expected at least {min_size} element(s), got {arr.size}")
     if finite and arr.dtype.kind == "f" and not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name}: contains NaN or inf")
+        raise NonFiniteError(f"{name}: contains NaN or inf")
     return arr
 
 
 def check_positive_int(name: str, value, *, minimum: int = 1) -> int:
-    """Return ``value`` as int, raising ValueError unless it is an integer >= minimum."""
+    """Return ``value`` as int, raising :class:`InputError` unless it is an integer >= minimum."""
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-        raise ValueError(f"{name}: expected an integer >= {minimum}, got {value!r}")
+        raise InputError(f"{name}: expected an integer >= {minimum}, got {value!r}")
     if value < minimum:
-        raise ValueError(f"{name}: expected an integer >= {minimum}, got {value}")
+        raise InputError(f"{name}: expected an integer >= {minimum}, got {value}")
     return int(value)
+
+
+def check_type(name: str, value, types: type | tuple[type, ...]) -> Any:
+    """Return ``value`` if it is an instance of ``types``, else raise :class:`InputError`.
+
+    ``bool`` is never accepted where ``int`` is asked (it is an int subclass in Python, not on the
+    wire); an ``int`` is accepted where ``float`` is asked and returned as float.
+    """
+    types = types if isinstance(types, tuple) else (types,)
+    if isinstance(value, bool) and bool not in types:
+        raise InputError(f"{name}: expected {_names(types)}, got bool")
+    if float in types and isinstance(value, int) and not isinstance(value, bool):
+        return float(value)
+    if not isinstance(value, types):
+        raise InputError(f"{name}: expected {_names(types)}, got {type(value).__name__}")
+    return value
+
+
+def _names(types: tuple[type, ...]) -> str:
+    return " or ".join("None" if t is type(None) else t.__name__ for t in types)
