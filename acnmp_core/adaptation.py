@@ -13,7 +13,7 @@ conditioned mean once and does not adapt.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field, fields
 from typing import Callable, Sequence
 
 import numpy as np
@@ -96,6 +96,19 @@ class AdaptConfig:
         check_positive_int("sl_steps_per_rl_step", self.sl_steps_per_rl_step, minimum=0)
         if not self.is_clip > 1.0:
             raise ValueError(f"is_clip: expected > 1, got {self.is_clip}")
+
+    def to_dict(self) -> dict:
+        """Plain JSON-ready dict of every field."""
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "AdaptConfig":
+        """Build from a dict of field values (unknown keys are an error naming them)."""
+        known = {f.name for f in fields(cls)}
+        unknown = sorted(set(d) - known)
+        if unknown:
+            raise ValueError(f"config: unknown AdaptConfig field(s) {', '.join(unknown)}")
+        return cls(**d)
 
 
 @dataclass

@@ -12,6 +12,7 @@ import numpy as np
 import torch
 
 from .cnmp import CNMP, CNMPConfig
+from .errors import InputError, ShapeError
 
 FORMAT_VERSION = 1
 
@@ -70,17 +71,18 @@ def model_to_arrays(model: CNMP) -> tuple[dict, dict[str, "np.ndarray"]]:
 
 
 def model_from_arrays(config: dict, arrays: dict) -> CNMP:
-    """Rebuild a model from :func:`model_to_arrays` output; raises ValueError on a mismatch."""
+    """Rebuild a model from :func:`model_to_arrays` output; raises ValueError on a mismatch
+    (:class:`~acnmp_core.errors.ShapeError` for an array of the wrong shape)."""
     model = CNMP(CNMPConfig(**config))
     expected = model.state_dict()
     if set(arrays) != set(expected):
         missing, extra = set(expected) - set(arrays), set(arrays) - set(expected)
-        raise ValueError(f"arrays: parameter names do not match the config (missing {sorted(missing)}, extra {sorted(extra)})")
+        raise InputError(f"arrays: parameter names do not match the config (missing {sorted(missing)}, extra {sorted(extra)})")
     state = {}
     for k, ref in expected.items():
         t = torch.as_tensor(np.asarray(arrays[k])).to(ref.dtype)
         if t.shape != ref.shape:
-            raise ValueError(f"arrays[{k!r}]: expected shape {tuple(ref.shape)}, got {tuple(t.shape)}")
+            raise ShapeError(f"arrays[{k!r}]: expected shape {tuple(ref.shape)}, got {tuple(t.shape)}")
         state[k] = t
     model.load_state_dict(state)
     model.eval()

@@ -44,7 +44,7 @@ def _serve(checkpoint: str, endpoint: str, workers: int, ready, stop) -> None:
 
     torch.set_num_threads(1)
     from services.model import ModelService
-    from services.session import open_session
+    from services.transport import open_session
 
     with open_session("peer", [endpoint]) as session:
         def empty(query):
@@ -153,7 +153,7 @@ def main(argv: list[str] | None = None) -> int:
 
     torch.set_num_threads(1)
     from clients.client import ACNMPClient
-    from services.session import free_port, loopback_endpoint
+    from services.transport import free_port, loopback_endpoint
 
     ctx = mp.get_context("spawn")  # zenoh sessions do not survive fork
     with tempfile.TemporaryDirectory(prefix="bench-predict-") as tmp:

@@ -25,7 +25,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from acnmp_core.tasks.registry import make_task  # noqa: E402
 from services.launcher import LocalDeployment  # noqa: E402
-from services.remote_evaluator import RemoteEvaluator  # noqa: E402
+from services.worker.remote import RemoteEvaluator  # noqa: E402
 
 TASKS = {  # task -> (robot kind, task_config, D, T, task_params)
     "viapoint": ("point2d", {"t_v": 0.25, "point": [0.25, 0.8], "tolerance": 0.02}, 2, 101, None),
@@ -72,7 +72,7 @@ def main(argv=None) -> int:
             local.close()
         for n in (1, 2):
             with LocalDeployment(f"bench{n}", workers=n, robot=robot, model=False, learner=False) as dep:
-                remote = RemoteEvaluator(dep.session, f"bench{n}", robot, task, cfg)
+                remote = RemoteEvaluator(dep.session, dep.keys, robot, task, cfg)
                 for b in args.batches:
                     rows[b][f"workers_{n}"] = throughput(remote, trajectories(task, b, d, t, rng), times, tp, args.repeats)
         for row in rows.values():

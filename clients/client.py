@@ -5,8 +5,10 @@ status on the learner (key expressions and messages: docs/PROTOCOL.md).
         p = client.predict("reach", obs_times=[0.0], obs_values=[[0.0, 0.0]], n_steps=200)
         p.mean  # (200, 2) numpy array, raw units
 
-Every error reply becomes a :class:`ClientError` carrying the service's code (services/wire.py
-``ERROR_CODES``) and message; nothing answering is ``unavailable``, no answer in time ``timeout``.
+Every error reply becomes a :class:`ClientError` carrying the service's code
+(services/transport/wire.py ``ERROR_CODES``) and message; nothing answering is ``unavailable``, no
+answer in time ``timeout``. Queries go through the transport's one RPC caller
+(:func:`services.transport.rpc.call`).
 """
 from __future__ import annotations
 
@@ -19,9 +21,9 @@ from typing import Any, Sequence
 import numpy as np
 import zenoh
 
-from services import keys
-from services.session import open_session
-from services.wire import WireError, decode, encode, error_from_payload
+from acnmp_core.adapt_job import AdaptJob
+from services.transport import DEFAULT_NAMESPACE, Keyspace, WireError, alive_tokens, call, open_session
+from services.transport.keys import last_chunk
 
 #: Where the client connects when neither ``connect`` nor $ACNMP_CONNECT says: the router default.
 DEFAULT_CONNECT = "tcp/127.0.0.1:7447"
@@ -29,8 +31,8 @@ DEFAULT_CONNECT = "tcp/127.0.0.1:7447"
 TERMINAL_JOB_STATES = ("done", "failed", "cancelled")
 
 
-class ClientError(WireError):
-    """An error reply (or no reply) from the deployment: ``code`` and ``message`` as on the wire."""
+#: An error reply (or no reply) from the deployment: ``code`` and ``message`` as on the wire.
+ClientError = WireError
 
 
 @dataclass
@@ -86,16 +88,17 @@ class ACNMPClient:
     connect : endpoints to connect to; default ``$ACNMP_CONNECT`` (comma-separated) or
         :data:`DEFAULT_CONNECT`.
     mode : zenoh mode of the client's own session, ``peer`` (default) or ``client``.
-    listen, config_file : passed to :func:`services.session.open_session`.
+    listen, config_file : passed to :func:`services.transport.session.open_session`.
     timeout : default seconds per query.
 
     Use as a context manager, or call :meth:`close`: an open session keeps the process from exiting.
     """
 
-    def __init__(self, namespace: str = keys.DEFAULT_NAMESPACE, connect: Sequence[str] | None = None,
+    def __init__(self, namespace: str = DEFAULT_NAMESPACE, connect: Sequence[str] | None = None,
                  mode: str = "peer", listen: Sequence[str] | None = None, config_file: str | None = None,
                  timeout: float = 10.0, session: zenoh.Session | None = None):
-        self.namespace = keys.check_name("namespace", namespace)
+        self.keys = Keyspace(namespace)
+        self.namespace = namespace
         self.timeout = float(timeout)
         self._stack = contextlib.ExitStack()
         if session is None:
@@ -117,29 +120,9 @@ class ACNMPClient:
 
     # ----- plumbing --------------------------------------------------------------------------
     def request(self, key: str, payload: dict | None = None, timeout: float | None = None) -> dict:
-        """Send one query on ``key`` and return the decoded reply map.
-
-        If several services answer, the first successful reply wins over error replies (a
-        catch-all ``unknown_skill`` from one model process must not hide another's answer).
-        Raises :class:`ClientError`.
-        """
-        timeout = self.timeout if timeout is None else float(timeout)
-        body = encode(payload) if payload is not None else None
-        start = time.monotonic()
-        first_err: WireError | None = None
-        try:
-            for reply in self.session.get(key, payload=body, timeout=timeout):
-                if reply.ok is not None:
-                    return decode(reply.ok.payload.to_bytes())
-                if first_err is None:
-                    first_err = error_from_payload(reply.err.payload.to_bytes())
-        except WireError as exc:
-            raise ClientError(exc.code, f"{key}: {exc.message}") from None
-        if first_err is not None:
-            raise ClientError(first_err.code, first_err.message)
-        if time.monotonic() - start < 0.9 * timeout:
-            raise ClientError("unavailable", f"no service answered on {key}")
-        raise ClientError("timeout", f"no reply on {key} within {timeout}s")
+        """Send one query on ``key`` and return the decoded reply map (the first successful one when
+        several services answer); raises :class:`ClientError`. See :func:`services.transport.rpc.call`."""
+        return call(self.session, key, payload, self.timeout if timeout is None else float(timeout))
 
     # ----- model service ---------------------------------------------------------------------
     def predict(self, skill: str, obs_times, obs_values, task_params=None, query_times=None, *,
@@ -153,27 +136,21 @@ class ACNMPClient:
         """
         req = predict_request(obs_times, obs_values, task_params, query_times, n_steps=n_steps,
                               obs_dims_mask=obs_dims_mask, n_samples=n_samples, seed=seed)
-        return PredictResult.from_reply(self.request(keys.skill_predict_key(self.namespace, skill), req, timeout))
+        return PredictResult.from_reply(self.request(self.keys.predict(skill), req, timeout))
 
     def predict_batch(self, skill: str, requests: Sequence[dict], timeout: float | None = None) -> list[PredictResult]:
         """Several predict requests (maps from :func:`predict_request`) in one query, answered by one
         model version. Returns one :class:`PredictResult` per request, in order."""
-        reply = self.request(keys.skill_predict_key(self.namespace, skill),
-                             {"v": 1, "batch": list(requests)}, timeout)
+        reply = self.request(self.keys.predict(skill), {"v": 1, "batch": list(requests)}, timeout)
         return [PredictResult.from_reply(r) for r in reply["results"]]
 
     def info(self, skill: str, timeout: float | None = None) -> dict:
         """The served model of ``skill``: dimensions, names, ranges, version, data hash, n_demos."""
-        return self.request(keys.skill_info_key(self.namespace, skill), None, timeout)
+        return self.request(self.keys.info(skill), None, timeout)
 
     def skills(self, timeout: float = 2.0) -> list[str]:
         """Names of the skills some model service has weights for now (liveliness tokens)."""
-        pattern = f"{keys.prefix(self.namespace)}/model/*"
-        found = set()
-        for reply in self.session.liveliness().get(pattern, timeout=timeout):
-            if reply.ok is not None:
-                found.add(str(reply.ok.key_expr).rsplit("/", 1)[-1])
-        return sorted(found)
+        return sorted({last_chunk(k) for k in alive_tokens(self.session, self.keys.model_token("*"), timeout)})
 
     # ----- learner ---------------------------------------------------------------------------
     def train(self, skill: str, times, values, task_params=None, timeout: float | None = None, **options) -> dict:
@@ -188,12 +165,12 @@ class ACNMPClient:
                                "values": np.asarray(values, dtype=np.float64), **options}
         if task_params is not None:
             req["task_params"] = np.asarray(task_params, dtype=np.float64)
-        return self.request(keys.skill_train_key(self.namespace, skill), req, timeout)
+        return self.request(self.keys.train(skill), req, timeout)
 
-    def adapt(self, skill: str, timeout: float | None = None, **request) -> str:
-        """Queue an adaptation job for ``skill``; ``request`` holds the learner's adapt fields (task,
-        condition, task_params, budget, ...; docs/PROTOCOL.md). Returns the job id."""
-        return self._job(self.request(keys.skill_adapt_key(self.namespace, skill), {"v": 1, **request}, timeout))
+    def adapt(self, skill: str, job: AdaptJob, timeout: float | None = None) -> str:
+        """Queue adaptation ``job`` (:class:`~acnmp_core.adapt_job.AdaptJob`) on ``skill``; returns the
+        job id. The request is ``job.to_dict()`` (docs/PROTOCOL.md, ``skill/<skill>/adapt``)."""
+        return self._job(self.request(self.keys.adapt(skill), {"v": 1, **job.to_dict()}, timeout))
 
     @staticmethod
     def _job(reply: dict) -> str:
@@ -204,7 +181,7 @@ class ACNMPClient:
 
     def job_status(self, job: str, timeout: float | None = None) -> dict:
         """The learner's status map of ``job`` (state, iteration, rollouts, ...)."""
-        return self.request(keys.job_status_key(self.namespace, job), None, timeout)
+        return self.request(self.keys.job_status(job), None, timeout)
 
     def wait_job(self, job: str, timeout: float = 600.0, *, poll: float = 0.5, progress: bool = True) -> dict:
         """Poll ``job`` until it is done, failed or cancelled; return its last status map.

@@ -1,13 +1,31 @@
-"""Shared fixtures: one small trained E1 model per test session (training costs seconds)."""
+"""Shared fixtures and the test layers.
+
+``tests/unit``: one process, no zenoh session, no child process. ``tests/e2e``: real zenoh
+sessions on 127.0.0.1 and/or child processes; every test there is marked ``e2e`` (added below), so
+``pytest -m "not e2e"`` is the fast inner loop and plain ``pytest`` runs everything.
+"""
 from __future__ import annotations
 
+import contextlib
 import os
+import subprocess
+import sys
+import threading
+from pathlib import Path
 
 import pytest
 import torch
 
 os.environ.setdefault("RERUN_ANALYTICS", "0")
 torch.set_num_threads(1)
+
+E2E = Path(__file__).parent / "e2e"
+
+
+def pytest_collection_modifyitems(config, items):
+    for item in items:
+        if E2E in Path(str(item.fspath)).parents:
+            item.add_marker(pytest.mark.e2e)
 
 
 @pytest.fixture(scope="session")
@@ -27,3 +45,66 @@ def e1_model(e1_demos):
     model = CNMP(CNMPConfig(n_outputs=2), seed=0)
     train(model, e1_demos, TrainConfig(steps=3000), seed=0, progress=False)
     return model
+
+
+@pytest.fixture(scope="session")
+def small_model(e1_demos):
+    """A small CNMP on the E1 demos (2 x 32 units, 50 steps): fast to train, for tests where only
+    its determinism matters."""
+    from acnmp_core.cnmp import CNMP, CNMPConfig
+    from acnmp_core.training import TrainConfig, train
+
+    model = CNMP(CNMPConfig(n_outputs=2, encoder_widths=(32, 32), decoder_widths=(32, 32)), seed=0)
+    train(model, e1_demos, TrainConfig(steps=50), seed=0, progress=False)
+    return model.eval()
+
+
+@pytest.fixture(scope="session")
+def serving():
+    """``with serving(config) as line:`` runs a service on a thread (see :func:`_serving`)."""
+    return _serving
+
+
+@contextlib.contextmanager
+def _serving(config, timeout: float = 15.0):
+    """Run a service config (services.transport.service.Service) on a thread of this process until
+    the block ends; yields the line it printed when live. Fails the test if it is not live in time
+    or does not stop."""
+    from services.transport.service import run_service
+
+    stop, live, lines, result = threading.Event(), threading.Event(), [], []
+
+    def ready(line: str) -> None:
+        lines.append(line)
+        live.set()
+
+    def target() -> None:
+        try:
+            result.append(run_service(config, stop=stop, ready=ready))
+        finally:
+            live.set()
+
+    thread = threading.Thread(target=target, name=f"serve-{config.name}", daemon=True)
+    thread.start()
+    try:
+        assert live.wait(timeout) and lines, f"{config.name} did not come up"
+        yield lines[0]
+    finally:
+        stop.set()
+        thread.join(timeout=timeout)
+        assert not thread.is_alive(), f"{config.name} did not stop"
+    assert result == [0], f"{config.name} exited with {result}"
+
+
+@pytest.fixture(scope="session")
+def verify_rrd():
+    """``verify_rrd(path)``: ``rerun rrd verify`` passes on ``path`` (the footer and every chunk are
+    valid). The ``rerun`` command comes with rerun-sdk; its absence is a broken install, not a skip."""
+    rerun = Path(sys.executable).with_name("rerun")
+    assert rerun.exists(), f"{rerun}: the rerun command of rerun-sdk is missing"
+
+    def verify(path) -> None:
+        out = subprocess.run([str(rerun), "rrd", "verify", str(path)], capture_output=True, text=True, timeout=60)
+        assert out.returncode == 0, out.stderr
+
+    return verify

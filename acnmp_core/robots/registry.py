@@ -146,10 +146,20 @@ class RobotSpec:
         return cfg
 
     def make_evaluator(self, task: str, params: Mapping[str, Any] | None = None) -> RolloutEvaluator:
-        """Build the evaluator of ``task`` on this robot (parameters merged by :meth:`task_config`)."""
+        """Build the evaluator of ``task`` on this robot (parameters merged by :meth:`task_config`).
+
+        Raises the errors of :meth:`task_config`, and :class:`InputError` for parameters the task
+        refuses (missing, of the wrong type or value).
+        """
         from ..tasks.registry import make_task
 
-        return make_task(task, self.task_config(task, params))
+        cfg = self.task_config(task, params)
+        try:
+            return make_task(task, cfg)
+        except InputError:
+            raise
+        except ValueError as exc:  # the task registry's checks of the parameters
+            raise InputError(str(exc)) from None
 
 
 _ROBOTS: dict[str, RobotSpec] = {}

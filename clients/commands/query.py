@@ -7,7 +7,7 @@ import sys
 
 import numpy as np
 
-from services import keys
+from services.transport import SessionOptions, jsonable
 
 EPILOG = """\
 examples:
@@ -61,12 +61,9 @@ def register(subparsers) -> None:
 
 
 def _common(parser: argparse.ArgumentParser, skill: bool = True) -> None:
-    parser.add_argument("--namespace", "-n", default=keys.DEFAULT_NAMESPACE,
-                        help="deployment namespace (default: %(default)s)")
-    parser.add_argument("--connect", action="append", default=None, metavar="EP",
-                        help="zenoh endpoint to connect to (repeatable; default: $ACNMP_CONNECT or tcp/127.0.0.1:7447)")
-    parser.add_argument("--mode", choices=("peer", "client"), default="peer",
-                        help="zenoh mode of this command's session (default: %(default)s)")
+    # the same session options as every process (services/transport/session.py); a command has no
+    # router role, and without --connect it goes to $ACNMP_CONNECT or tcp/127.0.0.1:7447
+    SessionOptions.add_arguments(parser, modes=("peer", "client"))
     parser.add_argument("--timeout", type=float, default=10.0, help="seconds to wait for a reply (default: %(default)s)")
     parser.add_argument("--json", action="store_true", help="print the full reply as JSON")
     if skill:
@@ -123,19 +120,11 @@ def _floats(text: str | None, name: str) -> np.ndarray | None:
 
 
 def _client(args):
-    from clients.client import ACNMPClient  # zenoh is imported only when a query really runs
+    from clients.client import ACNMPClient
 
-    return ACNMPClient(args.namespace, connect=args.connect, mode=args.mode, timeout=args.timeout)
-
-
-def _to_json(value):
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, dict):
-        return {k: _to_json(v) for k, v in value.items()}
-    if isinstance(value, list):
-        return [_to_json(v) for v in value]
-    return value
+    opts = SessionOptions.from_args(args)
+    return ACNMPClient(opts.namespace, connect=opts.connect, mode=opts.mode, listen=opts.listen,
+                       config_file=opts.config, timeout=args.timeout)
 
 
 def _fail(exc) -> int:
@@ -164,7 +153,7 @@ def _run_predict(args) -> int:
                "latent": p.latent}
         if p.samples is not None:
             out["samples"] = p.samples
-        print(json.dumps(_to_json(out)))
+        print(json.dumps(jsonable(out)))
         return 0
     steps, dims = p.mean.shape
     print(f"skill {p.skill} version {p.version}: {steps} steps x {dims} dims (mean ± std); "
@@ -187,7 +176,7 @@ def _run_info(args) -> int:
         except ClientError as exc:
             return _fail(exc)
     if args.json:
-        print(json.dumps(_to_json(info)))
+        print(json.dumps(jsonable(info)))
         return 0
     print(f"skill {info['skill']} version {info['version']} ({info['source']})")
     print(f"  outputs ({info['n_outputs']}): {', '.join(info['output_names'])}")

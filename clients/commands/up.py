@@ -6,11 +6,13 @@ import sys
 
 def register(subparsers) -> None:
     """Add the ``up`` sub-command."""
+    from acnmp_core.robots.registry import robot_kinds
+
     p = subparsers.add_parser("up", help="start a local deployment on 127.0.0.1 until Ctrl-C / SIGTERM",
-                              description=__doc__.splitlines()[0])
+                              description=__doc__.splitlines()[0].split(": ", 1)[1])
     p.add_argument("--namespace", "-n", default="default", help="key prefix acnmp/<namespace>/ (default: %(default)s)")
     p.add_argument("--workers", type=int, default=2, help="number of workers (default: %(default)s)")
-    p.add_argument("--robot", default="point2d", choices=("point2d", "planar3", "planar4"),
+    p.add_argument("--robot", default=robot_kinds()[0], choices=robot_kinds(),
                    help="robot kind of the workers (default: %(default)s)")
     p.add_argument("--record", default=None, metavar="FILE.rrd", help="start a recorder writing this file")
     p.add_argument("--state-dir", default="runs/state", metavar="DIR",
@@ -24,7 +26,7 @@ def register(subparsers) -> None:
 def run(args) -> int:
     """Start the deployment, print what runs where, wait for SIGINT/SIGTERM, stop everything; exit 0."""
     from services.launcher import LocalDeployment
-    from services.session import install_shutdown_handlers
+    from services.transport import install_shutdown_handlers
 
     stop = install_shutdown_handlers()
     learner_args = [a for spec in args.demos for a in ("--demos", spec)]
@@ -38,10 +40,10 @@ def run(args) -> int:
             wait_until_stopped_or_child_exit(dep, stop)
     finally:
         codes = dep.stop()
-    bad = {n: c for n, c in codes.items() if c not in (0, None)}
+    bad = {n: c for n, c in codes.items() if c != 0}
     if bad:
         print(f"acnmp up: processes ended with errors: {bad}", file=sys.stderr)
-    print("deployment stopped", flush=True)
+    print("deployment stopped: " + " ".join(f"{n}={c}" for n, c in codes.items()), flush=True)
     return 0
 
 

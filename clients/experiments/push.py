@@ -55,7 +55,7 @@ def run(args) -> int:
     )
     check_deployment_arguments(args)
     if args.distributed:
-        from services.experiment_runner import remote_rollouts
+        from clients.distributed import remote_rollouts
 
         with remote_rollouts("planar3", "push", workers=args.workers, record=args.record, prefix="e2",
                              progress=not args.quiet) as make:

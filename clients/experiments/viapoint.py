@@ -44,7 +44,7 @@ def run(args) -> int:
                   progress=not args.quiet)
     check_deployment_arguments(args)
     if args.distributed:
-        from services.experiment_runner import run_viapoint_distributed
+        from clients.distributed import run_viapoint_distributed
 
         result = run_viapoint_distributed(workers=args.workers, record=args.record, **kwargs)
     else:

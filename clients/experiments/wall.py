@@ -41,7 +41,7 @@ def run(args) -> int:
                   log=None if args.quiet else (lambda s: print(s, flush=True)))
     check_deployment_arguments(args)
     if args.distributed:
-        from services.experiment_runner import remote_rollouts
+        from clients.distributed import remote_rollouts
 
         with remote_rollouts("point2d", "wall", workers=args.workers, record=args.record, prefix="e3",
                              progress=not args.quiet) as make:

@@ -1,0 +1,14 @@
+"""The launcher wing: which processes exist, and starting a whole deployment on one machine.
+
+========================  =========================================================
+module                    one job
+========================  =========================================================
+``processes``             the process table: name -> entry module and config class
+``deployment``            :class:`LocalDeployment`: recorder, learner, model, workers as
+                          child processes on a loopback peer mesh
+========================  =========================================================
+"""
+from .deployment import Child, LocalDeployment
+from .processes import PROCESSES, entry_module, service_class
+
+__all__ = ["Child", "LocalDeployment", "PROCESSES", "entry_module", "service_class"]

@@ -1,0 +1,263 @@
+"""Start a whole deployment on one machine: recorder, learner, model service and N workers.
+
+:class:`LocalDeployment` (a context manager) is what ``acnmp up``, the tests and
+``acnmp experiment ... --distributed`` use:
+
+1. it opens its own peer session listening on the **anchor** ``tcp/127.0.0.1:<free port>``
+   (multicast scouting off; services/transport/session.py explains the gossip mesh that follows);
+2. it starts each child as ``python -m services.<wing> --connect <anchor> --namespace NS``
+   (a fresh interpreter: zenoh sessions do not survive fork), each in its own session
+   (``start_new_session``) so a terminal's Ctrl-C reaches only the launcher, which then stops the
+   children in order, once each; the recorder is started and awaited first, so no event is lost;
+3. it waits until every child's liveliness token is seen (a child that exits first is reported
+   with the tail of its log);
+4. on exit it sends SIGTERM to the learner, model and workers, then to the recorder (so it records
+   the last events and writes its footer), waits, and SIGKILLs whatever is still alive after
+   ``stop_timeout`` seconds; then it closes its session.
+
+Children's output goes to ``<log_dir>/<name>.log``.
+"""
+from __future__ import annotations
+
+import contextlib
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Sequence
+
+import zenoh
+
+from acnmp_core.robots.registry import robot as robot_spec
+from services.transport import Keyspace, free_port, loopback_endpoint, open_session, wait_for_liveliness
+from services.transport.lifetime import PARENT_PID_ENV
+
+from .processes import entry_module
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@dataclass
+class Child:
+    """One started process: its name, argv, Popen, the liveliness key expression(s) it declares,
+    the query keys it serves (for the printed table) and its log file."""
+
+    name: str
+    argv: list[str]
+    proc: subprocess.Popen
+    token: str
+    serves: list[str] = field(default_factory=list)
+    log: Path | None = None
+
+    @property
+    def pid(self) -> int:
+        return self.proc.pid
+
+
+class LocalDeployment:
+    """A local deployment as a context manager: ``with LocalDeployment("ns", workers=2) as dep: ...``.
+
+    Parameters
+    ----------
+    namespace : key prefix of this deployment. workers : number of workers of kind ``robot``.
+    record : .rrd file for a recorder (None: no recorder). state_dir : learner checkpoints
+        (None: a temporary directory, removed at exit). model : start the model service (it serves
+        every skill the learner publishes). learner : start the learner.
+    worker_delay : seconds per roll-out each worker sleeps (simulates a slow robot; tests).
+    chunk_timeout : the learner's per-chunk worker timeout. start_timeout, stop_timeout : seconds.
+    log_dir : children's logs (default: ``<state_dir>/logs``).
+
+    Attributes once started: ``session`` (the launcher's open session, usable by clients),
+    ``anchor`` (endpoint to ``--connect`` to), ``children`` ({name: Child}).
+    """
+
+    def __init__(self, namespace: str = "default", workers: int = 2, robot: str = "point2d",
+                 record: str | os.PathLike | None = None, state_dir: str | os.PathLike | None = None, *,
+                 model: bool = True, learner: bool = True, worker_delay: float = 0.0, chunk_timeout: float = 60.0,
+                 start_timeout: float = 60.0, stop_timeout: float = 8.0, log_dir: str | os.PathLike | None = None,
+                 learner_args: Sequence[str] = ()):
+        self.robot = robot_spec(robot).kind  # UnknownRobotError (a ValueError) for a kind not registered
+        if workers < 0:
+            raise ValueError(f"workers: expected >= 0, got {workers}")
+        self.keys = Keyspace(namespace)
+        self.namespace = namespace
+        self.n_workers = int(workers)
+        self.record = None if record is None else Path(record).resolve()  # children run in ROOT
+        self._tmp = None
+        if state_dir is None:
+            self._tmp = tempfile.TemporaryDirectory(prefix="acnmp-state-")
+            state_dir = self._tmp.name
+        self.state_dir = Path(state_dir).resolve()
+        self.log_dir = Path(log_dir) if log_dir is not None else self.state_dir / "logs"
+        self.with_model, self.with_learner = model, learner
+        self.worker_delay, self.chunk_timeout = float(worker_delay), float(chunk_timeout)
+        self.start_timeout, self.stop_timeout = float(start_timeout), float(stop_timeout)
+        self.learner_args = list(learner_args)
+        self.children: dict[str, Child] = {}
+        self.session: zenoh.Session | None = None
+        self.anchor = ""
+        self._stack = contextlib.ExitStack()
+
+    # ----- starting --------------------------------------------------------------------------
+    def _spawn(self, name: str, module: str, args: Sequence[str], token: str, serves: Sequence[str] = ()) -> Child:
+        self.log_dir.mkdir(parents=True, exist_ok=True)
+        log = self.log_dir / f"{name}.log"
+        argv = [sys.executable, "-m", module, "--namespace", self.namespace, "--connect", self.anchor, *args]
+        proc = _popen(argv, log)
+        child = Child(name, argv, proc, token, list(serves), log)
+        self.children[name] = child
+        return child
+
+    def _wait_live(self, children: Sequence[Child]) -> None:
+        deadline = time.monotonic() + self.start_timeout
+        for child in children:
+            while True:
+                if child.proc.poll() is not None:
+                    raise RuntimeError(f"{child.name} exited with code {child.proc.returncode} before going live; "
+                                       f"log {child.log}:\n{_tail(child.log)}")
+                try:
+                    wait_for_liveliness(self.session, child.token, timeout=0.5)
+                    break
+                except TimeoutError:
+                    if time.monotonic() > deadline:
+                        raise TimeoutError(f"{child.name} not live after {self.start_timeout}s; "
+                                           f"log {child.log}:\n{_tail(child.log)}") from None
+
+    def start_worker(self, worker_id: str, *, robot: str | None = None, delay: float | None = None,
+                     wait: bool = True) -> Child:
+        """Start one more worker process (``robot`` defaults to the deployment's); returns its Child."""
+        robot = robot or self.robot
+        args = ["--robot", robot, "--id", worker_id, "--delay", str(self.worker_delay if delay is None else delay)]
+        child = self._spawn(f"worker-{worker_id}", entry_module("worker"), args,
+                            self.keys.worker_token(robot, worker_id), [self.keys.worker_rollout(robot, worker_id)])
+        if wait:
+            self._wait_live([child])
+        return child
+
+    def start(self) -> "LocalDeployment":
+        """Open the anchor session, start every child, wait until all are live; returns self."""
+        try:
+            port = free_port()
+            self.anchor = loopback_endpoint(port)
+            self.session = self._stack.enter_context(open_session("peer", [self.anchor], multicast=False))
+            keys = self.keys
+            if self.record is not None:
+                self.record.parent.mkdir(parents=True, exist_ok=True)
+                rec = self._spawn("recorder", entry_module("recorder"), ["--out", str(self.record)],
+                                  keys.tokens("recorder"), [keys.events() + " (subscriber)", keys.recorder_status()])
+                self._wait_live([rec])
+            started = []
+            if self.with_learner:
+                args = ["--state-dir", str(self.state_dir), "--id", "learner",
+                        "--chunk-timeout", str(self.chunk_timeout), *self.learner_args]
+                if self.record is not None:
+                    args += ["--wait-recorder", "20"]
+                started.append(self._spawn(
+                    "learner", entry_module("learner"), args, keys.learner_token("learner"),
+                    [keys.train("*"), keys.adapt("*"), keys.job_status("*"), keys.weights_latest("*")]))
+            if self.with_model:
+                started.append(self._spawn("model", entry_module("model"), [], keys.model_service_token("*"),
+                                           [keys.predict("*"), keys.info("*")]))
+            for i in range(self.n_workers):
+                started.append(self.start_worker(f"{self.robot}-{i}", wait=False))
+            self._wait_live(started)
+        except BaseException:
+            self.stop()
+            raise
+        return self
+
+    # ----- inspecting ------------------------------------------------------------------------
+    def describe(self) -> str:
+        """A table of what runs where: process, pid, liveliness token, keys served, log file."""
+        lines = [f"acnmp deployment '{self.namespace}': anchor {self.anchor} (peer mesh on 127.0.0.1, "
+                 f"multicast off); state {self.state_dir}"]
+        if self.record is not None:
+            lines.append(f"recording to {self.record}")
+        lines.append(f"  {'process':<18} {'pid':>7}  liveliness / keys")
+        lines.append(f"  {'launcher':<18} {os.getpid():>7}  {self.anchor} (anchor)")
+        for c in self.children.values():
+            state = "" if c.proc.poll() is None else f" (exited {c.proc.returncode})"
+            lines.append(f"  {c.name:<18} {c.pid:>7}  {c.token}{state}")
+            for s in c.serves:
+                lines.append(f"  {'':<18} {'':>7}    {s}")
+            lines.append(f"  {'':<18} {'':>7}    log: {c.log}")
+        return "\n".join(lines)
+
+    def kill(self, name: str, sig: int = signal.SIGKILL) -> None:
+        """Send ``sig`` (default SIGKILL) to child ``name`` and reap it if it was killed."""
+        child = self.children[name]
+        if child.proc.poll() is None:
+            child.proc.send_signal(sig)
+            if sig == signal.SIGKILL:
+                child.proc.wait(timeout=10)
+
+    def respawn(self, name: str, *, wait: bool = True) -> Child:
+        """Start child ``name`` again with the same command line (after it died); returns the new Child."""
+        old = self.children[name]
+        if old.proc.poll() is None:
+            raise RuntimeError(f"{name} (pid {old.pid}) is still running")
+        proc = _popen(old.argv, old.log)
+        child = Child(name, old.argv, proc, old.token, old.serves, old.log)
+        self.children[name] = child
+        if wait:
+            self._wait_live([child])
+        return child
+
+    # ----- stopping --------------------------------------------------------------------------
+    def stop(self) -> dict[str, int | None]:
+        """SIGTERM every child (recorder last), SIGKILL stragglers, close the session.
+
+        Returns {name: exit code}. Safe to call twice.
+        """
+        order = [c for n, c in self.children.items() if n != "recorder"]
+        if "recorder" in self.children:
+            order.append(self.children["recorder"])
+        for group in (order[:-1], order[-1:]) if "recorder" in self.children else (order,):
+            for c in group:
+                if c.proc.poll() is None:
+                    with contextlib.suppress(ProcessLookupError):
+                        c.proc.send_signal(signal.SIGTERM)
+            deadline = time.monotonic() + self.stop_timeout
+            for c in group:
+                try:
+                    c.proc.wait(timeout=max(0.1, deadline - time.monotonic()))
+                except subprocess.TimeoutExpired:
+                    c.proc.kill()
+                    c.proc.wait(timeout=10)
+        self._stack.close()
+        self.session = None
+        codes = {n: c.proc.returncode for n, c in self.children.items()}
+        if self._tmp is not None:
+            self._tmp.cleanup()
+            self._tmp = None
+        return codes
+
+    def __enter__(self) -> "LocalDeployment":
+        return self.start()
+
+    def __exit__(self, *exc) -> None:
+        self.stop()
+
+
+def _popen(argv: list[str], log: Path) -> subprocess.Popen:
+    """Start a child in its own session (a terminal's Ctrl-C reaches only the launcher), output to ``log``;
+    it watches the launcher's pid (services.transport.lifetime.watch_parent)."""
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])),
+               RERUN_ANALYTICS="0", OMP_NUM_THREADS="1", PYTHONUNBUFFERED="1")
+    env[PARENT_PID_ENV] = str(os.getpid())  # children stop when the launcher dies (even by kill -9)
+    env.pop("RERUN", None)  # RERUN=off would silence the recorder
+    with open(log, "ab") as out:
+        return subprocess.Popen(argv, cwd=ROOT, env=env, stdin=subprocess.DEVNULL, stdout=out,
+                                stderr=subprocess.STDOUT, start_new_session=True)
+
+
+def _tail(path: Path | None, n: int = 20) -> str:
+    """Last ``n`` lines of a log file ('' if unreadable)."""
+    try:
+        return "\n".join(Path(path).read_text(errors="replace").splitlines()[-n:])
+    except (OSError, TypeError):
+        return ""

@@ -1,0 +1,19 @@
+"""The learner wing: owns the skills, trains them, runs adaptation jobs, checkpoints everything.
+
+========================  =========================================================
+module                    one job
+========================  =========================================================
+``core``                  zenoh-free: :class:`LearnerCore` (skills, training, the job
+                          loop, assimilation), :class:`TrainSpec`
+``jobs``                  :class:`JobRecord`: one job's request, progress and result
+``store``                 checkpoints of skills and job records on disk
+``service``               :class:`LearnerService` on a session, :class:`LearnerConfig`
+========================  =========================================================
+"""
+from .core import LearnerCore, TrainSpec, UnknownJobError, UnknownSkillError
+from .jobs import JOB_STATES, JobRecord
+from .service import LearnerConfig, LearnerService, parse_train_request
+from .store import JobStore, SkillState, SkillStore
+
+__all__ = ["LearnerCore", "TrainSpec", "UnknownJobError", "UnknownSkillError", "JOB_STATES", "JobRecord",
+           "LearnerConfig", "LearnerService", "parse_train_request", "JobStore", "SkillState", "SkillStore"]

@@ -1,0 +1,292 @@
+"""The learner without zenoh: skills (CNMP + demonstrations + version), training, adaptation jobs.
+
+:class:`LearnerCore` owns the durable state (services/learner/store.py) and runs one job at a time
+on a background thread: :func:`acnmp_core.adaptation.adapt` on a copy of the skill's model, with the
+evaluator its ``evaluator_for`` callable builds for the job (the service passes a
+:class:`~services.worker.remote.RemoteEvaluator` over the workers; a test may pass the in-process
+task). With ``commit`` a successful solution is assimilated: added to the demonstrations, the model
+trains on (``fit_normalization=False``) and a new version is committed. Everything the outside
+sees goes through two callables: ``publish(event)`` for events (services/recording/events.py) and
+``on_version(state)`` when a skill version is committed (the service puts the weights).
+
+Restart: skills reload with their demonstrations (hash-checked); a job that was running restarts
+**from its beginning with the same seed** under a new ``attempt`` number (adapt() cannot be resumed
+mid-way). Roll-out indices stay global over attempts: an attempt's events continue after the
+indices the earlier attempts reserved, so a recording never holds one index twice. Every event of
+a job carries ``attempt``; the job status reports ``rollouts`` (what the final attempt used) and
+``rollouts_executed`` (all attempts). A job whose adaptation had finished but whose assimilation
+had not is only re-assimilated (once).
+"""
+from __future__ import annotations
+
+import copy
+import logging
+import os
+import queue
+import threading
+import time
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+import torch
+
+from acnmp_core.adapt_job import AdaptJob
+from acnmp_core.adaptation import AdaptTarget, IterationLog, adapt
+from acnmp_core.cnmp import CNMP, CNMPConfig
+from acnmp_core.data import DemoSet, Demonstration
+from acnmp_core.rollout import RolloutBatch, RolloutEvaluator
+from acnmp_core.training import TrainConfig, train
+from services.recording.events import (batch_rollout_events, job_progress_event, latent_event,
+                                       model_version_event, robot_drawing)
+
+from .jobs import UNFINISHED, JobRecord
+from .store import JobStore, SkillState, SkillStore
+
+log = logging.getLogger(__name__)
+
+
+class UnknownSkillError(ValueError):
+    """No skill of that name on this learner (answered ``unknown_skill``)."""
+
+
+class UnknownJobError(ValueError):
+    """No job of that id on this learner (answered ``unknown_job``)."""
+
+
+@dataclass(frozen=True)
+class TrainSpec:
+    """A validated train request: demonstrations, model and training settings, seed."""
+
+    demos: DemoSet
+    model_cfg: CNMPConfig
+    train_cfg: TrainConfig
+    seed: int = 0
+
+
+class LearnerCore:
+    """Skills and jobs of one learner; :meth:`start` runs queued jobs, :meth:`close` stops.
+
+    Parameters
+    ----------
+    state_dir : where skills and jobs are checkpointed.
+    evaluator_for : ``job -> RolloutEvaluator`` that executes the job's roll-outs.
+    publish : ``event -> None``; every event the learner emits (versions, latents, roll-outs, progress).
+    on_version : ``SkillState -> None``; called after a new version is checkpointed, before its events.
+    """
+
+    def __init__(self, state_dir: str | os.PathLike, *, evaluator_for: Callable[[AdaptJob], RolloutEvaluator],
+                 publish: Callable[[dict], None] = lambda _event: None,
+                 on_version: Callable[[SkillState], None] = lambda _state: None):
+        self.skill_store = SkillStore(state_dir)
+        self.job_store = JobStore(state_dir)
+        self.evaluator_for, self.publish, self.on_version = evaluator_for, publish, on_version
+        self._lock = threading.RLock()  # guards skills and jobs
+        self._train_lock = threading.Lock()  # one training at a time (the machine has few cores)
+        self.skills: dict[str, SkillState] = self.skill_store.load_all()
+        self.jobs: dict[str, JobRecord] = self.job_store.load_all()
+        self._queue: queue.Queue = queue.Queue()
+        self._stop = threading.Event()
+        for job in self.jobs.values():
+            if job.state in UNFINISHED:
+                if job.state == "running":  # interrupted: restart under a new attempt number
+                    job.attempt += 1
+                    job.state = "queued"
+                    self.job_store.save(job)
+                self._queue.put(job.job)
+        self._thread = threading.Thread(target=self._job_loop, name="jobs", daemon=True)
+
+    def start(self) -> "LearnerCore":
+        """Start running queued jobs (on a background thread); returns self."""
+        self._thread.start()
+        return self
+
+    # ----- skills ----------------------------------------------------------------------------
+    def skill(self, name: str) -> SkillState:
+        """The current state of skill ``name``; :class:`UnknownSkillError` if there is none."""
+        with self._lock:
+            state = self.skills.get(name)
+        if state is None:
+            raise UnknownSkillError(f"no skill {name!r}; train it first")
+        return state
+
+    def skill_states(self) -> dict[str, SkillState]:
+        """A snapshot of every skill's current state, by name (committed states are never mutated)."""
+        with self._lock:
+            return dict(self.skills)
+
+    def train_skill(self, skill: str, spec: TrainSpec) -> SkillState:
+        """Train a new model for ``skill`` on ``spec``, checkpoint and commit it as the next version."""
+        model = CNMP(spec.model_cfg, seed=spec.seed)
+        with self._train_lock:
+            res = train(model, spec.demos, spec.train_cfg, seed=spec.seed, progress=False)
+        with self._lock:
+            old = self.skills.get(skill)
+            state = SkillState(skill, model, spec.demos, 0 if old is None else old.version + 1)
+            self._commit_skill(state, loss=res.best_val, note="trained")
+        return state
+
+    def _commit_skill(self, state: SkillState, **extra) -> None:
+        # checkpoint first (a published version must survive a crash), then announce it
+        self.skill_store.save(state)
+        self.skills[state.name] = state
+        self.on_version(state)
+        self.publish(model_version_event(state.name, state.version, n_demos=len(state.demos),
+                                         **{k: v for k, v in extra.items() if v is not None}))
+        # The latent of every demonstration under this version, for the recording's latent view.
+        for i, demo in enumerate(state.demos):
+            latent = state.model.encode_demo(demo.times, demo.values, demo.task_params)
+            self.publish(latent_event(state.name, state.version, latent, label=f"demo{i}"))
+        log.info("skill %s: version %d (%d demos)", state.name, state.version, len(state.demos))
+
+    # ----- jobs ------------------------------------------------------------------------------
+    def submit(self, skill: str, request: AdaptJob) -> JobRecord:
+        """Queue ``request`` on ``skill``; returns the new job's record.
+
+        Raises :class:`UnknownSkillError`, or the typed ValueError of a target that does not fit
+        the skill's model (wrong output dimension, task parameters, time range).
+        """
+        model = self.skill(skill).model
+        request.target.query(model)  # the target must fit this skill's model
+        job = JobRecord.new(skill, request)
+        with self._lock:
+            self.jobs[job.job] = job
+            self.job_store.save(job)
+        self._queue.put(job.job)
+        return job
+
+    def status(self, job_id: str) -> dict:
+        """The status reply of job ``job_id``; :class:`UnknownJobError` if there is none."""
+        with self._lock:
+            job = self.jobs.get(job_id)
+            if job is None:
+                raise UnknownJobError(f"no job {job_id!r}")
+            return job.status()
+
+    def wait_idle(self, timeout: float | None = None) -> bool:
+        """Block until no job is queued or running (True), or ``timeout`` passes (False). For tests."""
+        end = None if timeout is None else time.monotonic() + timeout
+        while True:
+            with self._lock:
+                if all(j.state not in UNFINISHED for j in self.jobs.values()):
+                    return True
+            if end is not None and time.monotonic() > end:
+                return False
+            time.sleep(0.05)
+
+    def _job_loop(self) -> None:
+        torch.set_num_threads(1)
+        while not self._stop.is_set():
+            try:
+                job_id = self._queue.get(timeout=0.2)
+            except queue.Empty:
+                continue
+            try:
+                self._run_job(job_id)
+            except InterruptedError:  # shutting down: the record stays "running", a restart resumes it
+                log.info("job %s interrupted by shutdown", job_id)
+                return
+            except Exception as exc:  # a job failure must not stop the loop
+                log.exception("job %s failed", job_id)
+                with self._lock:
+                    job = self.jobs[job_id]
+                    job.state, job.error = "failed", f"{type(exc).__name__}: {exc}"
+                    self.job_store.save(job)
+                self._safe_progress(job, "failed")
+
+    def _safe_progress(self, job: JobRecord, state: str) -> None:
+        try:
+            self.publish(self._progress_event(job, state))
+        except Exception:
+            log.exception("could not publish progress of %s", job.job)
+
+    @staticmethod
+    def _progress_event(job: JobRecord, state: str) -> dict:
+        ev = job_progress_event(job.job, job.iteration, job.rollouts, job.best_return, state=state, skill=job.skill)
+        ev["attempt"] = int(job.attempt)
+        return ev
+
+    def _run_job(self, job_id: str) -> None:
+        with self._lock:
+            job = self.jobs[job_id]
+            if self._stop.is_set() or job.state not in UNFINISHED:
+                return
+            skill = self.skills[job.skill]
+            model, demos, start_version = copy.deepcopy(skill.model), skill.demos, skill.version
+            job.state = "running"
+            job.attempt_start_index = job.next_index
+            self.job_store.save(job)
+        req = job.request
+        if job.result is None:
+            on_iteration = self._recording(job)
+            job_result = adapt(model, demos, req.target, self.evaluator_for(req), req.config, seed=req.seed,
+                               on_iteration=on_iteration)
+            with self._lock:
+                job.rollouts = job_result.rollouts
+                job.result = job_result
+                self.job_store.save(job)  # adaptation done: a crash from here on only re-assimilates
+        if req.commit and job.result.success:
+            self._assimilate(job, model if skill.version == start_version else None)
+        with self._lock:
+            job.state = "done"
+            self.job_store.save(job)
+        self.publish(self._progress_event(job, "done"))
+
+    def _recording(self, job: JobRecord) -> Callable[[IterationLog, np.ndarray, RolloutBatch], None]:
+        """The ``on_iteration`` callback of ``job``'s adaptation: bookkeeping, then one rollout event
+        per executed trajectory and a progress event; raises InterruptedError once closing."""
+        target: AdaptTarget = job.request.target
+        drawing = robot_drawing(job.request.robot)
+        # a drawn robot shows its own states; a point robot shows the conditioning points instead
+        condition = None if drawing is not None else {"times": target.obs_times, "values": target.obs_values}
+
+        def on_iteration(it_log: IterationLog, trajectories: np.ndarray, batch: RolloutBatch) -> None:
+            if self._stop.is_set():
+                raise InterruptedError("learner is shutting down")
+            with self._lock:
+                first = job.next_index
+                job.next_index += len(batch)  # reserve the indices before any event names them
+                job.iteration = it_log.iteration
+                job.rollouts = it_log.rollouts
+                best = float(np.max(batch.returns))
+                job.best_return = best if job.best_return is None else max(job.best_return, best)
+                self.job_store.save(job)
+            for ev in batch_rollout_events(job.job, first, trajectories, target.query_times, batch,
+                                           task_params=target.task_params, condition=condition,
+                                           iteration=it_log.iteration, skill=job.skill, drawing=drawing):
+                ev["attempt"] = int(job.attempt)
+                self.publish(ev)
+            self.publish(self._progress_event(job, "running"))
+
+        return on_iteration
+
+    def _assimilate(self, job: JobRecord, adapted: CNMP | None) -> None:
+        """Add the job's solution to the skill's demos, train on, commit a new version (once)."""
+        res, req = job.result, job.request
+        traj, times = res.trajectory, res.times
+        with self._lock:
+            skill = self.skills[job.skill]
+            last = skill.demos[len(skill.demos) - 1]
+            if last.values.shape == traj.shape and np.array_equal(last.values, traj) \
+                    and np.array_equal(last.times, times):
+                job.committed_version = skill.version  # committed before a crash; do not add it twice
+                return
+            # the adapted copy found the solution; if the skill changed meanwhile, train the new one
+            model = adapted if adapted is not None else copy.deepcopy(skill.model)
+            tp = req.target.task_params
+            params = np.zeros(skill.demos.n_task_params) if tp is None else tp
+            demos = skill.demos.added(Demonstration(times, traj, params))
+        with self._train_lock:
+            train(model, demos, TrainConfig(steps=req.assimilate_steps), seed=req.seed + 1,
+                  fit_normalization=False, progress=False)
+        with self._lock:
+            state = SkillState(skill.name, model, demos, self.skills[skill.name].version + 1)
+            self._commit_skill(state, note=f"assimilated {job.job}")
+            job.committed_version = state.version
+            self.job_store.save(job)
+
+    def close(self, timeout: float = 10.0) -> None:
+        """Stop running jobs: the running one is interrupted at its next iteration and resumes on restart."""
+        self._stop.set()
+        if self._thread.is_alive():
+            self._thread.join(timeout=timeout)

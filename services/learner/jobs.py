@@ -1,0 +1,83 @@
+"""An adaptation job as the learner keeps it: the request, where it stands, and its result.
+
+One :class:`JobRecord` per job lives in the learner's memory and, as JSON, in
+``<state_dir>/jobs/<job>.json`` (services/learner/store.py). The request is the typed
+:class:`~acnmp_core.adapt_job.AdaptJob` and the result the typed
+:class:`~acnmp_core.adaptation.AdaptResult`; only :meth:`JobRecord.to_dict` and
+:meth:`JobRecord.from_dict` turn them into plain values and back. The JSON layout is the one the
+learner has always written, so job records of earlier versions load.
+"""
+from __future__ import annotations
+
+import time
+import uuid
+from dataclasses import dataclass, field
+from typing import Any
+
+from acnmp_core.adapt_job import AdaptJob, result_from_dict, result_to_dict
+from acnmp_core.adaptation import AdaptResult
+from services.transport.wire import jsonable
+
+#: Job states: queued -> running -> done | failed. A running job found at start-up was interrupted.
+JOB_STATES = ("queued", "running", "done", "failed")
+UNFINISHED = ("queued", "running")
+
+
+@dataclass
+class JobRecord:
+    """One job.
+
+    job : id ``<skill>-<10 hex>``. skill : the skill it adapts. request : what was asked.
+    state : one of :data:`JOB_STATES`. attempt : 0, +1 per restart after an interruption.
+    next_index : next free roll-out index (indices are global over attempts; reserved before the
+        events naming them are published). attempt_start_index : first index of this attempt.
+    iteration, rollouts : of the current attempt. best_return : best return seen, or None.
+    result : the adaptation's outcome once it finished. error : why it failed.
+    committed_version : the skill version holding the assimilated solution.
+    created, updated : wall time (s since the epoch).
+    """
+
+    job: str
+    skill: str
+    request: AdaptJob
+    state: str = "queued"
+    attempt: int = 0
+    next_index: int = 0
+    attempt_start_index: int = 0
+    iteration: int = 0
+    rollouts: int = 0
+    best_return: float | None = None
+    result: AdaptResult | None = None
+    error: str | None = None
+    committed_version: int | None = None
+    created: float = field(default_factory=time.time)
+    updated: float = 0.0
+
+    @classmethod
+    def new(cls, skill: str, request: AdaptJob) -> "JobRecord":
+        """A fresh, queued job for ``request`` on ``skill`` with a new id."""
+        return cls(f"{skill}-{uuid.uuid4().hex[:10]}", skill, request)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON-ready map written to the job's file."""
+        out = {k: getattr(self, k) for k in self.__dataclass_fields__}
+        out["request"] = self.request.to_dict()
+        out["result"] = None if self.result is None else result_to_dict(self.result)
+        return jsonable(out)
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> "JobRecord":
+        """Inverse of :meth:`to_dict`."""
+        values = {k: d[k] for k in cls.__dataclass_fields__ if k in d}
+        values["request"] = AdaptJob.from_dict(d["request"])
+        values["result"] = None if d.get("result") is None else result_from_dict(d["result"])
+        return cls(**values)
+
+    def status(self) -> dict[str, Any]:
+        """The job status reply (docs/PROTOCOL.md, ``job/<job>/status``)."""
+        req = self.request
+        return {"v": 1, "job": self.job, "skill": self.skill, "state": self.state, "attempt": self.attempt,
+                "iteration": self.iteration, "rollouts": self.rollouts, "rollouts_executed": self.next_index,
+                "best_return": self.best_return, "error": self.error, "committed_version": self.committed_version,
+                "task": req.task, "robot": req.robot, "commit": req.commit,
+                "result": None if self.result is None else result_to_dict(self.result)}

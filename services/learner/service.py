@@ -1,0 +1,279 @@
+"""The learner process: the zenoh side of :class:`~services.learner.core.LearnerCore`.
+
+Declared entities (``<ns>`` namespace; docs/PROTOCOL.md has every field):
+
+- queryables ``acnmp/<ns>/skill/*/train`` (train a skill from demonstrations -> new version),
+  ``acnmp/<ns>/skill/*/adapt`` (queue an adaptation job -> job id), ``acnmp/<ns>/job/*/status``
+  and ``acnmp/<ns>/skill/*/weights/latest`` (a wildcard query gets one reply per skill);
+- puts: weights messages on ``acnmp/<ns>/skill/<skill>/weights`` (services/model/weights.py), and
+  the core's events (services/recording/events.py): ``model_version`` per version, per job one
+  ``rollout`` per executed trajectory and one ``job_progress`` per iteration;
+- liveliness token ``acnmp/<ns>/learner/<id>`` once all of the above exist.
+
+An adapt request is decoded once into an :class:`~acnmp_core.adapt_job.AdaptJob`
+(:meth:`~acnmp_core.adapt_job.AdaptJob.from_dict`); the core runs it with a
+:class:`~services.worker.remote.RemoteEvaluator` over the workers of the job's robot kind.
+"""
+from __future__ import annotations
+
+import dataclasses
+import logging
+import os
+import threading
+from dataclasses import dataclass
+from pathlib import Path
+from typing import ClassVar, Sequence
+
+import zenoh
+
+from acnmp_core.adapt_job import AdaptJob
+from acnmp_core.cnmp import CNMPConfig
+from acnmp_core.data import DemoSet
+from acnmp_core.demo_io import load_demos
+from acnmp_core.training import TrainConfig
+from services.model.weights import encode_weights
+from services.recording.publisher import EventPublisher
+from services.transport import Keyspace, Ready, Service, WireError, declare_rpc, option, wait_until_stopped
+from services.transport.errors import wire_error
+from services.transport.keys import check_name, job_from_key, skill_from_key
+from services.transport.wire import array_field, error_payload, field
+from services.worker.remote import RemoteEvaluator
+
+from .core import LearnerCore, TrainSpec, UnknownJobError, UnknownSkillError
+from .store import SkillState
+
+log = logging.getLogger(__name__)
+
+#: Bound on the demonstrations of one train request (N * T * D values).
+MAX_DEMO_VALUES = 10_000_000
+#: Model-architecture fields a train request may set (the rest come from the data).
+MODEL_FIELDS = ("encoder_widths", "decoder_widths", "std_floor")
+TRAIN_FIELDS = tuple(f.name for f in dataclasses.fields(TrainConfig))
+
+
+def _overrides(msg: dict, key: str, allowed: Sequence[str]) -> dict:
+    """The map ``msg[key]`` (default {}) checked to hold only ``allowed`` keys of plain values."""
+    value = field(msg, key, dict, default={})
+    unknown = sorted(set(value) - set(allowed))
+    if unknown:
+        raise WireError("bad_request", f"field '{key}': unknown setting(s) {unknown}; allowed: {list(allowed)}")
+    return {k: (list(v) if isinstance(v, tuple) else v) for k, v in value.items()}
+
+
+def parse_train_request(msg: dict | None) -> TrainSpec:
+    """Validate a train request; returns a :class:`TrainSpec`. Raises WireError.
+
+    Request: ``times`` (N,T) or (T,), ``values`` (N,T,D), ``task_params`` (N,P) optional,
+    ``value_names`` (D,) / ``task_param_names`` (P,) optional lists of str, ``model`` (overrides
+    of encoder_widths, decoder_widths, std_floor), ``train`` (TrainConfig overrides), ``seed`` int.
+    """
+    if msg is None:
+        raise WireError("bad_request", "a train request needs a payload")
+    values = array_field(msg, "values", ndim=3, max_elements=MAX_DEMO_VALUES)
+    n, t, d = values.shape
+    if n < 1 or t < 2 or d < 1:
+        raise WireError("bad_shape", f"field 'values': shape {values.shape}, need N>=1, T>=2, D>=1")
+    times = array_field(msg, "times", ndim=(1, 2))
+    if times.shape not in ((t,), (n, t)):
+        raise WireError("bad_shape", f"field 'times': expected ({t},) or ({n}, {t}), got {times.shape}")
+    tp = array_field(msg, "task_params", ndim=2, default=None, max_elements=n * 1024)
+    if tp is not None and tp.shape[0] != n:
+        raise WireError("bad_shape", f"field 'task_params': expected {n} rows, got {tp.shape[0]}")
+    try:
+        demos = DemoSet.from_arrays(times, values, tp)
+    except ValueError as exc:
+        raise WireError("bad_request", f"demonstrations: {exc}") from None
+    model_cfg = _overrides(msg, "model", MODEL_FIELDS)
+    for key, count in (("value_names", d), ("task_param_names", demos.n_task_params)):
+        names = field(msg, key, list, default=None)
+        if names is not None:
+            if len(names) != count or not all(isinstance(s, str) for s in names):
+                raise WireError("bad_request", f"field '{key}': expected {count} strings")
+            model_cfg["output_names" if key == "value_names" else key] = names
+    try:
+        cnmp_cfg = CNMPConfig(n_outputs=d, n_task_params=demos.n_task_params, **model_cfg)
+        train_cfg = TrainConfig(**_overrides(msg, "train", TRAIN_FIELDS))
+    except (TypeError, ValueError) as exc:
+        raise WireError("bad_request", f"settings: {exc}") from None
+    if train_cfg.max_obs + 1 > t:
+        raise WireError("bad_request", f"train.max_obs: demonstrations of {t} points need max_obs < {t}")
+    return TrainSpec(demos, cnmp_cfg, train_cfg, field(msg, "seed", int, default=0))
+
+
+class LearnerService:
+    """The learner's queryables, token and weights puts on an open session, around a :class:`LearnerCore`.
+
+    Parameters
+    ----------
+    session : open zenoh session (closed by the caller after :meth:`close`).
+    keys : the deployment's :class:`Keyspace`. state_dir : where skills and jobs are checkpointed.
+    learner_id : liveliness id. wait_recorder : seconds to wait for a recorder before the first
+        event (0: do not wait; events published with no recorder are simply not recorded).
+    chunk_timeout : seconds a worker may take for its share of a batch before it is re-sent.
+    """
+
+    def __init__(self, session: zenoh.Session, keys: Keyspace, state_dir: str | os.PathLike, *,
+                 learner_id: str | None = None, wait_recorder: float = 0.0, chunk_timeout: float = 60.0):
+        self.session, self.keys = session, keys
+        self.learner_id = check_name("learner id", learner_id or f"learner-{os.getpid()}")
+        self.events = EventPublisher(session, keys)
+        self.wait_recorder = float(wait_recorder)
+        self.chunk_timeout = float(chunk_timeout)
+        self._recorder_checked = wait_recorder <= 0
+        self.core = LearnerCore(state_dir, evaluator_for=self._evaluator, publish=self._publish,
+                                on_version=self._put_weights)
+        self._rpcs = [
+            declare_rpc(session, keys.train("*"), self._handle_train, workers=1),
+            declare_rpc(session, keys.adapt("*"), self._handle_adapt, workers=1),
+            declare_rpc(session, keys.job_status("*"), self._handle_status, workers=1),
+        ]
+        self._latest = session.declare_queryable(keys.weights_latest("*"), self._handle_latest)
+        self.core.start()
+        self.token_key = keys.learner_token(self.learner_id)
+        self._token = session.liveliness().declare_token(self.token_key)
+
+    @property
+    def skills(self) -> dict[str, SkillState]:
+        """The core's skills by name."""
+        return self.core.skills
+
+    # ----- what the core calls ---------------------------------------------------------------
+    def _evaluator(self, job: AdaptJob) -> RemoteEvaluator:
+        return RemoteEvaluator(self.session, self.keys, job.robot, job.task, dict(job.task_config),
+                               timeout=self.chunk_timeout)
+
+    def _publish(self, event: dict) -> None:
+        if not self._recorder_checked:
+            self._recorder_checked = True
+            if not self.events.wait_for_recorder(self.wait_recorder):
+                log.warning("no recorder live after %.0fs: events are not recorded", self.wait_recorder)
+        self.events.publish(event)
+
+    def _put_weights(self, state: SkillState) -> None:
+        self.session.put(self.keys.weights(state.name), _weights(state),
+                         congestion_control=zenoh.CongestionControl.BLOCK)
+
+    # ----- handlers --------------------------------------------------------------------------
+    @staticmethod
+    def _skill_of(query: zenoh.Query, msg: dict | None = None) -> str:
+        try:
+            skill = skill_from_key(str(query.key_expr))
+        except ValueError as exc:
+            raise WireError("bad_request", str(exc)) from None
+        if msg is not None and msg.get("skill") not in (None, skill):
+            raise WireError("bad_request", f"field 'skill': {msg['skill']!r} differs from the key's {skill!r}")
+        return skill
+
+    def _handle_train(self, msg: dict | None, query: zenoh.Query) -> dict:
+        skill = self._skill_of(query, msg)
+        state = self.core.train_skill(skill, parse_train_request(msg))
+        return {"v": 1, "skill": skill, "version": state.version, "data_hash": state.demos.content_hash(),
+                "n_demos": len(state.demos)}
+
+    def _handle_adapt(self, msg: dict | None, query: zenoh.Query) -> dict:
+        skill = self._skill_of(query, msg)
+        if msg is None:
+            raise WireError("bad_request", "an adapt request needs a payload")
+        try:
+            job = self.core.submit(skill, AdaptJob.from_dict(msg))
+        except UnknownSkillError as exc:
+            raise WireError("unknown_skill", str(exc)) from None
+        except ValueError as exc:  # typed errors keep their code; the model's own checks are bad_request
+            raise wire_error(exc, default="bad_request") from None
+        return {"v": 1, "job": job.job, "skill": skill, "state": job.state}
+
+    def _handle_status(self, _msg, query: zenoh.Query) -> dict:
+        try:
+            return self.core.status(job_from_key(str(query.key_expr)))
+        except UnknownJobError as exc:
+            raise WireError("unknown_job", str(exc)) from None
+        except ValueError as exc:
+            raise WireError("bad_request", str(exc)) from None
+
+    def _handle_latest(self, query: zenoh.Query) -> None:
+        # hand-written (not declare_rpc): a wildcard query, as the model service sends at start,
+        # gets one reply per skill on that skill's concrete key
+        with query:
+            try:
+                chunk = str(query.key_expr).split("/")[3]
+                skills = self.core.skill_states()
+                if "*" in chunk:
+                    states = list(skills.values())
+                elif chunk in skills:
+                    states = [skills[chunk]]
+                else:
+                    query.reply_err(error_payload("unknown_skill", f"no skill {chunk!r} on this learner"))
+                    return
+                for state in states:
+                    query.reply(self.keys.weights_latest(state.name), _weights(state))
+            except Exception as exc:
+                log.exception("weights/latest failed")
+                query.reply_err(error_payload("internal", f"{type(exc).__name__}: {exc}"))
+
+    def close(self) -> None:
+        """Stop taking requests, interrupt the running job (it resumes on restart), undeclare all."""
+        for undeclare in (self._token.undeclare, *(rpc.close for rpc in self._rpcs), self._latest.undeclare):
+            try:
+                undeclare()
+            except Exception:  # the session may be closing under us
+                log.debug("undeclare failed", exc_info=True)
+        self.core.close()
+
+    def __enter__(self) -> "LearnerService":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def _weights(state: SkillState) -> bytes:
+    """The encoded weights message of a skill version."""
+    return encode_weights(state.name, state.version, state.model, data_hash=state.demos.content_hash(),
+                          n_demos=len(state.demos))
+
+
+def bootstrap(core: LearnerCore, specs: Sequence[str], steps: int) -> None:
+    """Train ``SKILL=FILE.npz`` demonstration files that are not skills yet (``--demos``)."""
+    for spec in specs:
+        if "=" not in spec:
+            raise ValueError(f"--demos: expected SKILL=FILE.npz, got {spec!r}")
+        name, path = spec.split("=", 1)
+        check_name("skill", name)
+        if name in core.skills:
+            continue
+        arrays = load_demos(path)
+        demos = arrays.to_demo_set()
+        cfg = CNMPConfig(n_outputs=demos.n_outputs, n_task_params=demos.n_task_params,
+                         output_names=() if arrays.value_names is None else tuple(arrays.value_names),
+                         task_param_names=() if arrays.task_param_names is None else tuple(arrays.task_param_names))
+        core.train_skill(name, TrainSpec(demos, cfg, TrainConfig(steps=steps)))
+
+
+@dataclass
+class LearnerConfig(Service):
+    """The learner's options; :meth:`serve` runs it on an open session."""
+
+    name: ClassVar[str] = "learner"
+    summary: ClassVar[str] = "the learner: trains skills, runs adaptation jobs, checkpoints"
+
+    state_dir: str = option("runs/state", "checkpoints of skills and jobs (default: %(default)s)", metavar="DIR")
+    learner_id: str | None = option(None, "learner id (default: learner-<pid>)", flag="--id")
+    demos: list[str] = option([], "train SKILL from a demonstration file at start unless it exists (repeatable)",
+                              metavar="SKILL=FILE.npz")
+    train_steps: int = option(3000, "steps for --demos (default: %(default)s)")
+    wait_recorder: float = option(0.0, "wait up to S seconds for a recorder before the first event (default: 0)",
+                                  metavar="S")
+    chunk_timeout: float = option(60.0, "seconds a worker may take for its share of a batch (default: %(default)s)",
+                                  metavar="S")
+
+    def serve(self, session: zenoh.Session, stop: threading.Event, ready: Ready) -> int:
+        import torch
+
+        torch.set_num_threads(1)
+        with LearnerService(session, Keyspace(self.session.namespace), self.state_dir, learner_id=self.learner_id,
+                            wait_recorder=self.wait_recorder, chunk_timeout=self.chunk_timeout) as learner:
+            bootstrap(learner.core, self.demos, self.train_steps)
+            ready(f"learner live as {learner.token_key}; skills: {sorted(learner.skills) or 'none yet'}; "
+                  f"state in {Path(self.state_dir).resolve()}")
+            wait_until_stopped(stop)
+        return 0

@@ -1,0 +1,228 @@
+"""The model service's logic without zenoh: a registry of hot-swappable skill models and the
+predict/info request handlers (decoded request map in, reply map out, :class:`WireError` on bad input).
+
+services/model/service.py wires these to zenoh queryables; tests and benchmarks call them in-process.
+"""
+from __future__ import annotations
+
+import threading
+import time
+from dataclasses import dataclass, field as dc_field
+from typing import Iterable
+
+import numpy as np
+import torch
+
+from acnmp_core.cnmp import CNMP
+from services.transport.errors import wire_error
+from services.transport.wire import WireError, array_field, field
+
+#: Bounds on one predict request (absurd sizes get ``too_large``, never a stalled service).
+MAX_OBS = 4096            # observations N
+MAX_QUERY_STEPS = 20_000  # query times T
+MAX_SAMPLES = 1000        # samples S
+MAX_SAMPLE_VALUES = 4_000_000  # S * T * D
+MAX_BATCH = 64            # requests in one batched query
+
+
+@dataclass
+class SkillModel:
+    """One served model: the CNMP (eval mode, never mutated once served) and its provenance."""
+
+    skill: str
+    version: int
+    model: CNMP
+    data_hash: str = ""
+    n_demos: int = 0
+    source: str = "learner"
+    loaded_at: float = dc_field(default_factory=time.time)
+
+
+class ModelRegistry:
+    """Skill name -> :class:`SkillModel`, swapped atomically.
+
+    A handler takes the current entry once (:meth:`get`) and runs on it to the end, so a swap
+    while a query is in flight never fails it: the old model answers that query, the next one
+    gets the new model. Entries are built completely before :meth:`offer` swaps the reference.
+
+    Parameters
+    ----------
+    skills : names this registry is restricted to; None serves any skill that is offered.
+    """
+
+    def __init__(self, skills: Iterable[str] | None = None):
+        self._lock = threading.Lock()
+        self._models: dict[str, SkillModel] = {}
+        self.allowed: frozenset[str] | None = None if skills is None else frozenset(skills)
+
+    def accepts(self, skill: str) -> bool:
+        """True if ``skill`` may be served here (always, when not restricted)."""
+        return self.allowed is None or skill in self.allowed
+
+    def offer(self, entry: SkillModel) -> bool:
+        """Serve ``entry`` if its skill is accepted and its version is newer than the one served.
+
+        Returns True if it was swapped in. Stale or repeated versions (e.g. a ``weights/latest``
+        reply arriving after a newer publication) are ignored, so versions only increase.
+        """
+        if not self.accepts(entry.skill):
+            return False
+        with self._lock:
+            current = self._models.get(entry.skill)
+            if current is not None and entry.version <= current.version:
+                return False
+            self._models[entry.skill] = entry
+            return True
+
+    def get(self, skill: str) -> SkillModel:
+        """The entry serving ``skill``; WireError ``unknown_skill`` if there is none (yet)."""
+        with self._lock:
+            entry = self._models.get(skill)
+        if entry is None:
+            if self.accepts(skill) and self.allowed is not None:
+                raise WireError("unknown_skill", f"skill {skill!r} has no model yet (waiting for weights from the learner)")
+            served = ", ".join(self.skills()) or "none"
+            raise WireError("unknown_skill", f"no model for skill {skill!r} here (served: {served})")
+        return entry
+
+    def skills(self) -> list[str]:
+        """Sorted names of the skills that have a model now."""
+        with self._lock:
+            return sorted(self._models)
+
+    def missing(self) -> list[str]:
+        """Sorted names of the restricted skills that still have no model (empty if unrestricted)."""
+        if self.allowed is None:
+            return []
+        with self._lock:
+            return sorted(self.allowed - set(self._models))
+
+
+# --------------------------------------------------------------------------------------------
+# predict
+
+
+def _int_field(msg: dict, key: str, lo: int, hi: int, default=None):
+    """An optional int field within [lo, hi]; ``too_large`` above ``hi``, ``bad_request`` below ``lo``."""
+    value = field(msg, key, int, default=default)
+    if value is None:
+        return None
+    if value > hi:
+        raise WireError("too_large", f"field '{key}': {value}, at most {hi}")
+    if value < lo:
+        raise WireError("bad_request", f"field '{key}': must be >= {lo}, got {value}")
+    return value
+
+
+def predict_one(entry: SkillModel, request: dict) -> dict:
+    """Answer one predict request (decoded map) with ``entry``'s model.
+
+    Request: ``obs_times`` (N,), ``obs_values`` (N, D), optional ``obs_dims_mask`` (N, D) bool,
+    optional ``task_params`` (P,), ``query_times`` (T,) or ``n_steps`` int, optional
+    ``n_samples`` int with optional ``seed`` int. Returns ``{"v", "skill", "version", "times" (T,),
+    "mean" (T, D), "std" (T, D), "latent" (L,)}`` in raw units (float64), plus ``"samples"``
+    (S, T, D) drawn independently per step from N(mean, std^2) when ``n_samples`` is given.
+    Raises WireError (bad_request, bad_shape, bad_dtype, non_finite, too_large).
+    """
+    if not isinstance(request, dict):
+        raise WireError("bad_request", "a predict request must be a map")
+    cfg = entry.model.config
+    d, p = cfg.n_outputs, cfg.n_task_params
+    obs_times = array_field(request, "obs_times", ndim=1, kinds="fi", max_elements=MAX_OBS)
+    obs_values = array_field(request, "obs_values", shape=(obs_times.shape[0], d), kinds="fi")
+    dims = array_field(request, "obs_dims_mask", shape=obs_values.shape, kinds="b", default=None)
+    task_params = array_field(request, "task_params", shape=(p,), kinds="fi", default=None)
+    query_times = array_field(request, "query_times", ndim=1, kinds="fi", default=None,
+                              max_elements=MAX_QUERY_STEPS)
+    n_steps = _int_field(request, "n_steps", 2, MAX_QUERY_STEPS)
+    if query_times is not None and n_steps is not None:
+        raise WireError("bad_request", "give either 'query_times' or 'n_steps', not both")
+    n_samples = _int_field(request, "n_samples", 0, MAX_SAMPLES)
+    seed = field(request, "seed", int, default=None)
+    try:
+        query = entry.model.make_query(obs_times, obs_values, task_params, query_times,
+                                       n_steps=n_steps, obs_dims_mask=dims)
+    except ValueError as exc:  # every ValueError of make_query is about the request; typed ones carry their code
+        raise wire_error(exc, default="bad_request") from None
+    pred = entry.model.predict_query(query)
+    reply = {"v": 1, "skill": entry.skill, "version": entry.version, "times": pred.times,
+             "mean": pred.mean, "std": pred.std, "latent": pred.latent}
+    if n_samples:
+        if n_samples * pred.mean.size > MAX_SAMPLE_VALUES:
+            raise WireError("too_large", f"{n_samples} samples of {pred.mean.shape} exceed {MAX_SAMPLE_VALUES} values")
+        if seed is not None and seed < 0:
+            raise WireError("bad_request", f"field 'seed': must be >= 0, got {seed}")
+        rng = np.random.default_rng(seed)
+        reply["samples"] = pred.mean + pred.std * rng.standard_normal((n_samples, *pred.mean.shape))
+    return reply
+
+
+_thread_state = threading.local()
+
+
+def _pin_threads() -> None:
+    """Give this thread the process's torch thread count.
+
+    MKL keeps its thread count per OS thread: a fresh handler thread would use every core, and a
+    different summation order changes float32 results in the last bits. Re-applying the process
+    setting makes a predict over zenoh equal the in-process one exactly.
+    """
+    if not getattr(_thread_state, "pinned", False):
+        torch.set_num_threads(torch.get_num_threads())
+        _thread_state.pinned = True
+
+
+def handle_predict(registry: ModelRegistry, skill: str, request) -> dict:
+    """Answer a predict query for ``skill``: a single request or ``{"batch": [request, ...]}``.
+
+    The entry is taken once, so every item of a batch uses the same model version. A batched
+    reply is ``{"v", "skill", "version", "results": [single reply, ...]}``; a bad item fails the
+    whole batch with its index in the message.
+    """
+    if request is None:
+        raise WireError("bad_request", "a predict query needs a payload (obs_times, obs_values, ...)")
+    entry = registry.get(skill)
+    _pin_threads()
+    if "batch" not in request:
+        return predict_one(entry, request)
+    batch = field(request, "batch", list)
+    if not batch:
+        raise WireError("bad_request", "field 'batch': empty")
+    if len(batch) > MAX_BATCH:
+        raise WireError("too_large", f"field 'batch': {len(batch)} requests, at most {MAX_BATCH}")
+    results = []
+    for i, item in enumerate(batch):
+        try:
+            results.append(predict_one(entry, item))
+        except WireError as exc:
+            raise WireError(exc.code, f"batch[{i}]: {exc.message}") from None
+    return {"v": 1, "skill": entry.skill, "version": entry.version, "results": results}
+
+
+# --------------------------------------------------------------------------------------------
+# info
+
+
+def info_reply(entry: SkillModel) -> dict:
+    """Describe a served model: dimensions, names, ranges (raw units, from the model's normalisers),
+    version and training-data summary. Plain types and small float64 arrays only."""
+    model, cfg = entry.model, entry.model.config
+    t_lo, t_hi = model.time_range()
+    p_lo, p_hi = model.task_norm.range_np()
+    v_lo, v_hi = model.value_norm.range_np()
+    return {
+        "v": 1, "skill": entry.skill, "version": entry.version,
+        "n_outputs": cfg.n_outputs, "n_task_params": cfg.n_task_params, "latent_dim": cfg.latent_dim,
+        "output_names": list(cfg.output_names), "task_param_names": list(cfg.task_param_names),
+        "time_range": [t_lo, t_hi],
+        "task_param_low": p_lo.astype(np.float64), "task_param_high": p_hi.astype(np.float64),
+        "value_low": v_lo.astype(np.float64), "value_high": v_hi.astype(np.float64),
+        "data_hash": entry.data_hash, "n_demos": entry.n_demos,
+        "source": entry.source, "loaded_at": float(entry.loaded_at),
+        "config": cfg.to_dict(),
+    }
+
+
+def handle_info(registry: ModelRegistry, skill: str, _request=None) -> dict:
+    """Answer an info query for ``skill`` (payload ignored); WireError ``unknown_skill`` if none."""
+    return info_reply(registry.get(skill))

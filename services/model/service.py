@@ -1,0 +1,227 @@
+"""The model service: serves CNMP skills over zenoh and hot-swaps the weights the learner publishes.
+
+Declared entities (``<ns>`` the namespace, ``<skill>`` a skill name):
+
+- queryables ``acnmp/<ns>/skill/*/predict`` and ``acnmp/<ns>/skill/*/info`` (``complete=False``),
+  dispatching on the skill chunk of the query's key: a query for a skill with no model gets
+  ``unknown_skill`` instead of silence. One wildcard queryable per operation rather than one per
+  skill, because zenoh hands a query to *every* matching queryable of a session: a per-skill
+  queryable next to a catch-all would run every predict twice (measured: it did). With several
+  model processes, each answers; :class:`clients.client.ACNMPClient` takes the successful reply;
+- subscriber ``acnmp/<ns>/skill/<skill|*>/weights`` (weights messages, services/model/weights.py);
+- liveliness tokens ``acnmp/<ns>/service/model/<zid>`` (the process, once its queryables exist)
+  and ``acnmp/<ns>/model/<skill>`` (one per skill, once it has a model).
+
+At start-up, and again every few seconds while a skill it should serve has no model, it queries
+``acnmp/<ns>/skill/<skill|*>/weights/latest``. Weights can also come from checkpoint files.
+Weights are decoded and the model built on one loader thread, then swapped in under a lock
+(services/model/handlers.py): queries in flight finish on the old model, versions only increase.
+"""
+from __future__ import annotations
+
+import logging
+import queue
+import threading
+from dataclasses import dataclass
+from pathlib import Path
+from typing import ClassVar, Sequence
+
+import zenoh
+
+from acnmp_core.checkpoint import load_checkpoint
+from services.transport import Keyspace, Ready, Service, declare_rpc, option, wait_until_stopped
+from services.transport.keys import check_name, skill_from_key
+from services.transport.wire import WireError
+
+from .handlers import ModelRegistry, SkillModel, handle_info, handle_predict
+from .weights import decode_weights
+
+log = logging.getLogger(__name__)
+
+#: Seconds between ``weights/latest`` queries while a skill still has no model.
+LATEST_POLL = 2.0
+
+
+def _skill_of(query: zenoh.Query) -> str:
+    try:
+        return skill_from_key(str(query.key_expr))
+    except ValueError as exc:
+        raise WireError("bad_request", str(exc)) from None
+
+
+class ModelService:
+    """The model service's zenoh side on an open ``session``; :meth:`close` undeclares everything.
+
+    Parameters
+    ----------
+    session : an open zenoh session (the caller closes it after :meth:`close`).
+    namespace : deployment namespace.
+    skills : serve only these skills; None serves every skill whose weights appear.
+    workers : threads answering queries (zenoh's own threads are never held by a predict).
+    fetch_latest : query ``weights/latest`` at start and while skills are missing.
+    """
+
+    def __init__(self, session: zenoh.Session, namespace: str = "default", *,
+                 skills: Sequence[str] | None = None, workers: int = 2, fetch_latest: bool = True):
+        self.session = session
+        self.keys = Keyspace(namespace)
+        self.registry = ModelRegistry(None if skills is None else [check_name("skill", s) for s in skills])
+        self._lock = threading.Lock()
+        self._tokens: dict[str, object] = {}  # skill -> liveliness token (kept referenced: GC undeclares)
+        self._inbox: queue.Queue = queue.Queue()
+        self._stop = threading.Event()
+        self.swaps = 0
+        self.rejected = 0
+        sub_skills = ["*"] if skills is None else list(self.registry.allowed)
+        self._subs = [session.declare_subscriber(self.keys.weights(s), self._on_weights) for s in sub_skills]
+        # complete=False: this process does not claim to serve every skill name, so a wildcard or
+        # unknown-skill query still reaches the other model processes
+        self._rpcs = [
+            declare_rpc(session, self.keys.predict("*"),
+                        lambda req, q: handle_predict(self.registry, _skill_of(q), req),
+                        workers=workers, complete=False),
+            declare_rpc(session, self.keys.info("*"),
+                        lambda req, q: handle_info(self.registry, _skill_of(q), req),
+                        workers=1, complete=False),
+        ]
+        self._loader = threading.Thread(target=self._load_loop, name="model-loader", daemon=True)
+        self._loader.start()
+        self._fetcher = None
+        if fetch_latest:
+            self._fetcher = threading.Thread(target=self._fetch_loop, name="model-fetch", daemon=True)
+            self._fetcher.start()
+        self.token_key = self.keys.model_service_token(str(session.zid()))
+        self._token = session.liveliness().declare_token(self.token_key)
+
+    # ----- loading ---------------------------------------------------------------------------
+    def _on_weights(self, sample: zenoh.Sample) -> None:
+        # zenoh thread: only queue the bytes; decoding and building happen on the loader thread
+        self._inbox.put(("bytes", sample.payload.to_bytes(), str(sample.key_expr)))
+
+    def _load_loop(self) -> None:
+        while not self._stop.is_set():
+            try:
+                kind, payload, origin = self._inbox.get(timeout=0.2)
+            except queue.Empty:
+                continue
+            if kind == "stop":
+                return
+            try:
+                w = decode_weights(payload)
+                self.load(SkillModel(w.skill, w.version, w.model, w.data_hash, w.n_demos, source="learner"))
+            except WireError as exc:
+                self.rejected += 1
+                log.warning("rejected weights from %s: %s", origin, exc)
+            except Exception:  # a bad message must never kill the loader
+                self.rejected += 1
+                log.exception("could not load weights from %s", origin)
+
+    def load(self, entry: SkillModel) -> bool:
+        """Swap ``entry`` in if it is newer than what is served; declare the skill's liveliness token
+        the first time. Returns True if it was swapped in."""
+        if not self.registry.offer(entry):
+            log.debug("ignored %s v%d (not newer or not served here)", entry.skill, entry.version)
+            return False
+        self.swaps += 1
+        log.info("serving %s v%d (%s)", entry.skill, entry.version, entry.source)
+        with self._lock:
+            if entry.skill not in self._tokens and not self._stop.is_set():
+                self._tokens[entry.skill] = self.session.liveliness().declare_token(
+                    self.keys.model_token(entry.skill))
+        return True
+
+    def load_checkpoint(self, path: str | Path, skill: str | None = None) -> SkillModel:
+        """Serve a checkpoint file (acnmp_core.checkpoint format). The skill name is ``skill``, else
+        the checkpoint's ``meta["skill"]``, else the file stem; version from ``meta["version"]``
+        (default 0). Returns the entry; raises ValueError for a bad file or name."""
+        model, info = load_checkpoint(path)
+        meta = info.get("meta", {})
+        name = check_name("skill", skill or meta.get("skill") or Path(path).stem)
+        entry = SkillModel(name, int(meta.get("version", 0)), model, info.get("data_hash", ""),
+                           int(meta.get("n_demos", 0)), source=f"checkpoint:{path}")
+        self.load(entry)
+        return entry
+
+    def _fetch_loop(self) -> None:
+        first = True
+        while not self._stop.is_set():
+            wanted = self.registry.missing() if self.registry.allowed is not None else (
+                ["*"] if first or not self.registry.skills() else [])
+            for skill in wanted:
+                self._fetch_latest(skill)
+            first = False
+            if self._stop.wait(LATEST_POLL):
+                return
+
+    def _fetch_latest(self, skill: str) -> None:
+        key = self.keys.weights_latest(skill)
+        try:
+            replies = self.session.get(key, target=zenoh.QueryTarget.ALL, timeout=5.0)
+            for reply in replies:
+                if reply.ok is not None:
+                    self._inbox.put(("bytes", reply.ok.payload.to_bytes(), key))
+        except Exception as exc:  # session closing, or no learner yet: try again later
+            log.debug("weights/latest query on %s failed: %s", key, exc)
+
+    # ----- shutdown --------------------------------------------------------------------------
+    def close(self) -> None:
+        """Undeclare the tokens, subscribers and queryables (waiting for queries in flight)."""
+        self._stop.set()
+        self._inbox.put(("stop", b"", ""))
+        for t in (self._loader, self._fetcher):
+            if t is not None:
+                t.join(timeout=6.0)
+        self._token.undeclare()
+        for sub in self._subs:
+            sub.undeclare()
+        with self._lock:
+            tokens, self._tokens = list(self._tokens.values()), {}
+        for token in tokens:
+            token.undeclare()
+        for rpc in self._rpcs:
+            rpc.close()
+
+    def __enter__(self) -> "ModelService":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def _parse_checkpoint_arg(value: str) -> tuple[str | None, str]:
+    """``FILE`` or ``SKILL=FILE`` -> (skill or None, file)."""
+    if "=" in value and not Path(value).exists():
+        skill, path = value.split("=", 1)
+        return skill, path
+    return None, value
+
+
+@dataclass
+class ModelConfig(Service):
+    """The model service's options; :meth:`serve` runs it on an open session."""
+
+    name: ClassVar[str] = "model"
+    summary: ClassVar[str] = "the model service: predict/info queries, hot-swapped weights"
+
+    skills: list[str] | None = option(
+        None, "serve only this skill (repeatable; default: every skill the learner publishes)",
+        flag="--skill", metavar="NAME")
+    checkpoints: list[str] = option(
+        [], "start from a checkpoint file (acnmp_core.checkpoint format; skill name from SKILL=, the "
+            "checkpoint's meta, or the file name). Repeatable", flag="--checkpoint", metavar="[SKILL=]FILE")
+    workers: int = option(2, "threads answering predict queries (default: %(default)s)", metavar="N")
+
+    def serve(self, session: zenoh.Session, stop: threading.Event, ready: Ready) -> int:
+        """Serve until ``stop``: checkpoints are loaded before ``ready`` is called."""
+        import torch
+
+        torch.set_num_threads(1)  # one predict is small; threads would only fight over the cores
+        with ModelService(session, self.session.namespace, skills=self.skills, workers=self.workers) as service:
+            for value in self.checkpoints:
+                skill, path = _parse_checkpoint_arg(value)
+                entry = service.load_checkpoint(path, skill)
+                log.info("loaded checkpoint %s as %s v%d", path, entry.skill, entry.version)
+            served = ", ".join(service.registry.skills()) or "none yet"
+            ready(f"model service live as {service.token_key}; skills: {served}")
+            wait_until_stopped(stop)
+        return 0

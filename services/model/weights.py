@@ -1,0 +1,101 @@
+"""The weights message: how the learner hands a trained CNMP to the model service, pickle-free.
+
+Published by the learner on ``acnmp/<ns>/skill/<skill>/weights`` and answered on
+``acnmp/<ns>/skill/<skill>/weights/latest``; read by the model service (services/model/service.py)::
+
+    {"v": 1, "skill": str, "version": int >= 0, "config": CNMPConfig.to_dict(),
+     "state": {name: array}, "data_hash": str, "n_demos": int >= 0}
+
+``state`` is :func:`acnmp_core.checkpoint.model_to_arrays` (float32 weights, float64 normaliser
+buffers, a 0-d bool ``fitted``); :func:`acnmp_core.checkpoint.model_from_arrays` rebuilds the model
+and checks every name and shape against ``config``, so a message can never run code or smuggle in
+a half-built model.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from acnmp_core.checkpoint import model_from_arrays, model_to_arrays
+from acnmp_core.cnmp import CNMP
+from services.transport.keys import check_name
+from services.transport.errors import wire_error
+from services.transport.wire import WireError, decode, encode, field
+
+#: Largest model accepted over the wire (parameters + buffers); ~256 MB of float32.
+MAX_PARAMETERS = 64_000_000
+
+
+@dataclass
+class ModelWeights:
+    """A decoded weights message: the rebuilt ``model`` (eval mode) and its provenance."""
+
+    skill: str
+    version: int
+    model: CNMP
+    data_hash: str = ""
+    n_demos: int = 0
+
+
+def weights_message(skill: str, version: int, model: CNMP, *, data_hash: str = "", n_demos: int = 0) -> dict:
+    """Build the weights message map for ``model`` (a fitted CNMP); encode it with wire.encode.
+
+    Raises ValueError for a bad skill name, a negative version or an unfitted model (its
+    normaliser ranges are still infinite and could not travel anyway).
+    """
+    check_name("skill", skill)
+    if isinstance(version, bool) or not isinstance(version, (int, np.integer)) or version < 0:
+        raise ValueError(f"version: expected an integer >= 0, got {version!r}")
+    if not bool(model.fitted):
+        raise ValueError("model: normalisation is not fitted; train it before publishing")
+    config, state = model_to_arrays(model)
+    return {"v": 1, "skill": skill, "version": int(version), "config": config, "state": state,
+            "data_hash": str(data_hash), "n_demos": int(n_demos)}
+
+
+def encode_weights(skill: str, version: int, model: CNMP, *, data_hash: str = "", n_demos: int = 0) -> bytes:
+    """:func:`weights_message` encoded to msgpack bytes, ready for ``session.put`` or ``query.reply``."""
+    return encode(weights_message(skill, version, model, data_hash=data_hash, n_demos=n_demos))
+
+
+def parse_weights(msg: dict) -> ModelWeights:
+    """Validate a decoded weights message map and rebuild its model.
+
+    Raises :class:`WireError`: ``bad_request`` (missing/mistyped field, bad skill name, config
+    the CNMP refuses), ``bad_shape`` (a state array that does not fit the config), ``too_large``.
+    """
+    skill = field(msg, "skill", str)
+    try:
+        check_name("skill", skill)
+    except ValueError as exc:
+        raise WireError("bad_request", str(exc)) from None
+    version = field(msg, "version", int)
+    if version < 0:
+        raise WireError("bad_request", f"field 'version': must be >= 0, got {version}")
+    config = field(msg, "config", dict)
+    state = field(msg, "state", dict)
+    n_params = 0
+    for name, arr in state.items():
+        if not isinstance(arr, np.ndarray):
+            raise WireError("bad_request", f"field 'state.{name}': expected an array, got {type(arr).__name__}")
+        n_params += arr.size
+    if n_params > MAX_PARAMETERS:
+        raise WireError("too_large", f"field 'state': {n_params} values, at most {MAX_PARAMETERS}")
+    try:
+        model = model_from_arrays(config, state)
+    except TypeError as exc:  # unknown or missing CNMPConfig keys
+        raise WireError("bad_request", f"field 'config': {exc}") from None
+    except ValueError as exc:  # a config the CNMP refuses, or arrays that do not fit it
+        err = wire_error(exc, default="bad_request")
+        raise WireError(err.code, f"weights of skill {skill!r}: {err.message}") from None
+    if not bool(model.fitted):
+        raise WireError("bad_request", f"weights of skill {skill!r}: the model's normalisation is not fitted")
+    return ModelWeights(skill=skill, version=version, model=model,
+                        data_hash=field(msg, "data_hash", str, default=""),
+                        n_demos=field(msg, "n_demos", int, default=0))
+
+
+def decode_weights(payload: bytes) -> ModelWeights:
+    """Decode msgpack bytes of a weights message and rebuild the model; raises :class:`WireError`."""
+    return parse_weights(decode(payload))

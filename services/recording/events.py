@@ -1,0 +1,224 @@
+"""Event messages: what the learner and the experiment runners publish and the recorder writes to the .rrd.
+
+Every event is a wire map (services/transport/wire.py) with ``"v": 1``, ``"kind"`` and ``"t"``
+(sender wall time, seconds since the epoch), published on ``acnmp/<ns>/event/<kind>/<id>``
+(:meth:`Keyspace.event`; :class:`~services.recording.publisher.EventPublisher` publishes).
+The four kinds and their fields (``?`` marks optional ones; ``T`` steps, ``D`` output dims):
+
+rollout       job str, rollout_index int>=0, trajectory (T,D) float, times (T,) float,
+              reward (T,) float (per step), return float, success bool, worker str,
+              condition? {times (K,) float, values (K,D) float}, task_params? (P,) float,
+              iteration? int, skill? str, space? "cartesian"|"joint",
+              drawing? str (a robot drawing kind) with that drawing's fields
+latent        skill str, version int, latent (L,) float, label? str, robot? str
+model_version skill str, version int, loss? float, n_demos? int, note? str
+job_progress  job str, iteration int, rollouts int, best_return float|None,
+              success_rate? float, state? "running"|"done"|"failed"|"cancelled", skill? str
+
+Unknown extra fields are kept (forward compatible) but must be plain scalars or strings.
+The builders here validate what they build, so a bad event fails at the sender, and
+:func:`validate_event` checks what arrives, so a bad event never reaches the recording. No zenoh
+here: the learner core builds events without a session.
+"""
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+
+from acnmp_core.robots.registry import robot
+from services.transport.keys import EVENT_KINDS, Keyspace, check_name
+from services.transport.wire import WireError, array_field, decode, field
+
+#: Per-kind field that names the event's key chunk.
+_IDENT_FIELD = {"rollout": "job", "job_progress": "job", "latent": "skill", "model_version": "skill"}
+
+JOB_STATES = ("running", "done", "failed", "cancelled")
+
+#: Longest trajectory / latent an event may carry; beyond that an event is surely a bug.
+MAX_STEPS = 100_000
+MAX_DIMS = 64
+MAX_LATENT = 4096
+
+
+def _base(kind: str, t: float | None) -> dict:
+    return {"v": 1, "kind": kind, "t": float(time.time() if t is None else t)}
+
+
+def rollout_event(job: str, rollout_index: int, trajectory, times, reward, *, ret: float | None = None,
+                  success: bool = False, worker: str = "", condition: dict | None = None,
+                  task_params=None, iteration: int | None = None, skill: str | None = None,
+                  space: str = "cartesian", t: float | None = None) -> dict:
+    """Build and validate a ``rollout`` event.
+
+    ``trajectory`` (T,D), ``times`` (T,), ``reward`` (T,) per-step rewards; ``ret`` defaults to
+    ``reward.sum()``; ``condition`` is ``{"times": (K,), "values": (K,D)}``. Returns the message map.
+    """
+    reward = np.asarray(reward, dtype=np.float64)
+    msg = _base("rollout", t)
+    msg.update(job=job, rollout_index=int(rollout_index),
+               trajectory=np.asarray(trajectory, dtype=np.float64),
+               times=np.asarray(times, dtype=np.float64), reward=reward,
+               success=bool(success), worker=str(worker), space=space)
+    msg["return"] = float(reward.sum() if ret is None else ret)
+    if condition is not None:
+        msg["condition"] = {"times": np.asarray(condition["times"], dtype=np.float64),
+                            "values": np.asarray(condition["values"], dtype=np.float64)}
+    if task_params is not None:
+        msg["task_params"] = np.asarray(task_params, dtype=np.float64)
+    if iteration is not None:
+        msg["iteration"] = int(iteration)
+    if skill is not None:
+        msg["skill"] = skill
+    return validate_event(msg)
+
+
+def robot_drawing(kind: str):
+    """The drawing of robot kind ``kind`` (acnmp_core.robots.registry), or None (draw the path)."""
+    return robot(kind).drawing
+
+
+def batch_rollout_events(job: str, first_index: int, trajectories, times, batch, *,
+                         task_params=None, condition: dict | None = None, iteration: int | None = None,
+                         skill: str | None = None, drawing=None) -> list[dict]:
+    """One validated ``rollout`` event per roll-out of an executed batch, indices from ``first_index``.
+
+    ``trajectories`` (B,T,D) as commanded, ``times`` (T,), ``task_params`` (P,) for all or (B,P) one
+    row per roll-out, ``batch`` the RolloutBatch that came back (rewards (B,T), success (B,), states
+    {name: (B,T,...)}; the worker of each roll-out from its ``workers``, else ``"local"``). With a
+    ``drawing`` (:func:`robot_drawing`) whose first state is in the batch, each event also carries
+    ``drawing`` (its kind), the drawing's constant fields and the states it names (e.g. the executed
+    ``joint_angles`` and ``object_xy`` of a planar arm), so the recorder draws the robot moving
+    through the roll-out; the events' ``space`` is then "joint", else "cartesian".
+    """
+    trajectories = np.asarray(trajectories, dtype=np.float64)
+    workers = getattr(batch, "workers", None) or ("local",) * len(batch)
+    if len(workers) != len(trajectories) or batch.rewards.shape[0] != len(trajectories):
+        raise ValueError(f"batch: expected {len(trajectories)} roll-outs, got {len(workers)} worker ids "
+                         f"and {batch.rewards.shape[0]} rewards")
+    tp = None if task_params is None else np.asarray(task_params, dtype=np.float64)
+    if tp is not None and tp.ndim < 2:
+        tp = np.broadcast_to(tp.reshape(-1), (len(trajectories), tp.size))
+    drawn = drawing is not None and drawing.states[0] in batch.states
+    out = []
+    for j in range(len(trajectories)):
+        ev = rollout_event(job, first_index + j, trajectories[j], times, batch.rewards[j],
+                           success=bool(batch.success[j]), worker=str(workers[j]), condition=condition,
+                           task_params=None if tp is None else tp[j], iteration=iteration, skill=skill,
+                           space="cartesian" if drawing is None else "joint")
+        if drawn:
+            ev.update(drawing.event_fields(), drawing=drawing.kind)
+            ev.update({k: np.asarray(batch.states[k][j], dtype=np.float64)
+                       for k in drawing.states if k in batch.states})
+        out.append(ev)  # rollout_event validated it; the drawing's fields are flat arrays and scalars
+    return out
+
+
+def latent_event(skill: str, version: int, latent, *, label: str | None = None,
+                 robot: str | None = None, t: float | None = None) -> dict:
+    """Build and validate a ``latent`` event (one latent vector ``(L,)`` of a skill's encoder)."""
+    msg = _base("latent", t)
+    msg.update(skill=skill, version=int(version), latent=np.asarray(latent, dtype=np.float64).reshape(-1))
+    if label is not None:
+        msg["label"] = str(label)
+    if robot is not None:
+        msg["robot"] = str(robot)
+    return validate_event(msg)
+
+
+def model_version_event(skill: str, version: int, *, t: float | None = None, **extra: Any) -> dict:
+    """Build and validate a ``model_version`` event; ``extra`` adds loss, n_demos, note, ..."""
+    msg = _base("model_version", t)
+    msg.update(skill=skill, version=int(version), **extra)
+    return validate_event(msg)
+
+
+def job_progress_event(job: str, iteration: int, rollouts: int, best_return: float | None, *,
+                       state: str = "running", t: float | None = None, **extra: Any) -> dict:
+    """Build and validate a ``job_progress`` event (``best_return`` None before any roll-out)."""
+    msg = _base("job_progress", t)
+    msg.update(job=job, iteration=int(iteration), rollouts=int(rollouts),
+               best_return=None if best_return is None else float(best_return), state=state, **extra)
+    return validate_event(msg)
+
+
+def validate_event(msg: dict) -> dict:
+    """Check an event map (built here or decoded from the wire) and return it.
+
+    Raises :class:`WireError` with ``bad_request`` (missing/mistyped field, unknown kind, bad
+    name), ``bad_shape``/``bad_dtype`` (arrays) or ``too_large``.
+    """
+    kind = field(msg, "kind", str)
+    if kind not in _IDENT_FIELD:
+        raise WireError("bad_request", f"unknown event kind {kind!r}; expected one of {EVENT_KINDS}")
+    field(msg, "t", float)
+    ident = field(msg, _IDENT_FIELD[kind], str)
+    try:
+        check_name(_IDENT_FIELD[kind], ident)
+    except ValueError as exc:
+        raise WireError("bad_request", str(exc)) from None
+    if kind == "rollout":
+        _validate_rollout(msg)
+    elif kind == "latent":
+        _nonneg(msg, "version")
+        array_field(msg, "latent", ndim=1, max_elements=MAX_LATENT)
+        field(msg, "label", str, default=None)
+    elif kind == "model_version":
+        _nonneg(msg, "version")
+    elif kind == "job_progress":
+        _nonneg(msg, "iteration")
+        _nonneg(msg, "rollouts")
+        field(msg, "best_return", float, default=None)
+        state = field(msg, "state", str, default="running")
+        if state not in JOB_STATES:
+            raise WireError("bad_request", f"field 'state': {state!r} is not one of {JOB_STATES}")
+    for key, value in msg.items():
+        if isinstance(value, (dict, list)) and key not in ("condition",):
+            raise WireError("bad_request", f"field '{key}': nested values are not allowed in events")
+    return msg
+
+
+def _nonneg(msg: dict, key: str) -> int:
+    value = field(msg, key, int)
+    if value < 0:
+        raise WireError("bad_request", f"field '{key}': must be >= 0, got {value}")
+    return value
+
+
+def _validate_rollout(msg: dict) -> None:
+    _nonneg(msg, "rollout_index")
+    traj = array_field(msg, "trajectory", ndim=2, max_elements=MAX_STEPS * MAX_DIMS)
+    steps, dims = traj.shape
+    if steps < 1 or not 1 <= dims <= MAX_DIMS:
+        raise WireError("bad_shape", f"field 'trajectory': shape {traj.shape}, need T>=1 and 1<=D<={MAX_DIMS}")
+    array_field(msg, "times", shape=(steps,))
+    array_field(msg, "reward", shape=(steps,))
+    field(msg, "return", float)
+    field(msg, "success", bool)
+    field(msg, "worker", str)
+    space = field(msg, "space", str, default="cartesian")
+    if space not in ("cartesian", "joint"):
+        raise WireError("bad_request", f"field 'space': {space!r} is not 'cartesian' or 'joint'")
+    cond = msg.get("condition")
+    if cond is not None:
+        if not isinstance(cond, dict):
+            raise WireError("bad_request", "field 'condition': expected a map {times, values}")
+        ct = array_field(cond, "times", ndim=1, max_elements=MAX_STEPS)
+        array_field(cond, "values", shape=(ct.shape[0], dims))
+    if msg.get("task_params") is not None:
+        array_field(msg, "task_params", ndim=1, max_elements=1024)
+    field(msg, "iteration", int, default=None)
+    field(msg, "skill", str, default=None)
+    field(msg, "drawing", str, default=None)
+
+
+def event_key(keys: Keyspace, msg: dict) -> str:
+    """The key expression an (already validated) event is published on."""
+    kind = msg["kind"]
+    return keys.event(kind, msg[_IDENT_FIELD[kind]])
+
+
+def decode_event(payload: bytes) -> dict:
+    """Decode and validate one event payload; raises :class:`WireError`."""
+    return validate_event(decode(payload))

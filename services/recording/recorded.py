@@ -1,0 +1,42 @@
+"""An evaluator that publishes every roll-out it executes as a ``rollout`` event for the recorder.
+
+Experiments that drive the adaptation loop themselves (E2, E3 with ``--distributed``) execute their
+roll-outs through a :class:`~services.worker.remote.RemoteEvaluator`; wrapping it in a
+:class:`RecordedEvaluator` puts each roll-out in the recording too, numbered per job, with the robot
+drawn when its registry entry has a drawing (see :func:`services.recording.events.batch_rollout_events`).
+"""
+from __future__ import annotations
+
+from acnmp_core.rollout import RolloutBatch
+
+from .events import batch_rollout_events, robot_drawing
+from .publisher import EventPublisher
+
+
+class RecordedEvaluator:
+    """Wrap an evaluator; implements :class:`acnmp_core.rollout.RolloutEvaluator`.
+
+    Parameters
+    ----------
+    inner : the evaluator that executes (a RemoteEvaluator, whose batches name the worker of each
+        roll-out, or any evaluator: its roll-outs are recorded as run by ``"local"``).
+    publisher : where the events go. job : the events' job name (one per adaptation run).
+    robot : the robot kind; robots with a drawing are recorded in joint space and drawn.
+
+    ``rollouts`` counts what has been executed and published; indices are 0, 1, ... per instance.
+    """
+
+    def __init__(self, inner, publisher: EventPublisher, job: str, robot: str):
+        self.inner, self.publisher, self.job = inner, publisher, job
+        self.drawing = robot_drawing(robot)
+        self.rollouts = 0
+
+    def evaluate(self, trajectories, times, task_params=None) -> RolloutBatch:
+        """trajectories (B, T, D), times (T,), task_params (P,) or None -> the inner RolloutBatch,
+        after one rollout event per trajectory has been published."""
+        batch = self.inner.evaluate(trajectories, times, task_params)
+        for ev in batch_rollout_events(self.job, self.rollouts, trajectories, times, batch,
+                                       task_params=task_params, drawing=self.drawing):
+            self.publisher.publish(ev)
+        self.rollouts += len(batch)
+        return batch

@@ -1,0 +1,128 @@
+"""The recorder: subscribes ``acnmp/<ns>/event/**`` and is the one writer of the .rrd file.
+
+Zenoh delivers samples on its own threads; the callback only decodes and validates the event and
+queues it. The main thread takes events off the queue and logs them (services/rrd_writer.py), so
+there is exactly one writer and shutdown is ordered:
+
+1. SIGTERM/SIGINT sets the stop event (services/transport/lifetime.py installs the handlers);
+2. the subscriber is undeclared, so nothing new arrives, and the queue is drained into the file;
+3. the liveliness token goes;
+4. the recording is flushed and its file sink closed, which writes the footer
+   (``rerun rrd verify FILE`` passes); then the zenoh session closes.
+
+Declared entities: subscriber ``acnmp/<ns>/event/**``, queryable ``acnmp/<ns>/recorder/status``
+(reply: ``{"v":1,"path","events":{kind:n},"rollouts":{job:n},"rejected":n}``), then, once both
+exist, liveliness token ``acnmp/<ns>/recorder/<zid>``: a publisher that sees the token knows its
+events will be recorded.
+"""
+from __future__ import annotations
+
+import logging
+import queue
+import threading
+import time
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+import zenoh
+
+from services.transport import Keyspace, Ready, Service, WireError, declare_rpc, option
+
+from .events import decode_event
+from .rrd_writer import RrdWriter
+
+log = logging.getLogger(__name__)
+
+#: Events queued between zenoh threads and the writer; when full, the callback blocks, and since
+#: events are put with CongestionControl.BLOCK the publishers slow down instead of losing events.
+QUEUE_SIZE = 10_000
+
+
+@dataclass
+class RecorderConfig(Service):
+    """The recorder's options; :meth:`serve` records until the stop event. After it returns,
+    ``final`` holds the counts written (``{"events": {...}, "rollouts": {...}, "rejected": n}``)."""
+
+    name: ClassVar[str] = "recorder"
+    summary: ClassVar[str] = "the recorder: writes every event into a .rrd file"
+
+    out: str = option("runs/recording.rrd", "recording to write (default: %(default)s)", short="-o",
+                      metavar="FILE.rrd")
+    final: dict = field(default_factory=dict, init=False, repr=False)
+
+    def serve(self, session: zenoh.Session, stop: threading.Event, ready: Ready) -> int:
+        self.final = record(session, Keyspace(self.session.namespace), self.out, stop, ready)
+        return 0
+
+
+def record(session: zenoh.Session, keys: Keyspace, path: str, stop: threading.Event, ready: Ready) -> dict:
+    """Record the events of ``keys``' namespace into ``path`` until ``stop`` is set; returns the
+    final counts. ``ready`` gets one line once the recorder is live (its token is declared)."""
+    events: queue.Queue = queue.Queue(maxsize=QUEUE_SIZE)
+    rejected = [0]
+
+    overflow: list = []  # events that arrived while shutting down with a full queue
+    lock = threading.Lock()
+
+    def on_sample(sample: zenoh.Sample) -> None:
+        try:
+            msg = decode_event(sample.payload.to_bytes())
+        except WireError as exc:
+            # a bad event is reported, never recorded: the .rrd only holds valid data
+            with lock:
+                rejected[0] += 1
+            log.warning("rejected event on %s: %s", sample.key_expr, exc)
+            return
+        while True:
+            try:
+                events.put(msg, timeout=0.2)
+                return
+            except queue.Full:
+                if stop.is_set():
+                    # the main thread may be inside sub.undeclare(), waiting for this very
+                    # callback: never block then, keep the event aside for the final drain
+                    overflow.append(msg)
+                    return
+
+    writer = RrdWriter(path)
+    try:
+        sub = session.declare_subscriber(keys.events(), on_sample)
+        status = declare_rpc(session, keys.recorder_status(),
+                             lambda _req, _q: {"v": 1, "path": str(path), "rejected": rejected[0], **writer.stats()})
+        token_key = keys.recorder_token(str(session.zid()))
+        token = session.liveliness().declare_token(token_key)
+        log.info("recording %s into %s", keys.events(), path)
+        ready(f"recorder live as {token_key}, writing {path}")
+        while not stop.is_set():
+            _drain(events, writer, timeout=0.2)
+        sub.undeclare()
+        _drain(events, writer, timeout=0.0, until_empty=True)
+        for msg in overflow:
+            writer.log_event(msg)
+        token.undeclare()
+        status.close()
+    finally:
+        writer.close()
+    final = {**writer.stats(), "rejected": rejected[0]}
+    log.info("recording closed: %s", final)
+    return final
+
+
+def _drain(events: queue.Queue, writer: RrdWriter, *, timeout: float, until_empty: bool = False) -> None:
+    """Log queued events: wait up to ``timeout`` for the first, then take what is there."""
+    try:
+        msg = events.get(timeout=timeout) if timeout > 0 else events.get_nowait()
+    except queue.Empty:
+        return
+    deadline = time.monotonic() + 0.5  # come back to check the stop flag at least twice a second
+    while True:
+        try:
+            writer.log_event(msg)
+        except Exception:  # one unloggable event must not stop the recording
+            log.exception("could not log %s event", msg.get("kind"))
+        if not until_empty and time.monotonic() > deadline:
+            return
+        try:
+            msg = events.get_nowait()
+        except queue.Empty:
+            return

@@ -1,0 +1,152 @@
+"""Read a recording back and summarise it: roll-outs and rewards per job, model versions, latents.
+
+Uses Rerun 0.41's chunk reader (``rerun.chunk.RrdReader``), which streams the file chunk by chunk
+and also works on a file without footer (a recorder killed with -9). The entity layout read here
+is the one services/recording/rrd_writer.py writes.
+"""
+from __future__ import annotations
+
+import math
+import warnings
+from collections import Counter, defaultdict
+from pathlib import Path
+
+import rerun as rr
+
+
+def _column(batch, name: str) -> list:
+    """Values of a component column, one per row (AnyValues stores 1-element lists)."""
+    if name not in batch.schema.names:
+        return [None] * batch.num_rows
+    out = []
+    for cell in batch.column(name).to_pylist():
+        out.append(cell[0] if isinstance(cell, list) and cell else (None if isinstance(cell, list) else cell))
+    return out
+
+
+def has_footer(path: str | Path) -> bool | None:
+    """True/False whether the .rrd ends with a footer; None if this Rerun cannot tell."""
+    try:
+        from rerun_bindings import check_for_rrd_footer
+
+        return bool(check_for_rrd_footer(str(path)))
+    except Exception:
+        return None
+
+
+def summarize(path: str | Path) -> dict:
+    """Summarise a recording written by the recorder.
+
+    Returns ``{"path", "application_id", "recording_id", "footer", "jobs": {job: {...}},
+    "skills": {skill: {"versions": [...], "latents": n}}, "events": {kind: n}}``; per job:
+    ``rollouts`` (rows logged), ``unique_rollouts`` (distinct indices), ``duplicates`` (indices
+    logged more than once), ``mean_return``, ``best_return``, ``success_rate``, ``workers``
+    ({worker: roll-outs}) and ``last_progress`` (the latest job_progress values).
+    Raises FileNotFoundError or ValueError (not a readable recording).
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: no such file")
+    try:
+        with warnings.catch_warnings():
+            # a file without footer makes Rerun warn; the summary reports it itself
+            warnings.simplefilter("ignore")
+            reader = rr.chunk.RrdReader(path)
+        stores = reader.recordings()
+    except Exception as exc:
+        raise ValueError(f"{path}: not a readable .rrd ({exc})") from None
+    if not stores:
+        raise ValueError(f"{path}: contains no recording")
+    store = stores[0]
+
+    rollouts: dict[str, list[dict]] = defaultdict(list)
+    progress: dict[str, list[dict]] = defaultdict(list)
+    versions: dict[str, set] = defaultdict(set)
+    latents: Counter = Counter()
+    for chunk in reader.stream(store=store):
+        if chunk.is_static or chunk.is_empty:
+            continue
+        parts = chunk.entity_path.strip("/").split("/")
+        head = parts[0]
+        if head not in ("rollouts", "progress", "models", "latent") or len(parts) < 2:
+            continue
+        batch = chunk.to_record_batch()
+        if head == "rollouts":
+            cols = {c: _column(batch, c) for c in ("rollout_index", "ret", "success", "worker")}
+            for i in range(batch.num_rows):
+                rollouts[parts[1]].append({c: cols[c][i] for c in cols})
+        elif head == "progress":
+            cols = {c: _column(batch, c) for c in ("iteration", "rollouts", "best_return", "state")}
+            for i in range(batch.num_rows):
+                progress[parts[1]].append({c: cols[c][i] for c in cols})
+        elif head == "models":
+            for v in _column(batch, "version"):
+                if v is not None:
+                    versions[parts[1]].add(int(v))
+        elif head == "latent":
+            latents[parts[1]] += batch.num_rows
+
+    jobs = {}
+    for job in sorted(set(rollouts) | set(progress)):
+        rows = rollouts.get(job, [])
+        idx = Counter(r["rollout_index"] for r in rows)
+        returns = [r["ret"] for r in rows if r["ret"] is not None]
+        last = None
+        if progress.get(job):
+            # Ties (the final "done" event repeats the last "running" counts) go to the finished
+            # state, then to the later row.
+            last = max(enumerate(progress[job]), key=lambda ip: (
+                ip[1]["rollouts"] or 0, ip[1]["iteration"] or 0, ip[1].get("state") in ("done", "failed"), ip[0]))[1]
+        jobs[job] = {
+            "rollouts": len(rows),
+            "unique_rollouts": len(idx),
+            "duplicates": sorted(i for i, n in idx.items() if n > 1),
+            "mean_return": (sum(returns) / len(returns)) if returns else None,
+            "best_return": max(returns) if returns else None,
+            "success_rate": (sum(bool(r["success"]) for r in rows) / len(rows)) if rows else None,
+            "workers": dict(Counter(r["worker"] or "?" for r in rows)),
+            "last_progress": last,
+        }
+    skills = {s: {"versions": sorted(versions.get(s, ())), "latents": latents.get(s, 0)}
+              for s in sorted(set(versions) | set(latents))}
+    return {
+        "path": str(path),
+        "application_id": store.application_id,
+        "recording_id": store.recording_id,
+        "footer": has_footer(path),
+        "jobs": jobs,
+        "skills": skills,
+        "events": {"rollout": sum(len(r) for r in rollouts.values()),
+                   "job_progress": sum(len(p) for p in progress.values()),
+                   "model_version": sum(len(v) for v in versions.values()),
+                   "latent": sum(latents.values())},
+    }
+
+
+def format_summary(summary: dict) -> str:
+    """Human-readable text of :func:`summarize`'s result, ending with how to open the viewer."""
+    def num(x):
+        return "-" if x is None or (isinstance(x, float) and math.isnan(x)) else f"{x:.4g}"
+
+    lines = [f"recording {summary['path']}  (app {summary['application_id']}, id {summary['recording_id']})"]
+    if summary.get("footer") is False:
+        lines.append("  warning: no footer (the writer did not shut down cleanly); data read by streaming")
+    if not summary["jobs"]:
+        lines.append("  no adaptation jobs recorded")
+    for job, j in summary["jobs"].items():
+        lines.append(f"  job {job}: {j['rollouts']} roll-outs ({j['unique_rollouts']} distinct), "
+                     f"mean return {num(j['mean_return'])}, best {num(j['best_return'])}, "
+                     f"success {num(j['success_rate'])}")
+        if j["duplicates"]:
+            lines.append(f"    duplicated roll-out indices: {j['duplicates'][:20]}")
+        if j["workers"]:
+            lines.append("    workers: " + ", ".join(f"{w}={n}" for w, n in sorted(j["workers"].items())))
+        if j["last_progress"]:
+            p = j["last_progress"]
+            lines.append(f"    last progress: iteration {p['iteration']}, {p['rollouts']} roll-outs, "
+                         f"best {num(p['best_return'])}, {p['state']}")
+    for skill, s in summary["skills"].items():
+        lines.append(f"  skill {skill}: model versions {s['versions'] or '-'}, {s['latents']} latent vector(s)")
+    lines.append(f"open it in the viewer:  rerun {summary['path']}   "
+                 f"(or: python -m rerun {summary['path']})")
+    return "\n".join(lines)

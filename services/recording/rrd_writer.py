@@ -1,0 +1,242 @@
+"""Turn event maps (services/recording/events.py) into Rerun 0.41 log calls on one recording stream.
+
+No zenoh here: the recorder feeds it from the bus, a notebook or a test can feed it directly.
+
+Entity layout (kind first, then job/skill, because blueprint queries only accept a ``/**`` suffix):
+
+=================================  ==============================  ===========================
+entity                             archetype                       from event
+=================================  ==============================  ===========================
+/trajectory/xy/<job>/path          LineStrips2D (x, y)             rollout, cartesian D=2
+/trajectory/xy/<job>/condition     Points2D                        rollout.condition
+/trajectory/xyz/<job>/path         LineStrips3D                    rollout, cartesian D=3
+/trajectory/xyz/<job>/condition    Points3D                        rollout.condition
+/trajectory/time/<job>/path        LineStrips2D (t, y_d) per dim   rollout, joint space or D∉{2,3}
+/trajectory/time/<job>/condition   Points2D (t, y_d)               rollout.condition
+/arm/<job>/links                   LineStrips3D (base..tip) per    rollout.joint_angles +
+                                   control step                    link_lengths (a robot arm)
+/arm/<job>/object                  Cylinders3D per control step    rollout.object_xy
+/arm/<job>/object_path             LineStrips3D (whole roll-out)   rollout.object_xy
+/arm/<job>/target                  Points3D                        rollout.task_params (x, y)
+/return/<job>                      Scalars                         rollout.return
+/reward/<job>                      BarChart (per-step reward)      rollout.reward
+/rollouts/<job>                    AnyValues (index, worker, ...)  rollout (one row each)
+/best_return/<job>                 Scalars                         job_progress
+/progress/<job>                    AnyValues                       job_progress
+/latent/<skill>/<label>            BarChart                        latent
+/models/<skill>                    AnyValues (version, ...)        model_version
+/model_version/<skill>             Scalars                         model_version
+/log/jobs, /log/models             TextLog                         job_progress, model_version
+=================================  ==============================  ===========================
+
+Timelines: ``rollout`` (sequence: the roll-out index of a rollout event, the roll-out count of a
+job_progress event), ``model_version`` (sequence: the version of latent/model_version events) and
+``wall_time`` (timestamp: the sender's ``t``); Rerun adds ``log_time`` itself.
+
+Robot roll-outs. A rollout event may carry, besides its trajectory, the executed states of a robot
+and the name of its ``drawing`` (acnmp_core/robots/registry.py); services/recording/drawings.py
+draws it under ``/arm/<job>``, one frame per control step on the roll-out's own timeline ``step``
+(0..T-1), every frame also stamped with ``rollout`` = the roll-out index and ``rollout_step`` =
+index * ``STEP_STRIDE`` + step. In the viewer: the ``step`` timeline plays the latest roll-out;
+``rollout`` scrubs through the roll-outs (each shown at its final pose, beside its reward);
+``rollout_step`` plays them one after another.
+"""
+from __future__ import annotations
+
+import threading
+import uuid
+from collections import Counter
+from pathlib import Path
+
+import numpy as np
+import rerun as rr
+import rerun.blueprint as rrb
+
+from .drawings import drawer_for
+
+APPLICATION_ID = "acnmp"
+
+#: How many past roll-outs the trajectory views show next to the current one.
+TRAIL = 20
+
+_OK = (70, 190, 110)
+_FAIL = (215, 80, 60)
+
+
+def default_blueprint() -> rrb.Blueprint:
+    """The layout shipped with every recording: trajectories | returns, latents, rewards, log."""
+    trail = [rrb.VisibleTimeRange("rollout", start=rrb.TimeRangeBoundary.cursor_relative(seq=-TRAIL),
+                                  end=rrb.TimeRangeBoundary.cursor_relative())]
+    return rrb.Blueprint(
+        rrb.Horizontal(
+            rrb.Tabs(
+                rrb.Spatial2DView(name="Trajectories (x, y)", origin="/trajectory/xy", time_ranges=trail),
+                rrb.Spatial2DView(name="Trajectories over time", origin="/trajectory/time", time_ranges=trail),
+                rrb.Spatial3DView(name="Trajectories (x, y, z)", origin="/trajectory/xyz", time_ranges=trail),
+                rrb.Spatial3DView(name="Arm and object", origin="/arm"),
+            ),
+            rrb.Vertical(
+                rrb.TimeSeriesView(name="Return per roll-out", origin="/",
+                                   contents=["/return/**", "/best_return/**"]),
+                rrb.BarChartView(name="Latent", origin="/latent"),
+                rrb.BarChartView(name="Per-step reward", origin="/reward"),
+                rrb.TextLogView(name="Models and jobs", origin="/log"),
+            ),
+            column_shares=[3, 2],
+        ),
+        collapse_panels=False,
+    )
+
+
+def _part(name: str) -> str:
+    return rr.escape_entity_path_part(str(name))
+
+
+class RrdWriter:
+    """The one writer of an .rrd file: :meth:`log_event` per event, :meth:`close` to finalise.
+
+    Thread-safe (a lock serialises log calls, since Rerun's time cursor is per thread and per
+    stream). :meth:`close` flushes and disconnects the file sink, which writes the footer that
+    ``rerun rrd verify`` checks; it is idempotent.
+    """
+
+    def __init__(self, path: str | Path, *, application_id: str = APPLICATION_ID,
+                 recording_id: str | None = None, blueprint: rrb.Blueprint | None = None):
+        self.path = Path(path)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        # an explicit RecordingStream (not rr.init): no global state, no viewer spawned, nothing bound
+        self.rec = rr.RecordingStream(application_id, recording_id=recording_id or uuid.uuid4().hex)
+        if not rr.is_enabled(self.rec):
+            # RERUN=off in the environment would make every log call a silent no-op
+            raise RuntimeError("Rerun logging is disabled (RERUN=off in the environment): nothing would be recorded")
+        self.rec.save(str(self.path), default_blueprint=blueprint or default_blueprint())
+        self.rec.send_recording_name(f"acnmp {self.path.stem}")
+        self.counts: Counter = Counter()
+        self.rollouts_per_job: Counter = Counter()
+        self._lock = threading.Lock()
+        self._closed = False
+
+    # -- dispatch ---------------------------------------------------------------------------
+
+    def log_event(self, msg: dict) -> None:
+        """Log one validated event map (see services/events.py); unknown kinds raise ValueError."""
+        kind = msg.get("kind")
+        fn = {"rollout": self._rollout, "latent": self._latent, "model_version": self._model_version,
+              "job_progress": self._job_progress}.get(kind)
+        if fn is None:
+            raise ValueError(f"unknown event kind {kind!r}")
+        with self._lock:
+            if self._closed:
+                raise RuntimeError("recording already closed")
+            self.rec.reset_time()  # no timeline value leaks from the previous event
+            self.rec.set_time("wall_time", timestamp=float(msg["t"]))
+            fn(msg)
+            self.counts[kind] += 1
+
+    def stats(self) -> dict:
+        """Counts so far: ``{"events": {kind: n}, "rollouts": {job: n}}``."""
+        with self._lock:
+            return {"events": dict(self.counts), "rollouts": dict(self.rollouts_per_job)}
+
+    # -- kinds -------------------------------------------------------------------------------
+
+    def _rollout(self, msg: dict) -> None:
+        job = _part(msg["job"])
+        idx = int(msg["rollout_index"])
+        self.rec.set_time("rollout", sequence=idx)
+        traj = np.asarray(msg["trajectory"], dtype=np.float32)
+        times = np.asarray(msg["times"], dtype=np.float32)
+        dims = traj.shape[1]
+        color = _OK if msg.get("success") else _FAIL
+        ret = float(msg["return"])
+        label = f"#{idx} R={ret:.3g}"
+        cond = msg.get("condition")
+        space = msg.get("space", "cartesian")
+        if space == "cartesian" and dims == 2:
+            self.rec.log(f"trajectory/xy/{job}/path", rr.LineStrips2D([traj], colors=[color], labels=[label]))
+            if cond is not None:
+                self.rec.log(f"trajectory/xy/{job}/condition",
+                             rr.Points2D(np.asarray(cond["values"], np.float32), radii=0.5 * _radius(traj)))
+        elif space == "cartesian" and dims == 3:
+            self.rec.log(f"trajectory/xyz/{job}/path", rr.LineStrips3D([traj], colors=[color], labels=[label]))
+            if cond is not None:
+                self.rec.log(f"trajectory/xyz/{job}/condition",
+                             rr.Points3D(np.asarray(cond["values"], np.float32), radii=0.5 * _radius(traj)))
+        else:
+            # joint space (or an odd dimension count): one (t, y_d) curve per output dimension
+            strips = [np.stack([times, traj[:, d]], axis=1) for d in range(dims)]
+            self.rec.log(f"trajectory/time/{job}/path",
+                         rr.LineStrips2D(strips, labels=[f"y{d}" for d in range(dims)]))
+            if cond is not None:
+                ct = np.asarray(cond["times"], np.float32)
+                cv = np.asarray(cond["values"], np.float32)
+                pts = np.concatenate([np.stack([ct, cv[:, d]], axis=1) for d in range(dims)])
+                self.rec.log(f"trajectory/time/{job}/condition", rr.Points2D(pts, radii=0.5 * _radius(traj)))
+        self.rec.log(f"return/{job}", rr.Scalars(ret))
+        self.rec.log(f"reward/{job}", rr.BarChart(np.asarray(msg["reward"], dtype=np.float32)))
+        self.rec.log(f"rollouts/{job}", rr.AnyValues(
+            rollout_index=idx, worker=str(msg.get("worker", "")), success=bool(msg.get("success")),
+            ret=ret, steps=int(traj.shape[0]),
+            iteration=-1 if msg.get("iteration") is None else int(msg["iteration"])))
+        draw = drawer_for(msg)
+        if draw is not None:
+            draw(self.rec, job, idx, msg, color)
+        self.rollouts_per_job[msg["job"]] += 1
+
+    def _latent(self, msg: dict) -> None:
+        self.rec.set_time("model_version", sequence=int(msg["version"]))
+        label = _part(msg.get("label") or "default")
+        self.rec.log(f"latent/{_part(msg['skill'])}/{label}",
+                     rr.BarChart(np.asarray(msg["latent"], dtype=np.float32)))
+
+    def _model_version(self, msg: dict) -> None:
+        skill = _part(msg["skill"])
+        version = int(msg["version"])
+        self.rec.set_time("model_version", sequence=version)
+        extras = {k: v for k, v in msg.items()
+                  if k not in ("v", "kind", "t", "skill", "version") and isinstance(v, (int, float, str, bool))}
+        self.rec.log(f"models/{skill}", rr.AnyValues(version=version, **{f"x_{k}": v for k, v in extras.items()}))
+        self.rec.log(f"model_version/{skill}", rr.Scalars(float(version)))
+        detail = " ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in extras.items())
+        self.rec.log("log/models", rr.TextLog(f"{msg['skill']} v{version} {detail}".strip(), level="INFO"))
+
+    def _job_progress(self, msg: dict) -> None:
+        job = _part(msg["job"])
+        rollouts = int(msg["rollouts"])
+        self.rec.set_time("rollout", sequence=rollouts)
+        best = msg.get("best_return")
+        state = str(msg.get("state", "running"))
+        values = {"iteration": int(msg["iteration"]), "rollouts": rollouts, "state": state}
+        if best is not None:
+            values["best_return"] = float(best)
+            self.rec.log(f"best_return/{job}", rr.Scalars(float(best)))
+        self.rec.log(f"progress/{job}", rr.AnyValues(**values))
+        best_txt = "-" if best is None else f"{best:.4g}"
+        level = "ERROR" if state == "failed" else "INFO"
+        self.rec.log("log/jobs", rr.TextLog(
+            f"{msg['job']} it={msg['iteration']} rollouts={rollouts} best={best_txt} {state}", level=level))
+
+    # -- end ---------------------------------------------------------------------------------
+
+    def close(self, timeout: float = 10.0) -> None:
+        """Flush everything and close the file sink so the .rrd gets its footer (idempotent)."""
+        with self._lock:
+            if self._closed:
+                return
+            self._closed = True
+            try:
+                self.rec.flush(timeout_sec=timeout)
+            finally:
+                self.rec.disconnect()
+
+    def __enter__(self) -> "RrdWriter":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def _radius(traj: np.ndarray) -> float:
+    """A point radius proportional to the trajectory's extent, so markers are visible at any scale."""
+    extent = float(np.ptp(traj, axis=0).max()) if traj.size else 1.0
+    return max(extent, 1e-6) * 0.01

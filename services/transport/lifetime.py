@@ -1,0 +1,74 @@
+"""Process lifetime: SIGTERM/SIGINT set a stop event, children stop when their launcher dies.
+
+Every service's main loop waits on one :class:`threading.Event` and then closes everything in
+order (services/transport/service.py runs that for any service).
+"""
+from __future__ import annotations
+
+import logging
+import os
+import signal
+import threading
+
+log = logging.getLogger(__name__)
+
+
+def install_shutdown_handlers(stop: threading.Event | None = None) -> threading.Event:
+    """Make SIGTERM and SIGINT set ``stop`` (a new Event if None) and return it.
+
+    The main loop waits on the event and then closes everything in order. A second signal raises
+    SystemExit(128+signum) for an impatient operator. Call from the main thread only (Python
+    delivers signals there).
+    """
+    stop = stop if stop is not None else threading.Event()
+
+    def handler(signum, _frame):
+        if stop.is_set():
+            raise SystemExit(128 + signum)
+        log.info("signal %s: shutting down", signal.Signals(signum).name)
+        stop.set()
+
+    signal.signal(signal.SIGTERM, handler)
+    signal.signal(signal.SIGINT, handler)
+    watch_parent(stop)
+    return stop
+
+
+#: Set by the launcher in its children's environment: the launcher's pid.
+PARENT_PID_ENV = "ACNMP_PARENT_PID"
+
+
+def watch_parent(stop: threading.Event, poll: float = 0.5) -> threading.Thread | None:
+    """When this process was started by a launcher (``ACNMP_PARENT_PID`` in the environment), set
+    ``stop`` as soon as that launcher is gone (killed with ``kill -9``, say), so no child outlives its
+    deployment and the recorder still finalises its file. Returns the watching thread, or None when
+    there is no launcher to watch."""
+    raw = os.environ.get(PARENT_PID_ENV)
+    if not raw:
+        return None
+    try:
+        parent = int(raw)
+    except ValueError:
+        log.warning("%s=%r is not a pid; not watching the launcher", PARENT_PID_ENV, raw)
+        return None
+
+    def run() -> None:
+        # A dead parent's children are re-parented (to init or a subreaper): getppid() changes.
+        while not stop.wait(poll):
+            if os.getppid() != parent:
+                log.warning("launcher (pid %d) is gone: shutting down", parent)
+                stop.set()
+                return
+
+    if os.getppid() != parent:  # started by something else that merely passed the variable on
+        return None
+    thread = threading.Thread(target=run, name="watch-launcher", daemon=True)
+    thread.start()
+    return thread
+
+
+def wait_until_stopped(stop: threading.Event, poll: float = 0.2) -> None:
+    """Block until ``stop`` is set, waking up regularly so signal handlers get to run."""
+    while not stop.wait(poll):
+        pass
+

@@ -1,0 +1,46 @@
+"""Liveliness: waiting for tokens of live processes, listing the ones alive now."""
+from __future__ import annotations
+
+import threading
+
+import zenoh
+
+
+def wait_for_liveliness(session: zenoh.Session, key_expr: str, count: int = 1,
+                        timeout: float = 10.0) -> list[str]:
+    """Wait until at least ``count`` liveliness tokens matching ``key_expr`` are alive.
+
+    Returns the sorted token keys. Raises TimeoutError (listing what was seen) after ``timeout``.
+    A subscriber with history sees tokens declared before and after the call.
+    """
+    alive: set[str] = set()
+    cond = threading.Condition()
+
+    def on_sample(sample: zenoh.Sample) -> None:
+        with cond:
+            if sample.kind == zenoh.SampleKind.PUT:
+                alive.add(str(sample.key_expr))
+            else:
+                alive.discard(str(sample.key_expr))
+            cond.notify_all()
+
+    sub = session.liveliness().declare_subscriber(key_expr, on_sample, history=True)
+    try:
+        with cond:
+            ok = cond.wait_for(lambda: len(alive) >= count, timeout=timeout)
+            found = sorted(alive)
+    finally:
+        sub.undeclare()
+    if not ok:
+        raise TimeoutError(f"{len(found)}/{count} liveliness token(s) for {key_expr} after {timeout}s: {found}")
+    return found
+
+
+def alive_tokens(session: zenoh.Session, key_expr: str, timeout: float = 2.0) -> list[str]:
+    """Return the keys of the liveliness tokens matching ``key_expr`` alive now (one query)."""
+    found = set()
+    for reply in session.liveliness().get(key_expr, timeout=timeout):
+        if reply.ok is not None:
+            found.add(str(reply.ok.key_expr))
+    return sorted(found)
+

@@ -1,0 +1,151 @@
+"""RPC over zenoh queries: the one caller (:func:`call`) and the one server side (:func:`declare_rpc`).
+
+A request is a message map (services/transport/wire.py) sent as a query's payload; the reply is
+one message map, or a ``reply_err`` carrying ``{"error": {"code", "message"}}``. Both sides of
+every request/reply exchange in the deployment go through this module: the learner's remote
+evaluator asking workers, the model service's fetch of the latest weights aside (a wildcard query
+with one reply per skill), and the Python client.
+"""
+from __future__ import annotations
+
+import contextlib
+import logging
+import threading
+import time
+import traceback
+from concurrent.futures import ThreadPoolExecutor
+from typing import Any, Callable
+
+import zenoh
+
+from .errors import wire_error
+from .wire import DEFAULT_MAX_BYTES, SCHEMA_VERSION, WireError, decode, encode, error_from_payload, error_payload
+
+log = logging.getLogger(__name__)
+
+#: A query that ends before this fraction of its timeout ended because nothing (or nothing more)
+#: matched its key: ``unavailable``; later, it ran out of time: ``timeout``.
+UNAVAILABLE_FRACTION = 0.9
+
+
+def call(session: zenoh.Session, key: str, payload: dict | bytes | None = None, timeout: float = 5.0, *,
+         expect_version: int | None = SCHEMA_VERSION, max_bytes: int = DEFAULT_MAX_BYTES) -> dict:
+    """Send one query on ``key`` and return the first successful reply, decoded.
+
+    ``payload`` is a message map (encoded here), raw bytes, or None. When several services answer
+    (model processes each serving some skills), a successful reply wins over error replies: a
+    catch-all ``unknown_skill`` from one process must not hide another's answer. With only error
+    replies, the first is raised as the :class:`WireError` it carries; with none, WireError
+    ``unavailable`` (the query ended early: nothing matched) or ``timeout``.
+    """
+    body = encode(payload) if isinstance(payload, dict) else payload
+    start = time.monotonic()
+    first_err: WireError | None = None
+    for reply in session.get(key, payload=body, timeout=timeout):
+        if reply.ok is not None:
+            try:
+                return decode(reply.ok.payload.to_bytes(), expect_version=expect_version, max_bytes=max_bytes)
+            except WireError as exc:
+                raise WireError(exc.code, f"reply on {key}: {exc.message}") from None
+        if first_err is None:
+            first_err = error_from_payload(reply.err.payload.to_bytes())
+    if first_err is not None:
+        raise first_err
+    if time.monotonic() - start < UNAVAILABLE_FRACTION * timeout:
+        raise WireError("unavailable", f"no service answered on {key}")
+    raise WireError("timeout", f"no reply on {key} within {timeout}s")
+
+
+Handler = Callable[[Any, zenoh.Query], Any]
+
+
+class RpcQueryable:
+    """A queryable whose handler errors become ``reply_err`` payloads; see :func:`declare_rpc`.
+
+    Use as a context manager or call :meth:`close`; closing undeclares the queryable and waits
+    for handlers in flight (when a thread pool is used).
+    """
+
+    def __init__(self, session: zenoh.Session, key_expr: str, handler: Handler, *, workers: int = 0,
+                 decode_payload: bool = True, expect_version: int | None = SCHEMA_VERSION,
+                 max_bytes: int = DEFAULT_MAX_BYTES, complete: bool = True):
+        self.key_expr = key_expr
+        self._handler = handler
+        self._decode = decode_payload
+        self._expect_version = expect_version
+        self._max_bytes = max_bytes
+        self._pool = ThreadPoolExecutor(workers, thread_name_prefix="rpc") if workers > 0 else None
+        self.served = 0
+        self.failed = 0
+        self._lock = threading.Lock()
+        callback = self._dispatch if self._pool else self._serve
+        self._queryable = session.declare_queryable(key_expr, callback, complete=complete)
+
+    def _dispatch(self, query: zenoh.Query) -> None:
+        # hand the query to the pool so a slow handler never holds a zenoh runtime thread
+        try:
+            self._pool.submit(self._serve, query)
+        except RuntimeError:  # pool shut down: we are closing
+            with contextlib.suppress(Exception):
+                query.reply_err(error_payload("unavailable", "service is shutting down"))
+            query.drop()
+
+    def _serve(self, query: zenoh.Query) -> None:
+        # `with query` drops it at the end: the querier's get() only finishes once it is dropped
+        with query:
+            try:
+                request = None
+                if self._decode:
+                    raw = query.payload.to_bytes() if query.payload is not None else b""
+                    request = decode(raw, expect_version=self._expect_version,
+                                     max_bytes=self._max_bytes) if raw else None
+                result = self._handler(request, query)
+                body = encode(result) if isinstance(result, dict) else bytes(result)
+                query.reply(self._reply_key(query), body)
+                with self._lock:
+                    self.served += 1
+            except Exception as exc:  # a raising callback would send no reply at all
+                err = wire_error(exc)
+                if err.code == "internal":
+                    log.error("handler for %s failed:\n%s", self.key_expr, traceback.format_exc())
+                self._fail(query, err.code, err.message)
+
+    def _reply_key(self, query: zenoh.Query) -> str:
+        # replies must intersect the query's key; a concrete query key is always safe
+        key = str(query.key_expr)
+        return key if "*" not in key else self.key_expr
+
+    def _fail(self, query: zenoh.Query, code: str, message: str) -> None:
+        with self._lock:
+            self.failed += 1
+        try:
+            query.reply_err(error_payload(code, message))
+        except Exception:  # session closing under us: nothing left to tell
+            log.debug("reply_err failed on %s", self.key_expr, exc_info=True)
+
+    def close(self) -> None:
+        """Undeclare the queryable, then let handlers in flight finish."""
+        with contextlib.suppress(Exception):
+            self._queryable.undeclare()
+        if self._pool is not None:
+            self._pool.shutdown(wait=True, cancel_futures=False)
+
+    def __enter__(self) -> "RpcQueryable":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def declare_rpc(session: zenoh.Session, key_expr: str, handler: Handler, **kwargs) -> RpcQueryable:
+    """Declare a queryable on ``key_expr`` that answers every query exactly once.
+
+    ``handler(request, query)`` gets the decoded request map (None when the query has no
+    payload) and returns a reply map (encoded here) or bytes. A :class:`WireError` it raises
+    (or that decoding raises) becomes ``reply_err`` with that code, a typed input error of the
+    library the code of its type (services/transport/errors.py), any other exception code
+    ``internal``; the queryable keeps serving. ``workers=N`` runs handlers on N threads.
+    Other keyword arguments: see :class:`RpcQueryable`.
+    """
+    return RpcQueryable(session, key_expr, handler, **kwargs)
+

@@ -1,0 +1,162 @@
+"""One way to run any service: a config dataclass, its command line, its process lifetime.
+
+A service is a :class:`Service` subclass: a dataclass whose fields are its options (declared with
+:func:`option`, which also gives their ``--help``), plus ``session`` (the zenoh options every
+process shares) and a :meth:`Service.serve` method that runs on an open session until a stop event
+is set. Everything else is done here, once for every service:
+
+* :func:`add_arguments` builds the ``acnmp serve <name>`` parser from the fields,
+  :func:`from_args` builds the config back from the parsed arguments;
+* :func:`run_service` installs the SIGTERM/SIGINT handlers (and the launcher watch), opens the
+  session, calls ``serve`` and closes the session whatever happens;
+* :func:`main` is the ``python -m services.<wing>`` entry point of each wing's ``__main__.py``.
+
+Example (the worker's)::
+
+    @dataclass
+    class WorkerConfig(Service):
+        name: ClassVar[str] = "worker"
+        summary: ClassVar[str] = "a roll-out worker of one robot kind"
+        robot: str = option("point2d", "robot kind", choices=robot_kinds)
+        worker_id: str | None = option(None, "worker id (default: <robot>-<pid>)", flag="--id")
+
+        def serve(self, session, stop, ready) -> int: ...
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import logging
+import sys
+import threading
+import types
+import typing
+from dataclasses import dataclass, field
+from typing import Any, Callable, ClassVar, Sequence
+
+import zenoh
+
+from .lifetime import install_shutdown_handlers
+from .session import MODES, SessionOptions
+
+#: ``ready(line)``: called once by a service when it is live, with one line saying what it serves.
+Ready = Callable[[str], None]
+
+
+def option(default: Any, help: str, *, flag: str | None = None, short: str | None = None,
+           metavar: str | None = None, choices: Sequence[str] | Callable[[], Sequence[str]] | None = None) -> Any:
+    """A :class:`Service` field that is also a command-line option.
+
+    ``default`` (a list default is copied per instance), ``help`` (``%(default)s`` allowed),
+    ``flag`` (default ``--<field-name>`` with ``-`` for ``_``), ``short`` (e.g. ``-o``),
+    ``metavar``, ``choices`` (a sequence, or a function returning one, called when the parser is
+    built). A ``list[...]`` field becomes a repeatable option.
+    """
+    meta = {"help": help, "flag": flag, "short": short, "metavar": metavar, "choices": choices}
+    if isinstance(default, list):
+        return field(default_factory=lambda: list(default), metadata=meta)
+    return field(default=default, metadata=meta)
+
+
+@dataclass
+class Service:
+    """Base of every service's config; see the module docstring.
+
+    Class attributes: ``name`` (``acnmp serve <name>``, log prefix), ``summary`` (one line of help),
+    ``default_mode`` (zenoh mode when neither ``--mode`` nor ``--config`` says), ``modes`` (the
+    modes it accepts).
+    """
+
+    name: ClassVar[str] = "service"
+    summary: ClassVar[str] = ""
+    default_mode: ClassVar[str] = "peer"
+    modes: ClassVar[tuple[str, ...]] = MODES
+
+    session: SessionOptions = field(default_factory=SessionOptions, metadata={"cli": False})
+
+    def serve(self, session: zenoh.Session, stop: threading.Event, ready: Ready) -> int:
+        """Run on the open ``session`` until ``stop`` is set, calling ``ready`` once live; return
+        the exit code. Closing the session is not its job."""
+        raise NotImplementedError
+
+
+def _option_fields(cls: type[Service]):
+    hints = typing.get_type_hints(cls)
+    for f in dataclasses.fields(cls):
+        if f.metadata.get("cli", True) and "help" in f.metadata:
+            yield f, hints[f.name]
+
+
+def _scalar_type(hint) -> tuple[type, bool]:
+    """(element type, repeatable) of a field annotation: ``int``, ``float | None``, ``list[str]``..."""
+    origin = typing.get_origin(hint)
+    if origin in (typing.Union, types.UnionType):
+        args = [a for a in typing.get_args(hint) if a is not type(None)]
+        return _scalar_type(args[0])
+    if origin is list:
+        return typing.get_args(hint)[0], True
+    return hint, False
+
+
+def add_arguments(parser: argparse.ArgumentParser, cls: type[Service]) -> None:
+    """Add ``cls``'s options and the shared session options to ``parser``."""
+    for f, hint in _option_fields(cls):
+        meta = f.metadata
+        kind, repeat = _scalar_type(hint)
+        flags = [meta["flag"] or "--" + f.name.replace("_", "-")] + ([meta["short"]] if meta["short"] else [])
+        kwargs: dict[str, Any] = {"dest": f.name, "help": meta["help"], "metavar": meta["metavar"]}
+        default = f.default_factory() if f.default_factory is not dataclasses.MISSING else f.default
+        if kind is bool:
+            kwargs.update(action="store_true", default=default)
+            kwargs.pop("metavar")
+        else:
+            kwargs.update(type=kind, default=default)
+            if repeat:
+                kwargs["action"] = "append"
+        choices = meta["choices"]
+        if choices is not None:
+            kwargs["choices"] = tuple(choices() if callable(choices) else choices)
+        parser.add_argument(*flags, **kwargs)
+    SessionOptions.add_arguments(parser, default_mode=cls.default_mode, modes=cls.modes)
+
+
+def from_args(cls: type[Service], args: argparse.Namespace) -> Service:
+    """The config of ``cls`` from arguments parsed by a parser built with :func:`add_arguments`."""
+    values = {f.name: getattr(args, f.name) for f, _ in _option_fields(cls)}
+    return cls(session=SessionOptions.from_args(args), **values)
+
+
+def run_service(config: Service, *, stop: threading.Event | None = None, ready: Ready | None = None) -> int:
+    """Run the service ``config`` describes until ``stop`` is set (default: SIGTERM/SIGINT, or its
+    launcher dying); return its exit code. ``ready`` defaults to printing the line."""
+    if stop is None:
+        stop = install_shutdown_handlers()
+    if ready is None:
+        def ready(line: str) -> None:
+            print(line, flush=True)
+    with config.session.open(config.default_mode) as session:
+        return int(config.serve(session, stop, ready) or 0)
+
+
+def parser_for(cls: type[Service], prog: str | None = None) -> argparse.ArgumentParser:
+    """A stand-alone parser for ``cls`` (what ``python -m services.<wing>`` uses)."""
+    parser = argparse.ArgumentParser(prog=prog or f"acnmp serve {cls.name}", description=cls.summary)
+    add_arguments(parser, cls)
+    return parser
+
+
+def configure_logging(name: str) -> None:
+    """Log lines prefixed with the process name (one format for every service)."""
+    logging.basicConfig(level=logging.INFO, format=f"%(asctime)s {name} %(levelname)s %(message)s")
+
+
+def main(cls: type[Service], argv: list[str] | None = None) -> int:
+    """Parse ``argv`` for ``cls`` and run it: the body of every ``services/<wing>/__main__.py``.
+    A bad option value (ValueError) is one line on stderr and exit code 2."""
+    args = parser_for(cls).parse_args(argv)
+    configure_logging(cls.name)
+    try:
+        return run_service(from_args(cls, args))
+    except ValueError as exc:
+        print(f"acnmp serve {cls.name}: error: {exc}", file=sys.stderr)
+        return 2

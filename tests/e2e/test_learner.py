@@ -1,0 +1,89 @@
+"""The learner as a real process: training over zenoh, bad requests, and kill -9 + restart: the
+skill and its dataset come back intact and an unfinished job resumes and completes."""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pytest
+
+from acnmp_core.experiments.viapoint import make_setup
+from services.launcher import LocalDeployment
+from services.model.weights import decode_weights
+from services.transport import Keyspace, WireError, call
+
+NS = "lrn"
+KEYS = Keyspace(NS)
+SMALL = {"encoder_widths": [32, 32], "decoder_widths": [32, 32]}
+
+
+def train_request(demos, steps=200):
+    return {"times": np.stack([d.times for d in demos]), "values": np.stack([d.values for d in demos]),
+            "model": SMALL, "train": {"steps": steps}, "seed": 3, "value_names": ["x", "y"]}
+
+
+def adapt_request(setup, **config):
+    tg = setup.target
+    return {"target": {"obs_times": tg.obs_times, "obs_values": tg.obs_values, "query_times": tg.query_times},
+            "task": "viapoint", "task_config": setup.task_config, "robot": "point2d", "seed": 5,
+            "config": {"rl_steps_per_iter": 5, "explore_from_return": 1.0, **config}}
+
+
+def latest(session, skill="e1"):
+    replies = [r for r in session.get(KEYS.weights_latest(skill), timeout=10)]
+    assert len(replies) == 1 and replies[0].ok is not None
+    return decode_weights(replies[0].ok.payload.to_bytes())
+
+
+def wait_status(session, job, pred, timeout=60):
+    deadline = time.monotonic() + timeout
+    while True:
+        st = call(session, KEYS.job_status(job), timeout=10)
+        if pred(st):
+            return st
+        assert time.monotonic() < deadline, st
+        time.sleep(0.1)
+
+
+def test_learner_survives_kill_9_with_skill_dataset_and_job(tmp_path):
+    setup = make_setup()
+    with LocalDeployment(NS, workers=1, model=False, worker_delay=0.25, state_dir=tmp_path) as dep:
+        s = dep.session
+        rep = call(s, KEYS.train("e1"), train_request(setup.demos), timeout=60)
+        assert rep["version"] == 0 and rep["n_demos"] == 6
+        before = latest(s)
+        assert before.data_hash == setup.demos.content_hash()
+
+        # bad requests: an error code each, and the learner keeps serving
+        for key, payload, code in [
+            (KEYS.adapt("nope"), adapt_request(setup), "unknown_skill"),
+            (KEYS.adapt("e1"), {**adapt_request(setup), "task": "juggle"}, "unknown_task"),
+            (KEYS.adapt("e1"), adapt_request(setup, max_rollouts=0), "bad_request"),
+            (KEYS.adapt("e1"), adapt_request(setup, warp_speed=9), "bad_request"),
+            (KEYS.train("e2"), {**train_request(setup.demos), "times": np.zeros(3)}, "bad_shape"),
+            (KEYS.job_status("e1-nothing"), None, "unknown_job"),
+        ]:
+            with pytest.raises(WireError) as info:
+                call(s, key, payload, timeout=10)
+            assert info.value.code == code, (key, info.value)
+
+        # a job slow enough (0.25 s per roll-out) to be killed in the middle
+        job = call(s, KEYS.adapt("e1"),
+                    adapt_request(setup, max_rollouts=9, stop_on_success=False), timeout=10)["job"]
+        wait_status(s, job, lambda st: st["state"] == "running" and st["rollouts"] >= 3)
+        dep.kill("learner")  # SIGKILL: no chance to save anything
+        dep.respawn("learner")
+
+        after = latest(s)
+        assert (after.version, after.data_hash, after.n_demos) == (0, before.data_hash, 6)
+        ref = before.model.predict(setup.target.obs_times, setup.target.obs_values, None, setup.target.query_times)
+        got = after.model.predict(setup.target.obs_times, setup.target.obs_values, None, setup.target.query_times)
+        np.testing.assert_array_equal(got.mean, ref.mean)
+        np.testing.assert_array_equal(got.std, ref.std)
+
+        st = wait_status(s, job, lambda st: st["state"] in ("done", "failed"))
+        assert st["state"] == "done", st["error"]
+        assert st["attempt"] == 1  # restarted once, from the beginning with the same seed
+        assert st["result"]["rollouts"] == 9 == st["rollouts"]
+        assert st["rollouts_executed"] >= 9 + 3  # the first attempt's roll-outs keep their indices
+        assert st["result"]["trajectory"].shape == (len(setup.target.query_times), 2)
