@@ -108,3 +108,21 @@ def verify_rrd():
         assert out.returncode == 0, out.stderr
 
     return verify
+
+
+@pytest.fixture
+def saved_figures(monkeypatch):
+    """Every matplotlib figure saved during the test, as (figure, path), in order: so a test checks a
+    plot's axes, legend and data rather than the size of its file."""
+    from matplotlib.figure import Figure
+
+    saved = []
+    real = Figure.savefig
+
+    def savefig(self, fname, *args, **kwargs):
+        saved.append((self, Path(fname)))
+        return real(self, fname, *args, **kwargs)
+
+    monkeypatch.setattr(Figure, "savefig", savefig)
+    return saved
+

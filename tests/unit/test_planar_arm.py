@@ -1,5 +1,4 @@
 """The PyBullet planar arm, the pushing task and the scripted expert."""
-import time
 
 import numpy as np
 import pybullet as p
@@ -153,14 +152,6 @@ def test_four_dof_arm_and_expert():
         assert p.getNumJoints(task4.sim.arm, physicsClientId=task4.sim.client_id) == 5
         b = task4.evaluate(traj[None], T, target)
     assert b.success[0], b.rewards[0, -1]
-
-
-def test_rollout_is_fast(task, demos):
-    task.evaluate(demos.values[:1], T, demos.task_params[0])  # warm-up
-    t0 = time.perf_counter()
-    task.evaluate(demos.values[:5], T, demos.task_params[0])
-    ms = (time.perf_counter() - t0) / 5 * 1000
-    assert ms < 150, f"{ms:.1f} ms per 300-step roll-out"  # ~12 ms measured; loose for a shared machine
 
 
 def test_ik_reaches_pose():

@@ -63,7 +63,33 @@ def test_result_has_documented_keys(result, tmp_path):
     for run in r["runs"]:
         assert run["rollouts"] <= (1 + 7 if run["method"] == "acnmp" else 11)
         assert run["curve"][-1][0] == run["rollouts"]
-    assert plot_push(r, tmp_path / "fig.png").stat().st_size > 0
+
+
+def test_push_figure_shows_each_case_and_method(saved_figures, tmp_path):
+    """The Fig. 5(b)-like plot: one panel per case, a median curve per method that ends where its
+    runs end, the tolerance line; checked on the figure, not the PNG."""
+    runs = [{"method": m, "case": c, "curve": [[1, 0.3], [n, e]], "rollouts": n}
+            for m, n, e in (("acnmp", 5, 0.02), ("promp_rl", 9, 0.04)) for c in CASES]
+    result = {"runs": runs, "tolerance": 0.03, "seeds": 1,
+              "methods": {m: {c: {"rollouts_median": n, "success_rate": 1.0} for c in CASES}
+                          for m, n in (("acnmp", 5), ("promp_rl", 9))}}
+    path = plot_push(result, tmp_path / "fig.png")
+    assert path.exists() and [p for _, p in saved_figures] == [path]
+    fig = saved_figures[0][0]
+    assert len(fig.axes) == len(CASES)
+    for ax, case in zip(fig.axes, CASES):
+        assert case in ax.get_title() and ax.get_xlabel() == "roll-outs"
+        legend = [t.get_text() for t in ax.get_legend().get_texts()]
+        assert any(t.startswith("ACNMP: median 5 roll-outs") for t in legend)
+        assert any(t.startswith("ProMP + RL (REPS): median 9 roll-outs") for t in legend)
+        curves = {line.get_label(): line.get_xydata() for line in ax.get_lines()}
+        acnmp = next(xy for label, xy in curves.items() if label.startswith("ACNMP"))
+        # the median curve over roll-outs 1..9 (the longest run): from its first value, reaching its
+        # last at 5 roll-outs and holding it after
+        assert acnmp[0].tolist() == [1, 0.3] and acnmp[:, 0].tolist() == list(range(1, 10))
+        assert set(acnmp[4:, 1]) == {0.02}
+        tolerance = next(xy for label, xy in curves.items() if label.startswith("tolerance"))
+        assert set(tolerance[:, 1]) == {0.03}
 
 
 def test_curve_band_holds_last_value():

@@ -5,6 +5,7 @@ import torch
 
 from acnmp_core.checkpoint import load_checkpoint, model_from_arrays, model_to_arrays, save_checkpoint
 from acnmp_core.cnmp import CNMP, CNMPConfig
+from acnmp_core.data import DemoSet
 from acnmp_core.training import TrainConfig, train
 
 SMALL = dict(encoder_widths=(32, 32), decoder_widths=(32, 32))
@@ -33,10 +34,33 @@ def test_best_validation_checkpoint_is_kept(e1_demos):
     assert res.best_step in [s for s, _ in res.val]
 
 
-def test_validation_split_holds_out_demonstrations(e1_demos):
+def test_validation_split_holds_out_demonstrations(e1_demos, monkeypatch):
+    """The demonstrations validation is measured on are never sampled for training."""
+    import acnmp_core.training as training
+
+    samplers = []  # (demos, sampler) in creation order: the training sampler, then validation's
+    real = training.make_sampler
+
+    def spy(model, demos, cfg):
+        samplers.append((demos, real(model, demos, cfg)))
+        return samplers[-1][1]
+
+    monkeypatch.setattr(training, "make_sampler", spy)
     model = CNMP(CNMPConfig(n_outputs=2, **SMALL))
     res = train(model, e1_demos, TrainConfig(steps=20, val_every=10, val_fraction=0.34), progress=False)
-    assert len(res.val) == 3
+    (train_set, _), (val_set, _) = samplers
+
+    def hashes(demos) -> set[str]:
+        return {DemoSet([d]).content_hash() for d in demos}
+
+    assert len(train_set) == 4 and len(val_set) == 2  # floor(0.34 * 6) held out
+    assert hashes(train_set).isdisjoint(hashes(val_set))
+    assert hashes(train_set) | hashes(val_set) == hashes(e1_demos)
+    assert [step for step, _ in res.val] == [0, 10, 20]
+    # the same seed holds out the same demonstrations; without val_fraction nothing is held out
+    again = training.split_demos(e1_demos, 0.34, torch.Generator().manual_seed(0))
+    assert hashes(again[1]) == hashes(val_set)
+    assert training.split_demos(e1_demos, 0.0, torch.Generator().manual_seed(0))[1] is None
 
 
 def test_checkpoint_round_trip_gives_identical_predictions(e1_model, e1_demos, tmp_path):

@@ -4,7 +4,7 @@ import json
 from clients.cli import main
 
 
-def test_viapoint_cli_writes_json_and_plots(tmp_path):
+def test_viapoint_cli_writes_json_and_plots(tmp_path, saved_figures):
     out, png = tmp_path / "e1.json", tmp_path / "e1.png"
     code = main(["experiment", "viapoint", "--seed", "1", "--budget", "30", "--train-steps", "1500",
                  "--json", str(out), "--plot", str(png), "--quiet"])
@@ -16,7 +16,22 @@ def test_viapoint_cli_writes_json_and_plots(tmp_path):
         assert set(r) >= {"rollouts", "success", "error", "shape_error"}
         assert 1 <= r["rollouts"] <= 30
     assert s["methods"]["lfd_only"]["rollouts"] == 1 and not s["methods"]["lfd_only"]["success"]
-    assert png.stat().st_size > 10_000 and (tmp_path / "e1_latents.png").stat().st_size > 5_000
+    # the figures, checked on what they draw: Fig. 3 (paths and error curves) and Fig. 4 (latents)
+    assert [p.name for _, p in saved_figures] == ["e1.png", "e1_latents.png"] and png.exists()
+    paths, errors = saved_figures[0][0].axes
+    legend = [t.get_text() for t in paths.get_legend().get_texts()]
+    assert legend[0] == "demonstrations" and legend[-1] == "via-point"
+    for name, m in (("LfD only", "lfd_only"), ("RL only", "rl_only"), ("ACNMP", "acnmp")):
+        r = s["methods"][m]
+        assert f"{name} ({r['rollouts']} roll-outs, err {r['error']:.3f})" in legend
+        curve = next(line for line in errors.get_lines() if line.get_label() == name)
+        assert curve.get_xdata()[-1] == r["rollouts"]  # the error curve ends at the roll-outs used
+    star = next(line for line in paths.get_lines() if line.get_label() == "via-point")
+    assert star.get_xydata().tolist() == [s["viapoint"]["value"]]
+    assert len([line for line in paths.get_lines() if line.get_label().startswith("_")]) == 5  # 6 demos
+    latents = saved_figures[1][0].axes[0]
+    before, after = latents.collections[:2]
+    assert len(before.get_offsets()) == len(after.get_offsets()) == 6  # one point per demonstration
 
 
 def test_bad_cli_input_is_a_clear_error(capsys):

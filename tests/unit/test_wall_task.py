@@ -1,7 +1,6 @@
 """The wall-with-a-hole task (E3): geometry, reward signs, success, demonstrations, vectorisation."""
 from __future__ import annotations
 
-import time
 
 import numpy as np
 import pytest
@@ -215,15 +214,13 @@ def test_wall_task_is_a_rollout_evaluator_and_batches_agree():
     np.testing.assert_allclose(batch.returns, W.wall_rewards(trajs, params_b).sum(axis=1))
 
 
-def test_scoring_1000_environments_is_fast():
+def test_scoring_1000_environments_in_one_batch():
+    """The demonstrations of the whole test set succeed when scored in one vectorised batch (its
+    speed is measured by benchmarks/bench_tasks.py)."""
     params = W.test_environments()
     _, values, _ = W.make_demo_set(1000, np.random.default_rng(7), task_params=params)
-    task = W.WallTask()
-    start = time.perf_counter()
-    batch = task.evaluate_batch(values, np.linspace(0, 1, 200), params)
-    elapsed = time.perf_counter() - start
-    assert batch.success.all()
-    assert elapsed < 1.0, f"scoring 1000 x 200 steps took {elapsed:.3f} s"
+    batch = W.WallTask().evaluate_batch(values, np.linspace(0, 1, 200), params)
+    assert batch.success.shape == (1000,) and batch.success.all()
 
 
 # --- input validation -------------------------------------------------------------------------------

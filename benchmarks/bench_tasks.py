@@ -1,0 +1,76 @@
+"""In-process task speed: what the test suite used to assert with wall-clock limits.
+
+- ``planar_push``: ms per 300-step roll-out of the expert's pushing demonstrations on the 3- and
+  4-DoF planar arms (PyBullet, one physics client), after one warm-up roll-out;
+- ``wall_scoring``: seconds to score 1000 wall-with-a-hole environments x 200 steps in one
+  vectorised batch (E3's test set).
+
+    python benchmarks/bench_tasks.py [--repeats 5] [--out benchmarks/results/bench_tasks.json]
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from acnmp_core.robots.registry import robot  # noqa: E402
+from acnmp_core.tasks import wall as W  # noqa: E402
+from acnmp_core.tasks.push_demos import push_demos  # noqa: E402
+
+
+def planar_push_ms(kind: str, repeats: int) -> float:
+    """Mean ms per roll-out of ``repeats`` expert demonstrations on robot ``kind``."""
+    spec = robot(kind)
+    n = len(spec.joints)
+    demos = push_demos(n_joints=n)
+    times = np.linspace(0.0, 1.0, demos.values.shape[1])
+    with spec.make_evaluator("push") as task:
+        task.evaluate(demos.values[:1], times, demos.task_params[0])  # warm-up: URDF, world
+        t0 = time.perf_counter()
+        task.evaluate(demos.values[:repeats], times, demos.task_params[0])
+        return (time.perf_counter() - t0) / repeats * 1000
+
+
+def wall_scoring_s(n: int = 1000, steps: int = 200) -> tuple[float, bool]:
+    """(seconds, all succeeded) to score ``n`` demonstrated environments x ``steps`` in one batch."""
+    params = W.test_environments()[:n]
+    _, values, _ = W.make_demo_set(n, np.random.default_rng(7), task_params=params)
+    task = W.WallTask()
+    t0 = time.perf_counter()
+    batch = task.evaluate_batch(values, np.linspace(0, 1, steps), params)
+    return time.perf_counter() - t0, bool(batch.success.all())
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the measurements, print them, write JSON; returns 0."""
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--repeats", type=int, default=5, help="roll-outs timed per arm (default: %(default)s)")
+    p.add_argument("--out", default="benchmarks/results/bench_tasks.json")
+    args = p.parse_args(argv)
+    import torch
+
+    torch.set_num_threads(1)
+    push = {kind: round(planar_push_ms(kind, args.repeats), 2) for kind in ("planar3", "planar4")}
+    seconds, ok = wall_scoring_s()
+    result = {"benchmark": "tasks", "planar_push_ms_per_300_step_rollout": push,
+              "wall_scoring_1000_envs_x_200_steps_s": round(seconds, 4), "wall_all_demos_succeed": ok,
+              "repeats": args.repeats,
+              "machine": {"cpus": os.cpu_count(), "python": platform.python_version(),
+                          "note": "shared machine; numbers from one run"}}
+    print(json.dumps(result, indent=1))
+    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
+    Path(args.out).write_text(json.dumps(result, indent=2) + "\n")
+    print(f"wrote {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
