@@ -1,0 +1,56 @@
+"""The worker without zenoh: the roll-out messages carry every RolloutBatch field, a batch names the
+worker of each roll-out, and bad requests raise their wire codes."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from acnmp_core.experiments.viapoint import make_setup
+from acnmp_core.rollout import RolloutBatch
+from services.transport import WireError, decode, encode, wire_error
+from services.worker.core import ExecutedBatch, Worker, batch_from_reply, rollout_reply, rollout_request, take
+
+
+@pytest.fixture(scope="module")
+def setup():
+    return make_setup()
+
+
+def test_a_reply_round_trips_the_batch_and_slices_keep_every_field(setup):
+    t = setup.target.query_times
+    trajs = np.random.default_rng(0).normal(size=(3, len(t), 2))
+    batch = setup.task.evaluate(trajs, t)
+    back = batch_from_reply(decode(encode(rollout_reply(batch, "w1"))))
+    np.testing.assert_array_equal(back.rewards, batch.rewards)
+    np.testing.assert_array_equal(back.success, batch.success)
+    assert set(back.states) == set(batch.states)
+    one = take(back, 1, 2)
+    np.testing.assert_array_equal(one.rewards, batch.rewards[1:2])
+    np.testing.assert_array_equal(one.states["path"], batch.states["path"][1:2])
+    executed = ExecutedBatch.of(RolloutBatch.concat([take(back, 0, 1), one]), ["a", "b"])
+    assert executed.workers == ("a", "b") and len(executed) == 2
+    with pytest.raises(ValueError, match="workers"):
+        ExecutedBatch.of(batch, ["a"])
+    with pytest.raises(WireError) as info:
+        batch_from_reply({"worker": "w1", "rewards": np.zeros((2, 3)), "success": np.zeros(5, bool)})
+    assert info.value.code == "internal"
+
+
+def test_the_worker_answers_in_process_and_refuses_by_code(setup):
+    t = setup.target.query_times
+    good = np.random.default_rng(1).normal(size=(2, len(t), 2))
+    worker = Worker("point2d", "w0")
+    try:
+        reply = worker.handle(rollout_request("viapoint", setup.task_config, good, t))
+        assert reply["worker"] == "w0" and worker.rollouts == 2
+        np.testing.assert_array_equal(reply["rewards"], setup.task.evaluate(good, t).rewards)
+        cases = {"unknown_task": {"task": "push"}, "bad_request": {"task_config": {"t_v": 0.5}},
+                 "bad_shape": {"times": t[:-1]}}
+        for code, change in cases.items():
+            with pytest.raises(Exception) as info:
+                worker.handle({**rollout_request("viapoint", setup.task_config, good, t), **change})
+            assert wire_error(info.value).code == code, (code, info.value)
+    finally:
+        worker.close()
+    with pytest.raises(ValueError, match="ur11"):
+        Worker("ur11", "w0")
