@@ -2,7 +2,6 @@
 assimilates into a new version, and a restart resumes what was running."""
 from __future__ import annotations
 
-import numpy as np
 import pytest
 
 from acnmp_core.adapt_job import AdaptJob
