@@ -17,7 +17,6 @@ Target: p50(predict_zenoh) <= 1.5 x (p50(in_process) + p50(empty_query)). Then t
 from __future__ import annotations
 
 import argparse
-import json
 import multiprocessing as mp
 import os
 import platform
@@ -153,6 +152,7 @@ def main(argv: list[str] | None = None) -> int:
 
     torch.set_num_threads(1)
     from clients.client import ACNMPClient
+    from clients.experiments.common import write_json
     from services.transport import free_port, loopback_endpoint
 
     ctx = mp.get_context("spawn")  # zenoh sessions do not survive fork
@@ -203,10 +203,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"p50 ratio predict/(in-process + empty) = {ratio:.2f} (target <= 1.5: {'met' if ratio <= 1.5 else 'NOT met'})")
     for t in throughput:
         print(f"{t['clients']:3d} clients: {t['predicts_per_s']:8.1f} predicts/s ({t['errors']} errors)")
-    if args.json:
-        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.json).write_text(json.dumps(result, indent=2) + "\n")
-        print(f"wrote {args.json}")
+    write_json(result, args.json)
     return 0
 
 

@@ -24,6 +24,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from acnmp_core.robots.registry import robot  # noqa: E402
 from acnmp_core.tasks import wall as W  # noqa: E402
 from acnmp_core.tasks.push_demos import push_demos  # noqa: E402
+from clients.experiments.common import write_json  # noqa: E402
 
 
 def planar_push_ms(kind: str, repeats: int) -> float:
@@ -66,9 +67,7 @@ def main(argv: list[str] | None = None) -> int:
               "machine": {"cpus": os.cpu_count(), "python": platform.python_version(),
                           "note": "shared machine; numbers from one run"}}
     print(json.dumps(result, indent=1))
-    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.out).write_text(json.dumps(result, indent=2) + "\n")
-    print(f"wrote {args.out}")
+    write_json(result, args.out)
     return 0
 
 
