@@ -24,6 +24,7 @@ import torch
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from acnmp_core.tasks.registry import make_task  # noqa: E402
+from clients.experiments.common import write_json  # noqa: E402
 from services.launcher import LocalDeployment  # noqa: E402
 from services.worker.remote import RemoteEvaluator  # noqa: E402
 
@@ -83,9 +84,7 @@ def main(argv=None) -> int:
             print(json.dumps({k: round(v, 3) if isinstance(v, float) else v for k, v in row.items()}), flush=True)
     out = {"benchmark": "rollout_throughput", "unit": "roll-outs per second", "repeats": args.repeats,
            "machine": {"cpus": os.cpu_count(), "python": platform.python_version()}, "results": results}
-    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.out).write_text(json.dumps(out, indent=2))
-    print(f"wrote {args.out}")
+    write_json(out, args.out)
     return 0
 
 

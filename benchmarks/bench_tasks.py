@@ -3,7 +3,10 @@
 - ``planar_push``: ms per 300-step roll-out of the expert's pushing demonstrations on the 3- and
   4-DoF planar arms (PyBullet, one physics client), after one warm-up roll-out;
 - ``wall_scoring``: seconds to score 1000 wall-with-a-hole environments x 200 steps in one
-  vectorised batch (E3's test set).
+  vectorised batch (E3's test set);
+- ``e1_adaptation``: seconds of learner compute per adaptation iteration (network updates and the
+  in-process roll-outs, which cost microseconds) with E1's ACNMP settings, and per roll-out: what
+  one learner process sustains, since it runs one job at a time.
 
     python benchmarks/bench_tasks.py [--repeats 5] [--out benchmarks/results/bench_tasks.json]
 """
@@ -50,6 +53,21 @@ def wall_scoring_s(n: int = 1000, steps: int = 200) -> tuple[float, bool]:
     return time.perf_counter() - t0, bool(batch.success.all())
 
 
+def e1_adaptation(budget: int = 30, train_steps: int = 1000) -> dict:
+    """Seconds per iteration and per roll-out of E1's ACNMP adaptation (seed 0, in-process task)."""
+    from acnmp_core.adaptation import adapt
+    from acnmp_core.experiments.viapoint import adapt_config, make_setup, train_lfd
+
+    setup = make_setup()
+    model = train_lfd(setup.demos, 0, train_steps)
+    cfg = adapt_config("acnmp", budget, stop_on_success=False)
+    t0 = time.perf_counter()
+    res = adapt(model, setup.demos, setup.target, setup.task, cfg, seed=0)
+    seconds = time.perf_counter() - t0
+    return {"iterations": len(res.history), "rollouts": res.rollouts, "seconds": round(seconds, 2),
+            "s_per_iteration": round(seconds / len(res.history), 3), "s_per_rollout": round(seconds / res.rollouts, 3)}
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the measurements, print them, write JSON; returns 0."""
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -63,6 +81,7 @@ def main(argv: list[str] | None = None) -> int:
     seconds, ok = wall_scoring_s()
     result = {"benchmark": "tasks", "planar_push_ms_per_300_step_rollout": push,
               "wall_scoring_1000_envs_x_200_steps_s": round(seconds, 4), "wall_all_demos_succeed": ok,
+              "e1_adaptation": e1_adaptation(),
               "repeats": args.repeats,
               "machine": {"cpus": os.cpu_count(), "python": platform.python_version(),
                           "note": "shared machine; numbers from one run"}}
