@@ -5,7 +5,10 @@ How a batch of B roll-outs is run:
 1. the live workers are the liveliness tokens ``acnmp/<ns>/worker/<robot>/*`` (waiting up to
    ``discover_timeout`` for the first one);
 2. the batch is cut into contiguous chunks, one per worker (``np.array_split`` sizes), and every
-   chunk is queried concurrently on ``.../<id>/rollout``;
+   chunk is queried concurrently on ``.../<id>/rollout``. When a batch has fewer roll-outs than
+   there are workers, the workers it goes to take turns (round robin from a random start per
+   evaluator), so many jobs with small batches spread over a large pool instead of all landing on
+   the first workers by name;
 3. a liveliness subscriber watches the workers while chunks are in flight: when a worker's token
    goes (it died, e.g. ``kill -9``) or its query fails with ``timeout``/``unavailable``/``internal``,
    its chunk is cut again over the workers still live and re-sent;
@@ -22,6 +25,7 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import random
 import threading
 import time
 from dataclasses import dataclass
@@ -75,6 +79,7 @@ class RemoteEvaluator:
         self.discover_timeout = float(discover_timeout)
         self.max_attempts = int(max_attempts)
         self._pattern = self.keys.worker_token(self.robot)
+        self._turn = random.randrange(1 << 30)  # which worker a batch starts on (round robin)
 
     def workers(self) -> list[str]:
         """Ids of the workers of this robot kind alive now (one liveliness query)."""
@@ -149,9 +154,11 @@ class RemoteEvaluator:
             if not candidates:
                 raise RuntimeError(f"no live {self.robot} worker in namespace {self.keys.namespace}")
             n = min(len(candidates), stop - start)
+            first, self._turn = self._turn % len(candidates), self._turn + n
             for idx, part in enumerate(np.array_split(np.arange(start, stop), n)):
                 counter[0] += 1
-                chunk = _Chunk(int(part[0]), int(part[-1]) + 1, candidates[idx], counter[0])
+                worker = candidates[(first + idx) % len(candidates)]
+                chunk = _Chunk(int(part[0]), int(part[-1]) + 1, worker, counter[0])
                 inflight[chunk.attempt] = chunk
                 threading.Thread(target=run_chunk, args=(chunk,), daemon=True,
                                  name=f"rollout-{chunk.worker}").start()

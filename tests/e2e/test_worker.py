@@ -126,3 +126,12 @@ def test_acnmp_serve_worker_runs_a_worker_until_sigterm(setup):
     np.testing.assert_array_equal(reply["rewards"], setup.task.evaluate(trajs, t).rewards)
     assert rc == 0, out
     assert "worker live as acnmp/wserve/worker/point2d/cli-w" in out
+
+
+def test_small_batches_take_turns_over_the_workers(tmp_path, setup):
+    """Batches smaller than the pool rotate over it: no worker is left idle while one takes all."""
+    t = setup.target.query_times
+    with LocalDeployment("wturn", workers=3, model=False, learner=False, state_dir=tmp_path) as dep:
+        ev = RemoteEvaluator(dep.session, dep.keys, "point2d", "viapoint", setup.task_config, timeout=30)
+        used = [w for _ in range(6) for w in ev.evaluate(np.zeros((1, len(t), 2)), t).workers]
+    assert sorted(used) == sorted(["point2d-0", "point2d-1", "point2d-2"] * 2)
