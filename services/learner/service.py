@@ -257,7 +257,7 @@ class LearnerConfig(Service):
     summary: ClassVar[str] = "the learner: trains skills, runs adaptation jobs, checkpoints"
 
     state_dir: str = option("runs/state", "checkpoints of skills and jobs (default: %(default)s)", metavar="DIR")
-    learner_id: str | None = option(None, "learner id (default: learner-<pid>)", flag="--id")
+    learner_id: str | None = option(None, "learner id (default: learner-<pid>)", flag="--id", metavar="ID")
     demos: list[str] = option([], "train SKILL from a demonstration file at start unless it exists (repeatable)",
                               metavar="SKILL=FILE.npz")
     train_steps: int = option(3000, "steps for --demos (default: %(default)s)")

@@ -32,7 +32,7 @@ class WorkerConfig(Service):
 
     robot: str = option("point2d", "robot kind (acnmp_core/robots/registry.py; default: %(default)s)",
                         choices=robot_kinds)
-    worker_id: str | None = option(None, "worker id (default: <robot>-<pid>)", flag="--id")
+    worker_id: str | None = option(None, "worker id (default: <robot>-<pid>)", flag="--id", metavar="ID")
     delay: float = option(0.0, "sleep S seconds per roll-out, to simulate a slow robot (default: 0)", metavar="S")
 
     def serve(self, session: zenoh.Session, stop: threading.Event, ready: Ready) -> int:
