@@ -150,8 +150,10 @@ class AdaptJob:
         config = check_type("config", d.get("config") or {}, Mapping)
         try:
             config = AdaptConfig.from_dict(dict(config))
-        except (TypeError, ValueError) as exc:  # an unknown field, or a value AdaptConfig refuses
-            raise InputError(str(exc) if str(exc).startswith("config") else f"config: {exc}") from None
+        except ValueError as exc:  # an unknown field, or a value AdaptConfig refuses (the message names it)
+            raise InputError(str(exc)) from None
+        except TypeError as exc:  # a value of a type AdaptConfig's checks cannot compare
+            raise InputError(f"config: {exc}") from None
         optional = {k: d[k] for k in ("robot", "seed", "commit", "assimilate_steps") if d.get(k) is not None}
         return cls(target=target_from_dict(d["target"]), task=d["task"],
                    task_config=check_type("task_config", d.get("task_config") or {}, Mapping),
