@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from .adaptation import AdaptConfig, AdaptResult, AdaptTarget, IterationLog
+from .assimilation import AssimilationConfig
 from .errors import InputError, TooLargeError
 from .robots.registry import robot
 from .validation import check_array, check_positive_int, check_type
@@ -37,7 +38,7 @@ MAX_OBS_VALUES = 1_000_000
 MAX_QUERY_STEPS = 100_000
 MAX_TASK_PARAMS = 1024
 #: Training steps after a solution joins the demonstrations, when the job does not say.
-DEFAULT_ASSIMILATE_STEPS = 1000
+DEFAULT_ASSIMILATE_STEPS = AssimilationConfig().steps
 
 
 def _bounded(name: str, value, limit: int, **checks) -> np.ndarray:

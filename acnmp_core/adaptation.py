@@ -1,20 +1,46 @@
 """Adaptation of a CNMP to a new condition by policy gradient with simultaneous supervised learning.
 
 This is the "A" of ACNMP (Akbulut et al., CoRL 2020, Sec. 3.2). The network's mean trajectory for
-one conditioning query is the mean of a Gaussian policy over whole trajectories; exploration adds
-time-correlated noise (:class:`~acnmp_core.exploration.SmoothNoise`). Each iteration executes the
-mean and a few noisy trajectories through a :class:`~acnmp_core.rollout.RolloutEvaluator`,
-computes advantages against the mean roll-out, and takes gradient steps of the policy-gradient
-surrogate on those roll-outs (reused for a few iterations with truncated importance weights),
-interleaved with supervised NLL steps on the demonstrations so the skill keeps their shape.
+one conditioning query is the mean of a Gaussian policy over trajectories with a hand-set
+exploration std. Each iteration executes the mean and ``noisy_per_iter`` noisy trajectories
+(time-correlated noise, :class:`~acnmp_core.exploration.SmoothNoise`) through a
+:class:`~acnmp_core.rollout.RolloutEvaluator`, then updates the network:
+
+* **Credit**: each step's action is credited with the reward difference to the mean roll-out at
+  that step only (the authors'), or, for a task whose rewards depend on what happened before
+  (dynamics, contacts: its evaluator's ``credit = "future"``), with the rewards from that step on.
+* **Policy update**, two modes (``advantage``):
+
+  - "awr" (default): at every step the target is the roll-outs' average weighted by
+    ``softmax((r - max r) / (temperature * spread))`` (the mean roll-out included); the mean is
+    regressed onto it, step by step weighted by how much the reward there differs between the
+    roll-outs, until it is within ``fit_tolerance`` stds or ``max_reuse`` steps (advantage-weighted
+    regression, Peng et al. 2019; its minimiser is the weighted average, so repeated steps
+    converge instead of running away).
+  - "reinforce" (the authors' update): ``A_t = r_t(noisy) - r_t(mean)`` divided by its std over the
+    iteration; loss ``mean_t sum_d w_td A_t (a_td - mu_td)^2 / (2 sigma_d^2)`` (REINFORCE with a
+    fixed std); the roll-out is reused with ``w = min(1, p_new / p_old)`` per step and dimension
+    until the mean has moved more than ``reuse_threshold`` stds or ``max_reuse`` times.
+
+* **Simultaneous SL**: ``sl_steps`` supervised NLL steps on the demonstrations before the first
+  policy step and ``sl_steps_reuse`` before each further one (mode "acnmp"), so the skill keeps the
+  demonstrations' shape. SL and RL keep separate Adam moments (their gradients differ in scale by
+  orders of magnitude) and the SL rate is lower: an SL step moves the extrapolated output at
+  random, by an amount set by the rate alone.
+* **Exploration** (unit-free): the std starts at ``explore_scale`` times the demonstrations' std of
+  each output and follows the remaining error, ``std = std0 * clip(err / err0, explore_min, 1)``,
+  ``err`` the mean roll-out's error (``RolloutBatch.errors``, else minus its return) and ``err0``
+  the first one: the authors tie the std to the remaining error in every experiment, each with
+  its own constants; a ratio needs none.
 
 Ablations: ``mode="rl_only"`` turns the supervised steps off; ``mode="lfd_only"`` executes the
-conditioned mean once and does not adapt.
+conditioned mean once and does not adapt. The settings were chosen on E1, E2 and E3 together
+(docs/experiments/adaptation.md).
 """
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field, fields
-from typing import Callable, Sequence
+from typing import Callable
 
 import numpy as np
 import torch
@@ -22,67 +48,56 @@ import torch
 from .cnmp import CNMP, Query
 from .data import DemoSet
 from .exploration import SmoothNoise
-from .rollout import RolloutEvaluator
+from .rollout import RolloutBatch, RolloutEvaluator
 from .training import TrainConfig, make_sampler, nll_loss
-from .validation import check_array, check_positive_int
+from .validation import check_positive_int
 
 MODES = ("acnmp", "rl_only", "lfd_only")
-ADVANTAGES = ("episodic", "per_step")
+ADVANTAGES = ("awr", "reinforce")
+#: How a task's rewards depend on the actions (a class attribute ``credit`` of its evaluator):
+#: "step" (the reward at t depends on the state at t only) or "future" (on everything before it).
+CREDITS = ("step", "future")
 
 
 @dataclass
 class AdaptConfig:
-    """Hyper-parameters of adaptation.
+    """Hyper-parameters of adaptation; the defaults are the same for every experiment.
 
     mode : "acnmp" (RL + SL), "rl_only" (no SL) or "lfd_only" (no adaptation).
-    noisy_per_iter : noisy roll-outs per iteration (one noise-free mean roll-out is added to each).
     max_rollouts : budget; every executed trajectory counts, the mean roll-outs included.
-    explore_std : exploration std per output dimension in raw units (scalar or (D,)); None uses
-        ``explore_scale`` times the demonstrations' std of each dimension.
-    adapt_exploration : grow the std by ``explore_up`` when more than 40 % of the noisy roll-outs
-        beat the mean, shrink it by ``explore_down`` when fewer than 20 % do (a 1/5th-success rule), within
-        [explore_min, explore_max] times the initial std.
-    explore_from_return : when set to k, the exploration std (raw units) is k * |return of the
-        mean roll-out| (within [explore_min, explore_max] times the initial std) instead of the
-        1/5th rule: the authors' rule for rewards that are distances, so exploration is as wide as
-        the remaining error.
-    n_knots : knots of the time-correlated noise.
-    mirrored : draw the noise in antithetic pairs (eps, -eps).
-    advantage : "episodic" (return of the noisy roll-out minus that of the mean, credited to every
-        step) or "per_step" (the authors': per-step reward difference).
-    temperature : of the exponentiated advantage weights, relative to the advantages' range
-        (smaller is greedier; see :func:`_weights`).
-    lr : Adam learning rate of the adaptation updates.
-    rl_steps_per_iter : policy-gradient steps per iteration.
-    sl_steps_per_rl_step : supervised steps interleaved after each policy-gradient step (acnmp).
+    noisy_per_iter : noisy roll-outs per iteration (one noise-free mean roll-out is added to each).
+    explore_scale : initial exploration std, as a fraction of the demonstrations' std per output.
+    explore_min : the std never falls below this fraction of the initial std.
+    n_knots : knots of the time-correlated exploration noise (fewer: smoother).
+    advantage : "awr" or "reinforce" (the authors'); see the module docstring.
+    temperature : of the "awr" weights, relative to the rewards' spread at each step.
+    lr : Adam learning rate of the policy steps.
+    sl_lr : Adam learning rate of the supervised steps.
+    sl_steps : supervised steps before the first policy step on an iteration's roll-outs.
+    sl_steps_reuse : supervised steps before each further policy step.
     sl_batch_size : episodes per supervised step.
-    is_clip : importance weights are truncated at this value; roll-outs whose weight leaves
-        [1/is_clip, is_clip] are no longer reused.
-    reuse_iters : how many iterations a roll-out may be reused for.
+    max_reuse : at most this many further policy steps on one iteration's roll-outs.
+    fit_tolerance : "awr": stop once the mean is within this many stds of the target at every step.
+    reuse_threshold : "reinforce": stop once the mean has moved more than this many stds.
     stop_on_success : stop when the mean roll-out succeeds.
     """
 
     mode: str = "acnmp"
-    noisy_per_iter: int = 2
     max_rollouts: int = 200
-    explore_std: float | Sequence[float] | None = None
+    noisy_per_iter: int = 4
     explore_scale: float = 0.3
-    adapt_exploration: bool = True
-    explore_up: float = 1.3
-    explore_down: float = 0.8
-    explore_min: float = 0.1
-    explore_max: float = 3.0
-    explore_from_return: float | None = None
-    n_knots: int = 8
-    mirrored: bool = True
-    advantage: str = "per_step"
-    lr: float = 1e-3
-    rl_steps_per_iter: int = 60
-    sl_steps_per_rl_step: int = 1
+    explore_min: float = 0.3
+    n_knots: int = 12
+    advantage: str = "awr"
+    temperature: float = 0.1
+    lr: float = 1e-4
+    sl_lr: float = 3e-5
+    sl_steps: int = 10
+    sl_steps_reuse: int = 2
     sl_batch_size: int = 8
-    temperature: float = 0.03
-    is_clip: float = 2.0
-    reuse_iters: int = 3
+    max_reuse: int = 50
+    fit_tolerance: float = 0.1
+    reuse_threshold: float = 1.0
     stop_on_success: bool = True
 
     def __post_init__(self) -> None:
@@ -90,12 +105,19 @@ class AdaptConfig:
             raise ValueError(f"mode: expected one of {MODES}, got {self.mode!r}")
         if self.advantage not in ADVANTAGES:
             raise ValueError(f"advantage: expected one of {ADVANTAGES}, got {self.advantage!r}")
-        check_positive_int("noisy_per_iter", self.noisy_per_iter)
-        check_positive_int("max_rollouts", self.max_rollouts)
-        check_positive_int("rl_steps_per_iter", self.rl_steps_per_iter, minimum=0)
-        check_positive_int("sl_steps_per_rl_step", self.sl_steps_per_rl_step, minimum=0)
-        if not self.is_clip > 1.0:
-            raise ValueError(f"is_clip: expected > 1, got {self.is_clip}")
+        for name in ("max_rollouts", "noisy_per_iter", "n_knots", "sl_batch_size"):
+            check_positive_int(name, getattr(self, name))
+        for name in ("sl_steps", "sl_steps_reuse", "max_reuse"):
+            check_positive_int(name, getattr(self, name), minimum=0)
+        for name in ("explore_scale", "lr", "sl_lr", "reuse_threshold", "temperature", "fit_tolerance"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0:
+                raise ValueError(f"{name}: expected a number > 0, got {value!r}")
+        if isinstance(self.explore_min, bool) or not isinstance(self.explore_min, (int, float)) \
+                or not 0 < self.explore_min <= 1:
+            raise ValueError(f"explore_min: expected 0 < explore_min <= 1, got {self.explore_min!r}")
+        if not isinstance(self.stop_on_success, bool):
+            raise ValueError(f"stop_on_success: expected true or false, got {self.stop_on_success!r}")
 
     def to_dict(self) -> dict:
         """Plain JSON-ready dict of every field."""
@@ -134,8 +156,9 @@ class AdaptTarget:
 
 @dataclass
 class IterationLog:
-    """One adaptation iteration: roll-outs so far, the mean roll-out's return and success,
-    the returns of the noisy ones, the exploration std (raw units, (D,))."""
+    """One adaptation iteration: roll-outs so far, the mean roll-out's return, error and success,
+    the returns of the noisy ones, the exploration std (raw units, (D,)), and how many times the
+    iteration's roll-outs were reused after their first update."""
 
     iteration: int
     rollouts: int
@@ -143,6 +166,8 @@ class IterationLog:
     mean_success: bool
     noisy_returns: list[float]
     explore_std: list[float]
+    mean_error: float | None = None
+    reuses: int = 0
 
 
 @dataclass
@@ -157,29 +182,136 @@ class AdaptResult:
     history: list[IterationLog] = field(default_factory=list)
 
 
-def _weights(rewards: np.ndarray, kind: str, temperature: float, kernel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Advantage weights of the roll-outs of one iteration (row 0 is the mean roll-out).
+def per_step_advantages(rewards: np.ndarray, kind: str = "awr", temperature: float = 0.1,
+                        credit: str = "step") -> tuple[np.ndarray, np.ndarray] | None:
+    """Per-step advantages of the roll-outs of one iteration.
 
-    Returns ``(w, relevance)``: ``w`` (1+K, T) normalised over the roll-outs at each step, and
-    ``relevance`` (T,) in [0, 1], how much the reward says about each step.
+    rewards (1+K, T), row 0 the mean roll-out. Returns ``(rows, adv)``: the roll-outs that enter
+    the policy update and their advantages (len(rows), T); None when there is nothing to learn.
 
-    The advantage of a roll-out is its reward minus that of the mean roll-out: "episodic" uses the
-    returns and credits every step alike; "per_step" uses per-step rewards spread over time by
-    ``kernel`` (T, T), the exploration noise's correlation, because the noise at one step also moved
-    its correlated neighbours. Weights are ``exp(advantage / (temperature * spread))``. The
-    relevance of a step is the spread of its advantages over the largest spread: steps the reward
-    does not depend on get no policy-gradient signal at all, so what the network does there is left
-    to what it learnt from the demonstrations (ACNMP) or to chance (RL only).
+    ``credit`` says which rewards the action at step t is credited with: "step" its own reward
+    only (a kinematic task, where the reward at t depends on the state at t alone), "future" its
+    reward and every later one (reward-to-go: a task with dynamics, where an action also moves
+    what happens after it). It is a property of the task (see :data:`CREDITS`), not a setting.
+
+    * "reinforce" (the authors'): rows 1..K, ``r_t(noisy) - r_t(mean)`` divided by its std over all
+      K*T entries.
+    * "awr": rows 0..K, non-negative weights ``softmax_j((r_jt - max_j r_jt) / (temperature *
+      spread_t))`` times the step's relevance ``spread_t / max_t spread_t`` (spread = max - min over
+      the roll-outs); the surrogate's minimiser is then the weighted mean of the roll-outs at each
+      step, so repeated steps converge (advantage-weighted regression, Peng et al. 2019).
     """
-    if kind == "episodic":
-        adv = np.repeat((rewards.sum(axis=1) - rewards[0].sum())[:, None], rewards.shape[1], axis=1)
-    else:
-        adv = (rewards - rewards[0:1]) @ kernel.T
-    spread = adv.max(axis=0) - adv.min(axis=0)
-    z = (adv - adv.max(axis=0, keepdims=True)) / (temperature * np.maximum(spread, 1e-12))
-    w = np.exp(z)
-    w /= w.sum(axis=0, keepdims=True)
-    return w, spread / max(float(spread.max()), 1e-12)
+    if credit == "future":
+        rewards = np.cumsum(rewards[:, ::-1], axis=1)[:, ::-1]
+    elif credit != "step":
+        raise ValueError(f"credit: expected one of {CREDITS}, got {credit!r}")
+    diff = rewards[1:] - rewards[0:1]
+    if not np.any(np.abs(diff) > 1e-12):
+        return None
+    if kind == "awr":
+        spread = rewards.max(axis=0) - rewards.min(axis=0)
+        z = (rewards - rewards.max(axis=0, keepdims=True)) / (temperature * np.maximum(spread, 1e-12))
+        w = np.exp(z)
+        w /= w.sum(axis=0, keepdims=True)
+        return np.arange(len(rewards)), w * (spread / spread.max())
+    s = float(diff.std())
+    if not np.isfinite(s) or s < 1e-12:
+        return None
+    return np.arange(1, len(rewards)), diff / s
+
+
+@dataclass
+class _Rollout:
+    """A noisy roll-out kept for reuse (normalised units): executed trajectory tau (T, D),
+    per-step advantage (T,), exploration std (D,), the mean that generated it (T, D)."""
+
+    tau: torch.Tensor
+    adv: torch.Tensor
+    std: torch.Tensor
+    mu_old: torch.Tensor
+
+
+class _Updater:
+    """The network updates of one adaptation: RL steps on roll-outs and SL steps on the demos."""
+
+    def __init__(self, model: CNMP, query: Query, cfg: AdaptConfig, demos: DemoSet, train_cfg: TrainConfig,
+                 gen: torch.Generator) -> None:
+        self.model, self.query, self.cfg, self.gen = model, query, cfg, gen
+        self.sampler = make_sampler(model, demos, train_cfg) if cfg.mode == "acnmp" else None
+        # Separate Adam moments for the RL and the SL steps: their gradients differ in scale by
+        # orders of magnitude, and a shared second moment lets the larger one silence the other.
+        self.opt_rl = torch.optim.Adam(model.parameters(), lr=cfg.lr, fused=True)
+        self.opt_sl = torch.optim.Adam(model.parameters(), lr=cfg.sl_lr, fused=True)
+
+    def mean(self) -> torch.Tensor:
+        """Current mean (T, D), normalised units, no gradient."""
+        with torch.no_grad():
+            return self.model.mean_normalized(self.query)
+
+    def sl(self, steps: int) -> None:
+        """``steps`` supervised steps (plain Gaussian NLL) on the demonstrations."""
+        if self.sampler is None:
+            return
+        for _ in range(steps):
+            loss = nll_loss(self.model, self.sampler.sample(self.cfg.sl_batch_size, self.gen), 0.0)
+            self.opt_sl.zero_grad(set_to_none=True)
+            loss.backward()
+            self.opt_sl.step()
+
+    def rl(self, rollouts: list[_Rollout], reuse: bool) -> None:
+        """One policy step on ``rollouts``: ``mean_t sum_d A_t (a_td - mu_td)^2 / (2 sigma_d^2)``,
+        with importance weights min(1, p_new/p_old) per step and dimension when ``reuse``."""
+        mu = self.model.mean_normalized(self.query)  # (T, D)
+        loss = 0.0
+        for r in rollouts:
+            sq = (r.tau - mu) ** 2 / (2 * r.std**2)  # (T, D)
+            if reuse:
+                with torch.no_grad():
+                    old = (r.tau - r.mu_old) ** 2 / (2 * r.std**2)
+                    w = torch.exp(torch.clamp(old - sq, max=0.0))
+                sq = w * sq
+            loss = loss + (r.adv[:, None] * sq).sum(-1).mean()
+        self.opt_rl.zero_grad(set_to_none=True)
+        loss.backward()
+        self.opt_rl.step()
+
+    def update(self, rollouts: list[_Rollout]) -> int:
+        """SL, the first RL step on fresh roll-outs, then SL + further RL steps on the same
+        roll-outs until the stop rule holds or ``max_reuse``. Returns the further RL steps.
+
+        "awr": stop once the mean is within ``fit_tolerance`` stds of the advantage-weighted
+        target at every step (weighted by the step's relevance); "reinforce" (the
+        authors' reuse): stop once the mean has moved more than ``reuse_threshold`` stds from the
+        one that drew the roll-outs, importance-weighting each reuse.
+        """
+        awr = self.cfg.advantage == "awr"
+        if awr:
+            rel = torch.stack([r.adv for r in rollouts]).sum(0)  # (T,) the AWR weights sum to the relevance
+            target = sum(r.adv[:, None] * r.tau for r in rollouts) / rel.clamp_min(1e-12)[:, None]
+        self.model.train()
+        self.sl(self.cfg.sl_steps)
+        self.rl(rollouts, reuse=False)
+        reuses = 0
+        while reuses < self.cfg.max_reuse:
+            self.sl(self.cfg.sl_steps_reuse)
+            mu = self.mean()
+            if awr:
+                if float((rel[:, None] * (mu - target).abs() / rollouts[0].std).max()) < self.cfg.fit_tolerance:
+                    break
+            elif max(float(((mu - r.mu_old).abs() / r.std).max()) for r in rollouts) > self.cfg.reuse_threshold:
+                break
+            self.rl(rollouts, reuse=not awr)
+            reuses += 1
+        self.model.eval()
+        return reuses
+
+
+def _evaluate(evaluator: RolloutEvaluator, trajs: np.ndarray, times: np.ndarray, tp) -> RolloutBatch:
+    """Run ``trajs`` (B, T, D) raw and check that B roll-outs came back."""
+    batch = evaluator.evaluate(trajs, times, tp)
+    if len(batch) != len(trajs):
+        raise ValueError(f"evaluator: expected {len(trajs)} roll-outs back, got {len(batch)}")
+    return batch
 
 
 def adapt(
@@ -191,7 +323,7 @@ def adapt(
     *,
     seed: int = 0,
     train_cfg: TrainConfig | None = None,
-    on_iteration: Callable[[IterationLog, np.ndarray, "object"], None] | None = None,
+    on_iteration: Callable[[IterationLog, np.ndarray, RolloutBatch], None] | None = None,
 ) -> AdaptResult:
     """Adapt ``model`` in place so that its output for ``target`` maximises the evaluator's reward.
 
@@ -206,7 +338,7 @@ def adapt(
     on_iteration : called after each iteration with (log, executed trajectories (1+K, T, D) raw,
         RolloutBatch); services use it to record every roll-out.
 
-    Returns an :class:`AdaptResult`.
+    Returns an :class:`AdaptResult` whose ``trajectory`` is the model's mean for ``target`` at the end.
     """
     cfg = cfg or AdaptConfig()
     train_cfg = train_cfg or TrainConfig()
@@ -215,115 +347,60 @@ def adapt(
     tp = None if target.task_params is None else np.asarray(target.task_params, dtype=np.float64)
     d = model.config.n_outputs
     scale = model.value_norm.scale.double().numpy()
-    if cfg.explore_std is None:
-        std0 = cfg.explore_scale * np.ones(d)  # normalised units: the demos' std is 1
-    else:
-        std0 = check_array("explore_std", cfg.explore_std, ndim=(0, 1)) * np.ones(d) / scale
-        if np.any(std0 <= 0):
-            raise ValueError("explore_std: expected positive values")
-    std = std0.copy()
+    std0 = cfg.explore_scale * np.ones(d)  # normalised units: the demos' std is 1
     rng = np.random.default_rng(seed)
     gen = torch.Generator().manual_seed(seed)
-    noise = SmoothNoise(len(times), cfg.n_knots)
-    kernel = noise.basis @ noise.basis.T  # (T, T) correlation of the exploration noise
-    sampler = make_sampler(model, demos, train_cfg) if cfg.mode == "acnmp" else None
-    opt = torch.optim.Adam(model.parameters(), lr=cfg.lr)
-    buffer: list[dict] = []
+    noise = SmoothNoise(len(times), min(cfg.n_knots, len(times)))
+    updater = _Updater(model, query, cfg, demos, train_cfg, gen)
+    credit = getattr(evaluator, "credit", "step")
     history: list[IterationLog] = []
-    rollouts, it, success = 0, 0, False
+    rollouts, it, success, err0 = 0, 0, False, None
+    model.eval()
 
     def denorm(x: np.ndarray) -> np.ndarray:
         return model.value_norm.denormalize(torch.as_tensor(x)).numpy()
 
     while rollouts < cfg.max_rollouts:
-        model.eval()
-        with torch.no_grad():
-            mu = model.mean_normalized(query).double().numpy()  # (T, D)
+        mu_t = updater.mean()
+        mu = mu_t.double().numpy()  # (T, D)
         k = 0 if cfg.mode == "lfd_only" else min(cfg.noisy_per_iter, cfg.max_rollouts - rollouts - 1)
-        if cfg.explore_from_return is not None and it > 0:
-            std = np.clip(cfg.explore_from_return * abs(history[-1].mean_return) / scale,
-                          cfg.explore_min * std0, cfg.explore_max * std0)
-        if cfg.mirrored and k >= 2:
-            # Antithetic pairs (eps, -eps): the pair's reward difference is a finite-difference
-            # estimate along eps, far less noisy than two independent samples.
-            half = noise.sample((k + 1) // 2, d, rng, std)
-            eps = np.concatenate([half, -half])[:k]
-        else:
-            eps = noise.sample(k, d, rng, std)
+        ratio = history[-1].mean_error / err0 if history and err0 > 0 else 1.0
+        std = std0 * float(np.clip(ratio, cfg.explore_min, 1.0))
+        eps = noise.sample(k, d, rng, std) if k else np.zeros((0, len(times), d))
         trajs_n = np.concatenate([mu[None], mu[None] + eps])
         trajs = denorm(trajs_n)
-        batch = evaluator.evaluate(trajs, times, tp)
-        if len(batch) != 1 + k:
-            raise ValueError(f"evaluator: expected {1 + k} roll-outs back, got {len(batch)}")
+        if it == 0 and k and cfg.stop_on_success:
+            # The first mean is the LfD trajectory: run it alone, so a target the demonstrations
+            # already solve costs one roll-out and no exploration.
+            batch = _evaluate(evaluator, trajs[:1], times, tp)
+            if batch.success[0]:
+                trajs, k = trajs[:1], 0
+            else:
+                batch = RolloutBatch.concat([batch, _evaluate(evaluator, trajs[1:], times, tp)])
+        else:
+            batch = _evaluate(evaluator, trajs, times, tp)
         rollouts += 1 + k
-        returns = batch.returns
+        errors = batch.remaining_errors()
+        if err0 is None:
+            err0 = float(errors[0])
         success = bool(batch.success[0])
-        log = IterationLog(it, rollouts, float(returns[0]), success, [float(r) for r in returns[1:]],
-                           list(map(float, std * scale)))
+        log = IterationLog(it, rollouts, float(batch.returns[0]), success, [float(r) for r in batch.returns[1:]],
+                           list(map(float, std * scale)), float(errors[0]))
         history.append(log)
         if on_iteration is not None:
             on_iteration(log, trajs, batch)
         it += 1
         if (success and cfg.stop_on_success) or k == 0:
             break
-        weights, relevance = _weights(batch.rewards, cfg.advantage, cfg.temperature, kernel)
-        for j in range(1 + k):
-            buffer.append({"tau": trajs_n[j], "adv": weights[j] * relevance, "std": std.copy(),
-                           "logp": _logp(mu, trajs_n[j], std), "born": it})
-        buffer = [b for b in buffer if it - b["born"] < cfg.reuse_iters]
-        if cfg.adapt_exploration and cfg.explore_from_return is None:
-            # Rechenberg's 1/5th rule, coarsened for a handful of samples: widen while many noisy
-            # roll-outs beat the mean (the optimum is far), narrow when none does (it is near).
-            frac = float(np.mean(returns[1:] > returns[0]))
-            factor = cfg.explore_up if frac > 0.4 else cfg.explore_down if frac < 0.2 else 1.0
-            std = np.clip(std * factor, cfg.explore_min * std0, cfg.explore_max * std0)
-        _update(model, opt, query, buffer, cfg, sampler, gen, train_cfg)
+        found = per_step_advantages(batch.rewards, cfg.advantage, cfg.temperature, credit)
+        if found is None:
+            continue
+        rows, adv = found
+        std_t = torch.as_tensor(std, dtype=torch.float32)
+        fresh = [_Rollout(torch.as_tensor(trajs_n[j], dtype=torch.float32),
+                          torch.as_tensor(a, dtype=torch.float32), std_t, mu_t) for j, a in zip(rows, adv)]
+        log.reuses = updater.update(fresh)
 
-    model.eval()
-    with torch.no_grad():
-        final = denorm(model.mean_normalized(query).double().numpy())
-    return AdaptResult(success=success, rollouts=rollouts, trajectory=final, times=times, history=history)
-
-
-def _logp(mu: np.ndarray, tau: np.ndarray, std: np.ndarray) -> np.ndarray:
-    """Per-step log-density (T,) (up to a constant) of tau (T, D) under N(mu, std^2), normalised units."""
-    return -0.5 * np.sum(((tau - mu) / std) ** 2, axis=-1)
-
-
-def _update(model, opt, query, buffer, cfg: AdaptConfig, sampler, gen, train_cfg) -> None:
-    """Policy-gradient steps on ``buffer`` interleaved with supervised steps (when ``sampler``)."""
-    if not buffer:
-        return
-    tau = torch.as_tensor(np.stack([b["tau"] for b in buffer]), dtype=torch.float32)  # (N, T, D)
-    adv = torch.as_tensor(np.stack([b["adv"] for b in buffer]), dtype=torch.float32)  # (N, T)
-    std = torch.as_tensor(np.stack([b["std"] for b in buffer]), dtype=torch.float32)[:, None, :]
-    old = torch.as_tensor(np.stack([b["logp"] for b in buffer]), dtype=torch.float32)  # (N, T)
-    newest = max(b["born"] for b in buffer)
-    fresh = torch.as_tensor([b["born"] == newest for b in buffer])
-    model.train()
-    for step in range(cfg.rl_steps_per_iter):
-        mu = model.mean_normalized(query)  # (T, D)
-        z = (tau - mu[None]) / std
-        logp_t = -0.5 * (z**2).sum(-1)  # (N, T)
-        with torch.no_grad():
-            log_ratio = logp_t - old
-            if step == 0:
-                # Older roll-outs are reused only while the mean has moved little from the one that
-                # generated them: their mean per-step log importance ratio stays within log(is_clip).
-                reuse = fresh | (log_ratio.mean(-1).abs() <= np.log(cfg.is_clip))
-            # Per-step importance weights, truncated at is_clip (per-decision, as in Retrace).
-            w = torch.exp(log_ratio.clamp(max=np.log(cfg.is_clip))) * reuse[:, None]
-        # Advantage-weighted log-likelihood (AWR, Peng et al. 2019): the policy-gradient surrogate
-        # with positive, normalised weights, whose maximiser is the weighted mean of the roll-outs,
-        # so repeated steps converge instead of running away as the signed-advantage surrogate does.
-        # Multiplying by std^2 makes the step size independent of the exploration std.
-        loss = -(w * adv * logp_t).sum() / max(float(w.sum(0).max()), 1e-6) * float((std**2).mean())
-        opt.zero_grad(set_to_none=True)
-        loss.backward()
-        opt.step()
-        for _ in range(cfg.sl_steps_per_rl_step if sampler is not None else 0):
-            sl = nll_loss(model, sampler.sample(cfg.sl_batch_size, gen), train_cfg.beta)
-            opt.zero_grad(set_to_none=True)
-            sl.backward()
-            opt.step()
-    model.eval()
+    final = updater.mean().double().numpy()
+    return AdaptResult(success=success, rollouts=rollouts, trajectory=denorm(final), times=times,
+                       history=history)

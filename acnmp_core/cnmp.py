@@ -93,7 +93,8 @@ def _mlp(widths: Sequence[int], in_dim: int, out_dim: int | None) -> nn.Sequenti
 class Prediction:
     """A CNMP's answer in raw units.
 
-    times (T,), mean (T, D), std (T, D), latent (L,).
+    times (T,), mean (T, D), std (T, D), latent (L,); from :meth:`CNMP.predict_batch` the last three
+    carry a leading batch axis B.
     """
 
     times: np.ndarray
@@ -104,9 +105,10 @@ class Prediction:
 
 @dataclass
 class Query:
-    """A validated conditioning query in normalised units, ready for the network.
+    """Validated conditioning queries in normalised units, ready for the network.
 
-    obs_x (1, N, 1+P+2D), obs_mask (1, N), tgt_x (1, T, 1+P); ``times`` (T,) raw query times.
+    obs_x (B, N, 1+P+2D), obs_mask (B, N), tgt_x (B, T, 1+P); ``times`` (T,) raw query times
+    shared by the B queries (B = 1 from :meth:`CNMP.make_query`).
     """
 
     obs_x: torch.Tensor
@@ -245,18 +247,61 @@ class CNMP(nn.Module):
         query_times = check_array("query_times", query_times, ndim=1, min_size=1)
         self._check_times("obs_times", obs_times)
         self._check_times("query_times", query_times)
+        return self._build_query(obs_times[None], obs_values[None], dims[None], task_params[None], query_times)
+
+    def make_batch_query(self, obs_times, obs_values, task_params=None, query_times=None, *,
+                         obs_dims_mask=None) -> Query:
+        """Validate B conditioning requests that share N observations each and the query times.
+
+        Parameters
+        ----------
+        obs_times : (B, N) observation times, within the trained time range.
+        obs_values : (B, N, D) observed values, raw units.
+        task_params : (B, P) task parameters, raw units; None allowed only when P == 0.
+        query_times : (T,) times to predict at, the same for every request.
+        obs_dims_mask : (B, N, D) bool, which output dimensions each observation carries (default all).
+
+        Returns a :class:`Query` with batch dimension B. Raises ValueError naming the argument.
+        """
+        if not bool(self.fitted):
+            raise ValueError("model: normalisation is not fitted; train the model first")
+        d, p = self.config.n_outputs, self.config.n_task_params
+        obs_times = check_array("obs_times", obs_times, ndim=2, min_size=1)
+        b, n = obs_times.shape
+        obs_values = check_array("obs_values", obs_values, shape=(b, n, d))
+        if obs_dims_mask is None:
+            dims = np.ones((b, n, d))
+        else:
+            dims = check_array("obs_dims_mask", obs_dims_mask, shape=(b, n, d), dtype=bool).astype(np.float64)
+            if np.any(dims.sum(axis=2) == 0):
+                raise ValueError("obs_dims_mask: every observation must carry at least one output dimension")
+        if task_params is None:
+            if p:
+                raise ValueError(f"task_params: expected {p} task parameters per request, got none")
+            task_params = np.zeros((b, 0))
+        task_params = check_array("task_params", task_params, shape=(b, p))
+        query_times = check_array("query_times", query_times, ndim=1, min_size=1)
+        self._check_times("obs_times", obs_times)
+        self._check_times("query_times", query_times)
+        return self._build_query(obs_times, obs_values, dims, task_params, query_times)
+
+    def _build_query(self, obs_times: np.ndarray, obs_values: np.ndarray, dims: np.ndarray, task_params: np.ndarray,
+                     query_times: np.ndarray) -> Query:
+        """Checked raw arrays (B, N), (B, N, D), (B, N, D), (B, P), (T,) -> normalised network inputs."""
+        b, n = obs_times.shape
+        p = task_params.shape[1]
         with torch.no_grad():
-            tn = self.time_norm.normalize(torch.from_numpy(obs_times.copy())[:, None])
+            tn = self.time_norm.normalize(torch.from_numpy(obs_times.copy())[..., None])
             vn = self.value_norm.normalize(torch.from_numpy(obs_values.copy()))
             dm = torch.from_numpy(np.array(dims))
-            pn = self.task_norm.normalize(torch.from_numpy(task_params.copy()))
-            obs_x = torch.cat([tn, pn.expand(n, p), vn * dm, dm], dim=-1)
-            qn = self.time_norm.normalize(torch.from_numpy(query_times.copy())[:, None])
-            tgt_x = torch.cat([qn, pn.expand(len(query_times), p)], dim=-1)
+            pn = self.task_norm.normalize(torch.from_numpy(task_params.copy()))[:, None, :]  # (B, 1, P)
+            obs_x = torch.cat([tn, pn.expand(b, n, p), vn * dm, dm], dim=-1)
+            qn = self.time_norm.normalize(torch.from_numpy(query_times.copy())[:, None])  # (T, 1)
+            tgt_x = torch.cat([qn.expand(b, -1, -1), pn.expand(b, len(query_times), p)], dim=-1)
         return Query(
-            obs_x=obs_x[None].float(),
-            obs_mask=torch.ones(1, n, dtype=torch.bool),
-            tgt_x=tgt_x[None].float(),
+            obs_x=obs_x.float(),
+            obs_mask=torch.ones(b, n, dtype=torch.bool),
+            tgt_x=tgt_x.float(),
             times=query_times,
         )
 
@@ -281,6 +326,21 @@ class CNMP(nn.Module):
             mean = self.value_norm.denormalize(mean[0].double())
             std = self.value_norm.denormalize_std(std[0].double())
         return Prediction(query.times.copy(), mean.numpy(), std.numpy(), latent[0].double().numpy())
+
+    def predict_batch(self, obs_times, obs_values, task_params=None, query_times=None, *,
+                      obs_dims_mask=None) -> Prediction:
+        """B queries in one forward pass; arguments as :meth:`make_batch_query`.
+
+        Returns a :class:`Prediction` with a leading batch axis, raw units: times (T,),
+        mean (B, T, D), std (B, T, D), latent (B, L). Row i equals :meth:`predict` on request i (up to
+        float32 rounding in the batched matrix products).
+        """
+        q = self.make_batch_query(obs_times, obs_values, task_params, query_times, obs_dims_mask=obs_dims_mask)
+        with torch.no_grad():
+            mean, std, latent = self(q.obs_x, q.obs_mask, q.tgt_x)
+            mean = self.value_norm.denormalize(mean.double())
+            std = self.value_norm.denormalize_std(std.double())
+        return Prediction(q.times.copy(), mean.numpy(), std.numpy(), latent.double().numpy())
 
     def predict(
         self,

@@ -98,6 +98,8 @@ class PrompRLResult:
     final_return : return of ``trajectory``.
     learning_curve : (I + 1,) return of the mean trajectory at each evaluation (before each update
         and at the end).
+    error_curve : (I + 1,) the task's remaining error of the mean trajectory at each evaluation
+        (:meth:`RolloutBatch.remaining_errors`).
     rollouts_at : (I + 1,) cumulative roll-outs when each ``learning_curve`` entry was measured.
     sample_returns : (I,) average return of each iteration's exploration roll-outs.
     promp : the final search distribution as a :class:`ProMP`.
@@ -111,6 +113,7 @@ class PrompRLResult:
     times: np.ndarray
     final_return: float
     learning_curve: np.ndarray
+    error_curve: np.ndarray
     rollouts_at: np.ndarray
     sample_returns: np.ndarray
     promp: ProMP
@@ -233,7 +236,7 @@ def promp_rl(
     mean, cov = init.weight_mean.copy(), init.weight_cov.copy()
     nw = init.n_weights
     floor = cfg.min_std**2 * np.eye(nw)
-    curve, at, sample_returns = [], [], []
+    curve, errors, at, sample_returns = [], [], [], []
     n_rollouts = 0
     iterations = 0
     promp = init
@@ -244,6 +247,7 @@ def promp_rl(
         n_rollouts += 1
         ret = float(batch.returns[0])
         curve.append(ret)
+        errors.append(float(batch.remaining_errors()[0]))
         at.append(n_rollouts)
         success = bool(batch.success[0])
         n = min(cfg.n_samples, cfg.max_rollouts - n_rollouts - 1)  # leave room to evaluate the new mean
@@ -269,6 +273,7 @@ def promp_rl(
         times=t,
         final_return=ret,
         learning_curve=np.asarray(curve),
+        error_curve=np.asarray(errors),
         rollouts_at=np.asarray(at, dtype=np.int64),
         sample_returns=np.asarray(sample_returns),
         promp=promp,

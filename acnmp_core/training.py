@@ -132,7 +132,7 @@ def train(
         val_ep = val_sampler.sample(cfg.val_episodes, val_gen)
     else:
         val_ep = sampler.sample(cfg.val_episodes, val_gen)
-    opt = optimizer or torch.optim.Adam(model.parameters(), lr=cfg.lr)
+    opt = optimizer or torch.optim.Adam(model.parameters(), lr=cfg.lr, fused=True)
     result = TrainResult()
     best_state = copy.deepcopy(model.state_dict())
     model.train()
@@ -171,8 +171,11 @@ def evaluate_nll(model: CNMP, demos: DemoSet, *, episodes: int = 512, seed: int 
         return float(nll_loss(model, ep))
 
 
-def reproduction_error(model: CNMP, demos: DemoSet, *, n_obs: int = 3) -> float:
-    """RMS error (raw units) of each demo reproduced from ``n_obs`` of its own points, spread in time."""
+def reproduction_error(model, demos: DemoSet, *, n_obs: int = 3) -> float:
+    """RMS error (raw units) of each demo reproduced from ``n_obs`` of its own points, spread in time.
+
+    ``model`` is a :class:`CNMP` or anything with :meth:`CNMP.predict`'s signature and result
+    (e.g. a skill served by a deployment)."""
     errs = []
     for d in demos:
         idx = np.linspace(0, len(d.times) - 1, n_obs).round().astype(int)

@@ -255,12 +255,13 @@ class PlanarPushTask:
     ``evaluate(trajectories (B, T, N), times (T,), task_params (2,))`` runs each joint trajectory on
     the simulator; ``task_params`` is the target ``(x, y)`` (m) of the cylinder.
 
-    Reward: zero at every step except the last, where it is minus the Euclidean distance (m) between
-    the cylinder's final position and the target. The task asks only where the object ends, so a
-    per-step shaping term would reward intermediate positions the user never asked for; the return
-    therefore equals minus the final error, as in the paper.
-    Success: the final distance is at most ``tolerance`` (default 0.03 m, one cylinder radius: the
-    object then still overlaps the target point).
+    Reward (``reward``): "distance" (default) gives every step minus the cylinder's distance (m) to
+    the target at that step, divided by T, so the return is minus the time-averaged distance and a
+    per-step advantage says at which steps a push moved the cylinder nearer; "final" gives zero at
+    every step but the last, which gets minus the final distance (the return is then minus the
+    final error). Either way ``errors`` is the final distance (m) and success is that distance being
+    at most ``tolerance`` (default 0.03 m, one cylinder radius: the object then still overlaps the
+    target point).
 
     ``times`` must have T entries and be increasing; the simulator runs one row per control step
     (``control_dt``), so ``times`` only labels the steps (the project uses phase in [0, 1]).
@@ -269,12 +270,18 @@ class PlanarPushTask:
     """
 
     task_param_names = ("target_x", "target_y")
+    REWARDS = ("distance", "final")
+    #: The cylinder moves by contact: an action is credited with every reward after it.
+    credit = "future"
 
     def __init__(self, n_joints: int = 3, *, geometry: ArmGeometry | None = None, obj: PushObject | None = None,
-                 tolerance: float = 0.03, **sim_kwargs) -> None:
+                 tolerance: float = 0.03, reward: str = "distance", **sim_kwargs) -> None:
+        if reward not in self.REWARDS:
+            raise ValueError(f"reward: expected one of {self.REWARDS}, got {reward!r}")
         geometry = geometry if geometry is not None else default_geometry(n_joints)
         self.sim = PlanarArmSim(geometry, obj, **sim_kwargs)
         self.tolerance = float(tolerance)
+        self.reward = reward
 
     @property
     def n_joints(self) -> int:
@@ -292,17 +299,21 @@ class PlanarPushTask:
             raise ValueError("task_params: expected the target (x, y), got None")
         target = check_array("task_params", task_params, shape=(2,))
         rewards = np.zeros((b, t_len))
-        success = np.zeros(b, dtype=bool)
+        errors = np.zeros(b)
         keys = ("joint_angles", "ee_xy", "ee_yaw", "object_xy")
         states: dict[str, list] = {k: [] for k in keys}
         for i in range(b):
             out = self.sim.rollout(trajs[i])
-            err = float(np.linalg.norm(out["object_xy"][-1] - target))
-            rewards[i, -1] = -err
-            success[i] = err <= self.tolerance
+            dist = np.linalg.norm(out["object_xy"] - target, axis=1)  # (T,)
+            errors[i] = dist[-1]
+            if self.reward == "distance":
+                rewards[i] = -dist / t_len
+            else:
+                rewards[i, -1] = -dist[-1]
             for k in keys:
                 states[k].append(out[k])
-        return RolloutBatch(rewards=rewards, success=success, states={k: np.stack(v) for k, v in states.items()})
+        return RolloutBatch(rewards=rewards, success=errors <= self.tolerance,
+                            states={k: np.stack(v) for k, v in states.items()}, errors=errors)
 
     def close(self) -> None:
         self.sim.close()

@@ -41,10 +41,11 @@ def make_task(name: str, params: dict[str, Any] | None = None) -> RolloutEvaluat
 
 @register_task("viapoint")
 def _viapoint(p: dict) -> RolloutEvaluator:
-    """params: t_v (float), point (list of D floats), tolerance (float)."""
+    """params: t_v (float or K floats), point (D floats or K lists of D), tolerance (float or K floats)."""
     from .viapoint import ViaPointTask
 
-    return ViaPointTask(float(p["t_v"]), np.asarray(p["point"], dtype=np.float64), float(p["tolerance"]))
+    return ViaPointTask(np.asarray(p["t_v"], dtype=np.float64), np.asarray(p["point"], dtype=np.float64),
+                        np.asarray(p["tolerance"], dtype=np.float64))
 
 
 @register_task("wall")

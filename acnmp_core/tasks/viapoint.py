@@ -123,7 +123,8 @@ class ViaPointTask:
         trajectories = np.asarray(trajectories, dtype=np.float64)
         rewards = np.zeros(trajectories.shape[:2])
         np.add.at(rewards, (slice(None), self._steps(np.asarray(times, dtype=np.float64))), -dist)
-        return RolloutBatch(rewards, np.all(dist <= self.tolerance, axis=1), {"path": trajectories})
+        return RolloutBatch(rewards, np.all(dist <= self.tolerance, axis=1), {"path": trajectories},
+                            errors=dist.max(axis=1))
 
 
 def shape_error(trajectory: np.ndarray, times: np.ndarray, demos: DemoSet) -> float:

@@ -468,8 +468,8 @@ class WallTask:
 
         Returns
         -------
-        RolloutBatch with rewards (B, T) (see :func:`wall_rewards`), success (B,) and
-        ``states={"path": trajectories}``.
+        RolloutBatch with rewards (B, T) (see :func:`wall_rewards`), success (B,),
+        ``states={"path": trajectories}`` and errors (B,) (see :func:`wall_errors`).
         """
         if task_params is None:
             raise ValueError("task_params: the wall task needs (x_c, y_c, x_g, y_g), got None")
@@ -485,6 +485,7 @@ class WallTask:
             rewards=_rewards_from_scores(s, traj.shape[0], traj.shape[1]),
             success=_success_from_scores(s, self.start_tolerance, self.goal_tolerance),
             states={"path": traj},
+            errors=_errors_from_scores(s),
         )
 
     def errors(self, trajectories, task_params) -> np.ndarray:

@@ -35,7 +35,7 @@ def test_e1_job_end_to_end_is_recorded_exactly(tmp_path, verify_rrd):
             "target": {"obs_times": tg.obs_times, "obs_values": tg.obs_values, "query_times": tg.query_times},
             "task": "viapoint", "task_config": setup.task_config, "robot": "point2d", "seed": 0, "commit": True,
             "assimilate_steps": 50,
-            "config": {"max_rollouts": 15, "explore_from_return": 1.0, "rl_steps_per_iter": 10}}, timeout=10)["job"]
+            "config": {"max_rollouts": 15, "max_reuse": 10}}, timeout=10)["job"]
         deadline = time.monotonic() + 90
         while (st := call(s, keys.job_status(job)))["state"] not in ("done", "failed"):
             assert time.monotonic() < deadline, st

@@ -26,7 +26,7 @@ def adapt_request(setup, **config):
     tg = setup.target
     return {"target": {"obs_times": tg.obs_times, "obs_values": tg.obs_values, "query_times": tg.query_times},
             "task": "viapoint", "task_config": setup.task_config, "robot": "point2d", "seed": 5,
-            "config": {"rl_steps_per_iter": 5, "explore_from_return": 1.0, **config}}
+            "config": {"max_reuse": 5, **config}}
 
 
 def latest(session, skill="e1"):

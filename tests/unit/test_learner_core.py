@@ -39,7 +39,7 @@ def _core(tmp_path, setup, events, versions):
 
 def _job(setup, **config) -> AdaptJob:
     return AdaptJob(setup.target, "viapoint", "point2d", setup.task_config,
-                    AdaptConfig(**{"max_rollouts": 9, "rl_steps_per_iter": 5, "explore_from_return": 1.0, **config}),
+                    AdaptConfig(**{"max_rollouts": 9, "max_reuse": 5, **config}),
                     seed=5, commit=True, assimilate_steps=20)
 
 

@@ -55,7 +55,24 @@ def test_expert_demos_push_object_to_targets(task, demos):
     for i in range(len(demos)):  # each against its own target, through the task's reward
         b = task.evaluate(demos.values[i : i + 1], T, demos.task_params[i])
         assert b.success[0]
-        assert b.rewards[0, -1] == pytest.approx(-errors[i], abs=1e-12)
+        assert b.errors[0] == pytest.approx(errors[i], abs=1e-12)
+        # the default dense reward: minus the cylinder's distance to the target at every step, over T
+        dist = np.linalg.norm(b.states["object_xy"][0] - demos.task_params[i], axis=1)
+        np.testing.assert_allclose(b.rewards[0], -dist / T.size, atol=1e-12)
+
+
+def test_final_reward_is_minus_the_final_error(demos):
+    task = PlanarPushTask(reward="final")
+    try:
+        b = task.evaluate(demos.values[:2], T, demos.task_params[0])
+    finally:
+        task.close()
+    final = np.linalg.norm(b.states["object_xy"][:, -1] - demos.task_params[0], axis=1)
+    assert np.all(b.rewards[:, :-1] == 0)
+    np.testing.assert_allclose(b.rewards[:, -1], -final, atol=1e-12)
+    np.testing.assert_allclose(b.errors, final, atol=1e-12)
+    with pytest.raises(ValueError, match="reward"):
+        PlanarPushTask(reward="sparse")
 
 
 def test_rollout_shapes_rewards_and_determinism(task, demos):
@@ -63,7 +80,7 @@ def test_rollout_shapes_rewards_and_determinism(task, demos):
     a = task.evaluate(traj, T, demos.task_params[0])
     b = task.evaluate(traj, T, demos.task_params[0])
     assert a.rewards.shape == (2, 300) and a.success.shape == (2,)
-    assert np.all(a.rewards[:, :-1] == 0.0)
+    assert np.all(a.rewards <= 0.0)  # minus a distance at every step
     assert a.states["joint_angles"].shape == (2, 300, 3)
     assert a.states["ee_xy"].shape == (2, 300, 2)
     assert a.states["object_xy"].shape == (2, 300, 2)
