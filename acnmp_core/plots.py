@@ -25,14 +25,14 @@ def pca_2d(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 def plot_viapoint(run, path: str | Path) -> list[Path]:
     """Write the E1 figures: ``path`` like the paper's Fig. 3 (demos, LfD, RL-only, ACNMP and the
-    via-point) and ``<stem>_latents.png`` like Fig. 4 (demo latents before and after assimilation,
+    conditions) and ``<stem>_latents.png`` like Fig. 4 (demo latents before and after assimilation,
     projected on the first two principal components of the 'before' set). Returns both paths."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     d = run.demos.n_outputs
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
     ax = axes[0]
-    t_v, point = run.viapoint
+    cond_t, cond_v = run.conditions
     for i, demo in enumerate(run.demos):
         x, y = (demo.values[:, 0], demo.values[:, 1]) if d == 2 else (demo.times, demo.values[:, 0])
         ax.plot(x, y, color="0.7", lw=1, label="demonstrations" if i == 0 else None)
@@ -40,8 +40,11 @@ def plot_viapoint(run, path: str | Path) -> list[Path]:
         x, y = (traj[:, 0], traj[:, 1]) if d == 2 else (run.times, traj[:, 0])
         s = run.summary["methods"][m]
         ax.plot(x, y, color=COLORS[m], lw=2, label=f"{LABELS[m]} ({s['rollouts']} roll-outs, err {s['error']:.3f})")
-    vx, vy = (point[0], point[1]) if d == 2 else (t_v, point[0])
-    ax.plot([vx], [vy], "m*", ms=14, label="via-point")
+    cx, cy = (cond_v[:, 0], cond_v[:, 1]) if d == 2 else (cond_t, cond_v[:, 0])
+    via = run.via_index
+    ax.plot([cx[via]], [cy[via]], "m*", ms=14, label="extrapolated via-point")
+    others = [i for i in range(len(cx)) if i != via]
+    ax.plot(cx[others], cy[others], "ks", ms=6, mfc="none", label="start and end (conditioned)")
     ax.set_xlabel("x" if d == 2 else "t")
     ax.set_ylabel("y")
     ax.set_title("E1: extrapolated via-point")
@@ -51,9 +54,10 @@ def plot_viapoint(run, path: str | Path) -> list[Path]:
         if curve:
             r, e = zip(*curve)
             ax.plot(r, e, "-o", ms=3, color=COLORS[m], label=LABELS[m])
-    ax.axhline(run.summary["tolerance"], color="k", ls="--", lw=1, label="tolerance")
+    tol = np.ravel(run.summary["tolerance"])
+    ax.axhline(tol[min(run.via_index, tol.size - 1)], color="k", ls="--", lw=1, label="via-point tolerance")
     ax.set_xlabel("roll-outs")
-    ax.set_ylabel("via-point error of the mean")
+    ax.set_ylabel("error of the mean (largest distance to a condition)")
     ax.set_yscale("log")
     ax.legend(fontsize=8)
     fig.tight_layout()

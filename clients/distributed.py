@@ -22,13 +22,10 @@ from contextlib import contextmanager
 from typing import Callable, Iterator
 
 import numpy as np
-from tqdm.auto import tqdm
 
-from acnmp_core.adapt_job import AdaptJob
-from acnmp_core.experiments.viapoint import (
-    ASSIMILATION_STEPS, METHODS, ViaPointRun, ViaPointSetup, adapt_config, make_setup,
-)
-from acnmp_core.tasks.viapoint import shape_error
+from acnmp_core.adapt_job import AdaptJob, result_from_dict
+from acnmp_core.adaptation import AdaptResult
+from acnmp_core.experiments.viapoint import ViaPointRun, ViaPointSetup, run_viapoint
 from clients.client import ACNMPClient
 from services.launcher import LocalDeployment
 from services.recording.publisher import EventPublisher
@@ -66,95 +63,64 @@ def remote_rollouts(robot: str, task: str, *, workers: int = 2, record: str | No
         yield make
 
 
-def _adapt_job(setup: ViaPointSetup, method: str, budget: int, seed: int, overrides: dict) -> AdaptJob:
-    """The learner's adaptation job equivalent to the in-process E1 run of ``method``."""
-    return AdaptJob(setup.target, "viapoint", "point2d", setup.task_config, adapt_config(method, budget, **overrides),
-                    seed=seed, commit=method == "acnmp", assimilate_steps=ASSIMILATION_STEPS)
+class DeployedSkill:
+    """E1's skill served by a deployment: the learner trains it and runs the adaptation jobs (its
+    roll-outs on the workers), the model service answers the predictions. A
+    :class:`~acnmp_core.experiments.viapoint.SkillBackend`, so the measurements are those of
+    the in-process run, made by the same code."""
 
+    def __init__(self, client: ACNMPClient, progress: bool = True) -> None:
+        self.client, self.progress = client, progress
+        self.jobs: dict[str, str] = {}
 
-def _latents(client: ACNMPClient, demos) -> np.ndarray:
-    """(N, L) latent of each demonstration as the model service encodes it from all its points."""
-    return np.stack([client.predict(SKILL, d.times, d.values, None, d.times[:1], timeout=30).latent for d in demos])
+    def train(self, demos, steps: int, seed: int) -> None:
+        arrays = np.stack([d.values for d in demos])
+        reply = self.client.train(SKILL, demos[0].times, arrays, train={"steps": steps}, seed=seed, timeout=600)
+        self._wait_version(reply["version"])
 
+    def predict(self, obs_times, obs_values, task_params, query_times):
+        return self.client.predict(SKILL, obs_times, obs_values, task_params, query_times, timeout=30)
 
-def _reproduction(client: ACNMPClient, demos, n_obs: int = 3) -> float:
-    """Same measure as acnmp_core.training.reproduction_error, through the model service."""
-    errs = []
-    for d in demos:
-        idx = np.linspace(0, len(d.times) - 1, n_obs).round().astype(int)
-        pred = client.predict(SKILL, d.times[idx], d.values[idx], None, d.times, timeout=30)
-        errs.append(np.mean((pred.mean - d.values) ** 2))
-    return float(np.sqrt(np.mean(errs)))
+    def adapt(self, setup: ViaPointSetup, method: str, cfg, seed: int, assimilation) -> AdaptResult:
+        job = AdaptJob(setup.target, "viapoint", "point2d", setup.task_config, cfg, seed=seed,
+                       commit=assimilation is not None,
+                       **({} if assimilation is None else {"assimilate_steps": assimilation.steps}))
+        job_id = self.client.adapt(SKILL, job)
+        self.jobs[method] = job_id
+        status = self.client.wait_job(job_id, timeout=1800, progress=self.progress)
+        if status["state"] != "done":
+            raise RuntimeError(f"job {job_id} ({method}) ended {status['state']}: {status.get('error')}")
+        if status.get("committed_version") is not None:
+            self._wait_version(int(status["committed_version"]))
+        return result_from_dict(status["result"])
 
-
-def _wait_version(client: ACNMPClient, version: int, timeout: float = 60.0) -> None:
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        try:
-            if client.info(SKILL)["version"] >= version:
-                return
-        except Exception:  # the model service may not have the skill yet
-            pass
-        time.sleep(0.2)
-    raise TimeoutError(f"the model service did not serve version {version} of {SKILL!r} in {timeout:.0f} s")
+    def _wait_version(self, version: int, timeout: float = 60.0) -> None:
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            try:
+                if self.client.info(SKILL)["version"] >= version:
+                    return
+            except Exception:  # the model service may not have the skill yet
+                pass
+            time.sleep(0.2)
+        raise TimeoutError(f"the model service did not serve version {version} of {SKILL!r} in {timeout:.0f} s")
 
 
 def run_viapoint_distributed(seed: int = 0, variant: str = "2d", *, budget: int = 100, train_steps: int = 3000,
                              workers: int = 2, record: str | None = None, progress: bool = True,
                              adapt_overrides: dict | None = None) -> ViaPointRun:
     """Run E1 on a fresh local deployment (``workers`` point-mass workers, a recorder writing
-    ``record`` when given). Returns a :class:`ViaPointRun` like the in-process run."""
-    overrides = dict(adapt_overrides or {})
-    t0 = time.perf_counter()
-    setup = make_setup(variant)
-    demos, task = setup.demos, setup.task
+    ``record`` when given). Returns a :class:`ViaPointRun` like the in-process run, its summary
+    marked ``distributed`` with the workers, the recording and each method's job id."""
     ns = f"e1-{os.getpid()}"
     with LocalDeployment(ns, workers=workers, robot="point2d", record=record) as dep, \
             ACNMPClient(ns, session=dep.session, timeout=30) as client:
         if progress:
             print(dep.describe(), flush=True)
-        arrays = np.stack([d.values for d in demos])
-        reply = client.train(SKILL, demos[0].times, arrays, train={"steps": train_steps}, seed=seed, timeout=600)
-        _wait_version(client, reply["version"])
-        latents_before = _latents(client, demos)
-        repro_before = _reproduction(client, demos)
-        methods, trajs, curves = {}, {}, {}
-        for method in tqdm(METHODS, desc="jobs", disable=not progress):
-            job = client.adapt(SKILL, _adapt_job(setup, method, budget, seed, overrides))
-            status = client.wait_job(job, timeout=1800, progress=False)
-            if status["state"] != "done":
-                raise RuntimeError(f"job {job} ({method}) ended {status['state']}: {status.get('error')}")
-            res = status["result"]
-            traj, times = np.asarray(res["trajectory"]), np.asarray(res["times"])
-            err = float(task.errors(traj[None], times)[0])
-            methods[method] = {"rollouts": int(res["rollouts"]), "success": bool(err <= task.tolerance),
-                               "error": err, "shape_error": shape_error(traj, times, demos), "job": job}
-            trajs[method] = traj
-            curves[method] = [(h["rollouts"], -h["mean_return"]) for h in res["history"]]
-            if method == "acnmp" and status.get("committed_version") is not None:
-                _wait_version(client, int(status["committed_version"]))
-        assim = {"performed": False}
-        latents_after = latents_before
-        if methods["acnmp"]["success"]:
-            t = setup.target
-            pred = client.predict(SKILL, t.obs_times, t.obs_values, None, t.query_times)
-            new_demos = demos.added(type(demos[0])(t.query_times, trajs["acnmp"]))
-            assim = {
-                "performed": True, "n_demos": len(new_demos),
-                "viapoint_error_after": float(task.errors(pred.mean[None], t.query_times)[0]),
-                "old_demos_reproduction_rmse_before": repro_before,
-                "old_demos_reproduction_rmse_after": _reproduction(client, demos),
-                "solution_reproduction_rmse": _reproduction(client, new_demos.subset([len(demos)])),
-            }
-            latents_after = _latents(client, new_demos)
-    summary = {
-        "experiment": "viapoint", "variant": variant, "seed": int(seed), "distributed": True,
-        "workers": int(workers), "recording": str(record) if record else None,
-        "wall_time_s": round(time.perf_counter() - t0, 2), "tolerance": task.tolerance,
-        "demo_extent": demos.extent(),
-        "viapoint": {"t": float(setup.target.obs_times[0]), "value": setup.target.obs_values[0].tolist()},
-        "methods": methods, "lfd_reproduction_rmse": repro_before, "assimilation": assim,
-    }
-    return ViaPointRun(summary, demos, trajs, setup.target.query_times,
-                       (float(setup.target.obs_times[0]), setup.target.obs_values[0]),
-                       latents_before, latents_after, curves)
+        skill = DeployedSkill(client, progress=False)
+        run = run_viapoint(seed, variant, budget=budget, train_steps=train_steps, backend=skill,
+                           progress=progress, adapt_overrides=adapt_overrides)
+    run.summary.update(distributed=True, workers=int(workers), recording=str(record) if record else None)
+    for method, job in skill.jobs.items():
+        run.summary["methods"][method]["job"] = job
+    return run

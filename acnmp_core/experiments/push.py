@@ -26,7 +26,6 @@ from dataclasses import dataclass, replace
 from typing import Callable
 
 import numpy as np
-import torch
 
 from ..adaptation import AdaptConfig, AdaptTarget, adapt
 from ..cnmp import CNMP, CNMPConfig
@@ -41,11 +40,8 @@ CASES = ("interpolation", "extrapolation")
 #: Success tolerance (m) on the cylinder's final distance to the target: one cylinder radius.
 TOLERANCE = 0.03
 
-#: What E2 changes from AdaptConfig's defaults (tuned on E1); see docs/experiments/e2_push.md.
-#: The push reward arrives only at the last step, so the "per_step" advantage (which credits each
-#: step with the reward change near it) would adapt only the final hold phase; "episodic" credits
-#: the whole trajectory with the change of the return, which is what moves the push direction.
-ACNMP_DEFAULTS = dict(advantage="episodic", max_rollouts=300)
+#: ACNMP's roll-out budget per target (the adaptation settings are the library defaults).
+ACNMP_BUDGET = 300
 #: The ProMP + RL settings the baseline uses (Stark et al. 2019 style: nearest skill, REPS).
 PROMP_DEFAULTS = dict(method="reps", n_samples=10, max_rollouts=1500)
 
@@ -102,7 +98,7 @@ def train_push_cnmp(demos: DemoSet, seed: int, steps: int = 3000, progress: bool
 
 def _final_error(evaluator: RolloutEvaluator, traj: np.ndarray, times: np.ndarray, target: np.ndarray) -> float:
     """Distance (m) of the cylinder's final position to ``target`` after executing ``traj`` (T, D)."""
-    return float(-evaluator.evaluate(traj[None], times, target).returns[0])
+    return float(evaluator.evaluate(traj[None], times, target).remaining_errors()[0])
 
 
 def run_acnmp_case(model: CNMP, setup: PushSetup, case: str, evaluator: RolloutEvaluator,
@@ -111,27 +107,21 @@ def run_acnmp_case(model: CNMP, setup: PushSetup, case: str, evaluator: RolloutE
 
     ``model`` is adapted in place (pass a copy). Returns ``{"rollouts", "success", "final_error",
     "lfd_error", "lfd_success", "adapted", "curve": [[roll-outs, error of the mean], ...]}``.
-    Roll-outs count every executed trajectory: the LfD roll-out plus all of adapt()'s (whose first
-    mean roll-out repeats the LfD one; it is counted again because it is executed again).
+    adapt()'s first roll-out is the mean, i.e. the LfD trajectory: when it succeeds the case costs
+    one roll-out and no adaptation. Roll-outs count every executed trajectory.
     """
     target = make_target(setup, case)
-    lfd = adapt(model, setup.demos, target, evaluator, replace(cfg, mode="lfd_only"), seed=seed,
-                on_iteration=on_iteration)
-    lfd_err = -lfd.history[0].mean_return
-    out = {"lfd_error": lfd_err, "lfd_success": bool(lfd.success), "adapted": False,
-           "curve": [[1, lfd_err]]}
-    if lfd.success:
-        return {**out, "rollouts": 1, "success": True, "final_error": lfd_err}
     res = adapt(model, setup.demos, target, evaluator, replace(cfg, mode="acnmp"), seed=seed,
                 on_iteration=on_iteration)
-    # The curve is the error of the mean roll-out against roll-outs used, as in the paper's Fig. 5(b).
-    out["curve"] += [[1 + h.rollouts, -h.mean_return] for h in res.history]
-    final_err = -res.history[-1].mean_return
+    lfd_err = res.history[0].mean_error
+    final_err = res.history[-1].mean_error
     if not res.success:
         # adapt() ends after an update it did not execute; measure the final mean once (not counted).
         final_err = _final_error(evaluator, res.trajectory, res.times, setup.targets[case])
-    return {**out, "adapted": True, "rollouts": 1 + res.rollouts, "success": bool(res.success),
-            "final_error": final_err}
+    # The curve is the error of the mean roll-out against roll-outs used, as in the paper's Fig. 5(b).
+    return {"lfd_error": lfd_err, "lfd_success": bool(res.history[0].mean_success), "adapted": len(res.history) > 1,
+            "curve": [[h.rollouts, h.mean_error] for h in res.history],
+            "rollouts": res.rollouts, "success": bool(res.success), "final_error": final_err}
 
 
 def run_promp_case(setup: PushSetup, case: str, evaluator: RolloutEvaluator, cfg: PrompRLConfig,
@@ -143,7 +133,7 @@ def run_promp_case(setup: PushSetup, case: str, evaluator: RolloutEvaluator, cfg
     vals = np.stack([d.values for d in setup.demos])
     tps = np.stack([d.task_params for d in setup.demos])
     res = adapt_promp(tv, vals, tps, evaluator, times, setup.targets[case], cfg, n_basis=n_basis)
-    errs = -res.learning_curve
+    errs = res.error_curve
     return {"rollouts": int(res.n_rollouts), "success": bool(res.success), "final_error": float(errs[-1]),
             "lfd_error": float(errs[0]), "lfd_success": bool(errs[0] <= setup.tolerance),
             "adapted": res.n_iterations > 0,
@@ -183,7 +173,7 @@ def run_push(
     seeds : a count N (seeds 0..N-1) or an explicit list; each seeds CNMP init/training,
         exploration and ProMP sampling.
     train_steps : supervised CNMP training steps (batch 32).
-    adapt_config : ACNMP settings (default: AdaptConfig(**ACNMP_DEFAULTS)); ``mode`` is set here.
+    adapt_config : ACNMP settings (default: AdaptConfig(max_rollouts=ACNMP_BUDGET)); ``mode`` is set here.
     promp_config : ProMP + RL settings (default: PrompRLConfig(**PROMP_DEFAULTS)); its seed is
         replaced by each run's seed.
     cases, methods : subsets of CASES and METHODS to run.
@@ -198,7 +188,7 @@ def run_push(
     dict with ``experiment`` "push", ``seeds`` N, ``seed_list``, ``wall_time_s``, ``tolerance`` (m),
     ``targets`` {case: [x, y]}, ``methods`` {method: {case: {rollouts_median, rollouts, success_rate,
     final_error_median, lfd_error_median, lfd_success_rate}}}, ``rollout_ratio_promp_over_acnmp``
-    {case: ratio of medians or None}, ``config`` (settings used) and ``runs`` (per seed, method and
+    {case: ratio of medians, None unless both methods succeed in more than half of the seeds}, ``config`` (settings used) and ``runs`` (per seed, method and
     case: rollouts, success, final_error, lfd_error, curve [[roll-outs, error], ...]).
     """
     seed_list = list(range(seeds)) if isinstance(seeds, int) else [int(s) for s in seeds]
@@ -210,7 +200,7 @@ def run_push(
     for m in methods:
         if m not in METHODS:
             raise ValueError(f"methods: expected a subset of {METHODS}, got {m!r}")
-    acfg = adapt_config or AdaptConfig(**ACNMP_DEFAULTS)
+    acfg = adapt_config or AdaptConfig(max_rollouts=ACNMP_BUDGET)
     pcfg = promp_config or PrompRLConfig(**PROMP_DEFAULTS)
     t0 = time.perf_counter()
     setup = make_setup(demo_path)
@@ -226,7 +216,6 @@ def run_push(
     runs: list[dict] = []
     try:
         for seed in seed_list:
-            torch.manual_seed(seed)
             model = train_push_cnmp(setup.demos, seed, train_steps, progress) if "acnmp" in methods else None
             for method in methods:
                 for case in cases:
@@ -255,8 +244,10 @@ def run_push(
     ratio = {}
     if set(METHODS) <= set(methods):
         for c in cases:
-            a = summary["acnmp"][c]["rollouts_median"]
-            ratio[c] = round(summary["promp_rl"][c]["rollouts_median"] / a, 3) if a > 0 else None
+            a, p = summary["acnmp"][c], summary["promp_rl"][c]
+            # A ratio of medians says something only when both medians are successful runs.
+            both = a["success_rate"] > 0.5 and p["success_rate"] > 0.5
+            ratio[c] = round(p["rollouts_median"] / a["rollouts_median"], 3) if both else None
     return {
         "experiment": "push",
         "seeds": len(seed_list),

@@ -14,8 +14,8 @@ The loop (paper Sec. 4.2, Fig. 5 d, e), run for each method on the *same* stream
 
 Methods:
 
-* **ACNMP**: a CNMP conditioned on the start point (an observation at t = 0) and the four task
-  parameters. Adaptation is :func:`~acnmp_core.adaptation.adapt` (mode "acnmp": RL with
+* **ACNMP**: a CNMP conditioned, as the authors, on the start point at t = 0 and the goal at t = 1
+  (two observations) and the four task parameters. Adaptation is :func:`~acnmp_core.adaptation.adapt` (mode "acnmp": RL with
   simultaneous SL on the current demonstrations) on a copy of the model; a successful copy replaces
   the model, its solution is added to the DemoSet and training continues for ``assimilate_steps``.
 * **ProMP + RL** (``promp_rl``): a ProMP over all demonstrations with a joint Gaussian over (weights,
@@ -40,9 +40,9 @@ from dataclasses import dataclass, replace
 from typing import Callable
 
 import numpy as np
-import torch
 
 from ..adaptation import AdaptConfig, AdaptTarget, adapt
+from ..assimilation import AssimilationConfig, assimilate
 from ..cnmp import CNMP, CNMPConfig
 from ..data import Demonstration, DemoSet
 from ..promp_rl import AdaptiveProMP, PrompRLConfig, promp_rl
@@ -55,10 +55,8 @@ METHODS = ("acnmp", "promp_rl")
 LABELS = {"acnmp": "ACNMP", "promp_rl": "ProMP + RL (REPS)"}
 COLORS = {"acnmp": "tab:green", "promp_rl": "tab:purple"}
 
-#: What E3 changes from AdaptConfig's defaults (tuned on E1): only the budget. The per-step
-#: advantage fits this reward (start, clearance and goal terms at different steps), and in a
-#: trial on 8 failing environments it needed half the roll-outs of "episodic" (median ~20 vs ~50).
-ACNMP_DEFAULTS = dict(max_rollouts=1000)
+#: ACNMP's roll-out budget per environment (the adaptation settings are the library defaults).
+ACNMP_BUDGET = 1000
 #: The ProMP + RL baseline: REPS from the task-conditional ProMP, same per-environment budget.
 PROMP_DEFAULTS = dict(method="reps", n_samples=10, max_rollouts=1000, init="conditional")
 #: Supervised steps (batch 32) of the first training and after each assimilation.
@@ -105,33 +103,26 @@ def make_setup(envs: int, seed: int = 0, *, n_initial: int = 30, n_test: int = 1
 # --------------------------------------------------------------------------------------------------
 
 
-def cnmp_trajectories(model: CNMP, task_params, times) -> np.ndarray:
-    """Mean trajectories of ``model`` conditioned on the start point at t = 0 and task parameters.
+def wall_conditions(task_params) -> tuple[np.ndarray, np.ndarray]:
+    """The observations E3 conditions on, as the authors: the start at t = 0 and the goal at t = 1.
 
-    One batched forward pass (the same result as :meth:`CNMP.predict` per environment).
-
-    Parameters
-    ----------
-    model : a trained CNMP with 2 outputs and 4 task parameters.
-    task_params : (B, 4) environments ``(x_c, y_c, x_g, y_g)``.
-    times : (T,) query times (normalised time).
-
-    Returns
-    -------
-    (B, T, 2) positions (world units).
+    task_params (B, 4) -> times (B, 2), values (B, 2, 2) (world units).
     """
-    c = check_array("task_params", task_params, ndim=2)
-    t = check_array("times", times, ndim=1, min_size=2)
-    b, n = c.shape[0], t.shape[0]
-    with torch.no_grad():
-        tn = model.time_norm.normalize(torch.zeros(b, 1, 1, dtype=torch.float64))
-        start = torch.tensor(W.START, dtype=torch.float64).expand(b, 1, 2)
-        pn = model.task_norm.normalize(torch.from_numpy(c.copy()))[:, None, :]
-        obs = torch.cat([tn, pn, model.value_norm.normalize(start), torch.ones(b, 1, 2, dtype=torch.float64)], -1)
-        qn = model.time_norm.normalize(torch.from_numpy(t.copy())[:, None]).expand(b, n, 1)
-        tgt = torch.cat([qn, pn.expand(b, n, c.shape[1])], -1)
-        mean, _, _ = model(obs.float(), torch.ones(b, 1, dtype=torch.bool), tgt.float())
-        return model.value_norm.denormalize(mean.double()).numpy()
+    c = check_array("task_params", task_params, ndim=2, shape=(None, W.N_TASK_PARAMS))
+    b = c.shape[0]
+    values = np.stack([np.broadcast_to(np.asarray(W.START, dtype=np.float64), (b, 2)), c[:, 2:4]], axis=1)
+    return np.tile([0.0, 1.0], (b, 1)), values
+
+
+def cnmp_trajectories(model: CNMP, task_params, times) -> np.ndarray:
+    """Mean trajectories of ``model`` for many environments in one forward pass, conditioned on
+    :func:`wall_conditions` and the task parameters.
+
+    model : a trained CNMP with 2 outputs and 4 task parameters; task_params (B, 4)
+    ``(x_c, y_c, x_g, y_g)``; times (T,) query times (normalised time). Returns (B, T, 2) positions.
+    """
+    obs_t, obs_v = wall_conditions(task_params)
+    return model.predict_batch(obs_t, obs_v, task_params, times).mean
 
 
 def promp_trajectories(lib: AdaptiveProMP, task_params, times) -> np.ndarray:
@@ -175,7 +166,7 @@ class _AcnmpLearner:
     def __init__(self, setup: WallSetup, seed: int, cfg: AdaptConfig, train_steps: int,
                  assimilate_steps: int, assimilate_lr: float, progress: bool) -> None:
         self.demos, self.times, self.seed, self.cfg = setup.initial, setup.times, seed, cfg
-        self.assimilate = TrainConfig(steps=assimilate_steps, lr=assimilate_lr, val_every=max(assimilate_steps, 1))
+        self.assimilation = AssimilationConfig(steps=assimilate_steps, lr=assimilate_lr)
         self.model = _make_cnmp(seed)
         train(self.model, self.demos, TrainConfig(steps=train_steps), seed=seed, progress=progress)
 
@@ -184,15 +175,13 @@ class _AcnmpLearner:
 
     def improve(self, c: np.ndarray, evaluator: RolloutEvaluator, seed: int) -> tuple[bool, int]:
         candidate = copy.deepcopy(self.model)  # a failed adaptation must not damage the skill
-        target = AdaptTarget(np.zeros(1), np.asarray([W.START]), c, self.times)
+        obs_t, obs_v = wall_conditions(c[None])
+        target = AdaptTarget(obs_t[0], obs_v[0], c, self.times)
         res = adapt(candidate, self.demos, target, evaluator, replace(self.cfg, mode="acnmp"), seed=seed)
         if res.success:
             self.model = candidate
-            self.demos = self.demos.added(Demonstration(self.times.copy(), res.trajectory, c.copy()))
-            if self.assimilate.steps:
-                # Normalisation stays that of the first demos: the new environments come from the
-                # same ranges, and refitting would shift what the network has learnt.
-                train(self.model, self.demos, self.assimilate, seed=seed, fit_normalization=False, progress=False)
+            self.demos, _ = assimilate(self.model, self.demos, Demonstration(self.times.copy(), res.trajectory, c.copy()),
+                                       self.assimilation, conditions=target, seed=seed)
         return bool(res.success), int(res.rollouts)
 
 
@@ -327,7 +316,7 @@ def run_wall(
     n_steps : samples per trajectory. eval_every : new environments between test evaluations.
     train_steps : first CNMP training (batch 32). assimilate_steps, assimilate_lr : continued
         training after each assimilated solution.
-    adapt_config : ACNMP adaptation (default ``AdaptConfig(**ACNMP_DEFAULTS)``).
+    adapt_config : ACNMP adaptation (default ``AdaptConfig(max_rollouts=ACNMP_BUDGET)``).
     promp_config : ProMP + RL (default ``PrompRLConfig(**PROMP_DEFAULTS)``); its seed is set per env.
     n_basis : ProMP basis functions per dimension.
     methods : subset of METHODS, run one after the other.
@@ -347,14 +336,13 @@ def run_wall(
         if m not in METHODS:
             raise ValueError(f"methods: expected a subset of {METHODS}, got {m!r}")
     check_positive_int("eval_every", eval_every)
-    acfg = adapt_config or AdaptConfig(**ACNMP_DEFAULTS)
+    acfg = adapt_config or AdaptConfig(max_rollouts=ACNMP_BUDGET)
     pcfg = promp_config or PrompRLConfig(**PROMP_DEFAULTS)
     t0 = time.perf_counter()
     setup = make_setup(envs, seed, n_initial=n_initial, n_test=n_test, n_steps=n_steps)
     methods_out, curves, per_env = {}, {}, {}
     for m in methods:
         t1 = time.perf_counter()
-        torch.manual_seed(seed)
         ev = evaluator_factory(m) if evaluator_factory is not None else W.WallTask()
         if m == "acnmp":
             learner = _AcnmpLearner(setup, seed, acfg, train_steps, assimilate_steps, assimilate_lr, progress)

@@ -37,19 +37,19 @@ def run(args) -> int:
     import torch
 
     from acnmp_core.adaptation import AdaptConfig
-    from acnmp_core.experiments.push import ACNMP_DEFAULTS, PROMP_DEFAULTS, plot_push, run_push
+    from acnmp_core.experiments.push import ACNMP_BUDGET, PROMP_DEFAULTS, plot_push, run_push
     from acnmp_core.promp_rl import PrompRLConfig
 
     torch.set_num_threads(1)  # the CNMP is small; threads only contend with the simulator
     q = QUICK if args.quick else {}
     train_steps = q.get("train_steps", args.train_steps)
-    acnmp_budget = args.acnmp_budget or q.get("acnmp_budget") or ACNMP_DEFAULTS["max_rollouts"]
+    acnmp_budget = args.acnmp_budget or q.get("acnmp_budget") or ACNMP_BUDGET
     promp_budget = args.promp_budget or q.get("promp_budget") or PROMP_DEFAULTS["max_rollouts"]
     if args.seeds < 1 or train_steps < 1 or acnmp_budget < 1 or promp_budget < 3:
         raise ValueError("--seeds, --train-steps, --acnmp-budget: expected positive integers; --promp-budget >= 3")
     kwargs = dict(
         train_steps=train_steps,
-        adapt_config=AdaptConfig(**{**ACNMP_DEFAULTS, "max_rollouts": acnmp_budget}),
+        adapt_config=AdaptConfig(max_rollouts=acnmp_budget),
         promp_config=PrompRLConfig(**{**PROMP_DEFAULTS, "max_rollouts": promp_budget}),
         log=None if args.quiet else print,
     )

@@ -3,6 +3,8 @@ from __future__ import annotations
 
 import sys
 
+import numpy as np
+
 from .common import add_deployment_arguments, add_output_arguments, check_deployment_arguments, write_json
 
 
@@ -50,15 +52,17 @@ def run(args) -> int:
     else:
         result = run_viapoint(**kwargs)
     s = result.summary
-    print(f"E1 via-point ({s['variant']}), seed {s['seed']}, tolerance {s['tolerance']:.4f}, "
+    tol = ", ".join(f"{x:.4f}" for x in np.ravel(s["tolerance"]))
+    print(f"E1 via-point ({s['variant']}), seed {s['seed']}, tolerance (start, via-point, end) {tol}, "
           f"{s['wall_time_s']:.1f} s")
-    print(f"{'method':<10} {'roll-outs':>9} {'success':>8} {'error':>8} {'shape err':>10}")
+    print(f"{'method':<10} {'roll-outs':>9} {'success':>8} {'error':>8} {'via err':>8} {'end err':>8} {'shape err':>10}")
     for m, r in s["methods"].items():
-        print(f"{m:<10} {r['rollouts']:>9} {str(r['success']):>8} {r['error']:>8.4f} {r['shape_error']:>10.4f}")
+        print(f"{m:<10} {r['rollouts']:>9} {str(r['success']):>8} {r['error']:>8.4f} {r['viapoint_error']:>8.4f} "
+              f"{r['endpoint_error']:>8.4f} {r['shape_error']:>10.4f}")
     a = s["assimilation"]
     if a.get("performed"):
-        print(f"assimilation: via-point error after {a['viapoint_error_after']:.4f}, old demos RMSE "
-              f"{a['old_demos_reproduction_rmse_before']:.4f} -> {a['old_demos_reproduction_rmse_after']:.4f}")
+        print(f"assimilation: solved with no RL {a['success_after']} (error {a['error_after']:.4f}), old demos "
+              f"RMSE {a['old_demos_reproduction_rmse_before']:.4f} -> {a['old_demos_reproduction_rmse_after']:.4f}")
     write_json(s, args.json)
     if args.plot:
         from acnmp_core.plots import plot_viapoint

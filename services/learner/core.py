@@ -33,6 +33,7 @@ import torch
 
 from acnmp_core.adapt_job import AdaptJob
 from acnmp_core.adaptation import AdaptTarget, IterationLog, adapt
+from acnmp_core.assimilation import AssimilationConfig, assimilate
 from acnmp_core.cnmp import CNMP, CNMPConfig
 from acnmp_core.data import DemoSet, Demonstration
 from acnmp_core.rollout import RolloutBatch, RolloutEvaluator
@@ -275,10 +276,11 @@ class LearnerCore:
             model = adapted if adapted is not None else copy.deepcopy(skill.model)
             tp = req.target.task_params
             params = np.zeros(skill.demos.n_task_params) if tp is None else tp
-            demos = skill.demos.added(Demonstration(times, traj, params))
+            old_demos = skill.demos
         with self._train_lock:
-            train(model, demos, TrainConfig(steps=req.assimilate_steps), seed=req.seed + 1,
-                  fit_normalization=False, progress=False)
+            demos, _ = assimilate(model, old_demos, Demonstration(times, traj, params),
+                                  AssimilationConfig(steps=req.assimilate_steps), conditions=req.target,
+                                  seed=req.seed + 1)
         with self._lock:
             state = SkillState(skill.name, model, demos, self.skills[skill.name].version + 1)
             self._commit_skill(state, note=f"assimilated {job.job}")

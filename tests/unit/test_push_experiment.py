@@ -23,7 +23,7 @@ def demo_path(tmp_path_factory):
 @pytest.fixture(scope="module")
 def result(demo_path):
     return run_push([0], train_steps=2000, demo_path=demo_path,
-                    adapt_config=AdaptConfig(advantage="episodic", max_rollouts=7),
+                    adapt_config=AdaptConfig(max_rollouts=7),
                     promp_config=PrompRLConfig(n_samples=4, max_rollouts=11))
 
 
@@ -59,9 +59,9 @@ def test_result_has_documented_keys(result, tmp_path):
             assert {"rollouts_median", "success_rate", "final_error_median"} <= set(s)
             assert 0.0 <= s["success_rate"] <= 1.0
     assert set(r["rollout_ratio_promp_over_acnmp"]) == set(CASES)
-    # budgets are respected (ACNMP: the LfD roll-out plus adapt()'s budget)
+    # budgets are respected (ACNMP's first roll-out is the LfD one)
     for run in r["runs"]:
-        assert run["rollouts"] <= (1 + 7 if run["method"] == "acnmp" else 11)
+        assert run["rollouts"] <= (7 if run["method"] == "acnmp" else 11)
         assert run["curve"][-1][0] == run["rollouts"]
 
 

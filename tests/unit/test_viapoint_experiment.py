@@ -13,21 +13,25 @@ def test_viapoint_cli_writes_json_and_plots(tmp_path, saved_figures):
     assert s["experiment"] == "viapoint" and s["seed"] == 1 and s["wall_time_s"] > 0
     assert set(s["methods"]) == {"lfd_only", "rl_only", "acnmp"}
     for r in s["methods"].values():
-        assert set(r) >= {"rollouts", "success", "error", "shape_error"}
+        assert set(r) >= {"rollouts", "success", "error", "viapoint_error", "endpoint_error", "shape_error"}
         assert 1 <= r["rollouts"] <= 30
     assert s["methods"]["lfd_only"]["rollouts"] == 1 and not s["methods"]["lfd_only"]["success"]
     # the figures, checked on what they draw: Fig. 3 (paths and error curves) and Fig. 4 (latents)
     assert [p.name for _, p in saved_figures] == ["e1.png", "e1_latents.png"] and png.exists()
     paths, errors = saved_figures[0][0].axes
     legend = [t.get_text() for t in paths.get_legend().get_texts()]
-    assert legend[0] == "demonstrations" and legend[-1] == "via-point"
+    assert legend[0] == "demonstrations"
+    assert legend[-2:] == ["extrapolated via-point", "start and end (conditioned)"]
     for name, m in (("LfD only", "lfd_only"), ("RL only", "rl_only"), ("ACNMP", "acnmp")):
         r = s["methods"][m]
         assert f"{name} ({r['rollouts']} roll-outs, err {r['error']:.3f})" in legend
         curve = next(line for line in errors.get_lines() if line.get_label() == name)
         assert curve.get_xdata()[-1] == r["rollouts"]  # the error curve ends at the roll-outs used
-    star = next(line for line in paths.get_lines() if line.get_label() == "via-point")
-    assert star.get_xydata().tolist() == [s["viapoint"]["value"]]
+    # the authors' conditions: the common start, the extrapolated via-point and the common end
+    cond = s["conditions"]["value"]
+    star = next(line for line in paths.get_lines() if line.get_label() == "extrapolated via-point")
+    ends = next(line for line in paths.get_lines() if line.get_label() == "start and end (conditioned)")
+    assert star.get_xydata().tolist() == [cond[1]] and ends.get_xydata().tolist() == [cond[0], cond[2]]
     assert len([line for line in paths.get_lines() if line.get_label().startswith("_")]) == 5  # 6 demos
     latents = saved_figures[1][0].axes[0]
     before, after = latents.collections[:2]

@@ -32,7 +32,8 @@ def test_non_aligned_demos_train():
     train(model, demos, TrainConfig(steps=2500), seed=3, progress=False)
     y = E.cnmp_trajectories(model, params, setup.times)
     # Batched generation is the same as CNMP.predict, one environment at a time.
-    one = model.predict(np.zeros(1), np.asarray([W.START]), params[0], setup.times).mean
+    obs_t, obs_v = E.wall_conditions(params[:1])
+    one = model.predict(obs_t[0], obs_v[0], params[0], setup.times).mean
     np.testing.assert_allclose(y[0], one, atol=1e-4)
     s = W.wall_scores(y, params)
     # Every generated path goes through its hole with clearance, although the demonstrations

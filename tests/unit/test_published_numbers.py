@@ -1,0 +1,48 @@
+"""Published numbers cannot go stale: the docs' tables are what benchmarks/report.py writes from the
+JSON results, every result file records where it came from, and the pinned regression runs
+(benchmarks/regression.py) still give exactly the pinned roll-out counts and successes."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from benchmarks import regression, report
+
+ROOT = Path(__file__).resolve().parents[2]
+RESULTS = ROOT / "benchmarks" / "results"
+
+
+def test_docs_tables_are_what_the_results_give():
+    stale = report.stale_blocks()
+    assert not stale, "stale docs blocks (run python benchmarks/report.py): " + ", ".join(stale)
+
+
+def test_every_block_has_a_renderer_and_every_renderer_is_used():
+    used = {m.group(2) for page in report.pages() for m in report.BLOCK.finditer(page.read_text())}
+    assert used == set(report.RENDERERS)
+
+
+@pytest.mark.parametrize("name", ["e1_viapoint", "e2_push", "e3_wall", "adapt_sweep", "regression"])
+def test_result_files_record_their_provenance(name):
+    p = json.loads((RESULTS / f"{name}.json").read_text())["provenance"]
+    assert len(p["commit"]) == 40 and isinstance(p["dirty"], bool) and p["command"]
+    assert p["libraries"]["torch"] and p["machine"]["cpu_count"] >= 1
+
+
+def test_a_block_differing_from_its_json_is_reported(tmp_path, monkeypatch):
+    page = tmp_path / "page.md"
+    page.write_text("x\n<!-- BEGIN report:e1-results -->\nold numbers\n<!-- END report:e1-results -->\n")
+    monkeypatch.setattr(report, "pages", lambda: [page])
+    monkeypatch.setattr(report, "ROOT", tmp_path)
+    assert report.stale_blocks() == ["page.md: e1-results"]
+    assert report.main([]) == 0 and report.stale_blocks() == []
+    assert "old numbers" not in page.read_text() and "ACNMP" in page.read_text()
+
+
+@pytest.mark.slow
+def test_pinned_regression_runs_are_unchanged():
+    pinned = {k: v for k, v in json.loads(regression.PIN.read_text()).items() if k != "provenance"}
+    diff = regression.differences(pinned, regression.measure())
+    assert not diff, "the defaults changed the pinned runs; re-run the benchmarks and the pin:\n" + "\n".join(diff)
