@@ -1,18 +1,27 @@
-"""Writing an experiment benchmark's result: JSON and its figure beside it, and a short summary."""
+"""Writing a benchmark's result: JSON with its provenance, the figure beside it, a short summary."""
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 from typing import Callable
 
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
 
-def save_result(result: dict, out: str | Path, plot: Callable[[dict, Path], object], ratio_key: str) -> None:
-    """Write ``result`` to ``out`` (JSON), its figure to ``out`` with a .png suffix via ``plot``,
-    and print the per-method summary with ``result[ratio_key]`` and the wall time."""
+from clients.provenance import provenance  # noqa: E402
+
+__all__ = ["ROOT", "provenance", "save_result"]
+
+
+def save_result(result: dict, out: str | Path, plot: Callable[[dict, Path], object] | None = None,
+                headline: tuple[str, ...] = ()) -> None:
+    """Write ``result`` to ``out`` (JSON; it should carry ``provenance`` from the start of the run),
+    its figure to ``out`` with a .png suffix via ``plot``, and print the keys ``headline``."""
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(result, indent=2))
-    plot(result, out.with_suffix(".png"))
-    print(json.dumps({"methods": result["methods"], "ratio": result[ratio_key],
-                      "wall_time_s": result["wall_time_s"]}, indent=1))
-    print(f"wrote {out} and {out.with_suffix('.png')}")
+    out.write_text(json.dumps(result, indent=2) + "\n")
+    if plot is not None:
+        plot(result, out.with_suffix(".png"))
+    print(json.dumps({k: result[k] for k in headline if k in result}, indent=1))
+    print(f"wrote {out}" + (f" and {out.with_suffix('.png')}" if plot is not None else ""))

@@ -1,65 +1,64 @@
-"""E1 over several seeds: LfD-only, RL-only and ACNMP on the extrapolated via-point.
+"""E1 benchmark: LfD-only, RL-only and ACNMP on the extrapolated via-point over several seeds.
 
-Writes benchmarks/results/e1_viapoint.json with per-seed results and medians. Usage:
-    .venv/bin/python benchmarks/e1_viapoint.py [--seeds 10] [--json FILE]
+Writes benchmarks/results/e1_viapoint.json (per-seed summaries, aggregates, provenance) and the
+figures of one seed. Usage:
+    python benchmarks/e1_viapoint.py [--seeds 10] [--json FILE] [--figure-seed 0]
+The settings are the library's defaults, the same as ``acnmp experiment viapoint --seed S``.
 """
 from __future__ import annotations
 
 import argparse
-import json
+import sys
 import time
 from pathlib import Path
 
-import numpy as np
 import torch
 
-from acnmp_core.experiments.viapoint import METHODS, run_viapoint
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from acnmp_core.experiments.viapoint import (  # noqa: E402
+    ASSIMILATION_STEPS, METHODS, adapt_config, run_viapoint, summarise_seeds)
+from acnmp_core.plots import plot_viapoint  # noqa: E402
+from benchmarks._results import provenance, save_result  # noqa: E402
+
+BUDGET, TRAIN_STEPS = 100, 3000
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__)
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=10)
-    ap.add_argument("--budget", type=int, default=100)
-    ap.add_argument("--variant", default="2d", choices=("2d", "1d"))
-    ap.add_argument("--json", default=str(Path(__file__).parent / "results" / "e1_viapoint.json"))
-    ap.add_argument("--adapt", action="append", default=[], metavar="KEY=VALUE",
-                    help="override an AdaptConfig field, e.g. --adapt explore_scale=0.5")
+    ap.add_argument("--json", default=str(ROOT / "benchmarks" / "results" / "e1_viapoint.json"))
+    ap.add_argument("--figure-seed", type=int, default=0, help="seed whose figures are written beside the JSON")
     args = ap.parse_args(argv)
-    overrides = {k: json.loads(v) for k, v in (a.split("=", 1) for a in args.adapt)}
     torch.set_num_threads(1)
+    meta = provenance()
     t0 = time.perf_counter()
     runs = []
     for seed in range(args.seeds):
-        s = run_viapoint(seed, args.variant, budget=args.budget, progress=False, adapt_overrides=overrides).summary
+        run = run_viapoint(seed, budget=BUDGET, train_steps=TRAIN_STEPS, progress=False)
+        s = run.summary
         runs.append(s)
         print(seed, {m: (r["rollouts"], r["success"], round(r["shape_error"], 4)) for m, r in s["methods"].items()},
               f"{s['wall_time_s']:.1f}s", flush=True)
-    agg = {}
-    for m in METHODS:
-        rs = [r["methods"][m] for r in runs]
-        ok = [r["rollouts"] for r in rs if r["success"]]
-        agg[m] = {
-            "success_rate": float(np.mean([r["success"] for r in rs])),
-            "rollouts_median_successful": float(np.median(ok)) if ok else None,
-            "rollouts_median": float(np.median([r["rollouts"] for r in rs])),
-            "within_35_rate": float(np.mean([r["success"] and r["rollouts"] <= 35 for r in rs])),
-            "error_median": float(np.median([r["error"] for r in rs])),
-            "shape_error_median": float(np.median([r["shape_error"] for r in rs])),
-        }
-    out = {
-        "experiment": "viapoint", "variant": args.variant, "seeds": args.seeds, "budget": args.budget,
-        "adapt_overrides": overrides,
+        if seed == args.figure_seed:
+            stem = Path(args.json).with_suffix("")
+            plot_viapoint(run, f"{stem}_seed{seed}.png")
+    result = {
+        "experiment": "viapoint",
+        "provenance": meta,
+        "config": {"seeds": args.seeds, "variant": "2d", "budget": BUDGET, "train_steps": TRAIN_STEPS,
+                   "assimilation_steps": ASSIMILATION_STEPS,
+                   "adapt": {m: adapt_config(m, BUDGET).to_dict() for m in METHODS}},
+        **summarise_seeds(runs),
         "wall_time_s": round(time.perf_counter() - t0, 1),
-        "wall_time_per_run_s_median": float(np.median([r["wall_time_s"] for r in runs])),
-        "methods": agg,
-        "shape_error_ratio_rl_only_over_acnmp": agg["rl_only"]["shape_error_median"] / agg["acnmp"]["shape_error_median"],
+        "wall_time_per_seed_s_median": sorted(r["wall_time_s"] for r in runs)[len(runs) // 2],
         "runs": runs,
     }
-    Path(args.json).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.json).write_text(json.dumps(out, indent=2))
-    print(json.dumps({k: v for k, v in out.items() if k != "runs"}, indent=2))
+    save_result(result, args.json, headline=("methods", "shape_error_ratio_rl_only_over_acnmp", "assimilation",
+                                             "wall_time_s"))
     return 0
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    sys.exit(main())

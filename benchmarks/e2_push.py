@@ -1,8 +1,9 @@
 """E2 benchmark: ACNMP vs adaptive ProMP + RL on the pushing task, full budgets, several seeds.
 
-Writes benchmarks/results/e2_push.json (and e2_push.png, the Fig. 5(b)-like learning curves).
-Usage: ``python benchmarks/e2_push.py [--seeds N] [--out FILE]``; about 40-80 s per seed on the
-2-core development machine, so the default 10 seeds stay well inside the 20-minute limit.
+Writes benchmarks/results/e2_push.json (with its provenance) and e2_push.png (Fig. 5(b)-like
+learning curves). Usage: ``python benchmarks/e2_push.py [--seeds N] [--out FILE]``. The settings are
+the library's defaults, the same as ``acnmp experiment push``, so the CLI's first N seeds give the
+benchmark's first N.
 """
 from __future__ import annotations
 
@@ -16,7 +17,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from acnmp_core.experiments.push import plot_push, run_push  # noqa: E402
-from benchmarks._results import save_result  # noqa: E402
+from benchmarks._results import provenance, save_result  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -26,8 +27,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "e2_push.json"))
     args = ap.parse_args(argv)
     torch.set_num_threads(1)
-    result = run_push(args.seeds, log=lambda s: print(s, flush=True))
-    save_result(result, args.out, plot_push, "rollout_ratio_promp_over_acnmp")
+    meta = provenance()
+    result = {"provenance": meta, **run_push(args.seeds, log=lambda s: print(s, flush=True))}
+    save_result(result, args.out, plot_push, ("methods", "rollout_ratio_promp_over_acnmp", "wall_time_s"))
     return 0
 
 

@@ -1,0 +1,141 @@
+"""The renderers of benchmarks/report.py: one function per docs block, each reading its JSON."""
+from __future__ import annotations
+
+from benchmarks.report import fmt, frac, load, pct, renderer, source, table
+
+E1_LABELS = {"lfd_only": "LfD-only", "rl_only": "RL-only", "acnmp": "ACNMP"}
+TWO_LABELS = {"acnmp": "ACNMP", "promp_rl": "ProMP + RL (REPS)"}
+
+
+# --------------------------------------------------------------------------------------------------
+# E1
+# --------------------------------------------------------------------------------------------------
+@renderer("e1-results")
+def e1_results() -> str:
+    r = load("e1_viapoint")
+    n = r["config"]["seeds"]
+    rows = []
+    for m, label in E1_LABELS.items():
+        s = r["methods"][m]
+        rows.append([label, frac(s["success_rate"], n), fmt(s["rollouts_median"]), frac(s["within_35_rate"], n),
+                     fmt(s["viapoint_error_median"]), fmt(s["shape_error_median"]), fmt(s["endpoint_error_max"])])
+    a = r["assimilation"]
+    ratio = r["shape_error_ratio_rl_only_over_acnmp"]
+    lines = [
+        table(["method", "success", "roll-outs (median)", "≤ 35 roll-outs", "via-point error (median, m)",
+               "shape error (median, m)", "start/end error (max, m)"], rows),
+        "",
+        f"* Roll-outs per seed, ACNMP: {', '.join(map(str, r['methods']['acnmp']['rollouts']))}; "
+        f"RL-only: {', '.join(map(str, r['methods']['rl_only']['rollouts']))}.",
+        "* Shape error RL-only / ACNMP (ratio of the medians): "
+        + ("- (a method failed in some seed)" if ratio is None else f"{ratio:.2f}") + ".",
+        f"* Assimilation ({a['performed']}/{n} seeds with a solution): conditioned again on the same points "
+        f"with no RL, the assimilated model succeeds in {a['success_after']}/{a['performed']}; the old "
+        f"demonstrations' reproduction RMSE is at most {fmt(a['old_demos_rmse_ratio_max'])}x the LfD model's "
+        f"(median {fmt(a['old_demos_rmse_ratio_median'])}x); the solution is reproduced within "
+        f"{fmt(a['solution_reproduction_rmse_max'])} m RMSE.",
+        f"* Time per seed (three methods, training and assimilation): median {r['wall_time_per_seed_s_median']:.1f} s.",
+        "",
+        source(r, "e1_viapoint"),
+    ]
+    return "\n".join(lines)
+
+
+def e1_row() -> list[str]:
+    r = load("e1_viapoint")
+    n = r["config"]["seeds"]
+    a, lfd = r["methods"]["acnmp"], r["methods"]["lfd_only"]
+    ratio = r["shape_error_ratio_rl_only_over_acnmp"]
+    return [f"E1 via-point ({n} seeds)", "ACNMP ≤ 35 roll-outs, LfD misses",
+            f"ACNMP {frac(a['success_rate'], n)} succeed, median {fmt(a['rollouts_median'])} roll-outs "
+            f"({frac(a['within_35_rate'], n)} within 35); LfD-only {frac(lfd['success_rate'], n)}; shape error "
+            f"RL-only / ACNMP {'-' if ratio is None else f'{ratio:.1f}x'}"]
+
+
+# --------------------------------------------------------------------------------------------------
+# E2
+# --------------------------------------------------------------------------------------------------
+@renderer("e2-results")
+def e2_results() -> str:
+    r = load("e2_push")
+    n = r["seeds"]
+    rows = []
+    for m, label in TWO_LABELS.items():
+        for c in ("interpolation", "extrapolation"):
+            s = r["methods"][m][c]
+            rows.append([label, c, fmt(s["rollouts_median"]), f"{min(s['rollouts'])}-{max(s['rollouts'])}",
+                         frac(s["success_rate"], n), fmt(s["final_error_median"]), fmt(s["lfd_error_median"])])
+    ratio = r["rollout_ratio_promp_over_acnmp"]
+    lines = [
+        table(["method", "case", "roll-outs (median)", "range", "success", "final error (median, m)",
+               "initial error (median, m)"], rows),
+        "",
+        "* ProMP + RL / ACNMP roll-outs (ratio of the medians, only where both succeed in every seed): "
+        + "; ".join(f"{c} {'-' if v is None else f'{v:.2f}x'}" for c, v in ratio.items()) + ".",
+        f"* ACNMP extrapolation roll-outs per seed: {', '.join(map(str, r['methods']['acnmp']['extrapolation']['rollouts']))}.",
+        "",
+        source(r, "e2_push"),
+    ]
+    return "\n".join(lines)
+
+
+def e2_row() -> list[str]:
+    r = load("e2_push")
+    n = r["seeds"]
+    a, p = r["methods"]["acnmp"], r["methods"]["promp_rl"]
+    ratio = r["rollout_ratio_promp_over_acnmp"].get("extrapolation")
+    return [f"E2 push ({n} seeds)", "ACNMP ~130 roll-outs, ProMP+RL ~9x more",
+            f"interpolation {frac(a['interpolation']['lfd_success_rate'], n)} with no adaptation; extrapolation "
+            f"ACNMP median {fmt(a['extrapolation']['rollouts_median'])} ({frac(a['extrapolation']['success_rate'], n)}), "
+            f"ProMP+RL {fmt(p['extrapolation']['rollouts_median'])} ({frac(p['extrapolation']['success_rate'], n)})"
+            + ("" if ratio is None else f": {ratio:.1f}x")]
+
+
+# --------------------------------------------------------------------------------------------------
+# E3
+# --------------------------------------------------------------------------------------------------
+@renderer("e3-results")
+def e3_results() -> str:
+    r = load("e3_wall")
+    rows = []
+    for m, label in TWO_LABELS.items():
+        s = r["methods"][m]
+        rows.append([label, f"{pct(s['test_success_rate_initial'])} → {pct(s['test_success_rate'])}",
+                     f"{fmt(s['test_error_mean_initial'])} → {fmt(s['test_error_mean'])}",
+                     fmt(s["test_goal_error_mean"]), s["trajectories_total"], s["trajectories_per_env_max"],
+                     f"{s['adaptations']} ({s['adaptations_failed']} failed)", f"{s['time_s']:.0f}"])
+    ratio = r["trajectory_ratio_promp_over_acnmp"]
+    lines = [
+        table(["method", "test success", "mean test error", "mean goal error", "trajectories", "max per env",
+               "adaptations", "time (s)"], rows),
+        "",
+        f"* {r['envs']} new environments after {r['n_initial']} demonstrated ones; {r['n_test']} test environments.",
+        "* ProMP + RL / ACNMP trajectories in total: " + ("-" if ratio is None else f"{ratio:.2f}x") + ".",
+        "",
+        source(r, "e3_wall"),
+    ]
+    return "\n".join(lines)
+
+
+def e3_row() -> list[str]:
+    r = load("e3_wall")
+    a, p = r["methods"]["acnmp"], r["methods"]["promp_rl"]
+    ratio = r["trajectory_ratio_promp_over_acnmp"]
+    return [f"E3 wall ({r['envs']} envs)", "≤ 1.4K per env, ProMP+RL ~14x more",
+            f"ACNMP test success {pct(a['test_success_rate_initial'])} → {pct(a['test_success_rate'])}, max "
+            f"{a['trajectories_per_env_max']} per env, {a['trajectories_total']} in all, {a['time_s']:.0f} s; "
+            f"ProMP+RL {pct(p['test_success_rate'])}, {p['trajectories_total']}"
+            + ("" if ratio is None else f": {ratio:.1f}x")]
+
+
+# --------------------------------------------------------------------------------------------------
+# README
+# --------------------------------------------------------------------------------------------------
+@renderer("readme-results")
+def readme_results() -> str:
+    rows = [e1_row(), e2_row(), e3_row()]
+    p = load("bench_predict")
+    rows.append(["predict latency", "–", f"p50 {p['latency']['predict_zenoh']['p50_ms']:.2f} ms over zenoh = "
+                 f"{p['p50_ratio']:.2f}x (in-process + empty query), target ≤ {p['target_ratio']}x"])
+    return table(["experiment", "paper", "measured here (JSON in `benchmarks/results/`)"], rows)
+
