@@ -58,7 +58,9 @@ def _wall(p: dict) -> RolloutEvaluator:
 
 @register_task("push")
 def _push(p: dict) -> RolloutEvaluator:
-    """params: n_joints (int, default 3), tolerance (float, metres, default 0.03)."""
+    """params: n_joints (int, default 3), tolerance (float, metres, default 0.03), reward
+    ("distance", the default, or "final"; see PlanarPushTask)."""
     from ..robots.planar_arm import PlanarPushTask
 
-    return PlanarPushTask(int(p.get("n_joints", 3)), tolerance=float(p.get("tolerance", 0.03)))
+    return PlanarPushTask(int(p.get("n_joints", 3)), tolerance=float(p.get("tolerance", 0.03)),
+                          reward=str(p.get("reward", "distance")))

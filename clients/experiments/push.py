@@ -37,7 +37,7 @@ def run(args) -> int:
     import torch
 
     from acnmp_core.adaptation import AdaptConfig
-    from acnmp_core.experiments.push import ACNMP_BUDGET, PROMP_DEFAULTS, plot_push, run_push
+    from acnmp_core.experiments.push import ACNMP_BUDGET, PROMP_DEFAULTS, plot_push, run_push, task_config
     from acnmp_core.promp_rl import PrompRLConfig
 
     torch.set_num_threads(1)  # the CNMP is small; threads only contend with the simulator
@@ -60,7 +60,7 @@ def run(args) -> int:
         with remote_rollouts("planar3", "push", workers=args.workers, record=args.record, prefix="e2",
                              progress=not args.quiet) as make:
             result = run_push(args.seeds, evaluator_factory=lambda setup, method, case: make(
-                f"push-{method}-{case}", {"n_joints": setup.n_joints, "tolerance": setup.tolerance}), **kwargs)
+                f"push-{method}-{case}", task_config(setup, method)), **kwargs)
     else:
         result = run_push(args.seeds, **kwargs)
     print(f"E2 push, {result['seeds']} seed(s), tolerance {result['tolerance']} m, {result['wall_time_s']:.1f} s")

@@ -59,6 +59,8 @@ def test_result_has_documented_keys(result, tmp_path):
             assert {"rollouts_median", "success_rate", "final_error_median"} <= set(s)
             assert 0.0 <= s["success_rate"] <= 1.0
     assert set(r["rollout_ratio_promp_over_acnmp"]) == set(CASES)
+    # each method is scored on the reward it optimises: ACNMP per step, the episodic ProMP at the end
+    assert r["config"]["rewards"] == {"acnmp": "distance", "promp_rl": "final"}
     # budgets are respected (ACNMP's first roll-out is the LfD one)
     for run in r["runs"]:
         assert run["rollouts"] <= (7 if run["method"] == "acnmp" else 11)
