@@ -18,6 +18,8 @@ from pathlib import Path
 #: Distributions whose versions change results or speed.
 LIBRARIES = ("acnmp", "torch", "numpy", "pybullet", "eclipse-zenoh", "rerun-sdk", "msgpack")
 ROOT = Path(__file__).resolve().parents[1]
+#: Paths whose changes do not make the tree "dirty" (git pathspecs): pages and results.
+NOT_CODE = ("*.md", "benchmarks/results")
 
 
 def _git(*args: str) -> str | None:
@@ -48,7 +50,8 @@ def _version(dist: str) -> str | None:
 def provenance(argv: list[str] | None = None) -> dict:
     """A JSON-ready record of this run's origin.
 
-    Returns ``{"commit": sha or None, "dirty": bool or None (tracked files changed), "command":
+    Returns ``{"commit": sha or None, "dirty": bool or None (tracked files other than
+    :data:`NOT_CODE` changed), "command":
     str, "started_at": ISO time (UTC), "python": version, "libraries": {name: version},
     "machine": {"platform", "cpu", "cpu_count", "torch_threads"}}``. ``commit`` is None outside
     a git checkout (an installed wheel).
@@ -56,7 +59,9 @@ def provenance(argv: list[str] | None = None) -> dict:
     import torch
 
     commit = _git("rev-parse", "HEAD")
-    status = _git("status", "--porcelain", "--untracked-files=no")
+    # Pages and results do not change what the code computes: a tree whose only changes are there
+    # (e.g. a page being rewritten while a benchmark runs) is not dirty.
+    status = _git("status", "--porcelain", "--untracked-files=no", "--", ".", *(f":!{p}" for p in NOT_CODE))
     argv = list(sys.argv if argv is None else argv)
     if argv:
         argv[0] = os.path.relpath(argv[0], ROOT) if os.path.isabs(argv[0]) else argv[0]
