@@ -2,7 +2,7 @@
 
 ``benchmarks/results/regression.json`` holds, for E1 seed 0 (all three methods), E2 seed 0 (both
 cases, both methods) and E3 with 20 new environments and 200 test environments (both methods),
-the exact roll-out counts and successes. ``tests/test_regression.py`` re-runs them and fails on any
+the exact roll-out counts and successes. ``tests/unit/test_published_numbers.py`` re-runs them and fails on any
 difference, so a change of a default, of the algorithm or of a task cannot silently change the
 published numbers: whoever changes them re-runs the full benchmarks and this pin in the same commit.
 

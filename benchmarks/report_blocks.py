@@ -139,3 +139,37 @@ def readme_results() -> str:
                  f"{p['p50_ratio']:.2f}x (in-process + empty query), target ≤ {p['target_ratio']}x"])
     return table(["experiment", "paper", "measured here (JSON in `benchmarks/results/`)"], rows)
 
+
+
+# --------------------------------------------------------------------------------------------------
+# The adaptation sweep
+# --------------------------------------------------------------------------------------------------
+@renderer("adaptation-sweep")
+def adaptation_sweep() -> str:
+    r = load("adapt_sweep")
+    n, envs = r["config"]["seeds"], r["config"]["e3_envs"]
+    rows = []
+    for name, s in r["settings"].items():
+        e1, e2, e3 = s.get("e1"), s.get("e2"), s.get("e3")
+        fields = ", ".join(f"`{k}={v}`" for k, v in s["fields"].items()) or "(none)"
+        rows.append([
+            f"**{name}**" if name == "default" else name, fields,
+            "-" if e1 is None else f"{frac(e1['success_rate'], n)}, {fmt(e1['rollouts_median'])}, "
+                                   f"{frac(e1['within_35_rate'], n)}, {fmt(e1['shape_error_median'])}",
+            "-" if e2 is None else f"{frac(e2['success_rate'], n)}, {fmt(e2['rollouts_median'])}",
+            "-" if e3 is None else f"{pct(e3['test_success_rate'])}, {fmt(e3['test_error_mean'])}, "
+                                   f"{e3['trajectories_total']}, {e3['trajectories_per_env_max']}, "
+                                   f"{e3['adaptations_failed']}/{e3['adaptations']}",
+        ])
+    lines = [
+        table(["setting", "changed from the default",
+               f"E1 ({n} seeds): success, roll-outs (median), ≤ 35, shape error (median, m)",
+               f"E2 extrapolation ({n} seeds): success, roll-outs (median)",
+               f"E3 ({envs} new envs, 200 test): test success, mean test error, trajectories, max per env, "
+               "failed/adaptations"], rows),
+        "",
+        "* The default: " + ", ".join(f"`{k}={v}`" for k, v in r["config"]["default"].items()) + ".",
+        "",
+        source(r, "adapt_sweep"),
+    ]
+    return "\n".join(lines)

@@ -29,9 +29,13 @@ def check_deployment_arguments(args) -> None:
 
 
 def write_json(result: dict, path: str | None) -> None:
-    """Write ``result`` as indented JSON to ``path`` (parents created) and say so; no-op for None."""
+    """Write ``result`` as indented JSON to ``path`` (parents created) and say so; no-op for None.
+    The file records where it came from (:func:`clients.provenance.provenance`) unless ``result``
+    already does."""
     if path:
+        from clients.provenance import provenance
+
         Path(path).parent.mkdir(parents=True, exist_ok=True)
-        Path(path).write_text(json.dumps(result, indent=2))
+        Path(path).write_text(json.dumps({"provenance": provenance(), **result}, indent=2))
         print(f"wrote {path}")
     sys.stdout.flush()

@@ -11,6 +11,8 @@ def test_viapoint_cli_writes_json_and_plots(tmp_path, saved_figures):
     assert code == 0
     s = json.loads(out.read_text())
     assert s["experiment"] == "viapoint" and s["seed"] == 1 and s["wall_time_s"] > 0
+    # where the file came from: the commit and the libraries that produced it
+    assert len(s["provenance"]["commit"]) == 40 and s["provenance"]["libraries"]["torch"]
     assert set(s["methods"]) == {"lfd_only", "rl_only", "acnmp"}
     for r in s["methods"].values():
         assert set(r) >= {"rollouts", "success", "error", "viapoint_error", "endpoint_error", "shape_error"}
