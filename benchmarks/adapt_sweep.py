@@ -16,7 +16,7 @@ import copy
 import json
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from multiprocessing import get_context
 from pathlib import Path
 
@@ -114,15 +114,21 @@ def main(argv: list[str] | None = None) -> int:
     tasks = [(n, e, SETTINGS[n][1], seeds, args.e3_envs) for n in names for e in ("e2", "e3", "e1")]
     t0 = time.perf_counter()
     results: dict[str, dict] = {n: {"about": SETTINGS[n][0], "fields": SETTINGS[n][1]} for n in names}
+    def result(done: int) -> dict:
+        return {"experiment": "adapt_sweep", "provenance": meta,
+                "config": {"seeds": args.seeds, "e3_envs": args.e3_envs, "e3_test": 200,
+                           "default": AdaptConfig().to_dict()},
+                "settings": results, "complete": done == len(tasks),
+                "wall_time_s": round(time.perf_counter() - t0, 1)}
+
     with ProcessPoolExecutor(args.jobs, mp_context=get_context("spawn")) as pool:
-        for name, exp, out, secs in pool.map(_run, tasks):
+        # Written after every finished run, so an interrupted sweep keeps what it measured.
+        for done, fut in enumerate(as_completed([pool.submit(_run, t) for t in tasks]), start=1):
+            name, exp, out, secs = fut.result()
             results[name][exp] = {**out, "time_s": secs}
             print(name, exp, json.dumps({k: v for k, v in out.items() if k != "rollouts"}), f"{secs:.0f} s", flush=True)
-    result = {"experiment": "adapt_sweep", "provenance": meta,
-              "config": {"seeds": args.seeds, "e3_envs": args.e3_envs, "e3_test": 200,
-                         "default": AdaptConfig().to_dict()},
-              "settings": results, "wall_time_s": round(time.perf_counter() - t0, 1)}
-    save_result(result, args.out, headline=("wall_time_s",))
+            save_result(result(done), args.out)
+    save_result(result(len(tasks)), args.out, headline=("wall_time_s",))
     return 0
 
 
