@@ -169,6 +169,8 @@ def adaptation_sweep() -> str:
                "failed/adaptations"], rows),
         "",
         "* The default: " + ", ".join(f"`{k}={v}`" for k, v in r["config"]["default"].items()) + ".",
+        *([] if r.get("complete", True) else ["* The sweep was stopped before every run finished: '-' marks "
+                                               "a run that has no result."]),
         "",
         source(r, "adapt_sweep"),
     ]
