@@ -1,4 +1,4 @@
-"""Figures of the experiments (matplotlib, headless Agg backend)."""
+"""Figures of the experiments (matplotlib, headless Agg backend): every figure the project draws."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -8,6 +8,9 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+
+from .experiments import push as push_exp  # noqa: E402
+from .experiments import wall as wall_exp  # noqa: E402
 
 COLORS = {"lfd_only": "tab:blue", "rl_only": "tab:red", "acnmp": "tab:green"}
 LABELS = {"lfd_only": "LfD only", "rl_only": "RL only", "acnmp": "ACNMP"}
@@ -81,3 +84,66 @@ def plot_viapoint(run, path: str | Path) -> list[Path]:
     fig.savefig(lat_path, dpi=110)
     plt.close(fig)
     return [path, lat_path]
+
+
+def plot_push(result: dict, path) -> "object":
+    """Write learning curves like the paper's Fig. 5(b): final-position error of the mean trajectory
+    vs roll-outs, median and inter-quartile band over seeds, per method, one panel per case.
+    Returns the written path."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    colors, labels = wall_exp.COLORS, wall_exp.LABELS
+    cases = [c for c in push_exp.CASES if any(r["case"] == c for r in result["runs"])]
+    fig, axes = plt.subplots(1, len(cases), figsize=(5.5 * len(cases), 4.2), squeeze=False)
+    for ax, case in zip(axes[0], cases):
+        runs = [r for r in result["runs"] if r["case"] == case]
+        top = max(r["curve"][-1][0] for r in runs)
+        grid = np.arange(1, top + 1)
+        for m in push_exp.METHODS:
+            curves = [r["curve"] for r in runs if r["method"] == m]
+            if not curves:
+                continue
+            med, lo, hi = push_exp.curve_band(curves, grid)
+            s = result["methods"][m][case]
+            ax.plot(grid, med, color=colors[m],
+                    label=f"{labels[m]}: median {s['rollouts_median']:.0f} roll-outs, "
+                          f"success {100 * s['success_rate']:.0f} %")
+            ax.fill_between(grid, lo, hi, color=colors[m], alpha=0.25)
+        ax.axhline(result["tolerance"], color="k", ls="--", lw=1, label=f"tolerance {result['tolerance']} m")
+        ax.set_xscale("log")
+        ax.set_xlim(left=1)
+        ax.set_xlabel("roll-outs")
+        ax.set_ylabel("object's final distance to target (m)")
+        ax.set_title(f"E2 push, {case} ({result['seeds']} seeds)")
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def plot_wall(result: dict, path) -> "object":
+    """Write the paper's Fig. 5 d, e: test error and success rate against environments seen (left)
+    and against trajectories sampled (right), one line per method. Returns the written path."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig, axes = plt.subplots(2, 2, figsize=(11, 7), sharey="row")
+    for m, curve in result["curves"].items():
+        envs = [p["envs_seen"] for p in curve]
+        traj = [p["trajectories"] for p in curve]
+        s = result["methods"][m]
+        label = f"{wall_exp.LABELS[m]}: {s['trajectories_total']} trajectories, max {s['trajectories_per_env_max']}/env"
+        for col, x in enumerate((envs, traj)):
+            axes[0, col].plot(x, [p["test_error_mean"] for p in curve], color=wall_exp.COLORS[m], label=label)
+            axes[1, col].plot(x, [100 * p["test_success_rate"] for p in curve], color=wall_exp.COLORS[m], label=label)
+    for row, ylab in enumerate(("mean test error (world units)", "test success (%)")):
+        axes[row, 0].set_ylabel(ylab)
+        axes[row, 0].set_xlabel("environments seen")
+        axes[row, 1].set_xlabel("trajectories sampled")
+    axes[0, 0].legend(fontsize=8)
+    fig.suptitle(f"E3 wall: {result['n_initial']} demonstrated + {result['envs']} new environments, "
+                 f"{result['n_test']} test environments (seed {result['seed']})")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path

@@ -16,7 +16,8 @@ import torch
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from acnmp_core.experiments.push import plot_push, run_push  # noqa: E402
+from acnmp_core.experiments.push import run_push  # noqa: E402
+from acnmp_core.plots import plot_push  # noqa: E402
 from benchmarks._results import provenance, save_result  # noqa: E402
 
 

@@ -16,7 +16,8 @@ import torch
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from acnmp_core.experiments.wall import plot_wall, run_wall  # noqa: E402
+from acnmp_core.experiments.wall import run_wall  # noqa: E402
+from acnmp_core.plots import plot_wall  # noqa: E402
 from benchmarks._results import provenance, save_result  # noqa: E402
 
 

@@ -377,37 +377,3 @@ def _plain(d: dict) -> dict:
     """Config dict with JSON-friendly values (tuples/arrays to lists)."""
     return {k: (v.tolist() if isinstance(v, np.ndarray) else list(v) if isinstance(v, tuple) else v)
             for k, v in d.items()}
-
-
-def plot_wall(result: dict, path) -> "object":
-    """Write the paper's Fig. 5 d, e: test error and success rate against environments seen (left)
-    and against trajectories sampled (right), one line per method. Returns the written path."""
-    from pathlib import Path
-
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig, axes = plt.subplots(2, 2, figsize=(11, 7), sharey="row")
-    for m, curve in result["curves"].items():
-        envs = [p["envs_seen"] for p in curve]
-        traj = [p["trajectories"] for p in curve]
-        s = result["methods"][m]
-        label = f"{LABELS[m]}: {s['trajectories_total']} trajectories, max {s['trajectories_per_env_max']}/env"
-        for col, x in enumerate((envs, traj)):
-            axes[0, col].plot(x, [p["test_error_mean"] for p in curve], color=COLORS[m], label=label)
-            axes[1, col].plot(x, [100 * p["test_success_rate"] for p in curve], color=COLORS[m], label=label)
-    for row, ylab in enumerate(("mean test error (world units)", "test success (%)")):
-        axes[row, 0].set_ylabel(ylab)
-        axes[row, 0].set_xlabel("environments seen")
-        axes[row, 1].set_xlabel("trajectories sampled")
-    axes[0, 0].legend(fontsize=8)
-    fig.suptitle(f"E3 wall: {result['n_initial']} demonstrated + {result['envs']} new environments, "
-                 f"{result['n_test']} test environments (seed {result['seed']})")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path

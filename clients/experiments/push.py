@@ -37,7 +37,7 @@ def run(args) -> int:
     import torch
 
     from acnmp_core.adaptation import AdaptConfig
-    from acnmp_core.experiments.push import ACNMP_BUDGET, PROMP_DEFAULTS, plot_push, run_push, task_config
+    from acnmp_core.experiments.push import ACNMP_BUDGET, PROMP_DEFAULTS, run_push, task_config
     from acnmp_core.promp_rl import PrompRLConfig
 
     torch.set_num_threads(1)  # the CNMP is small; threads only contend with the simulator
@@ -73,5 +73,7 @@ def run(args) -> int:
         print(f"ProMP+RL / ACNMP roll-outs ({c}): {'-' if ratio is None else f'{ratio:.2f}x'}")
     write_json(result, args.json)
     if args.plot:
+        from acnmp_core.plots import plot_push
+
         print(f"wrote {plot_push(result, args.plot)}", flush=True)
     return 0

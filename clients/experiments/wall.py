@@ -31,7 +31,7 @@ def run(args) -> int:
     """Run E3 as asked by ``args``, print the curve and a summary; returns the exit code."""
     import torch
 
-    from acnmp_core.experiments.wall import plot_wall, run_wall
+    from acnmp_core.experiments.wall import run_wall
 
     torch.set_num_threads(1)  # the CNMP is small; more threads only contend
     for name in ("envs", "initial", "test", "eval_every"):
@@ -60,5 +60,7 @@ def run(args) -> int:
         print(f"ProMP+RL / ACNMP trajectories: {ratio:.2f}x")
     write_json(result, args.json)
     if args.plot:
+        from acnmp_core.plots import plot_wall
+
         print(f"wrote {plot_wall(result, args.plot)}", flush=True)
     return 0

@@ -9,7 +9,8 @@ import pytest
 import torch
 
 from acnmp_core.adaptation import AdaptConfig
-from acnmp_core.experiments.push import CASES, METHODS, curve_band, make_setup, make_target, plot_push, run_push
+from acnmp_core.experiments.push import CASES, METHODS, curve_band, make_setup, make_target, run_push
+from acnmp_core.plots import plot_push
 from acnmp_core.promp_rl import PrompRLConfig
 
 torch.set_num_threads(1)
