@@ -5,7 +5,7 @@ adaptation code never knows where a trajectory is executed.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import Protocol, runtime_checkable
 
 import numpy as np
@@ -60,19 +60,26 @@ class RolloutBatch:
     @staticmethod
     def concat(batches: list["RolloutBatch"]) -> "RolloutBatch":
         """Concatenate batches along the roll-out axis (states: keys common to all batches; errors
-        only when every batch has them)."""
+        only when every batch has them). Batches of one subclass give that subclass, its own
+        fields (per-roll-out sequences of length B, e.g. the worker of each roll-out) joined too."""
         if not batches:
             raise ValueError("batches: expected at least one RolloutBatch")
         keys = set(batches[0].states)
         for b in batches[1:]:
             keys &= set(b.states)
-        return RolloutBatch(
+        base = dict(
             rewards=np.concatenate([b.rewards for b in batches]),
             success=np.concatenate([b.success for b in batches]),
             states={k: np.concatenate([b.states[k] for b in batches]) for k in sorted(keys)},
             errors=(np.concatenate([b.errors for b in batches])
                     if all(b.errors is not None for b in batches) else None),
         )
+        kind = type(batches[0])
+        if kind is RolloutBatch or any(type(b) is not kind for b in batches):
+            return RolloutBatch(**base)
+        extra = {f.name: tuple(x for b in batches for x in getattr(b, f.name))
+                 for f in fields(kind) if f.name not in base}
+        return kind(**base, **extra)
 
 
 @runtime_checkable

@@ -29,6 +29,11 @@ def test_a_reply_round_trips_the_batch_and_slices_keep_every_field(setup):
     np.testing.assert_array_equal(one.states["path"], batch.states["path"][1:2])
     executed = ExecutedBatch.of(RolloutBatch.concat([take(back, 0, 1), one]), ["a", "b"])
     assert executed.workers == ("a", "b") and len(executed) == 2
+    # joining executed batches (adapt() runs the LfD mean alone, then the noisy ones) keeps who ran what
+    joined = RolloutBatch.concat([executed, ExecutedBatch.of(take(back, 2, 3), ["c"])])
+    assert isinstance(joined, ExecutedBatch) and joined.workers == ("a", "b", "c")
+    np.testing.assert_array_equal(joined.rewards, batch.rewards)
+    assert type(RolloutBatch.concat([executed, take(back, 2, 3)])) is RolloutBatch  # mixed: the plain fields
     with pytest.raises(ValueError, match="workers"):
         ExecutedBatch.of(batch, ["a"])
     with pytest.raises(WireError) as info:
