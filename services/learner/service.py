@@ -36,7 +36,7 @@ from services.recording.publisher import EventPublisher
 from services.transport import Keyspace, Ready, Service, WireError, declare_rpc, option, wait_until_stopped
 from services.transport.errors import wire_error
 from services.transport.keys import check_name, job_from_key, skill_from_key
-from services.transport.wire import array_field, error_payload, field
+from services.transport.wire import array_field, error_payload, field, require_payload
 from services.worker.remote import RemoteEvaluator
 
 from .core import LearnerCore, TrainSpec, UnknownJobError, UnknownSkillError
@@ -67,8 +67,7 @@ def parse_train_request(msg: dict | None) -> TrainSpec:
     ``value_names`` (D,) / ``task_param_names`` (P,) optional lists of str, ``model`` (overrides
     of encoder_widths, decoder_widths, std_floor), ``train`` (TrainConfig overrides), ``seed`` int.
     """
-    if msg is None:
-        raise WireError("bad_request", "a train request needs a payload")
+    msg = require_payload(msg, "a train request")
     values = array_field(msg, "values", ndim=3, max_elements=MAX_DEMO_VALUES)
     n, t, d = values.shape
     if n < 1 or t < 2 or d < 1:
@@ -172,8 +171,7 @@ class LearnerService:
 
     def _handle_adapt(self, msg: dict | None, query: zenoh.Query) -> dict:
         skill = self._skill_of(query, msg)
-        if msg is None:
-            raise WireError("bad_request", "an adapt request needs a payload")
+        msg = require_payload(msg, "an adapt request")
         try:
             job = self.core.submit(skill, AdaptJob.from_dict(msg))
         except UnknownSkillError as exc:
@@ -193,16 +191,14 @@ class LearnerService:
     def _handle_latest(self, query: zenoh.Query) -> None:
         # hand-written (not declare_rpc): a wildcard query, as the model service sends at start,
         # gets one reply per skill on that skill's concrete key
+        # (any key expression that intersects ours, e.g. acnmp/**, gets the skills it matches)
         with query:
             try:
-                chunk = str(query.key_expr).split("/")[3]
-                skills = self.core.skill_states()
-                if "*" in chunk:
-                    states = list(skills.values())
-                elif chunk in skills:
-                    states = [skills[chunk]]
-                else:
-                    query.reply_err(error_payload("unknown_skill", f"no skill {chunk!r} on this learner"))
+                asked = query.key_expr
+                states = [state for name, state in sorted(self.core.skill_states().items())
+                          if asked.intersects(zenoh.KeyExpr(self.keys.weights_latest(name)))]
+                if not states and "*" not in str(asked):  # a wildcard matching nothing gets no reply
+                    query.reply_err(error_payload("unknown_skill", f"no skill matching {str(asked)!r} on this learner"))
                     return
                 for state in states:
                     query.reply(self.keys.weights_latest(state.name), _weights(state))

@@ -15,7 +15,7 @@ import torch
 
 from acnmp_core.cnmp import CNMP
 from services.transport.errors import wire_error
-from services.transport.wire import WireError, array_field, field
+from services.transport.wire import WireError, array_field, field, require_payload
 
 #: Bounds on one predict request (absurd sizes get ``too_large``, never a stalled service).
 MAX_OBS = 4096            # observations N
@@ -179,8 +179,7 @@ def handle_predict(registry: ModelRegistry, skill: str, request) -> dict:
     reply is ``{"v", "skill", "version", "results": [single reply, ...]}``; a bad item fails the
     whole batch with its index in the message.
     """
-    if request is None:
-        raise WireError("bad_request", "a predict query needs a payload (obs_times, obs_values, ...)")
+    request = require_payload(request, "a predict request (obs_times, obs_values, ...)")
     entry = registry.get(skill)
     _pin_threads()
     if "batch" not in request:

@@ -84,6 +84,26 @@ def test_rpc_errors_become_reply_err_and_service_keeps_serving(anchor, workers):
         assert rpc.failed == len(cases) and rpc.served == 2
 
 
+def test_zenohs_own_timeout_reply_is_the_timeout_code(anchor):
+    server, ep = anchor
+    held = []  # queries kept (not dropped): no reply until the querier's timeout passes
+    queryable = server.declare_queryable("acnmp/test/slow", held.append)
+    try:
+        with peer(ep) as client:
+            deadline = time.monotonic() + 10
+            while True:  # "unavailable" until the queryable's declaration has reached the client
+                with pytest.raises(WireError) as info:
+                    call(client, "acnmp/test/slow", {}, timeout=0.5)
+                if info.value.code != "unavailable" or time.monotonic() > deadline:
+                    break
+            assert info.value.code == "timeout", info.value
+            assert held, "the query never reached the queryable"
+    finally:
+        for query in held:
+            query.drop()
+        queryable.undeclare()
+
+
 def test_query_without_service_is_unavailable_not_a_timeout(anchor):
     session, _ = anchor
     with pytest.raises(WireError) as info:  # "unavailable": the query ended before its timeout

@@ -38,3 +38,11 @@ def test_registry_in_process_keeps_the_entry_a_query_started_with(small_model):
     assert not reg.offer(SkillModel("reach", 2, small_model))
     assert entry.version == 1 and reg.get("reach").version == 2
     assert handle_predict(reg, "reach", {**OBS, "n_steps": 5})["version"] == 2
+
+
+def test_a_predict_without_payload_is_malformed(small_model):
+    reg = ModelRegistry()
+    reg.offer(SkillModel("reach", 1, small_model))
+    with pytest.raises(WireError) as info:
+        handle_predict(reg, "reach", None)
+    assert info.value.code == "malformed"
