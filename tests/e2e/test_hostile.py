@@ -78,3 +78,29 @@ def test_absurd_array_shapes_are_too_large_not_internal(deployment):
     for key in (keys.predict("e1"), keys.train("e1"), keys.worker_rollout("point2d", "point2d-0")):
         assert error_of(deployment, key, body).code == "too_large", key
     assert served(deployment)["mean"].shape == (20, 2)
+
+
+def test_a_batch_whose_total_cost_is_over_the_bounds_is_refused_before_computing(deployment):
+    # the request: 64 items each within the per-item bounds, 6 MB on the wire
+    heavy = {"obs_times": np.linspace(0, 1, 4096), "obs_values": np.zeros((4096, 2)), "n_steps": 20_000,
+             "n_samples": 100}
+    err = error_of(deployment, deployment.keys.predict("e1"), {"batch": [heavy] * 64}, timeout=30)
+    assert err.code == "too_large" and "at most" in err.message, err
+    assert served(deployment)["mean"].shape == (20, 2)
+
+
+def test_train_and_adapt_requests_over_the_learners_limits_are_too_large(deployment):
+    setup = make_setup()
+    keys = deployment.keys
+    train = {"times": np.stack([d.times for d in setup.demos]), "values": np.stack([d.values for d in setup.demos]),
+             "model": SMALL, "train": {"steps": 10**9}}
+    err = error_of(deployment, keys.train("e1"), train)
+    assert err.code == "too_large" and "train.steps" in err.message, err
+    tg = setup.target
+    adapt = {"target": {"obs_times": tg.obs_times, "obs_values": tg.obs_values, "query_times": tg.query_times},
+             "task": "viapoint", "task_config": setup.task_config, "config": {"max_rollouts": 10**9}}
+    err = error_of(deployment, keys.adapt("e1"), adapt)
+    assert err.code == "too_large" and "max_rollouts" in err.message, err
+    # the learner was not occupied: it still answers at once, with the version it had
+    replies = list(deployment.session.get(keys.weights_latest("e1"), timeout=10))
+    assert len(replies) == 1 and replies[0].ok is not None
