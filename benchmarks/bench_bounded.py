@@ -89,7 +89,10 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--cases", default="batch,weights", help="comma-separated cases (default: %(default)s)")
     p.add_argument("--out", default="benchmarks/results/bench_bounded.json")
     args = p.parse_args(argv)
+    root_commit = subprocess.run(["git", "-C", args.root, "rev-parse", "HEAD"], capture_output=True,
+                                 text=True).stdout.strip() or None
     result = {"benchmark": "bounded", "provenance": provenance(sys.argv), "root": args.root,
+              "root_commit": root_commit,  # the code measured (provenance names the benchmark's own checkout)
               "results": [measure(Path(args.root), case, args.items) for case in args.cases.split(",")]}
     for row in result["results"]:
         print(row)
