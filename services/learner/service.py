@@ -260,7 +260,8 @@ class LearnerConfig(Service):
     name: ClassVar[str] = "learner"
     summary: ClassVar[str] = "the learner: trains skills, runs adaptation jobs, checkpoints"
 
-    state_dir: str = option("runs/state", "checkpoints of skills and jobs (default: %(default)s)", metavar="DIR")
+    state_dir: str | None = option(None, "checkpoints of skills and jobs, locked while the learner runs "
+                                         "(default: runs/<namespace>/state)", metavar="DIR")
     learner_id: str | None = option(None, "learner id (default: learner-<pid>)", flag="--id", metavar="ID")
     demos: list[str] = option([], "train SKILL from a demonstration file at start unless it exists (repeatable)",
                               metavar="SKILL=FILE.npz")
@@ -279,12 +280,13 @@ class LearnerConfig(Service):
         import torch
 
         torch.set_num_threads(1)
-        with LearnerService(session, Keyspace(self.session.namespace), self.state_dir, learner_id=self.learner_id,
+        state_dir = self.state_dir or f"runs/{self.session.namespace}/state"
+        with LearnerService(session, Keyspace(self.session.namespace), state_dir, learner_id=self.learner_id,
                             wait_recorder=self.wait_recorder, chunk_timeout=self.chunk_timeout,
                             limits=LearnerLimits(max_train_steps=self.max_train_steps,
                                                  max_rollouts=self.max_rollouts)) as learner:
             bootstrap(learner.core, self.demos, self.train_steps)
             ready(f"learner live as {learner.token_key}; skills: {sorted(learner.skills) or 'none yet'}; "
-                  f"state in {Path(self.state_dir).resolve()}")
+                  f"state in {Path(state_dir).resolve()}")
             wait_until_stopped(stop)
         return 0
