@@ -57,6 +57,7 @@ ERROR_CODES: dict[str, str] = {
     "unknown_skill": "no skill of that name is served here",
     "unknown_task": "no reward/task of that name is registered",
     "unknown_job": "no adaptation job with that id",
+    "overloaded": "the service's queue for this key is full; nothing was computed, try again later",
     "unavailable": "no service answered (nothing matched the key expression, or it went away)",
     "timeout": "the query timed out before a reply arrived",
     "internal": "the service failed while handling the request; the message says how",
