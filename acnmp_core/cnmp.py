@@ -69,6 +69,19 @@ class CNMPConfig:
     def latent_dim(self) -> int:
         return self.encoder_widths[-1]
 
+    @property
+    def n_parameters(self) -> int:
+        """Number of network parameters a :class:`CNMP` of this config has, computed from the
+        widths without building it (so a service can refuse an absurd config before allocating)."""
+        d, p = self.n_outputs, self.n_task_params
+
+        def mlp(widths: Sequence[int], in_dim: int, out_dim: int | None) -> int:
+            dims = [in_dim, *widths] + ([out_dim] if out_dim is not None else [])
+            return sum(a * b + b for a, b in zip(dims, dims[1:]))
+
+        return (mlp(self.encoder_widths, 1 + p + 2 * d, None)
+                + mlp(self.decoder_widths, self.latent_dim + 1 + p, 2 * d))
+
     def to_dict(self) -> dict:
         """Plain types only, so a checkpoint loads with ``weights_only=True``."""
         d = asdict(self)

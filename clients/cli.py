@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import pkgutil
 import sys
 
@@ -31,20 +32,54 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: Set to 1 to see the traceback of an unexpected error instead of its one-line summary.
+TRACEBACK_ENV = "ACNMP_TRACEBACK"
+#: Exit code after the reader of our output went away (``acnmp replay FILE | head``): 128 + SIGPIPE.
+BROKEN_PIPE = 141
+
+
 def main(argv: list[str] | None = None) -> int:
-    """Parse ``argv`` (default: sys.argv[1:]), run the chosen command, return its exit code."""
+    """Parse ``argv`` (default: sys.argv[1:]), run the chosen command, return its exit code.
+
+    Every failure is one line on stderr and a nonzero exit: 2 for a bad argument (ValueError, and
+    argparse's own errors), 1 for a failure at run time (no connection, an unreadable file, an
+    unexpected error: its type and message; ``ACNMP_TRACEBACK=1`` shows the traceback), 130 for
+    Ctrl-C, 141 when stdout is a pipe whose reader has gone (quietly: ``| head`` is not an error).
+    """
     parser = build_parser()
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
     try:
-        return int(args.func(args) or 0)
+        code = int(args.func(args) or 0)
+        sys.stdout.flush()  # a closed pipe shows here, not at interpreter exit
+        return code
     except KeyboardInterrupt:
         return 130
+    except BrokenPipeError:
+        # nobody reads stdout any more; point it at /dev/null so the exit-time flush is quiet too
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return BROKEN_PIPE
     except ValueError as exc:
         print(f"acnmp: error: {exc}", file=sys.stderr)
         return 2
+    except ConnectionError as exc:
+        print(f"acnmp: {exc} (is a router listening there? a deployment of `acnmp up` takes "
+              f"--mode peer --connect <its anchor>)", file=sys.stderr)
+        return 1
+    except OSError as exc:  # a file that cannot be read or written
+        where = f"{exc.filename}: " if exc.filename else ""
+        print(f"acnmp: error: {where}{exc.strerror or exc}", file=sys.stderr)
+        return 1
+    except Exception as exc:  # never a traceback for a user; the type says where to look
+        if os.environ.get(TRACEBACK_ENV) == "1":
+            raise
+        first = str(exc).splitlines()[0] if str(exc) else ""
+        print(f"acnmp: error: {type(exc).__name__}: {first} (set {TRACEBACK_ENV}=1 for the traceback)",
+              file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":

@@ -105,7 +105,9 @@ class ACNMPClient:
             if connect is None:
                 env = os.environ.get("ACNMP_CONNECT", "")
                 connect = [e for e in env.split(",") if e] or [DEFAULT_CONNECT]
-            session = self._stack.enter_context(open_session(mode, listen, list(connect), config_file))
+            # a client-mode session waits for its router at most the query timeout
+            session = self._stack.enter_context(open_session(mode, listen, list(connect), config_file,
+                                                             open_timeout=self.timeout))
         self.session = session
 
     def close(self) -> None:

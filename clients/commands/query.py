@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 
 import numpy as np
@@ -42,11 +43,12 @@ def register(subparsers) -> None:
                          help='observations as JSON: [[t, [v1, v2, ...]], ...] (null = not observed), or @FILE')
     predict.add_argument("--task-params", metavar="P1,P2,...", help="task parameters, comma-separated")
     when = predict.add_mutually_exclusive_group()
-    when.add_argument("--steps", type=int, default=None, metavar="N",
-                      help="predict at N times spread over the trained time range (default: 100)")
+    when.add_argument("--steps", type=int_at_least(2), default=None, metavar="N",
+                      help="predict at N >= 2 times spread over the trained time range (default: 100)")
     when.add_argument("--times", metavar="T1,T2,...", help="predict at these times")
-    predict.add_argument("--samples", type=int, default=None, metavar="S", help="also draw S sampled trajectories")
-    predict.add_argument("--seed", type=int, default=None, help="seed of the samples")
+    predict.add_argument("--samples", type=int_at_least(0), default=None, metavar="S",
+                         help="also draw S sampled trajectories")
+    predict.add_argument("--seed", type=int_at_least(0), default=None, help="seed of the samples")
     predict.set_defaults(func=_run_predict)
 
     info = sub.add_parser("info", help="describe a served skill (dimensions, names, ranges, version)",
@@ -64,40 +66,88 @@ def _common(parser: argparse.ArgumentParser, skill: bool = True) -> None:
     # the same session options as every process (services/transport/session.py); a command has no
     # router role, and without --connect it goes to $ACNMP_CONNECT or tcp/127.0.0.1:7447
     SessionOptions.add_arguments(parser, modes=("peer", "client"))
-    parser.add_argument("--timeout", type=float, default=10.0, help="seconds to wait for a reply (default: %(default)s)")
+    parser.add_argument("--timeout", type=positive_float, default=10.0,
+                        help="seconds to wait for a reply (default: %(default)s)")
     parser.add_argument("--json", action="store_true", help="print the full reply as JSON")
     if skill:
         parser.add_argument("--skill", "-s", required=True, help="skill name")
 
 
+def int_at_least(lo: int):
+    """An argparse type: an int >= ``lo`` (argparse names the option in its error)."""
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected an integer >= {lo}, got {text!r}") from None
+        if value < lo:
+            raise argparse.ArgumentTypeError(f"expected an integer >= {lo}, got {value}")
+        return value
+    return parse
+
+
+def positive_float(text: str) -> float:
+    """An argparse type: a finite number > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number > 0, got {text!r}") from None
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"expected a number > 0, got {text!r}")
+    return value
+
+
+def _number(text, where: str) -> float:
+    """A finite float from ``text``; ValueError naming ``where`` otherwise."""
+    try:
+        value = float(text)
+    except (TypeError, ValueError):
+        raise ValueError(f"{where}: {text!r} is not a number") from None
+    if not math.isfinite(value):
+        raise ValueError(f"{where}: {text!r} is not a finite number")
+    return value
+
+
 def parse_obs(items: list[str]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``["t:v1,v2", ...]`` -> times (N,), values (N, D), mask (N, D) bool (False where ``_``)."""
+    """``["t:v1,v2", ...]`` -> times (N,), values (N, D), mask (N, D) bool (False where ``_``).
+
+    ValueError naming the ``--obs`` item for a bad form or a value that is not a finite number."""
     times, rows, masks = [], [], []
     for item in items:
         t, sep, vals = item.partition(":")
         if not sep:
             raise ValueError(f"--obs {item!r}: expected TIME:V1,V2,...")
         parts = [v.strip() for v in vals.split(",")]
-        times.append(float(t))
-        rows.append([0.0 if v in ("_", "") else float(v) for v in parts])
+        times.append(_number(t, f"--obs {item!r}"))
+        rows.append([0.0 if v in ("_", "") else _number(v, f"--obs {item!r}") for v in parts])
         masks.append([v not in ("_", "") for v in parts])
     return _stack_obs(times, rows, masks)
 
 
 def parse_obs_json(text: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``[[t, [v1, v2|null, ...]], ...]`` (or ``@FILE`` holding it) -> times, values, mask."""
+    where = "--obs-json"
     if text.startswith("@"):
-        with open(text[1:], encoding="utf-8") as f:
-            text = f.read()
-    data = json.loads(text)
+        where = f"--obs-json {text}"
+        try:
+            with open(text[1:], encoding="utf-8") as f:
+                text = f.read()
+        except OSError as exc:
+            raise ValueError(f"{where}: cannot read {text[1:]!r}: {exc.strerror or exc}") from None
+        except UnicodeDecodeError:
+            raise ValueError(f"{where}: not a UTF-8 text file") from None
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{where}: not JSON ({exc})") from None
     if not isinstance(data, list):
-        raise ValueError("--obs-json: expected a list of [t, [values...]]")
+        raise ValueError(f"{where}: expected a list of [t, [values...]]")
     times, rows, masks = [], [], []
     for entry in data:
         if not (isinstance(entry, list) and len(entry) == 2 and isinstance(entry[1], list)):
-            raise ValueError(f"--obs-json: entry {entry!r} is not [t, [values...]]")
-        times.append(float(entry[0]))
-        rows.append([0.0 if v is None else float(v) for v in entry[1]])
+            raise ValueError(f"{where}: entry {entry!r} is not [t, [values...]]")
+        times.append(_number(entry[0], where))
+        rows.append([0.0 if v is None else _number(v, where) for v in entry[1]])
         masks.append([v is not None for v in entry[1]])
     return _stack_obs(times, rows, masks)
 
@@ -113,10 +163,7 @@ def _stack_obs(times, rows, masks):
 def _floats(text: str | None, name: str) -> np.ndarray | None:
     if text is None:
         return None
-    try:
-        return np.array([float(v) for v in text.split(",") if v.strip()])
-    except ValueError:
-        raise ValueError(f"{name}: expected comma-separated numbers, got {text!r}") from None
+    return np.array([_number(v, f"{name} {text!r}") for v in text.split(",") if v.strip()])
 
 
 def _client(args):
@@ -140,10 +187,11 @@ def _run_predict(args) -> int:
     else:
         times, values, mask = parse_obs(args.obs)
     query_times = _floats(args.times, "--times")
-    n_steps = None if query_times is not None else (args.steps or 100)
+    task_params = _floats(args.task_params, "--task-params")
+    n_steps = None if query_times is not None else (100 if args.steps is None else args.steps)
     with _client(args) as client:
         try:
-            p = client.predict(args.skill, times, values, _floats(args.task_params, "--task-params"),
+            p = client.predict(args.skill, times, values, task_params,
                                query_times, n_steps=n_steps, obs_dims_mask=None if mask.all() else mask,
                                n_samples=args.samples, seed=args.seed)
         except ClientError as exc:

@@ -20,7 +20,7 @@ def run(args) -> int:
 
     try:
         summary = summarize(args.file)
-    except (FileNotFoundError, ValueError) as exc:
+    except (OSError, ValueError) as exc:  # missing, a directory, unreadable, not a recording
         print(f"acnmp replay: {exc}", file=sys.stderr)
         return 1
     print(json.dumps(summary, indent=2) if args.json else format_summary(summary))

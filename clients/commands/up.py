@@ -15,8 +15,9 @@ def register(subparsers) -> None:
     p.add_argument("--robot", default=robot_kinds()[0], choices=robot_kinds(),
                    help="robot kind of the workers (default: %(default)s)")
     p.add_argument("--record", default=None, metavar="FILE.rrd", help="start a recorder writing this file")
-    p.add_argument("--state-dir", default="runs/state", metavar="DIR",
-                   help="learner checkpoints and process logs (default: %(default)s)")
+    p.add_argument("--state-dir", default=None, metavar="DIR",
+                   help="learner checkpoints and process logs, locked while the deployment runs "
+                        "(default: runs/<namespace>/state)")
     p.add_argument("--no-model", action="store_true", help="do not start the model service")
     p.add_argument("--demos", action="append", default=[], metavar="SKILL=FILE.npz",
                    help="have the learner train SKILL from a demonstration file at start (repeatable)")
@@ -26,14 +27,20 @@ def register(subparsers) -> None:
 def run(args) -> int:
     """Start the deployment, print what runs where, wait for SIGINT/SIGTERM, stop everything; exit 0."""
     from services.launcher import LocalDeployment
+    from services.learner.store import StateDirInUse
     from services.transport import install_shutdown_handlers
 
     stop = install_shutdown_handlers()
     learner_args = [a for spec in args.demos for a in ("--demos", spec)]
-    dep = LocalDeployment(args.namespace, args.workers, args.robot, record=args.record, state_dir=args.state_dir,
+    state_dir = args.state_dir or f"runs/{args.namespace}/state"
+    dep = LocalDeployment(args.namespace, args.workers, args.robot, record=args.record, state_dir=state_dir,
                           model=not args.no_model, learner_args=learner_args)
     try:
-        dep.start()
+        try:
+            dep.start()
+        except StateDirInUse as exc:  # nothing was started
+            print(f"acnmp up: {exc}", file=sys.stderr)
+            return 1
         print(dep.describe(), flush=True)
         print("deployment is up; Ctrl-C or SIGTERM stops it", flush=True)
         while not stop.is_set():

@@ -2,8 +2,12 @@
 from __future__ import annotations
 
 import json
+import os
 import sys
 from pathlib import Path
+
+#: The options that name a file an experiment writes at its end (checked before it starts).
+OUTPUT_OPTIONS = ("json", "plot", "record")
 
 
 def add_output_arguments(p, plot_help: str) -> None:
@@ -26,6 +30,34 @@ def check_deployment_arguments(args) -> None:
         raise ValueError(f"--workers: expected at least 1, got {args.workers}")
     if args.record and not args.distributed:
         raise ValueError("--record: only with --distributed (the recorder is a process of the deployment)")
+
+
+def check_output_path(path: str | None, option: str) -> None:
+    """ValueError naming ``option`` unless a file can be written at ``path`` (None: nothing to check).
+
+    Creates missing parent directories (as the writers do) and probes the file itself, so a run
+    of minutes never ends with a result it cannot save. A probe file it created is removed.
+    """
+    if not path:
+        return
+    p = Path(path)
+    if p.is_dir():
+        raise ValueError(f"{option} {path}: is a directory; give a file name")
+    try:
+        p.parent.mkdir(parents=True, exist_ok=True)
+        existed = p.exists()
+        with open(p, "a"):
+            pass
+        if not existed:
+            os.unlink(p)
+    except OSError as exc:
+        raise ValueError(f"{option} {path}: cannot write there ({exc.strerror or exc})") from None
+
+
+def check_output_arguments(args) -> None:
+    """:func:`check_output_path` for each of ``--json``, ``--plot``, ``--record`` that ``args`` has."""
+    for name in OUTPUT_OPTIONS:
+        check_output_path(getattr(args, name, None), f"--{name}")
 
 
 def write_json(result: dict, path: str | None) -> None:

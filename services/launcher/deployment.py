@@ -11,9 +11,13 @@
    children in order, once each; the recorder is started and awaited first, so no event is lost;
 3. it waits until every child's liveliness token is seen (a child that exits first is reported
    with the tail of its log);
-4. on exit it sends SIGTERM to the learner, model and workers, then to the recorder (so it records
-   the last events and writes its footer), waits, and SIGKILLs whatever is still alive after
-   ``stop_timeout`` seconds; then it closes its session.
+4. on exit it sends SIGTERM to the learner first (so its running job finishes the iteration in
+   flight on live workers and is saved), then to the model and the workers, then to the recorder
+   (so it records the last events and writes its footer), each group waited for and SIGKILLed
+   only if still alive after ``stop_timeout`` seconds; then it closes its session.
+
+The state directory is locked (``<state_dir>/deployment.lock``) while the deployment runs, so a
+second deployment on it refuses to start; the learner locks it too (``learner.lock``).
 
 Children's output goes to ``<log_dir>/<name>.log``.
 """
@@ -33,6 +37,7 @@ from typing import Sequence
 import zenoh
 
 from acnmp_core.robots.registry import robot as robot_spec
+from services.learner.store import DirectoryLock
 from services.transport import Keyspace, free_port, loopback_endpoint, open_session, wait_for_liveliness
 from services.transport.lifetime import PARENT_PID_ENV
 
@@ -98,6 +103,8 @@ class LocalDeployment:
         self.start_timeout, self.stop_timeout = float(start_timeout), float(stop_timeout)
         self.learner_args = list(learner_args)
         self.children: dict[str, Child] = {}
+        self._dir_lock = DirectoryLock(self.state_dir, "deployment.lock", "deployment")
+        self.killed: list[str] = []  # children that needed SIGKILL when stopping
         self.session: zenoh.Session | None = None
         self.anchor = ""
         self._stack = contextlib.ExitStack()
@@ -139,7 +146,10 @@ class LocalDeployment:
         return child
 
     def start(self) -> "LocalDeployment":
-        """Open the anchor session, start every child, wait until all are live; returns self."""
+        """Lock the state directory, open the anchor session, start every child, wait until all are
+        live; returns self. :class:`~services.learner.store.StateDirInUse` (nothing started) when
+        another deployment holds the state directory."""
+        self._dir_lock.acquire()
         try:
             port = free_port()
             self.anchor = loopback_endpoint(port)
@@ -209,14 +219,17 @@ class LocalDeployment:
 
     # ----- stopping --------------------------------------------------------------------------
     def stop(self) -> dict[str, int | None]:
-        """SIGTERM every child (recorder last), SIGKILL stragglers, close the session.
-
-        Returns {name: exit code}. Safe to call twice.
+        """Stop the children in order, each group with SIGTERM, then SIGKILL after ``stop_timeout``:
+        the learner first (its running job needs the workers to finish its current iteration; it
+        is saved and resumes on the next start), then the model and the workers, then the recorder
+        (it records the last events and writes its footer). Closes the session and unlocks the
+        state directory. Returns {name: exit code}; names SIGKILLed are added to ``killed``.
+        Safe to call twice.
         """
-        order = [c for n, c in self.children.items() if n != "recorder"]
-        if "recorder" in self.children:
-            order.append(self.children["recorder"])
-        for group in (order[:-1], order[-1:]) if "recorder" in self.children else (order,):
+        groups = [[c for n, c in self.children.items() if n == "learner"],
+                  [c for n, c in self.children.items() if n not in ("learner", "recorder")],
+                  [c for n, c in self.children.items() if n == "recorder"]]
+        for group in groups:
             for c in group:
                 if c.proc.poll() is None:
                     with contextlib.suppress(ProcessLookupError):
@@ -228,8 +241,10 @@ class LocalDeployment:
                 except subprocess.TimeoutExpired:
                     c.proc.kill()
                     c.proc.wait(timeout=10)
+                    self.killed.append(c.name)
         self._stack.close()
         self.session = None
+        self._dir_lock.release()
         codes = {n: c.proc.returncode for n, c in self.children.items()}
         if self._tmp is not None:
             self._tmp.cleanup()

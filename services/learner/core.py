@@ -42,7 +42,7 @@ from services.recording.events import (batch_rollout_events, job_progress_event,
                                        model_version_event, robot_drawing)
 
 from .jobs import UNFINISHED, JobRecord
-from .store import JobStore, SkillState, SkillStore
+from .store import DirectoryLock, JobStore, SkillState, SkillStore
 
 log = logging.getLogger(__name__)
 
@@ -70,7 +70,8 @@ class LearnerCore:
 
     Parameters
     ----------
-    state_dir : where skills and jobs are checkpointed.
+    state_dir : where skills and jobs are checkpointed; locked while this core lives
+        (:class:`~services.learner.store.StateDirInUse` if another learner holds it).
     evaluator_for : ``job -> RolloutEvaluator`` that executes the job's roll-outs.
     publish : ``event -> None``; every event the learner emits (versions, latents, roll-outs, progress).
     on_version : ``SkillState -> None``; called after a new version is checkpointed, before its events.
@@ -79,13 +80,19 @@ class LearnerCore:
     def __init__(self, state_dir: str | os.PathLike, *, evaluator_for: Callable[[AdaptJob], RolloutEvaluator],
                  publish: Callable[[dict], None] = lambda _event: None,
                  on_version: Callable[[SkillState], None] = lambda _state: None):
+        # one learner per state directory: a second one would restart the first one's jobs
+        self._dir_lock = DirectoryLock(state_dir, "learner.lock", "learner").acquire()
         self.skill_store = SkillStore(state_dir)
         self.job_store = JobStore(state_dir)
         self.evaluator_for, self.publish, self.on_version = evaluator_for, publish, on_version
         self._lock = threading.RLock()  # guards skills and jobs
         self._train_lock = threading.Lock()  # one training at a time (the machine has few cores)
-        self.skills: dict[str, SkillState] = self.skill_store.load_all()
-        self.jobs: dict[str, JobRecord] = self.job_store.load_all()
+        try:
+            self.skills: dict[str, SkillState] = self.skill_store.load_all()
+            self.jobs: dict[str, JobRecord] = self.job_store.load_all()
+        except BaseException:
+            self._dir_lock.release()
+            raise
         self._queue: queue.Queue = queue.Queue()
         self._stop = threading.Event()
         for job in self.jobs.values():
@@ -292,3 +299,4 @@ class LearnerCore:
         self._stop.set()
         if self._thread.is_alive():
             self._thread.join(timeout=timeout)
+        self._dir_lock.release()

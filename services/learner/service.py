@@ -36,10 +36,11 @@ from services.recording.publisher import EventPublisher
 from services.transport import Keyspace, Ready, Service, WireError, declare_rpc, option, wait_until_stopped
 from services.transport.errors import wire_error
 from services.transport.keys import check_name, job_from_key, skill_from_key
-from services.transport.wire import array_field, error_payload, field
+from services.transport.wire import array_field, error_payload, field, require_payload
 from services.worker.remote import RemoteEvaluator
 
 from .core import LearnerCore, TrainSpec, UnknownJobError, UnknownSkillError
+from .limits import LearnerLimits, check_job, check_train
 from .store import SkillState
 
 log = logging.getLogger(__name__)
@@ -60,15 +61,15 @@ def _overrides(msg: dict, key: str, allowed: Sequence[str]) -> dict:
     return {k: (list(v) if isinstance(v, tuple) else v) for k, v in value.items()}
 
 
-def parse_train_request(msg: dict | None) -> TrainSpec:
+def parse_train_request(msg: dict | None, limits: LearnerLimits = LearnerLimits()) -> TrainSpec:
     """Validate a train request; returns a :class:`TrainSpec`. Raises WireError.
 
     Request: ``times`` (N,T) or (T,), ``values`` (N,T,D), ``task_params`` (N,P) optional,
     ``value_names`` (D,) / ``task_param_names`` (P,) optional lists of str, ``model`` (overrides
     of encoder_widths, decoder_widths, std_floor), ``train`` (TrainConfig overrides), ``seed`` int.
+    The model's size and the training's cost are checked against ``limits`` (``too_large``).
     """
-    if msg is None:
-        raise WireError("bad_request", "a train request needs a payload")
+    msg = require_payload(msg, "a train request")
     values = array_field(msg, "values", ndim=3, max_elements=MAX_DEMO_VALUES)
     n, t, d = values.shape
     if n < 1 or t < 2 or d < 1:
@@ -97,6 +98,7 @@ def parse_train_request(msg: dict | None) -> TrainSpec:
         raise WireError("bad_request", f"settings: {exc}") from None
     if train_cfg.max_obs + 1 > t:
         raise WireError("bad_request", f"train.max_obs: demonstrations of {t} points need max_obs < {t}")
+    check_train(cnmp_cfg, train_cfg, limits)
     return TrainSpec(demos, cnmp_cfg, train_cfg, field(msg, "seed", int, default=0))
 
 
@@ -110,11 +112,14 @@ class LearnerService:
     learner_id : liveliness id. wait_recorder : seconds to wait for a recorder before the first
         event (0: do not wait; events published with no recorder are simply not recorded).
     chunk_timeout : seconds a worker may take for its share of a batch before it is re-sent.
+    limits : what one train or adapt request may cost (services/learner/limits.py).
     """
 
     def __init__(self, session: zenoh.Session, keys: Keyspace, state_dir: str | os.PathLike, *,
-                 learner_id: str | None = None, wait_recorder: float = 0.0, chunk_timeout: float = 60.0):
+                 learner_id: str | None = None, wait_recorder: float = 0.0, chunk_timeout: float = 60.0,
+                 limits: LearnerLimits = LearnerLimits()):
         self.session, self.keys = session, keys
+        self.limits = limits
         self.learner_id = check_name("learner id", learner_id or f"learner-{os.getpid()}")
         self.events = EventPublisher(session, keys)
         self.wait_recorder = float(wait_recorder)
@@ -166,16 +171,17 @@ class LearnerService:
 
     def _handle_train(self, msg: dict | None, query: zenoh.Query) -> dict:
         skill = self._skill_of(query, msg)
-        state = self.core.train_skill(skill, parse_train_request(msg))
+        state = self.core.train_skill(skill, parse_train_request(msg, self.limits))
         return {"v": 1, "skill": skill, "version": state.version, "data_hash": state.demos.content_hash(),
                 "n_demos": len(state.demos)}
 
     def _handle_adapt(self, msg: dict | None, query: zenoh.Query) -> dict:
         skill = self._skill_of(query, msg)
-        if msg is None:
-            raise WireError("bad_request", "an adapt request needs a payload")
+        msg = require_payload(msg, "an adapt request")
         try:
-            job = self.core.submit(skill, AdaptJob.from_dict(msg))
+            job = AdaptJob.from_dict(msg)
+            check_job(job, self.limits)
+            job = self.core.submit(skill, job)
         except UnknownSkillError as exc:
             raise WireError("unknown_skill", str(exc)) from None
         except ValueError as exc:  # typed errors keep their code; the model's own checks are bad_request
@@ -193,16 +199,14 @@ class LearnerService:
     def _handle_latest(self, query: zenoh.Query) -> None:
         # hand-written (not declare_rpc): a wildcard query, as the model service sends at start,
         # gets one reply per skill on that skill's concrete key
+        # (any key expression that intersects ours, e.g. acnmp/**, gets the skills it matches)
         with query:
             try:
-                chunk = str(query.key_expr).split("/")[3]
-                skills = self.core.skill_states()
-                if "*" in chunk:
-                    states = list(skills.values())
-                elif chunk in skills:
-                    states = [skills[chunk]]
-                else:
-                    query.reply_err(error_payload("unknown_skill", f"no skill {chunk!r} on this learner"))
+                asked = query.key_expr
+                states = [state for name, state in sorted(self.core.skill_states().items())
+                          if asked.intersects(zenoh.KeyExpr(self.keys.weights_latest(name)))]
+                if not states and "*" not in str(asked):  # a wildcard matching nothing gets no reply
+                    query.reply_err(error_payload("unknown_skill", f"no skill matching {str(asked)!r} on this learner"))
                     return
                 for state in states:
                     query.reply(self.keys.weights_latest(state.name), _weights(state))
@@ -256,7 +260,8 @@ class LearnerConfig(Service):
     name: ClassVar[str] = "learner"
     summary: ClassVar[str] = "the learner: trains skills, runs adaptation jobs, checkpoints"
 
-    state_dir: str = option("runs/state", "checkpoints of skills and jobs (default: %(default)s)", metavar="DIR")
+    state_dir: str | None = option(None, "checkpoints of skills and jobs, locked while the learner runs "
+                                         "(default: runs/<namespace>/state)", metavar="DIR")
     learner_id: str | None = option(None, "learner id (default: learner-<pid>)", flag="--id", metavar="ID")
     demos: list[str] = option([], "train SKILL from a demonstration file at start unless it exists (repeatable)",
                               metavar="SKILL=FILE.npz")
@@ -265,15 +270,23 @@ class LearnerConfig(Service):
                                   metavar="S")
     chunk_timeout: float = option(60.0, "seconds a worker may take for its share of a batch (default: %(default)s)",
                                   metavar="S")
+    max_train_steps: int = option(LearnerLimits.max_train_steps,
+                                  "refuse train requests (and assimilations) of more steps (default: %(default)s)",
+                                  metavar="N")
+    max_rollouts: int = option(LearnerLimits.max_rollouts,
+                               "refuse adaptation jobs with a larger roll-out budget (default: %(default)s)", metavar="N")
 
     def serve(self, session: zenoh.Session, stop: threading.Event, ready: Ready) -> int:
         import torch
 
         torch.set_num_threads(1)
-        with LearnerService(session, Keyspace(self.session.namespace), self.state_dir, learner_id=self.learner_id,
-                            wait_recorder=self.wait_recorder, chunk_timeout=self.chunk_timeout) as learner:
+        state_dir = self.state_dir or f"runs/{self.session.namespace}/state"
+        with LearnerService(session, Keyspace(self.session.namespace), state_dir, learner_id=self.learner_id,
+                            wait_recorder=self.wait_recorder, chunk_timeout=self.chunk_timeout,
+                            limits=LearnerLimits(max_train_steps=self.max_train_steps,
+                                                 max_rollouts=self.max_rollouts)) as learner:
             bootstrap(learner.core, self.demos, self.train_steps)
             ready(f"learner live as {learner.token_key}; skills: {sorted(learner.skills) or 'none yet'}; "
-                  f"state in {Path(self.state_dir).resolve()}")
+                  f"state in {Path(state_dir).resolve()}")
             wait_until_stopped(stop)
         return 0

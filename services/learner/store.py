@@ -18,6 +18,7 @@ leave a gap in the indices but never reuse one.
 """
 from __future__ import annotations
 
+import fcntl
 import json
 import os
 import tempfile
@@ -34,6 +35,55 @@ from acnmp_core.demo_io import DemoArrays, load_demos, save_demos
 from services.transport.keys import check_name
 
 from .jobs import JobRecord
+
+
+class StateDirInUse(RuntimeError):
+    """Another live process holds the lock of a state directory (see :class:`DirectoryLock`)."""
+
+
+class DirectoryLock:
+    """An exclusive lock on a directory for as long as this process holds it.
+
+    ``flock`` on ``<directory>/<name>`` (created, mode 0600): the OS releases it when the holder
+    exits, even by ``kill -9``, so a stale lock never needs cleaning up. The file holds the
+    holder's pid and ``owner``, quoted when another process is refused. Re-entrant within one
+    object only: a second lock on the same file, even in this process, is refused.
+    """
+
+    def __init__(self, directory: str | os.PathLike, name: str, owner: str):
+        self.path = Path(directory).resolve() / name
+        self.owner = owner
+        self._fd: int | None = None
+
+    def acquire(self) -> "DirectoryLock":
+        """Take the lock or raise :class:`StateDirInUse` naming the directory and the holder."""
+        if self._fd is not None:
+            return self
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o600)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.read(fd, 200).decode("utf-8", "replace").strip() or "unknown"
+            os.close(fd)
+            raise StateDirInUse(f"state directory {self.path.parent} is in use by another {self.owner} "
+                                f"(pid {holder}); stop it first or give another --state-dir") from None
+        os.ftruncate(fd, 0)
+        os.write(fd, f"{os.getpid()} ({self.owner})\n".encode())
+        self._fd = fd
+        return self
+
+    def release(self) -> None:
+        """Give the lock up (the file stays: removing it would race with a newcomer)."""
+        if self._fd is not None:
+            os.close(self._fd)
+            self._fd = None
+
+    def __enter__(self) -> "DirectoryLock":
+        return self.acquire()
+
+    def __exit__(self, *exc) -> None:
+        self.release()
 
 
 def atomic_write_bytes(path: Path, data: bytes) -> None:

@@ -15,14 +15,17 @@ import torch
 
 from acnmp_core.cnmp import CNMP
 from services.transport.errors import wire_error
-from services.transport.wire import WireError, array_field, field
+from services.transport.wire import DEFAULT_MAX_BYTES, WireError, array_field, field, require_payload
 
 #: Bounds on one predict request (absurd sizes get ``too_large``, never a stalled service).
 MAX_OBS = 4096            # observations N
 MAX_QUERY_STEPS = 20_000  # query times T
 MAX_SAMPLES = 1000        # samples S
-MAX_SAMPLE_VALUES = 4_000_000  # S * T * D
+MAX_SAMPLE_VALUES = 4_000_000  # S * T * D, summed over the requests of one query
 MAX_BATCH = 64            # requests in one batched query
+MAX_BATCH_POINTS = 100_000  # N + T summed over the requests of one query (about 4 of the largest)
+MAX_REPLY_BYTES = DEFAULT_MAX_BYTES  # estimated size of one reply, checked before computing it
+REPLY_OVERHEAD = 512      # bytes per reply item besides its arrays' data (keys, headers), estimated
 
 
 @dataclass
@@ -114,15 +117,44 @@ def _int_field(msg: dict, key: str, lo: int, hi: int, default=None):
     return value
 
 
-def predict_one(entry: SkillModel, request: dict) -> dict:
-    """Answer one predict request (decoded map) with ``entry``'s model.
+@dataclass(frozen=True)
+class PredictItem:
+    """One predict request, checked but not computed: its arrays and what answering it costs.
+
+    ``n_obs`` N, ``n_query`` T, ``n_samples`` S; :meth:`reply_values` is the number of float64
+    values its reply will carry, known before any forward pass.
+    """
+
+    obs_times: np.ndarray
+    obs_values: np.ndarray
+    obs_dims_mask: np.ndarray | None
+    task_params: np.ndarray | None
+    query_times: np.ndarray | None
+    n_steps: int | None
+    n_samples: int
+    seed: int | None
+
+    @property
+    def n_obs(self) -> int:
+        return int(self.obs_times.shape[0])
+
+    @property
+    def n_query(self) -> int:
+        return int(self.query_times.shape[0]) if self.query_times is not None else int(self.n_steps)
+
+    def reply_values(self, n_outputs: int, latent_dim: int) -> int:
+        """Values of the reply: times T, mean and std T*D each, latent L, samples S*T*D."""
+        t = self.n_query
+        return t + 2 * t * n_outputs + latent_dim + self.n_samples * t * n_outputs
+
+
+def parse_predict(entry: SkillModel, request: dict) -> PredictItem:
+    """Check one predict request (decoded map) against ``entry``'s model without computing it.
 
     Request: ``obs_times`` (N,), ``obs_values`` (N, D), optional ``obs_dims_mask`` (N, D) bool,
     optional ``task_params`` (P,), ``query_times`` (T,) or ``n_steps`` int, optional
-    ``n_samples`` int with optional ``seed`` int. Returns ``{"v", "skill", "version", "times" (T,),
-    "mean" (T, D), "std" (T, D), "latent" (L,)}`` in raw units (float64), plus ``"samples"``
-    (S, T, D) drawn independently per step from N(mean, std^2) when ``n_samples`` is given.
-    Raises WireError (bad_request, bad_shape, bad_dtype, non_finite, too_large).
+    ``n_samples`` int with optional ``seed`` int >= 0. Raises WireError (bad_request, bad_shape,
+    bad_dtype, non_finite, too_large).
     """
     if not isinstance(request, dict):
         raise WireError("bad_request", "a predict request must be a map")
@@ -137,24 +169,65 @@ def predict_one(entry: SkillModel, request: dict) -> dict:
     n_steps = _int_field(request, "n_steps", 2, MAX_QUERY_STEPS)
     if query_times is not None and n_steps is not None:
         raise WireError("bad_request", "give either 'query_times' or 'n_steps', not both")
-    n_samples = _int_field(request, "n_samples", 0, MAX_SAMPLES)
+    if query_times is None and n_steps is None:
+        raise WireError("bad_request", "give 'query_times' or 'n_steps'")
+    n_samples = _int_field(request, "n_samples", 0, MAX_SAMPLES) or 0
     seed = field(request, "seed", int, default=None)
+    if seed is not None and seed < 0:
+        raise WireError("bad_request", f"field 'seed': must be >= 0, got {seed}")
+    item = PredictItem(obs_times, obs_values, dims, task_params, query_times, n_steps, n_samples, seed)
+    if n_samples * item.n_query * d > MAX_SAMPLE_VALUES:
+        raise WireError("too_large", f"{n_samples} samples of ({item.n_query}, {d}) exceed {MAX_SAMPLE_VALUES} values")
+    return item
+
+
+def check_cost(entry: SkillModel, items: list[PredictItem]) -> None:
+    """Refuse a request whose total cost is over the bounds, before any forward pass.
+
+    Summed over every item of a batch: points through the network (N + T each) at most
+    :data:`MAX_BATCH_POINTS`, sampled values (S*T*D) at most :data:`MAX_SAMPLE_VALUES`, and the
+    reply's estimated size (8 bytes per value plus :data:`REPLY_OVERHEAD` per item) at most
+    :data:`MAX_REPLY_BYTES`. Raises WireError ``too_large``.
+    """
+    cfg = entry.model.config
+    points = sum(it.n_obs + it.n_query for it in items)
+    if points > MAX_BATCH_POINTS:
+        raise WireError("too_large", f"{len(items)} request(s) ask for {points} observation and query points in all, "
+                                     f"at most {MAX_BATCH_POINTS}")
+    samples = sum(it.n_samples * it.n_query * cfg.n_outputs for it in items)
+    if samples > MAX_SAMPLE_VALUES:
+        raise WireError("too_large", f"{len(items)} request(s) ask for {samples} sampled values in all, "
+                                     f"at most {MAX_SAMPLE_VALUES}")
+    reply = sum(8 * it.reply_values(cfg.n_outputs, cfg.latent_dim) + REPLY_OVERHEAD for it in items)
+    if reply > MAX_REPLY_BYTES:
+        raise WireError("too_large", f"the reply would be about {reply} bytes, at most {MAX_REPLY_BYTES}")
+
+
+def run_predict(entry: SkillModel, item: PredictItem) -> dict:
+    """Answer a checked request with ``entry``'s model: ``{"v", "skill", "version", "times" (T,),
+    "mean" (T, D), "std" (T, D), "latent" (L,)}`` in raw units (float64), plus ``"samples"``
+    (S, T, D) drawn independently per step from N(mean, std^2) when S > 0."""
     try:
-        query = entry.model.make_query(obs_times, obs_values, task_params, query_times,
-                                       n_steps=n_steps, obs_dims_mask=dims)
+        query = entry.model.make_query(item.obs_times, item.obs_values, item.task_params, item.query_times,
+                                       n_steps=item.n_steps, obs_dims_mask=item.obs_dims_mask)
     except ValueError as exc:  # every ValueError of make_query is about the request; typed ones carry their code
         raise wire_error(exc, default="bad_request") from None
     pred = entry.model.predict_query(query)
     reply = {"v": 1, "skill": entry.skill, "version": entry.version, "times": pred.times,
              "mean": pred.mean, "std": pred.std, "latent": pred.latent}
-    if n_samples:
-        if n_samples * pred.mean.size > MAX_SAMPLE_VALUES:
-            raise WireError("too_large", f"{n_samples} samples of {pred.mean.shape} exceed {MAX_SAMPLE_VALUES} values")
-        if seed is not None and seed < 0:
-            raise WireError("bad_request", f"field 'seed': must be >= 0, got {seed}")
-        rng = np.random.default_rng(seed)
-        reply["samples"] = pred.mean + pred.std * rng.standard_normal((n_samples, *pred.mean.shape))
+    if item.n_samples:
+        rng = np.random.default_rng(item.seed)
+        reply["samples"] = pred.mean + pred.std * rng.standard_normal((item.n_samples, *pred.mean.shape))
     return reply
+
+
+def predict_one(entry: SkillModel, request: dict) -> dict:
+    """Answer one predict request (decoded map) with ``entry``'s model: :func:`parse_predict`,
+    :func:`check_cost`, :func:`run_predict`. Raises WireError (bad_request, bad_shape, bad_dtype,
+    non_finite, too_large)."""
+    item = parse_predict(entry, request)
+    check_cost(entry, [item])
+    return run_predict(entry, item)
 
 
 _thread_state = threading.local()
@@ -179,8 +252,7 @@ def handle_predict(registry: ModelRegistry, skill: str, request) -> dict:
     reply is ``{"v", "skill", "version", "results": [single reply, ...]}``; a bad item fails the
     whole batch with its index in the message.
     """
-    if request is None:
-        raise WireError("bad_request", "a predict query needs a payload (obs_times, obs_values, ...)")
+    request = require_payload(request, "a predict request (obs_times, obs_values, ...)")
     entry = registry.get(skill)
     _pin_threads()
     if "batch" not in request:
@@ -190,10 +262,17 @@ def handle_predict(registry: ModelRegistry, skill: str, request) -> dict:
         raise WireError("bad_request", "field 'batch': empty")
     if len(batch) > MAX_BATCH:
         raise WireError("too_large", f"field 'batch': {len(batch)} requests, at most {MAX_BATCH}")
-    results = []
-    for i, item in enumerate(batch):
+    items = []
+    for i, raw in enumerate(batch):  # every item checked before any is computed
         try:
-            results.append(predict_one(entry, item))
+            items.append(parse_predict(entry, raw))
+        except WireError as exc:
+            raise WireError(exc.code, f"batch[{i}]: {exc.message}") from None
+    check_cost(entry, items)
+    results = []
+    for i, item in enumerate(items):
+        try:
+            results.append(run_predict(entry, item))
         except WireError as exc:
             raise WireError(exc.code, f"batch[{i}]: {exc.message}") from None
     return {"v": 1, "skill": entry.skill, "version": entry.version, "results": results}

@@ -40,6 +40,10 @@ log = logging.getLogger(__name__)
 
 #: Seconds between ``weights/latest`` queries while a skill still has no model.
 LATEST_POLL = 2.0
+#: Predict queries waiting for a handler thread before more are answered ``overloaded``.
+MAX_QUEUE = 32
+#: Seconds a predict query without a ``timeout`` parameter may wait in the queue before it is dropped.
+DEFAULT_QUERY_TIMEOUT = 30.0
 
 
 def _skill_of(query: zenoh.Query) -> str:
@@ -59,10 +63,13 @@ class ModelService:
     skills : serve only these skills; None serves every skill whose weights appear.
     workers : threads answering queries (zenoh's own threads are never held by a predict).
     fetch_latest : query ``weights/latest`` at start and while skills are missing.
+    max_queue : predict queries waiting for a thread before more are answered ``overloaded``; a
+        waiting query whose timeout has passed is dropped without being computed.
     """
 
     def __init__(self, session: zenoh.Session, namespace: str = "default", *,
-                 skills: Sequence[str] | None = None, workers: int = 2, fetch_latest: bool = True):
+                 skills: Sequence[str] | None = None, workers: int = 2, fetch_latest: bool = True,
+                 max_queue: int = MAX_QUEUE):
         self.session = session
         self.keys = Keyspace(namespace)
         self.registry = ModelRegistry(None if skills is None else [check_name("skill", s) for s in skills])
@@ -79,7 +86,8 @@ class ModelService:
         self._rpcs = [
             declare_rpc(session, self.keys.predict("*"),
                         lambda req, q: handle_predict(self.registry, _skill_of(q), req),
-                        workers=workers, complete=False),
+                        workers=workers, complete=False, max_queue=max_queue,
+                        default_timeout=DEFAULT_QUERY_TIMEOUT),
             declare_rpc(session, self.keys.info("*"),
                         lambda req, q: handle_info(self.registry, _skill_of(q), req),
                         workers=1, complete=False),
@@ -210,13 +218,16 @@ class ModelConfig(Service):
         [], "start from a checkpoint file (acnmp_core.checkpoint format; skill name from SKILL=, the "
             "checkpoint's meta, or the file name). Repeatable", flag="--checkpoint", metavar="[SKILL=]FILE")
     workers: int = option(2, "threads answering predict queries (default: %(default)s)", metavar="N")
+    max_queue: int = option(MAX_QUEUE, "predict queries that may wait for a thread; more are answered "
+                                       "'overloaded' (default: %(default)s)", metavar="N")
 
     def serve(self, session: zenoh.Session, stop: threading.Event, ready: Ready) -> int:
         """Serve until ``stop``: checkpoints are loaded before ``ready`` is called."""
         import torch
 
         torch.set_num_threads(1)  # one predict is small; threads would only fight over the cores
-        with ModelService(session, self.session.namespace, skills=self.skills, workers=self.workers) as service:
+        with ModelService(session, self.session.namespace, skills=self.skills, workers=self.workers,
+                          max_queue=self.max_queue) as service:
             for value in self.checkpoints:
                 skill, path = _parse_checkpoint_arg(value)
                 entry = service.load_checkpoint(path, skill)

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from acnmp_core.checkpoint import model_from_arrays, model_to_arrays
-from acnmp_core.cnmp import CNMP
+from acnmp_core.cnmp import CNMP, CNMPConfig
 from services.transport.keys import check_name
 from services.transport.errors import wire_error
 from services.transport.wire import WireError, decode, encode, field
@@ -59,6 +59,26 @@ def encode_weights(skill: str, version: int, model: CNMP, *, data_hash: str = ""
     return encode(weights_message(skill, version, model, data_hash=data_hash, n_demos=n_demos))
 
 
+def check_model_size(config: dict, *, what: str = "field 'config'") -> CNMPConfig:
+    """The :class:`CNMPConfig` of a config map, if the network it describes has at most
+    :data:`MAX_PARAMETERS` parameters (counted from the widths, nothing allocated).
+
+    Raises WireError ``too_large`` (too many parameters) or ``bad_request`` (a config the CNMP
+    refuses). The learner applies the same bound to a train request's model.
+    """
+    try:
+        cfg = CNMPConfig(**config)
+    except TypeError as exc:  # unknown or missing CNMPConfig keys
+        raise WireError("bad_request", f"{what}: config: {exc}") from None
+    except ValueError as exc:
+        err = wire_error(exc, default="bad_request")
+        raise WireError(err.code, f"{what}: config: {err.message}") from None
+    if cfg.n_parameters > MAX_PARAMETERS:
+        raise WireError("too_large", f"{what}: the config describes {cfg.n_parameters} parameters, "
+                                     f"at most {MAX_PARAMETERS}")
+    return cfg
+
+
 def parse_weights(msg: dict) -> ModelWeights:
     """Validate a decoded weights message map and rebuild its model.
 
@@ -82,6 +102,7 @@ def parse_weights(msg: dict) -> ModelWeights:
         n_params += arr.size
     if n_params > MAX_PARAMETERS:
         raise WireError("too_large", f"field 'state': {n_params} values, at most {MAX_PARAMETERS}")
+    check_model_size(config, what=f"weights of skill {skill!r}")  # before anything is allocated
     try:
         model = model_from_arrays(config, state)
     except TypeError as exc:  # unknown or missing CNMPConfig keys

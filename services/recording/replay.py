@@ -42,9 +42,11 @@ def summarize(path: str | Path) -> dict:
     ``rollouts`` (rows logged), ``unique_rollouts`` (distinct indices), ``duplicates`` (indices
     logged more than once), ``mean_return``, ``best_return``, ``success_rate``, ``workers``
     ({worker: roll-outs}) and ``last_progress`` (the latest job_progress values).
-    Raises FileNotFoundError or ValueError (not a readable recording).
+    Raises FileNotFoundError, IsADirectoryError or ValueError (not a readable recording).
     """
     path = Path(path)
+    if path.is_dir():
+        raise IsADirectoryError(f"{path}: is a directory, not a recording (give the .rrd file in it)")
     if not path.is_file():
         raise FileNotFoundError(f"{path}: no such file")
     try:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import math
 import threading
 import time
 import traceback
@@ -27,6 +28,21 @@ log = logging.getLogger(__name__)
 #: matched its key: ``unavailable``; later, it ran out of time: ``timeout``.
 UNAVAILABLE_FRACTION = 0.9
 
+#: The selector parameter that carries a query's timeout in seconds (``<key>?timeout=0.5``):
+#: a server drops a query still waiting in its queue once this much time has passed since it arrived.
+TIMEOUT_PARAMETER = "timeout"
+
+
+def query_timeout(query: zenoh.Query) -> float | None:
+    """The timeout a query carries in its selector (:data:`TIMEOUT_PARAMETER`), or None if it
+    carries none or one that is not a finite number > 0."""
+    try:
+        text = query.parameters.get(TIMEOUT_PARAMETER)
+        value = float(text) if text is not None else None
+    except (TypeError, ValueError):
+        return None
+    return value if value is not None and math.isfinite(value) and value > 0 else None
+
 
 def call(session: zenoh.Session, key: str, payload: dict | bytes | None = None, timeout: float = 5.0, *,
          expect_version: int | None = SCHEMA_VERSION, max_bytes: int = DEFAULT_MAX_BYTES) -> dict:
@@ -36,12 +52,14 @@ def call(session: zenoh.Session, key: str, payload: dict | bytes | None = None, 
     (model processes each serving some skills), a successful reply wins over error replies: a
     catch-all ``unknown_skill`` from one process must not hide another's answer. With only error
     replies, the first is raised as the :class:`WireError` it carries; with none, WireError
-    ``unavailable`` (the query ended early: nothing matched) or ``timeout``.
+    ``unavailable`` (the query ended early: nothing matched) or ``timeout``. The query carries
+    ``timeout`` as its selector parameter, so a server does not compute it after it has expired.
     """
     body = encode(payload) if isinstance(payload, dict) else payload
     start = time.monotonic()
     first_err: WireError | None = None
-    for reply in session.get(key, payload=body, timeout=timeout):
+    selector = zenoh.Selector(key, {TIMEOUT_PARAMETER: f"{timeout:g}"})
+    for reply in session.get(selector, payload=body, timeout=timeout):
         if reply.ok is not None:
             try:
                 return decode(reply.ok.payload.to_bytes(), expect_version=expect_version, max_bytes=max_bytes)
@@ -68,27 +86,59 @@ class RpcQueryable:
 
     def __init__(self, session: zenoh.Session, key_expr: str, handler: Handler, *, workers: int = 0,
                  decode_payload: bool = True, expect_version: int | None = SCHEMA_VERSION,
-                 max_bytes: int = DEFAULT_MAX_BYTES, complete: bool = True):
+                 max_bytes: int = DEFAULT_MAX_BYTES, complete: bool = True, max_queue: int | None = None,
+                 default_timeout: float | None = None):
         self.key_expr = key_expr
         self._handler = handler
         self._decode = decode_payload
         self._expect_version = expect_version
         self._max_bytes = max_bytes
         self._pool = ThreadPoolExecutor(workers, thread_name_prefix="rpc") if workers > 0 else None
+        self.max_queue = max_queue
+        self.default_timeout = default_timeout
         self.served = 0
         self.failed = 0
+        self.overloaded = 0  # refused at once: the queue was full
+        self.expired = 0     # dropped unanswered from the queue: their querier had given up
+        self.waiting = 0     # queued, not started
         self._lock = threading.Lock()
         callback = self._dispatch if self._pool else self._serve
         self._queryable = session.declare_queryable(key_expr, callback, complete=complete)
 
     def _dispatch(self, query: zenoh.Query) -> None:
         # hand the query to the pool so a slow handler never holds a zenoh runtime thread
+        timeout = query_timeout(query) or self.default_timeout
+        deadline = None if timeout is None else time.monotonic() + timeout
+        with self._lock:
+            full = self.max_queue is not None and self.waiting >= self.max_queue
+            if full:
+                self.overloaded += 1
+            else:
+                self.waiting += 1
+        if full:
+            with contextlib.suppress(Exception):
+                query.reply_err(error_payload("overloaded", f"{self.max_queue} queries are already waiting on "
+                                                            f"{self.key_expr}; try again later"))
+            query.drop()
+            return
         try:
-            self._pool.submit(self._serve, query)
+            self._pool.submit(self._serve_queued, query, deadline)
         except RuntimeError:  # pool shut down: we are closing
+            with self._lock:
+                self.waiting -= 1
             with contextlib.suppress(Exception):
                 query.reply_err(error_payload("unavailable", "service is shutting down"))
             query.drop()
+
+    def _serve_queued(self, query: zenoh.Query, deadline: float | None) -> None:
+        with self._lock:
+            self.waiting -= 1
+        if deadline is not None and time.monotonic() > deadline:
+            with self._lock:
+                self.expired += 1
+            query.drop()  # its querier has given up: nothing is computed and nobody waits for a reply
+            return
+        self._serve(query)
 
     def _serve(self, query: zenoh.Query) -> None:
         # `with query` drops it at the end: the querier's get() only finishes once it is dropped
@@ -144,7 +194,10 @@ def declare_rpc(session: zenoh.Session, key_expr: str, handler: Handler, **kwarg
     payload) and returns a reply map (encoded here) or bytes. A :class:`WireError` it raises
     (or that decoding raises) becomes ``reply_err`` with that code, a typed input error of the
     library the code of its type (services/transport/errors.py), any other exception code
-    ``internal``; the queryable keeps serving. ``workers=N`` runs handlers on N threads.
+    ``internal``; the queryable keeps serving. ``workers=N`` runs handlers on N threads; then a
+    query waits in a queue: ``max_queue=M`` answers ``overloaded`` at once while M are waiting, and a
+    query still waiting when its timeout (selector parameter ``timeout``, else ``default_timeout``
+    seconds, else none) has passed is dropped without being computed (counted in ``expired``).
     Other keyword arguments: see :class:`RpcQueryable`.
     """
     return RpcQueryable(session, key_expr, handler, **kwargs)

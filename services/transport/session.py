@@ -21,6 +21,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import json
+import re
 import socket
 import time
 from dataclasses import dataclass
@@ -47,6 +48,18 @@ def loopback_endpoint(port: int = 0) -> str:
     return f"tcp/{LOOPBACK}:{int(port)}"
 
 
+#: Config keys that come from command-line options, for error messages.
+_OPTIONS = {"mode": "--mode", "listen/endpoints": "--listen", "connect/endpoints": "--connect"}
+
+
+def _zenoh_message(exc: BaseException) -> str:
+    """The readable part of a zenoh error: its first sentence, without Rust source locations."""
+    text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+    text = re.sub(r"\s+at /\S+:\d+\.?", "", text)           # "... at /root/.cargo/...rs:615."
+    text = re.sub(r"^Json5Err\(Message \{ msg: \"(.*?)(: [^:]*)?\", location.*$", r"\1", text)
+    return text.strip()
+
+
 def make_config(mode: str | None = "peer", listen: Sequence[str] | None = None,
                 connect: Sequence[str] | None = None, config_file: str | Path | None = None, *,
                 multicast: bool | None = None, gossip: bool | None = None) -> zenoh.Config:
@@ -71,7 +84,12 @@ def make_config(mode: str | None = "peer", listen: Sequence[str] | None = None,
         return config_file is not None and cfg.get_json(key) != pristine.get_json(key)
 
     def put(key: str, value: Any) -> None:
-        cfg.insert_json5(key, json.dumps(value))
+        try:
+            cfg.insert_json5(key, json.dumps(value))
+        except zenoh.ZError as exc:  # e.g. an endpoint without <protocol>/: the CLI's ValueError
+            option = _OPTIONS.get(key, key)
+            raise ValueError(f"{option} {' '.join(map(str, value)) if isinstance(value, list) else value}: "
+                             f"{_zenoh_message(exc)}") from None
 
     if mode is not None:
         if mode not in MODES:
@@ -116,7 +134,7 @@ def open_session(mode: str | None = "peer", listen: Sequence[str] | None = None,
             break
         except zenoh.ZError as exc:
             if time.monotonic() + delay > deadline:
-                raise ConnectionError(f"cannot open zenoh session: {exc}") from None
+                raise ConnectionError(f"cannot open zenoh session: {_zenoh_message(exc)}") from None
             time.sleep(delay)
             delay = min(delay * 2, 1.0)
     try:

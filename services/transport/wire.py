@@ -30,6 +30,11 @@ MAX_DEPTH = 32
 #: Most dimensions an array may have.
 MAX_NDIM = 8
 
+#: Largest product of an array's non-zero sizes: no array that fits in a payload of
+#: :data:`DEFAULT_MAX_BYTES` can be longer, and an empty array must not announce more
+#: (``[0, 2**63-1]`` is refused with ``too_large`` instead of failing inside numpy).
+MAX_ELEMENTS = DEFAULT_MAX_BYTES
+
 #: Wire dtype name -> numpy dtype (always little-endian on the wire).
 ALLOWED_DTYPES: dict[str, np.dtype] = {
     "float32": np.dtype("<f4"),
@@ -52,6 +57,7 @@ ERROR_CODES: dict[str, str] = {
     "unknown_skill": "no skill of that name is served here",
     "unknown_task": "no reward/task of that name is registered",
     "unknown_job": "no adaptation job with that id",
+    "overloaded": "the service's queue for this key is full; nothing was computed, try again later",
     "unavailable": "no service answered (nothing matched the key expression, or it went away)",
     "timeout": "the query timed out before a reply arrived",
     "internal": "the service failed while handling the request; the message says how",
@@ -242,15 +248,21 @@ def decode_array(value: dict, *, path: str = "array", allow_non_finite: bool = F
         raise WireError("malformed", f"{path}: 'data' must be binary, got {type(data).__name__}")
     if not isinstance(shape, list) or len(shape) > MAX_NDIM:
         raise WireError("bad_shape", f"{path}: shape must be a list of at most {MAX_NDIM} sizes, got {shape!r}")
-    count = 1
+    count, nonzero = 1, 1
     for s in shape:
         if isinstance(s, bool) or not isinstance(s, int) or s < 0:
             raise WireError("bad_shape", f"{path}: shape {shape!r} has a size that is not an integer >= 0")
-        count *= s  # Python ints: no overflow, and absurd products fail the byte check below
+        count *= s  # Python ints: no overflow, and absurd products fail the checks below
+        nonzero *= max(s, 1)
     dtype = ALLOWED_DTYPES[dtype_name]
     if count * dtype.itemsize != len(data):
         raise WireError("bad_shape", f"{path}: shape {shape} of {dtype_name} needs {count * dtype.itemsize} bytes, got {len(data)}")
-    arr = np.frombuffer(data, dtype=dtype).reshape(tuple(shape))
+    if nonzero > MAX_ELEMENTS:  # an empty array announcing absurd sizes, e.g. [0, 2**63 - 1]
+        raise WireError("too_large", f"{path}: shape {shape} announces more than {MAX_ELEMENTS} elements")
+    try:
+        arr = np.frombuffer(data, dtype=dtype).reshape(tuple(shape))
+    except ValueError as exc:  # not reachable within the bounds above; never an internal error
+        raise WireError("bad_shape", f"{path}: shape {shape}: {exc}") from None
     if dtype_name == "bool" and arr.size and int(np.frombuffer(data, dtype=np.uint8).max()) > 1:
         raise WireError("malformed", f"{path}: bool array bytes must be 0 or 1")
     if not allow_non_finite and arr.dtype.kind == "f" and not np.all(np.isfinite(arr)):
@@ -269,11 +281,19 @@ def error_payload(code: str, message: str) -> bytes:
                          use_bin_type=True)
 
 
+#: The payload of the error reply zenoh itself delivers to a querier whose query timed out
+#: (encoding ``zenoh/string``; not msgpack).
+ZENOH_TIMEOUT_PAYLOAD = b"Timeout"
+
+
 def error_from_payload(data: bytes) -> WireError:
     """Turn the payload of a ``reply_err`` back into a :class:`WireError` (never raises).
 
-    A payload that is not a well-formed error map yields code ``internal`` with what was received.
+    Zenoh's own timeout reply (:data:`ZENOH_TIMEOUT_PAYLOAD`) yields ``timeout``. Any other payload
+    that is not a well-formed error map yields code ``internal`` with what was received.
     """
+    if bytes(data) == ZENOH_TIMEOUT_PAYLOAD:
+        return WireError("timeout", "no reply before the query's timeout (zenoh timeout reply)")
     try:
         msg = decode(data, expect_version=None, max_bytes=1024 * 1024, allow_non_finite=True)
         err = msg.get("error")
@@ -294,6 +314,17 @@ def is_error(msg: dict) -> bool:
 # field helpers for request handlers (raise WireError with a code the client can act on)
 
 _MISSING = object()
+
+
+def require_payload(msg: dict | None, what: str) -> dict:
+    """``msg`` if the query carried a payload; WireError ``malformed`` (empty payload) if not.
+
+    A queryable declared with :func:`services.transport.rpc.declare_rpc` hands its handler None for
+    an empty payload; a request that needs fields calls this first.
+    """
+    if msg is None:
+        raise WireError("malformed", f"empty payload: {what} needs a message map")
+    return msg
 
 
 def field(msg: dict, key: str, types: type | tuple[type, ...], *, default: Any = _MISSING) -> Any:

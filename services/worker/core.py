@@ -25,7 +25,7 @@ import numpy as np
 from acnmp_core.robots.registry import robot
 from acnmp_core.rollout import RolloutBatch
 from services.transport.keys import check_name
-from services.transport.wire import WireError, array_field, field
+from services.transport.wire import WireError, array_field, field, require_payload
 
 #: Bounds on one request, so an absurd batch is refused before any work (roll-outs x steps x dims).
 MAX_ELEMENTS = 20_000_000
@@ -124,8 +124,7 @@ class Worker:
         Raises WireError for a bad request; the task's own ValueErrors (wrong D, bad task
         parameters) are answered by their type's code, ``bad_request`` when untyped.
         """
-        if request is None:
-            raise WireError("bad_request", "a roll-out request needs a payload")
+        request = require_payload(request, "a roll-out request")
         task = field(request, "task", str)
         cfg = self.robot.task_config(task, field(request, "task_config", dict, default={}))
         trajs = array_field(request, "trajectories", ndim=3, max_elements=MAX_ELEMENTS)

@@ -227,3 +227,20 @@ def test_service_config_serves_a_checkpoint_and_stops_cleanly(tmp_path, small_mo
             assert info["version"] == 2 and info["source"].startswith("checkpoint:") and info["data_hash"] == "d"
             p = client.predict("reach", OBS["obs_times"], OBS["obs_values"], n_steps=30)
             np.testing.assert_array_equal(p.mean, small_model.predict(OBS["obs_times"], OBS["obs_values"], n_steps=30).mean)
+
+
+def test_weights_whose_config_is_too_large_are_rejected_before_building(mesh, small_model):
+    ep, server, client = mesh
+    from services.model.weights import weights_message
+
+    with ModelService(server, NS, fetch_latest=False) as service, open_session("peer", None, [ep]) as learner:
+        publish(learner, "reach", 1, small_model)
+        assert wait_for(lambda: client.info("reach"))["version"] == 1
+        msg = weights_message("reach", 2, small_model)
+        msg["config"]["encoder_widths"] = [16000, 16000]  # ~0.26 G parameters, a few KB message
+        learner.put(KEYS.weights("reach"), encode(msg))
+        deadline = time.monotonic() + 10
+        while service.rejected < 1:
+            assert time.monotonic() < deadline, "the weights were never rejected"
+            time.sleep(0.05)
+        assert client.info("reach")["version"] == 1

@@ -84,6 +84,26 @@ def test_rpc_errors_become_reply_err_and_service_keeps_serving(anchor, workers):
         assert rpc.failed == len(cases) and rpc.served == 2
 
 
+def test_zenohs_own_timeout_reply_is_the_timeout_code(anchor):
+    server, ep = anchor
+    held = []  # queries kept (not dropped): no reply until the querier's timeout passes
+    queryable = server.declare_queryable("acnmp/test/slow", held.append)
+    try:
+        with peer(ep) as client:
+            deadline = time.monotonic() + 10
+            while True:  # "unavailable" until the queryable's declaration has reached the client
+                with pytest.raises(WireError) as info:
+                    call(client, "acnmp/test/slow", {}, timeout=0.5)
+                if info.value.code != "unavailable" or time.monotonic() > deadline:
+                    break
+            assert info.value.code == "timeout", info.value
+            assert held, "the query never reached the queryable"
+    finally:
+        for query in held:
+            query.drop()
+        queryable.undeclare()
+
+
 def test_query_without_service_is_unavailable_not_a_timeout(anchor):
     session, _ = anchor
     with pytest.raises(WireError) as info:  # "unavailable": the query ended before its timeout
@@ -164,3 +184,84 @@ def test_open_session_closes_on_exception():
             raise KeyError("boom")
     assert session.is_closed()
     assert isinstance(session, zenoh.Session)
+
+
+def _blocking_service(server, key, **kwargs):
+    """A one-thread RPC whose handler waits for ``release``; returns (rpc, entered, release, calls)."""
+    entered, release, calls = threading.Event(), threading.Event(), []
+
+    def handler(request, _query):
+        calls.append(request)
+        entered.set()
+        release.wait(30)
+        return {"n": len(calls)}
+
+    return declare_rpc(server, key, handler, workers=1, **kwargs), entered, release, calls
+
+
+def _wait_until(pred, timeout: float = 10.0) -> None:
+    deadline = time.monotonic() + timeout
+    while not pred():
+        assert time.monotonic() < deadline, "condition not reached"
+        time.sleep(0.01)
+
+
+def _reachable(client, key: str) -> None:
+    """Wait until a query on ``key`` reaches a queryable (an ``unavailable`` before that)."""
+    deadline = time.monotonic() + 10
+    while True:
+        try:
+            call(client, key, {"probe": True}, timeout=5)
+            return
+        except WireError as exc:
+            assert exc.code == "unavailable" and time.monotonic() < deadline, exc
+
+
+def test_a_full_queue_answers_overloaded_at_once_and_queued_queries_still_complete(anchor):
+    server, ep = anchor
+    key = "acnmp/test/queue/full"
+    rpc, entered, release, calls = _blocking_service(server, key, max_queue=2)
+    try:
+        with peer(ep) as client:
+            release.set()
+            _reachable(client, key)
+            release.clear()
+            entered.clear()
+            first = client.get(key, payload=encode({"i": 1}), timeout=30)  # runs, held by the handler
+            assert entered.wait(10)
+            queued = [client.get(key, payload=encode({"i": i}), timeout=30) for i in (2, 3)]
+            _wait_until(lambda: rpc.waiting == 2)
+            with pytest.raises(WireError) as info:
+                call(client, key, {"i": 4}, timeout=10)
+            assert info.value.code == "overloaded" and rpc.overloaded == 1
+            release.set()
+            for handler in (first, *queued):
+                assert [r.ok is not None for r in handler] == [True]
+            assert len(calls) == 1 + 3  # the probe, then 1, 2, 3; never 4
+    finally:
+        release.set()
+        rpc.close()
+
+
+def test_a_query_whose_timeout_passed_in_the_queue_is_dropped_without_computing(anchor):
+    server, ep = anchor
+    key = "acnmp/test/queue/deadline"
+    rpc, entered, release, calls = _blocking_service(server, key)
+    try:
+        with peer(ep) as client:
+            release.set()
+            _reachable(client, key)
+            release.clear()
+            entered.clear()
+            first = client.get(key, payload=encode({"i": 1}), timeout=30)
+            assert entered.wait(10)
+            with pytest.raises(WireError) as info:  # waits in the queue behind the first, gives up
+                call(client, key, {"i": 2}, timeout=0.3)
+            assert info.value.code == "timeout"
+            release.set()
+            assert [r.ok is not None for r in first] == [True]
+            _wait_until(lambda: rpc.expired == 1)
+            assert [c["i"] for c in calls if "i" in c] == [1]  # the expired query was never computed
+    finally:
+        release.set()
+        rpc.close()

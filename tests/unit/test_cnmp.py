@@ -111,3 +111,12 @@ def test_demos_of_different_lengths_and_time_grids_train():
         idx = np.linspace(0, len(d.times) - 1, 3).round().astype(int)
         pred = model.predict(d.times[idx], d.values[idx], None, d.times)
         assert np.sqrt(np.mean((pred.mean - d.values) ** 2)) < 0.08, d.times[-1]
+
+
+@pytest.mark.parametrize("cfg", [dict(n_outputs=2), dict(n_outputs=3, n_task_params=4, encoder_widths=(7,)),
+                                 dict(n_outputs=1, encoder_widths=(5, 9, 3), decoder_widths=(11, 2))])
+def test_n_parameters_is_computed_from_the_config_without_building(cfg):
+    config = CNMPConfig(**cfg)
+    assert config.n_parameters == sum(p.numel() for p in CNMP(config).parameters())
+    # a config that would allocate ~1 GB is counted, not built
+    assert CNMPConfig(n_outputs=2, encoder_widths=(16000, 16000)).n_parameters > 256_000_000

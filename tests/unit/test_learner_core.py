@@ -81,6 +81,7 @@ def test_a_restart_picks_up_skills_and_requeues_a_running_job(tmp_path, setup):
     record = core.submit("e1", _job(setup, max_rollouts=3))
     record.state = "running"  # as if the process died in the middle of it
     core.job_store.save(record)
+    core.close()  # the process is gone: its lock on the state directory with it
 
     again = _core(tmp_path, setup, [], [])
     assert again.skills["e1"].demos.content_hash() == setup.demos.content_hash()
@@ -91,3 +92,13 @@ def test_a_restart_picks_up_skills_and_requeues_a_running_job(tmp_path, setup):
     finally:
         again.close()
     assert again.status(record.job)["state"] == "done"
+
+
+def test_a_second_learner_on_the_same_state_dir_is_refused(tmp_path, setup):
+    from services.learner.store import StateDirInUse
+
+    first = _core(tmp_path, setup, [], [])
+    with pytest.raises(StateDirInUse, match=f"state directory {tmp_path.resolve()} is in use .*--state-dir"):
+        _core(tmp_path, setup, [], [])
+    first.close()
+    _core(tmp_path, setup, [], []).close()  # free again once the first one is gone

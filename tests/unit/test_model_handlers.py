@@ -38,3 +38,65 @@ def test_registry_in_process_keeps_the_entry_a_query_started_with(small_model):
     assert not reg.offer(SkillModel("reach", 2, small_model))
     assert entry.version == 1 and reg.get("reach").version == 2
     assert handle_predict(reg, "reach", {**OBS, "n_steps": 5})["version"] == 2
+
+
+def test_a_predict_without_payload_is_malformed(small_model):
+    reg = ModelRegistry()
+    reg.offer(SkillModel("reach", 1, small_model))
+    with pytest.raises(WireError) as info:
+        handle_predict(reg, "reach", None)
+    assert info.value.code == "malformed"
+
+
+def test_a_weights_config_is_sized_before_anything_is_allocated(small_model, monkeypatch):
+    import services.model.weights as weights
+
+    msg = weights_message("reach", 3, small_model)
+    huge = {**msg, "config": {**msg["config"], "encoder_widths": [16000, 16000]}}  # ~0.26 G parameters
+
+    def never(*_a, **_k):
+        raise AssertionError("the model was built before its size was checked")
+
+    monkeypatch.setattr(weights, "model_from_arrays", never)
+    with pytest.raises(WireError) as info:
+        decode_weights(encode(huge))
+    assert info.value.code == "too_large" and "parameters" in info.value.message
+    assert len(encode(huge)) < 64_000  # the small message the issue describes, not a big one
+
+
+def _served(model) -> ModelRegistry:
+    reg = ModelRegistry()
+    reg.offer(SkillModel("reach", 1, model))
+    return reg
+
+
+def test_a_batch_is_costed_as_a_whole_before_any_forward_pass(small_model, monkeypatch):
+    model = copy.deepcopy(small_model)
+
+    def never(*_a, **_k):
+        raise AssertionError("computed before the request's cost was checked")
+
+    monkeypatch.setattr(model, "predict_query", never)
+    reg = _served(model)
+    # the issue's request: 64 items, each within every per-item bound (N=4096, T=20000, S*T*D=4M)
+    heavy = {"obs_times": np.linspace(0, 1, 4096), "obs_values": np.zeros((4096, 2)), "n_steps": 20_000,
+             "n_samples": 100}
+    light = {**OBS, "n_steps": 20_000}
+    for request, what in [({"batch": [heavy] * 64}, "points"), ({"batch": [light] * 5}, "points"),
+                          ({"batch": [{**OBS, "n_steps": 10_000, "n_samples": 200}] * 2}, "sampled values")]:
+        with pytest.raises(WireError) as info:
+            handle_predict(reg, "reach", request)
+        assert info.value.code == "too_large" and what in info.value.message, info.value
+
+
+def test_the_reply_size_estimate_bounds_the_encoded_reply(small_model):
+    from services.model.handlers import REPLY_OVERHEAD, parse_predict, run_predict
+
+    entry = _served(small_model).get("reach")
+    cfg = small_model.config
+    for request in [{**OBS, "n_steps": 2}, {**OBS, "n_steps": 500, "n_samples": 7, "seed": 1},
+                    {"obs_times": [0.5], "obs_values": [[0.1, 0.2]], "query_times": np.linspace(0, 1, 33)}]:
+        item = parse_predict(entry, request)
+        estimate = 8 * item.reply_values(cfg.n_outputs, cfg.latent_dim) + REPLY_OVERHEAD
+        actual = len(encode(run_predict(entry, item)))
+        assert actual <= estimate <= actual + REPLY_OVERHEAD, (request.keys(), actual, estimate)

@@ -27,3 +27,22 @@ def test_obs_parsers():
     np.testing.assert_array_equal(m2, m)
     with pytest.raises(ValueError):
         parse_obs(["0:1", "1:1,2"])
+
+
+@pytest.mark.parametrize("bad, option", [(lambda: parse_obs(["0:nan,1"]), "--obs"), (lambda: parse_obs(["x:1"]), "--obs"),
+                                         (lambda: parse_obs_json("[[0, [Infinity]]]"), "--obs-json"),
+                                         (lambda: parse_obs_json("[[0, "), "--obs-json"),
+                                         (lambda: parse_obs_json("@/nonexistent.json"), "--obs-json")])
+def test_obs_parsers_name_the_option_and_refuse_non_finite_values(bad, option):
+    with pytest.raises(ValueError, match=option):
+        bad()
+
+
+def test_experiment_outputs_are_checked_where_they_will_be_written(tmp_path):
+    from clients.experiments.common import check_output_path
+
+    check_output_path(str(tmp_path / "new" / "r.json"), "--json")  # parents are created, no file left
+    assert (tmp_path / "new").is_dir() and not (tmp_path / "new" / "r.json").exists()
+    for path, text in [(str(tmp_path), "is a directory"), ("/proc/nope/x.json", "cannot write there")]:
+        with pytest.raises(ValueError, match=f"--json {path}: {text}"):
+            check_output_path(path, "--json")

@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 from services.recording import events
 from services.transport.wire import (ALLOWED_DTYPES, ERROR_CODES, SCHEMA_VERSION, WireError, array_field, decode,
-                           encode, error_from_payload, error_payload, field)
+                           encode, error_from_payload, error_payload, field, require_payload)
 
 
 def raw(obj) -> bytes:
@@ -82,6 +82,9 @@ def test_other_versions_when_asked():
 @pytest.mark.parametrize("arr, code", [
     ({"dtype": "float32", "shape": [3], "data": b"\x00" * 8}, "bad_shape"),          # count != bytes
     ({"dtype": "float32", "shape": [2**40, 2**40], "data": b""}, "bad_shape"),       # absurd shape
+    ({"dtype": "float32", "shape": [0, 2**63 - 1], "data": b""}, "too_large"),       # empty, absurd size
+    ({"dtype": "float64", "shape": [0, 2**26, 2**26], "data": b""}, "too_large"),
+    ({"dtype": "uint8", "shape": [2**64 - 1, 0], "data": b""}, "too_large"),
     ({"dtype": "float32", "shape": [-1], "data": b""}, "bad_shape"),
     ({"dtype": "float32", "shape": [1.0], "data": b"\x00" * 4}, "bad_shape"),
     ({"dtype": "float32", "shape": "3", "data": b"\x00" * 12}, "bad_shape"),
@@ -127,8 +130,18 @@ def test_encode_refuses_what_it_cannot_carry():
 def test_error_payload_round_trip():
     err = error_from_payload(error_payload("unknown_skill", "no skill 'x'"))
     assert (err.code, err.message) == ("unknown_skill", "no skill 'x'")
+    # zenoh's own reply to a querier whose query timed out is the plain string "Timeout"
+    assert error_from_payload(b"Timeout").code == "timeout"
+    assert error_from_payload(b"something else").code == "internal"
     assert decode(error_payload("internal", "boom")) == {"v": 1, "error": {"code": "internal", "message": "boom"}}
     assert error_from_payload(b"\xc1garbage").code == "internal"
+
+
+def test_an_empty_payload_is_malformed_where_a_request_is_needed():
+    assert require_payload({"v": 1}, "x") == {"v": 1}
+    with pytest.raises(WireError) as info:
+        require_payload(None, "a predict request")
+    assert info.value.code == "malformed" and "empty payload" in info.value.message
 
 
 def test_field_helpers():

@@ -1,0 +1,73 @@
+"""Stopping a deployment: the state directory is locked per deployment, and SIGTERM stops the
+learner before the workers its running job needs, so nothing is SIGKILLed and the job resumes
+on the next start."""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from acnmp_core.experiments.viapoint import make_setup
+from services.launcher import LocalDeployment
+from services.learner.store import StateDirInUse
+from services.transport import call
+
+ROOT = Path(__file__).resolve().parents[2]
+NS = "stop"
+SMALL = {"encoder_widths": [32, 32], "decoder_widths": [32, 32]}
+
+
+def test_a_second_deployment_on_the_same_state_dir_refuses_to_start(tmp_path):
+    state = tmp_path / "state"
+    with LocalDeployment(NS, workers=0, model=False, learner=False, state_dir=state):
+        with pytest.raises(StateDirInUse, match="is in use by another deployment"):
+            LocalDeployment(f"{NS}2", workers=0, model=False, learner=False, state_dir=state).start()
+        env = dict(os.environ, PYTHONPATH=str(ROOT), RERUN_ANALYTICS="0")
+        out = subprocess.run([sys.executable, "-m", "clients.cli", "up", "--state-dir", str(state), "--workers", "0"],
+                             cwd=ROOT, env=env, capture_output=True, text=True, timeout=120)
+        assert out.returncode == 1 and "Traceback" not in out.stderr, out.stderr
+        assert f"state directory {state.resolve()} is in use" in out.stderr.strip().splitlines()[-1]
+        assert "deployment is up" not in out.stdout
+    # released with the first deployment: the directory can be used again
+    with LocalDeployment(NS, workers=0, model=False, learner=False, state_dir=state):
+        pass
+
+
+def wait_status(session, keys, job, pred, timeout=120):
+    deadline = time.monotonic() + timeout
+    while True:
+        st = call(session, keys.job_status(job), timeout=10)
+        if pred(st):
+            return st
+        assert time.monotonic() < deadline, st
+        time.sleep(0.1)
+
+
+def test_sigterm_stops_the_learner_first_nothing_is_killed_and_the_job_resumes(tmp_path):
+    setup = make_setup()
+    state = tmp_path / "state"
+    train = {"times": np.stack([d.times for d in setup.demos]), "values": np.stack([d.values for d in setup.demos]),
+             "model": SMALL, "train": {"steps": 50}, "seed": 1}
+    tg = setup.target
+    adapt = {"target": {"obs_times": tg.obs_times, "obs_values": tg.obs_values, "query_times": tg.query_times},
+             "task": "viapoint", "task_config": setup.task_config, "robot": "point2d", "seed": 5,
+             "config": {"max_rollouts": 15, "max_reuse": 5, "stop_on_success": False}}
+    # workers slow enough (0.25 s per roll-out) that the job is mid-way when the deployment stops
+    with LocalDeployment(NS, workers=1, model=False, worker_delay=0.25, state_dir=state) as dep:
+        assert call(dep.session, dep.keys.train("e1"), train, timeout=60)["version"] == 0
+        job = call(dep.session, dep.keys.adapt("e1"), adapt, timeout=10)["job"]
+        wait_status(dep.session, dep.keys, job, lambda st: st["state"] == "running" and st["rollouts"] >= 3)
+        codes = dep.stop()  # what SIGTERM of `acnmp up` does
+        assert dep.killed == [] and all(code == 0 for code in codes.values()), (codes, dep.killed)
+    record = json.loads((state / "jobs" / f"{job}.json").read_text())
+    assert record["state"] == "running"  # interrupted, saved; not finished and not failed
+    with LocalDeployment(NS, workers=1, model=False, state_dir=state) as dep:
+        st = wait_status(dep.session, dep.keys, job, lambda st: st["state"] in ("done", "failed"))
+    assert st["state"] == "done" and st["attempt"] == 1, st
+    assert st["result"]["rollouts"] == 15
