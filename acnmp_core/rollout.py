@@ -25,11 +25,15 @@ class RolloutBatch:
         Whether each roll-out satisfies the task's success criterion.
     states : dict of str -> (B, T, ...) arrays
         Executed states (e.g. joint angles, end-effector and object positions), task-specific.
+    errors : (B,) float64 or None
+        The task's remaining error per roll-out in its own units (what its success tolerance
+        bounds, e.g. metres from a via-point); None when the task does not report one.
     """
 
     rewards: np.ndarray
     success: np.ndarray
     states: dict[str, np.ndarray] = field(default_factory=dict)
+    errors: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         self.rewards = check_array("rewards", self.rewards, ndim=2)
@@ -37,18 +41,26 @@ class RolloutBatch:
         self.success = np.asarray(self.success, dtype=bool).reshape(-1)
         if self.success.shape != (b,):
             raise ValueError(f"success: expected shape ({b},), got {self.success.shape}")
+        if self.errors is not None:
+            self.errors = check_array("errors", self.errors, shape=(b,))
 
     @property
     def returns(self) -> np.ndarray:
         """(B,) sum of per-step rewards."""
         return self.rewards.sum(axis=1)
 
+    def remaining_errors(self) -> np.ndarray:
+        """(B,) the task's remaining error per roll-out: ``errors`` when the task reports them,
+        else minus the return (for rewards that are minus distances)."""
+        return self.errors if self.errors is not None else -self.returns
+
     def __len__(self) -> int:
         return self.rewards.shape[0]
 
     @staticmethod
     def concat(batches: list["RolloutBatch"]) -> "RolloutBatch":
-        """Concatenate batches along the roll-out axis (states: keys common to all batches)."""
+        """Concatenate batches along the roll-out axis (states: keys common to all batches; errors
+        only when every batch has them)."""
         if not batches:
             raise ValueError("batches: expected at least one RolloutBatch")
         keys = set(batches[0].states)
@@ -58,6 +70,8 @@ class RolloutBatch:
             rewards=np.concatenate([b.rewards for b in batches]),
             success=np.concatenate([b.success for b in batches]),
             states={k: np.concatenate([b.states[k] for b in batches]) for k in sorted(keys)},
+            errors=(np.concatenate([b.errors for b in batches])
+                    if all(b.errors is not None for b in batches) else None),
         )
 
 
