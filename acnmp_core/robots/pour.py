@@ -35,7 +35,7 @@ Simulation
   while the marbles settle (at most ``settle_time``, stopping early once every marble is slower than
   ``settle_speed``), then the poured mass is read.
 * Speed: 10 solver iterations (PyBullet's default is 50) and big marbles keep the contact count low.
-  A 240-step (4 s) roll-out with the largest default load (54 marbles, 1400 g) costs about 0.7 s
+  A 240-step (4 s) roll-out with the largest default load (53 marbles, 1400 g) costs about 0.7 s
   of CPU on the development machine; ``benchmarks/bench_pour.py`` measures it.
 """
 from __future__ import annotations
@@ -81,7 +81,7 @@ class CupGeometry:
     lip: float = 0.03
     lip_angle: float = 35.0
     lip_thickness: float = 0.01
-    tare_g: float = 50.0
+    tare_g: float = 75.0
 
     def __post_init__(self) -> None:
         for name in ("inner_width", "inner_depth", "inner_height", "wall", "lip_thickness", "tare_g"):
@@ -250,7 +250,7 @@ class PourSim:
     n_marbles : marbles in the cup (>= 0).
     config : the rig (:class:`PourConfig`).
 
-    Building settles the marbles once (about 0.3 s of CPU for 54 marbles) and keeps their centres;
+    Building settles the marbles once (about 0.3 s of CPU for 53 marbles) and keeps their centres;
     :meth:`rollout` rebuilds the world from them first.
     """
 
