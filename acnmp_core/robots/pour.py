@@ -541,6 +541,9 @@ class PourTask:
     """
 
     task_param_names = ("initial_weight_g", "target_g")
+    #: The only reward comes at the end and every wrist motion before it shapes the pour: an action
+    #: is credited with the rewards after it (see :func:`acnmp_core.adaptation.per_step_advantages`).
+    credit = "future"
 
     def __init__(self, config: PourConfig | None = None, *, tolerance_g: float = 30.0, max_worlds: int = 2,
                  n_frames: int = 6) -> None:
@@ -611,3 +614,25 @@ class PourTask:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+#: Initial weight (g) of the E6 test, the rig's simulator built by the registry holds its load.
+TEST_WEIGHT_G = 1400.0
+
+
+def pour_body():
+    """The registry's description of the ``pour`` robot kind (:mod:`acnmp_core.robots.registry`).
+
+    Joints: the one wrist joint (``"wrist"``, limits :attr:`PourConfig.wrist_limits` rad); drawing:
+    a :class:`~acnmp_core.robots.registry.PointSetDrawing` of the marbles (their radius, m);
+    simulator: a :class:`PourSim` of the default rig loaded with :data:`TEST_WEIGHT_G` (the
+    heaviest load of the experiments; :class:`PourTask` builds one world per load itself).
+    """
+    from functools import partial
+
+    from .registry import Joint, PointSetDrawing, RobotBody
+
+    cfg = PourConfig()
+    lo, hi = cfg.wrist_limits
+    return RobotBody((Joint("wrist", float(lo), float(hi)),), PointSetDrawing(cfg.marbles.radius),
+                     partial(PourSim, cfg.n_marbles(TEST_WEIGHT_G), cfg))

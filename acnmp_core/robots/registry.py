@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import functools
 import json
+from importlib import import_module
 from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Any, Callable, ClassVar, Mapping
@@ -68,6 +69,53 @@ class PlanarChainDrawing:
         """The constant fields each roll-out event carries for this drawing (docs/PROTOCOL.md)."""
         return {"link_lengths": np.asarray(self.link_lengths, dtype=np.float64),
                 "object_radius": float(self.object_radius), "object_height": float(self.object_height)}
+
+
+@dataclass(frozen=True)
+class MeshChainDrawing:
+    """Draw a robot with meshes from its URDF, posed from the executed ``joint_angles`` (T, N) rad
+    at every step (the drawer logs each link's mesh once and its pose per step), with the gripper's
+    ``finger_opening`` (T,) m when present and the handled box (``object_xyz`` (T, 3) m,
+    ``object_quat`` (T, 4) x, y, z, w); the scene's static parts travel as constant fields.
+
+    robot : the robot kind; the recorder asks the registry's module of that kind for its URDF.
+    joint_names : the URDF joints of the trajectory's columns, in order.
+    scene : constant named values of the scene (e.g. ``pick_xy`` (2,) m), sent with every event.
+    """
+
+    kind: ClassVar[str] = "mesh_chain"
+    #: roll-out states this drawing reads (the first is required, the others optional)
+    states: ClassVar[tuple[str, ...]] = ("joint_angles", "finger_opening", "object_xyz", "object_quat")
+
+    robot: str
+    joint_names: tuple[str, ...]
+    scene: Mapping[str, Any] = field(default_factory=dict)
+
+    def event_fields(self) -> dict[str, Any]:
+        """The constant fields each roll-out event carries for this drawing (docs/PROTOCOL.md)."""
+        return {"robot_kind": self.robot, "joint_names": list(self.joint_names),
+                **{k: np.asarray(v, dtype=np.float64) for k, v in self.scene.items()}}
+
+
+@dataclass(frozen=True)
+class PointSetDrawing:
+    """Draw a set of points moving through a roll-out, e.g. the pouring rig's marbles: the roll-out
+    state ``state`` holds their positions (F, M, 3) m at the control steps ``frame_steps`` (F,);
+    the other states named in ``extra`` (per step, (T,) each, e.g. the wrist angle and the poured
+    mass) are drawn as scalars over the roll-out.
+
+    radius : of each point (m).
+    """
+
+    kind: ClassVar[str] = "point_set"
+    #: roll-out states this drawing reads (the first is required, the others optional)
+    states: ClassVar[tuple[str, ...]] = ("marble_xyz", "frame_steps", "wrist_angle", "poured_g_t")
+
+    radius: float
+
+    def event_fields(self) -> dict[str, Any]:
+        """The constant fields each roll-out event carries for this drawing (docs/PROTOCOL.md)."""
+        return {"point_radius": float(self.radius)}
 
 
 @dataclass(frozen=True)
@@ -211,3 +259,7 @@ register_robot(RobotSpec("planar3", "3-DoF planar arm pushing a cylinder (PyBull
                          tasks={"push": {"n_joints": 3}}, body=functools.partial(_planar_arm_body, 3)))
 register_robot(RobotSpec("planar4", "4-DoF planar arm pushing a cylinder (PyBullet)",
                          tasks={"push": {"n_joints": 4}}, body=functools.partial(_planar_arm_body, 4)))
+register_robot(RobotSpec("ur10", "UR10 with a two-finger gripper, pick and place over an obstacle (PyBullet; E5)",
+                         tasks={"pick_place": {}}, body=lambda: import_module(".ur10", __package__).ur10_body()))
+register_robot(RobotSpec("pour", "a wrist pouring marbles from a cup into another (PyBullet; E6)",
+                         tasks={"pour": {}}, body=lambda: import_module(".pour", __package__).pour_body()))

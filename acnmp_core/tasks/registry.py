@@ -62,3 +62,28 @@ def _push(p: dict) -> RolloutEvaluator:
     from ..robots.planar_arm import PlanarPushTask
 
     return PlanarPushTask(int(p.get("n_joints", 3)), tolerance=float(p.get("tolerance", 0.03)))
+
+
+@register_task("pick_place")
+def _pick_place(p: dict) -> RolloutEvaluator:
+    """params: optional place_tolerance, lift_tolerance (floats, metres, default 0.02 each)."""
+    from .ur10_pick_place import UR10PickPlaceTask
+
+    _known(p, "place_tolerance", "lift_tolerance")
+    return UR10PickPlaceTask(**{k: float(p[k]) for k in ("place_tolerance", "lift_tolerance") if k in p})
+
+
+@register_task("pour")
+def _pour(p: dict) -> RolloutEvaluator:
+    """params: optional tolerance_g (float, grams, default 30), max_worlds (int, default 2)."""
+    from ..robots.pour import PourTask
+
+    _known(p, "tolerance_g", "max_worlds")
+    return PourTask(tolerance_g=float(p.get("tolerance_g", 30.0)), max_worlds=int(p.get("max_worlds", 2)))
+
+
+def _known(params: dict, *names: str) -> None:
+    """ValueError naming the parameters in ``params`` that are not among ``names``."""
+    unknown = sorted(set(params) - set(names))
+    if unknown:
+        raise ValueError(f"params: unknown parameter(s) {', '.join(unknown)}; expected some of {', '.join(names)}")
