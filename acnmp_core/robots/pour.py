@@ -58,6 +58,7 @@ import pybullet as p
 
 from ..rollout import RolloutBatch
 from ..validation import check_array
+from .physics import PhysicsClient
 
 G_PER_KG = 1000.0
 
@@ -256,7 +257,7 @@ def receiver_boxes(rc: ReceiverGeometry) -> list[Box]:
     ]
 
 
-class PourSim:
+class PourSim(PhysicsClient):
     """One PyBullet world: floor, wrist with cup, receiving cup and ``n_marbles`` settled marbles.
 
     Parameters
@@ -377,12 +378,6 @@ class PourSim:
 
     # ------------------------------------------------------------------ helpers
     @property
-    def client_id(self) -> int:
-        if self._cid is None:
-            raise RuntimeError("PourSim: the simulator is closed")
-        return self._cid
-
-    @property
     def initial_weight_g(self) -> float:
         """The cup's initial weight (g): tare plus marbles."""
         return self.config.weight_g(self.n_marbles)
@@ -491,26 +486,6 @@ class PourSim:
         return {"wrist_angle": angle, "poured_g_t": poured_t, "marble_xyz": np.stack(frames).reshape(n_frames, -1, 3),
                 "frame_steps": frame_steps, "poured_g": np.float64(mass * self.in_receiver(final).sum()),
                 "settle_steps": np.int64(settle)}
-
-    def close(self) -> None:
-        """Disconnect the physics client (idempotent)."""
-        if self._cid is not None:
-            try:
-                p.disconnect(physicsClientId=self._cid)
-            finally:
-                self._cid = None
-
-    def __enter__(self) -> "PourSim":
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.close()
-
-    def __del__(self) -> None:  # best effort: an un-closed client would leak its physics world
-        try:
-            self.close()
-        except Exception:
-            pass
 
 
 class PourTask:

@@ -58,6 +58,7 @@ import numpy as np
 import pybullet as p
 
 from ..validation import check_array
+from .physics import PhysicsClient
 from .ur10_description import FINGER_JOINTS, TCP_LINK, UR10_ARM_JOINTS, GripperGeometry, write_ur10_gripper_urdf
 
 #: The authors' start pose (deg) of their UR10 demonstrations, in :data:`UR10_ARM_JOINTS` order.
@@ -98,7 +99,7 @@ def _check_height(name: str, value, lo: float, hi: float) -> float:
     return v
 
 
-class UR10Sim:
+class UR10Sim(PhysicsClient):
     """One PyBullet world: table, UR10 with gripper, object, obstacle.
 
     Parameters
@@ -179,12 +180,6 @@ class UR10Sim:
         self.start_pose = np.deg2rad(np.asarray(START_POSE_DEG))
 
     # ------------------------------------------------------------------ helpers
-    @property
-    def client_id(self) -> int:
-        if self._cid is None:
-            raise RuntimeError("UR10Sim: the simulator is closed")
-        return self._cid
-
     @property
     def open_width(self) -> float:
         """Finger joint value (m) of the open gripper: the inner faces' distance from the centre."""
@@ -390,26 +385,6 @@ class UR10Sim:
             touching = {c[4] for c in p.getContactPoints(bodyA=self.object, bodyB=robot, physicsClientId=cid)}
             out["finger_contacts"][k] = len(touching & f_links)
         return out
-
-    def close(self) -> None:
-        """Disconnect the physics client (idempotent)."""
-        if self._cid is not None:
-            try:
-                p.disconnect(physicsClientId=self._cid)
-            finally:
-                self._cid = None
-
-    def __enter__(self) -> "UR10Sim":
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.close()
-
-    def __del__(self) -> None:  # best effort: an un-closed client would leak its physics world
-        try:
-            self.close()
-        except Exception:
-            pass
 
 
 def ur10_body():

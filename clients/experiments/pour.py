@@ -2,7 +2,8 @@
 LfD only vs ACNMP, then the assimilated solution."""
 from __future__ import annotations
 
-from .common import add_deployment_arguments, add_output_arguments, check_deployment_arguments, write_json
+from .common import (add_deployment_arguments, add_output_arguments, add_size_arguments,
+                     check_deployment_arguments, sizes, write_json)
 
 
 def register(subparsers) -> None:
@@ -17,9 +18,7 @@ def register(subparsers) -> None:
             "over several seeds. --json and --plot save results."
         ),
     )
-    p.add_argument("--seeds", type=int, default=5, help="number of seeds 0..N-1 (default 5)")
-    p.add_argument("--train-steps", type=int, default=None, help="CNMP training steps (default 3000)")
-    p.add_argument("--budget", type=int, default=None, help="ACNMP roll-out budget (default 60)")
+    add_size_arguments(p, seeds=5, train_steps=3000, budget=60, budget_help="ACNMP roll-out budget")
     p.add_argument("--no-assimilation", action="store_true", help="skip the assimilation and its checks")
     add_output_arguments(p, "write the error of every roll-out per seed (PNG)")
     add_deployment_arguments(p, "the roll-outs on pour PyBullet workers")
@@ -34,10 +33,7 @@ def run(args) -> int:
     from acnmp_core.adaptation import AdaptConfig
     from acnmp_core.experiments.pour import BUDGET, TOLERANCE_G, TRAIN_STEPS, plot_pour, run_pour
 
-    train_steps = TRAIN_STEPS if args.train_steps is None else args.train_steps
-    budget = BUDGET if args.budget is None else args.budget
-    if args.seeds < 1 or train_steps < 1 or budget < 1:
-        raise ValueError("--seeds, --train-steps, --budget: expected positive integers")
+    train_steps, budget = sizes(args, TRAIN_STEPS, BUDGET)
     check_deployment_arguments(args)
     torch.set_num_threads(1)  # the CNMP is small; threads only contend with the simulator
     kwargs = dict(train_steps=train_steps, adapt_config=AdaptConfig(max_rollouts=budget),

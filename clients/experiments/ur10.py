@@ -2,7 +2,8 @@
 objects and obstacles; LfD only vs ACNMP, per-joint errors against the expert."""
 from __future__ import annotations
 
-from .common import add_deployment_arguments, add_output_arguments, check_deployment_arguments, write_json
+from .common import (add_deployment_arguments, add_output_arguments, add_size_arguments,
+                     check_deployment_arguments, sizes, write_json)
 
 
 def register(subparsers) -> None:
@@ -17,9 +18,7 @@ def register(subparsers) -> None:
             "against the expert at the test heights; --json and --plot save results."
         ),
     )
-    p.add_argument("--seeds", type=int, default=5, help="number of seeds 0..N-1 (default 5)")
-    p.add_argument("--train-steps", type=int, default=None, help="CNMP training steps (default 3000)")
-    p.add_argument("--budget", type=int, default=None, help="ACNMP roll-out budget per case (default 60)")
+    add_size_arguments(p, seeds=5, train_steps=3000, budget=60, budget_help="ACNMP roll-out budget per case")
     add_output_arguments(p, "write the per-joint trajectories of the first seed (PNG)")
     add_deployment_arguments(p, "the roll-outs on ur10 PyBullet workers")
     p.add_argument("--quiet", action="store_true", help="no per-run lines")
@@ -33,10 +32,7 @@ def run(args) -> int:
     from acnmp_core.adaptation import AdaptConfig
     from acnmp_core.experiments.ur10 import BUDGET, TRAIN_STEPS, plot_ur10, run_ur10
 
-    train_steps = TRAIN_STEPS if args.train_steps is None else args.train_steps
-    budget = BUDGET if args.budget is None else args.budget
-    if args.seeds < 1 or train_steps < 1 or budget < 1:
-        raise ValueError("--seeds, --train-steps, --budget: expected positive integers")
+    train_steps, budget = sizes(args, TRAIN_STEPS, BUDGET)
     check_deployment_arguments(args)
     torch.set_num_threads(1)  # the CNMP is small; threads only contend with the simulator
     kwargs = dict(train_steps=train_steps, adapt_config=AdaptConfig(max_rollouts=budget),

@@ -54,3 +54,14 @@ def test_bad_cli_input_is_a_clear_error(capsys):
     assert main(["experiment", "ur10", "--budget", "0"]) == 2
     err = capsys.readouterr().err
     assert "--budget" in err and len(err.strip().splitlines()) == 1
+
+
+def test_cli_help_names_the_library_defaults(capsys):
+    """The CLI's help shows the sizes without importing the experiment (torch); they must agree."""
+    from acnmp_core.experiments import pour, ur10
+
+    for name, module in (("ur10", ur10), ("pour", pour)):
+        with pytest.raises(SystemExit):
+            main(["experiment", name, "--help"])
+        text = " ".join(capsys.readouterr().out.split())
+        assert f"(default {module.TRAIN_STEPS})" in text and f"(default {module.BUDGET})" in text
