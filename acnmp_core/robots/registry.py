@@ -73,14 +73,17 @@ class PlanarChainDrawing:
 
 @dataclass(frozen=True)
 class MeshChainDrawing:
-    """Draw a robot with meshes from its URDF, posed from the executed ``joint_angles`` (T, N) rad
-    at every step (the drawer logs each link's mesh once and its pose per step), with the gripper's
-    ``finger_opening`` (T,) m when present and the handled box (``object_xyz`` (T, 3) m,
-    ``object_quat`` (T, 4) x, y, z, w); the scene's static parts travel as constant fields.
+    """Draw a robot with the collision shapes of its URDF (meshes and boxes), posed from the
+    executed ``joint_angles`` (T, N) rad at every step (the drawer logs each shape once and its pose
+    per step), the gripper from ``finger_opening`` (T,) m when present (every joint of
+    ``opening_joints`` takes that value), and the handled box from ``object_xyz`` (T, 3) m and
+    ``object_quat`` (T, 4) x, y, z, w; the scene's static parts travel as constant fields.
 
-    robot : the robot kind; the recorder asks the registry's module of that kind for its URDF.
+    robot : the robot kind; the recorder finds this drawing again through the registry.
     joint_names : the URDF joints of the trajectory's columns, in order.
     scene : constant named values of the scene (e.g. ``pick_xy`` (2,) m), sent with every event.
+    opening_joints : URDF joints set to ``finger_opening``.
+    urdf : returns the path of the URDF to draw (called by the recorder, not sent).
     """
 
     kind: ClassVar[str] = "mesh_chain"
@@ -90,21 +93,25 @@ class MeshChainDrawing:
     robot: str
     joint_names: tuple[str, ...]
     scene: Mapping[str, Any] = field(default_factory=dict)
+    opening_joints: tuple[str, ...] = ()
+    urdf: Callable[[], Any] | None = field(default=None, compare=False, repr=False)
 
     def event_fields(self) -> dict[str, Any]:
         """The constant fields each roll-out event carries for this drawing (docs/PROTOCOL.md)."""
-        return {"robot_kind": self.robot, "joint_names": list(self.joint_names),
-                **{k: np.asarray(v, dtype=np.float64) for k, v in self.scene.items()}}
+        return {"robot_kind": self.robot, **{k: np.asarray(v, dtype=np.float64) for k, v in self.scene.items()}}
 
 
 @dataclass(frozen=True)
 class PointSetDrawing:
-    """Draw a set of points moving through a roll-out, e.g. the pouring rig's marbles: the roll-out
-    state ``state`` holds their positions (F, M, 3) m at the control steps ``frame_steps`` (F,);
-    the other states named in ``extra`` (per step, (T,) each, e.g. the wrist angle and the poured
-    mass) are drawn as scalars over the roll-out.
+    """Draw a set of points moving through a roll-out, e.g. the pouring rig's marbles: the state
+    ``marble_xyz`` holds their positions (F, M, 3) m at the control steps ``frame_steps`` (F,). A
+    holder (the cup: boxes in its own frame) turns by the state ``wrist_angle`` (T,) rad about the
+    +y axis through ``pivot``; ``scene_boxes`` stand still; ``poured_g_t`` (T,) g is drawn as a
+    scalar over the roll-out's steps.
 
     radius : of each point (m).
+    holder_boxes, scene_boxes : tuples of (half extents (3,) m, centre (3,) m, pitch about +y rad).
+    pivot : (3,) m, a point on the holder's axis.
     """
 
     kind: ClassVar[str] = "point_set"
@@ -112,10 +119,20 @@ class PointSetDrawing:
     states: ClassVar[tuple[str, ...]] = ("marble_xyz", "frame_steps", "wrist_angle", "poured_g_t")
 
     radius: float
+    holder_boxes: tuple = ()
+    scene_boxes: tuple = ()
+    pivot: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
     def event_fields(self) -> dict[str, Any]:
-        """The constant fields each roll-out event carries for this drawing (docs/PROTOCOL.md)."""
-        return {"point_radius": float(self.radius)}
+        """The constant fields each roll-out event carries for this drawing (docs/PROTOCOL.md): the
+        radius, the pivot and each box set as ``<set>_half`` (B, 3), ``<set>_center`` (B, 3),
+        ``<set>_pitch`` (B,)."""
+        out: dict[str, Any] = {"point_radius": float(self.radius), "pivot": np.asarray(self.pivot, dtype=np.float64)}
+        for name, boxes in (("holder", self.holder_boxes), ("scene", self.scene_boxes)):
+            out[f"{name}_half"] = np.asarray([b[0] for b in boxes], dtype=np.float64).reshape(-1, 3)
+            out[f"{name}_center"] = np.asarray([b[1] for b in boxes], dtype=np.float64).reshape(-1, 3)
+            out[f"{name}_pitch"] = np.asarray([b[2] for b in boxes], dtype=np.float64).reshape(-1)
+        return out
 
 
 @dataclass(frozen=True)

@@ -392,7 +392,8 @@ def ur10_body():
 
     Joints: the six arm joints of :data:`~acnmp_core.robots.ur10_description.UR10_ARM_JOINTS` with
     their position limits (rad) read from the package's URDF; drawing: a
-    :class:`~acnmp_core.robots.registry.MeshChainDrawing` with the default scene's layout (m);
+    :class:`~acnmp_core.robots.registry.MeshChainDrawing` of the arm and gripper's collision shapes
+    with the default scene's layout (m);
     simulator: :class:`UR10Sim` with the default scene and gripper.
     """
     import xml.etree.ElementTree as ET
@@ -407,4 +408,5 @@ def ur10_body():
     sc = PickPlaceScene()
     scene = {"pick_xy": sc.pick_xy, "place_xy": sc.place_xy, "obstacle_xy": sc.obstacle_xy,
              "object_size": sc.object_size, "obstacle_size": sc.obstacle_size}
-    return RobotBody(joints, MeshChainDrawing("ur10", UR10_ARM_JOINTS, scene), UR10Sim)
+    drawing = MeshChainDrawing("ur10", UR10_ARM_JOINTS, scene, FINGER_JOINTS, write_ur10_gripper_urdf)
+    return RobotBody(joints, drawing, UR10Sim)
