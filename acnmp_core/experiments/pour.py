@@ -62,16 +62,13 @@ class PourSetup:
     q0: np.ndarray
 
 
-class CreditedEvaluator:
-    """An evaluator with the credit of its task and the CPU time of its roll-outs.
+class TimedEvaluator:
+    """An evaluator that records the process CPU time (s) per roll-out of every batch in
+    ``cpu_s`` (meaningful for an in-process evaluator only); ``credit`` is the inner one's."""
 
-    Wraps ``inner`` (in-process or remote) so that :func:`~acnmp_core.adaptation.adapt` sees
-    ``credit`` (a remote evaluator does not carry its task's), and records the process CPU time
-    (s) per roll-out of every batch in ``cpu_s`` (meaningful in-process only).
-    """
-
-    def __init__(self, inner: RolloutEvaluator, credit: str) -> None:
-        self.inner, self.credit = inner, credit
+    def __init__(self, inner: RolloutEvaluator) -> None:
+        self.inner = inner
+        self.credit = getattr(inner, "credit", "step")
         self.cpu_s: list[float] = []
 
     def evaluate(self, trajectories, times, task_params=None) -> RolloutBatch:
@@ -179,7 +176,7 @@ def run_pour(
     demo_path : demonstration file (default: the cached generated set).
     evaluator_factory : ``() -> RolloutEvaluator`` (e.g. remote ``pour`` workers), called once per
         seed; default: one in-process :class:`~acnmp_core.robots.pour.PourTask` shared by all runs.
-        Either way it is wrapped in :class:`CreditedEvaluator` with the task's credit.
+        Its ``credit`` reaches adapt() (PourTask's and a remote ``pour`` evaluator's are "future").
     on_iteration : ``seed -> callback`` for adapt(), e.g. to record.
     progress : training progress bars. log : called with one line per finished seed.
 
@@ -209,7 +206,7 @@ def run_pour(
     try:
         for seed in seed_list:
             t1 = time.perf_counter()
-            ev = CreditedEvaluator(shared if shared is not None else evaluator_factory(), PourTask.credit)
+            ev = TimedEvaluator(shared if shared is not None else evaluator_factory())
             model = train_pour_cnmp(setup.demos, seed, train_steps, progress)
             cb = on_iteration(seed) if on_iteration else None
             r = run_seed(copy.deepcopy(model), setup, ev, cfg, seed, acfg, cb)

@@ -12,16 +12,30 @@ import numpy as np
 from ..rollout import RolloutEvaluator
 
 _FACTORIES: dict[str, Callable[[dict[str, Any]], RolloutEvaluator]] = {}
+_CREDITS: dict[str, str] = {}
 
 
-def register_task(name: str):
-    """Decorator: register ``factory(params: dict) -> RolloutEvaluator`` under ``name``."""
+def register_task(name: str, credit: str = "step"):
+    """Decorator: register ``factory(params: dict) -> RolloutEvaluator`` under ``name``.
+
+    ``credit`` is the task's credit for :func:`~acnmp_core.adaptation.adapt` ("step" or "future",
+    the ``credit`` attribute of the evaluators it builds), so an evaluator that only forwards
+    roll-outs to where the task runs (a remote worker) can carry it too.
+    """
 
     def deco(factory):
         _FACTORIES[name] = factory
+        _CREDITS[name] = credit
         return factory
 
     return deco
+
+
+def task_credit(name: str) -> str:
+    """The credit ("step" or "future") of the registered task ``name``; ValueError if unknown."""
+    if name not in _CREDITS:
+        raise ValueError(f"task: unknown task {name!r}; known tasks: {', '.join(task_names())}")
+    return _CREDITS[name]
 
 
 def task_names() -> list[str]:
@@ -56,7 +70,7 @@ def _wall(p: dict) -> RolloutEvaluator:
     return WallTask(**{k: float(v) for k, v in p.items()})
 
 
-@register_task("push")
+@register_task("push", credit="future")
 def _push(p: dict) -> RolloutEvaluator:
     """params: n_joints (int, default 3), tolerance (float, metres, default 0.03)."""
     from ..robots.planar_arm import PlanarPushTask
@@ -73,7 +87,7 @@ def _pick_place(p: dict) -> RolloutEvaluator:
     return UR10PickPlaceTask(**{k: float(p[k]) for k in ("place_tolerance", "lift_tolerance") if k in p})
 
 
-@register_task("pour")
+@register_task("pour", credit="future")
 def _pour(p: dict) -> RolloutEvaluator:
     """params: optional tolerance_g (float, grams, default 30), max_worlds (int, default 2)."""
     from ..robots.pour import PourTask

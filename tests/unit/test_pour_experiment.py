@@ -7,7 +7,7 @@ import json
 import numpy as np
 
 from acnmp_core.assimilation import AssimilationConfig
-from acnmp_core.experiments.pour import CreditedEvaluator, make_setup, make_target, run_pour
+from acnmp_core.experiments.pour import TimedEvaluator, make_setup, make_target, run_pour
 from acnmp_core.rollout import RolloutBatch
 from clients.cli import main
 
@@ -31,8 +31,11 @@ def test_setup_conditions_on_weight_target_and_the_upright_start(pour_demo_file)
     assert target.obs_times.tolist() == [0.0] and target.obs_values.tolist() == [[0.0]]
 
 
-def test_the_wrapper_carries_the_tasks_credit():
-    ev = CreditedEvaluator(_PoursExactly(), "future")
+def test_the_timing_wrapper_keeps_the_inner_credit():
+    inner = _PoursExactly()
+    assert TimedEvaluator(inner).credit == "step"
+    inner.credit = "future"
+    ev = TimedEvaluator(inner)
     batch = ev.evaluate(np.zeros((2, 5, 1)), np.linspace(0, 1, 5), [1400.0, 1322.0])
     assert ev.credit == "future" and len(batch) == 2 and len(ev.cpu_s) == 1
 

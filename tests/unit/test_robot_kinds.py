@@ -74,3 +74,29 @@ def test_a_pour_worker_evaluates_a_rollout_through_the_registry():
         assert wire_error(info.value).code == "bad_request"
     finally:
         worker.close()
+
+
+def test_the_task_registry_knows_each_tasks_credit():
+    """Remote evaluators carry the registry's credit; it must be what the task itself says."""
+    from acnmp_core.robots.planar_arm import PlanarPushTask
+    from acnmp_core.robots.pour import PourTask
+    from acnmp_core.tasks.registry import task_credit
+    from acnmp_core.tasks.ur10_pick_place import UR10PickPlaceTask
+
+    for name, cls in (("push", PlanarPushTask), ("pour", PourTask), ("pick_place", UR10PickPlaceTask)):
+        assert task_credit(name) == getattr(cls, "credit", "step"), name
+    assert task_credit("viapoint") == "step"
+    with pytest.raises(ValueError, match="juggle"):
+        task_credit("juggle")
+
+
+def test_remote_and_recorded_evaluators_carry_the_tasks_credit():
+    """adapt() reads ``credit`` from its evaluator: across a deployment that is a RemoteEvaluator,
+    possibly wrapped in a RecordedEvaluator (constructed here without a session: nothing is sent)."""
+    from services.recording.recorded import RecordedEvaluator
+    from services.worker.remote import RemoteEvaluator
+
+    remote = RemoteEvaluator(None, "ns", "pour", "pour")
+    assert remote.credit == "future"
+    assert RemoteEvaluator(None, "ns", "ur10", "pick_place").credit == "step"
+    assert RecordedEvaluator(remote, None, "job", "pour").credit == "future"
