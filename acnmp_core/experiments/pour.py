@@ -115,10 +115,18 @@ def mean_errors_g(model: CNMP, setup: PourSetup, evaluator: RolloutEvaluator, ta
 
 def run_seed(model: CNMP, setup: PourSetup, evaluator: RolloutEvaluator, cfg: AdaptConfig, seed: int,
              assimilation: AssimilationConfig | None, on_iteration: Callable | None = None) -> dict:
-    """LfD, ACNMP and (after a success, with ``assimilation``) the assimilated model's checks, for
-    one seed; ``model`` is adapted in place (pass a copy).
+    """LfD, ACNMP and (after a solution, with ``assimilation``) the assimilated model's checks,
+    for one seed; ``model`` is adapted in place (pass a copy).
 
-    Returns ``{"lfd_error_g", "success", "rollouts", "final_error_g", "errors_g_per_rollout"
+    The solution is adapt()'s final mean when it succeeded within the budget; else, when the final
+    mean (after the last update, which adapt() does not execute) succeeds when run once more, that
+    one: it is executed and verified, and it is reported as ``solved_after_budget`` with one more
+    roll-out. The noisy roll-outs are not solutions here (adapt() stops on its mean only), but the
+    first executed roll-out of any kind within the tolerance is reported.
+
+    Returns ``{"lfd_error_g", "success" (within the budget), "rollouts", "final_error_g" (of the
+    final mean), "solved_after_budget", "first_success_rollout" (1-based index of the first
+    executed roll-out within the tolerance, mean or noisy; None if none), "errors_g_per_rollout"
     (every executed roll-out in order, the means included), "curve" [[roll-outs, error of the mean
     g], ...], "assimilation": None or {"error_g_no_rl", "demo_errors_g" (16,), "demos_within_30g"}}``.
     """
@@ -133,12 +141,15 @@ def run_seed(model: CNMP, setup: PourSetup, evaluator: RolloutEvaluator, cfg: Ad
 
     res = adapt(model, setup.demos, target, evaluator, replace(cfg, mode="acnmp"), seed=seed, on_iteration=record)
     final = float(res.history[-1].mean_error)
-    if not res.success:  # adapt() ends after an update it did not execute: run the final mean once (not counted)
+    if not res.success:  # adapt() ends after an update it did not execute: run the final mean once
         final = float(evaluator.evaluate(res.trajectory[None], res.times, tp).remaining_errors()[0])
+    after = not res.success and final <= TOLERANCE_G
+    hits = [i + 1 for i, e in enumerate(per_rollout) if e <= TOLERANCE_G]
     out = {"lfd_error_g": float(res.history[0].mean_error), "success": bool(res.success), "rollouts": int(res.rollouts),
-           "final_error_g": final, "errors_g_per_rollout": per_rollout,
+           "final_error_g": final, "solved_after_budget": bool(after),
+           "first_success_rollout": hits[0] if hits else None, "errors_g_per_rollout": per_rollout,
            "curve": [[h.rollouts, h.mean_error] for h in res.history], "assimilation": None}
-    if res.success and assimilation is not None:
+    if (res.success or after) and assimilation is not None:
         assimilate(model, setup.demos, Demonstration(res.times, res.trajectory, tp), assimilation,
                    conditions=target, seed=seed)
         demo_tp = np.stack([d.task_params for d in setup.demos])
@@ -185,7 +196,9 @@ def run_pour(
     dict with ``experiment`` "pour", ``seeds`` N, ``seed_list``, ``test`` {weight_g, target_g},
     ``lfd_only`` {error_g (median over seeds), errors_g (per seed)}, ``acnmp``
     {errors_g_per_rollout (per seed: every executed roll-out's error, g), rollouts_median,
-    rollouts, success_rate (within the budget), success_within_20_rate, final_error_g_median},
+    rollouts, success_rate (within the budget), success_within_20_rate, final_error_g_median,
+    solved_after_budget (seeds whose final mean succeeded one roll-out after the budget),
+    first_success_rollout (per seed, see :func:`run_seed`)},
     ``assimilation`` {error_g_no_rl (median over the seeds that succeeded, None if none),
     demos_reproduced_within_30g (median count out of 16), seeds_assimilated},
     ``rollout_cpu_s_median`` (CPU s per roll-out, in-process only, else None), ``wall_time_s``,
@@ -215,7 +228,8 @@ def run_pour(
             if log:
                 a = r["assimilation"]
                 log(f"seed {seed}: LfD error {r['lfd_error_g']:.0f} g | ACNMP success {r['success']} roll-outs "
-                    f"{r['rollouts']} error {r['final_error_g']:.0f} g"
+                    f"{r['rollouts']} error {r['final_error_g']:.0f} g, first roll-out within 30 g: "
+                    f"{r['first_success_rollout']}"
                     + ("" if a is None else f" | assimilated: no-RL error {a['error_g_no_rl']:.0f} g, demos within "
                                             f"30 g {a['demos_within_30g']}/{len(setup.demos)}")
                     + f" ({runs[-1]['time_s']:.0f} s)")
@@ -237,6 +251,8 @@ def run_pour(
             "success_rate": float(np.mean([r["success"] for r in runs])),
             "success_within_20_rate": float(np.mean([r["success"] and r["rollouts"] <= WITHIN for r in runs])),
             "final_error_g_median": float(np.median([r["final_error_g"] for r in runs])),
+            "solved_after_budget": int(sum(r["solved_after_budget"] for r in runs)),
+            "first_success_rollout": [r["first_success_rollout"] for r in runs],
         },
         "assimilation": {
             "error_g_no_rl": float(np.median([a["error_g_no_rl"] for a in assim])) if assim else None,

@@ -52,7 +52,9 @@ def run(args) -> int:
           f"{result['seeds']} seed(s), {result['wall_time_s']:.1f} s")
     print(f"LfD only: error {result['lfd_only']['error_g']:.0f} g (median)")
     print(f"ACNMP: success {100 * a['success_rate']:.0f}% ({100 * a['success_within_20_rate']:.0f}% within 20 "
-          f"roll-outs), roll-outs {a['rollouts_median']:.0f} (median), final error {a['final_error_g_median']:.0f} g")
+          f"roll-outs), roll-outs {a['rollouts_median']:.0f} (median), final error {a['final_error_g_median']:.0f} g; "
+          f"final mean within 30 g one roll-out after the budget: {a['solved_after_budget']} seed(s); first roll-out "
+          f"within 30 g per seed: {a['first_success_rollout']}")
     if s["seeds_assimilated"]:
         print(f"assimilated ({s['seeds_assimilated']} seed(s)): no-RL error {s['error_g_no_rl']:.0f} g, "
               f"demonstrations within 30 g {s['demos_reproduced_within_30g']:.0f}/16 (medians)")

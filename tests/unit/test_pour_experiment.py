@@ -6,6 +6,7 @@ import json
 
 import numpy as np
 
+from acnmp_core.adaptation import AdaptConfig
 from acnmp_core.assimilation import AssimilationConfig
 from acnmp_core.experiments.pour import TimedEvaluator, make_setup, make_target, run_pour
 from acnmp_core.rollout import RolloutBatch
@@ -49,6 +50,33 @@ def test_a_solution_is_assimilated_and_checked_on_every_demonstration(pour_demo_
     assert a["seeds_assimilated"] == 1 and a["error_g_no_rl"] == 0.0 and a["demos_reproduced_within_30g"] == 16
     assert r["rollout_cpu_s_median"] is None  # not measured on a remote (here: stub) evaluator
     assert stub.calls == 1 + 1 + 16  # the LfD roll-out, the test without RL, each demonstration
+
+
+class _PoursAfter(_PoursExactly):
+    """Misses by 100 g on the first ``n`` batches, pours exactly afterwards."""
+
+    def __init__(self, n):
+        super().__init__()
+        self.n = n
+
+    def evaluate(self, trajectories, times, task_params=None):
+        batch = super().evaluate(trajectories, times, task_params)
+        if self.calls <= self.n:
+            rewards = np.zeros(batch.rewards.shape)
+            rewards[:, -1] = -100.0
+            batch = RolloutBatch(rewards=rewards, success=np.zeros(len(batch), bool), errors=np.full(len(batch), 100.0))
+        return batch
+
+
+def test_a_final_mean_that_succeeds_after_the_budget_is_assimilated(pour_demo_file):
+    """Budget 3: the LfD roll-out and two noisy ones miss; the final mean, run once more, pours exactly."""
+    stub = _PoursAfter(2)
+    r = run_pour([0], train_steps=20, adapt_config=AdaptConfig(max_rollouts=3), assimilation=AssimilationConfig(steps=5),
+                 demo_path=str(pour_demo_file), evaluator_factory=lambda: stub)
+    run = r["runs"][0]
+    assert not run["success"] and run["rollouts"] == 3 and run["solved_after_budget"]
+    assert run["first_success_rollout"] is None and run["errors_g_per_rollout"] == [100.0] * 3
+    assert r["acnmp"]["solved_after_budget"] == 1 and r["assimilation"]["seeds_assimilated"] == 1
 
 
 def test_cli_writes_the_issue_json_and_the_figure(tmp_path, monkeypatch, saved_figures, pour_demo_file):
