@@ -45,6 +45,8 @@ WITHIN = 20
 TOLERANCE_G = 30.0
 #: Supervised training steps of the LfD model.
 TRAIN_STEPS = 3000
+#: The paper's error (g) per roll-out on the real rig (Table 2, right), for the figure.
+PAPER_ERRORS_G = (591, 447, 435, 175, 511, 604, 305, 42, 417, 284, 144, 194, 367, 364, 79, 177, 133, 27)
 
 
 @dataclass
@@ -280,19 +282,22 @@ def plot_pour(result: dict, path) -> "object":
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig, ax = plt.subplots(figsize=(7, 4.2))
-    for run in result["runs"]:
+    for i, run in enumerate(result["runs"]):
         errs = run["errors_g_per_rollout"]
-        ax.plot(np.arange(1, len(errs) + 1), errs, ".", alpha=0.4)
+        ax.plot(np.arange(1, len(errs) + 1), errs, ".", color=f"C{i}", alpha=0.4)
         curve = np.asarray(run["curve"], dtype=np.float64)
         # Each iteration executes its mean first: after iterations ending at roll-outs R_0, R_1, ...
         # the means are roll-outs 1, R_0 + 1, R_1 + 1, ...
         at = np.r_[1.0, curve[:-1, 0] + 1]
-        ax.plot(at, curve[:, 1], "-", lw=1.2, label=f"seed {run['seed']}: mean roll-outs")
+        ax.plot(at, curve[:, 1], "-", color=f"C{i}", lw=1.2, label=f"seed {run['seed']}: mean roll-outs")
+    ax.plot(np.arange(1, len(PAPER_ERRORS_G) + 1), PAPER_ERRORS_G, "kx--", lw=0.8, ms=5,
+            label="paper (Table 2), one run on the real rig")
     ax.axhline(result["config"]["tolerance_g"], color="k", ls="--", lw=1, label="tolerance 30 g")
     ax.set_xlabel("roll-out")
     ax.set_ylabel("|poured - target| (g)")
+    seeds = result["seeds"]
     ax.set_title(f"E6 pour {result['test']['target_g']:.0f} g from {result['test']['weight_g']:.0f} g "
-                 f"({result['seeds']} seeds; dots: every roll-out)")
+                 f"({seeds} seed{'s' if seeds > 1 else ''}; dots: every roll-out)")
     ax.legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
