@@ -60,6 +60,28 @@ def small_model(e1_demos):
 
 
 @pytest.fixture(scope="session")
+def ur10_demo_file(tmp_path_factory):
+    """Path of the E5 demonstration set, generated once per session (~6 s) in a temporary folder
+    under its default name (with ``ACNMP_CACHE`` set to that folder, the default loads it)."""
+    from acnmp_core.tasks.ur10_demos import default_demo_path, ur10_demos
+
+    path = tmp_path_factory.mktemp("ur10_demos") / Path(default_demo_path()).name
+    ur10_demos(path=str(path))
+    return path
+
+
+@pytest.fixture(scope="session")
+def pour_demo_file(tmp_path_factory):
+    """Path of the E6 demonstration set, generated once per session (~15-25 s) in a temporary folder
+    under its default name (with ``ACNMP_CACHE`` set to that folder, the default loads it)."""
+    from acnmp_core.tasks.pour_demos import default_demo_path, pour_demos
+
+    path = tmp_path_factory.mktemp("pour_demos") / Path(default_demo_path()).name
+    pour_demos(str(path))
+    return path
+
+
+@pytest.fixture(scope="session")
 def serving():
     """``with serving(config) as line:`` runs a service on a thread (see :func:`_serving`)."""
     return _serving

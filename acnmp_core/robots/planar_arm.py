@@ -27,6 +27,7 @@ import pybullet as p
 
 from ..rollout import RolloutBatch
 from ..validation import check_array
+from .physics import PhysicsClient
 from .urdf import ArmGeometry, write_planar_arm_urdf
 
 #: Default link lengths (m) of the project's planar arms.
@@ -59,7 +60,7 @@ class PushObject:
     spinning_friction: float = 0.001
 
 
-class PlanarArmSim:
+class PlanarArmSim(PhysicsClient):
     """One PyBullet world: table plane, planar arm, pushable cylinder.
 
     Parameters
@@ -138,12 +139,6 @@ class PlanarArmSim:
     @property
     def n_joints(self) -> int:
         return self.geometry.n_joints
-
-    @property
-    def client_id(self) -> int:
-        if self._cid is None:
-            raise RuntimeError("PlanarArmSim: the simulator is closed")
-        return self._cid
 
     def _object_pose(self, xy) -> list[float]:
         return [float(xy[0]), float(xy[1]), self.obj.height / 2]
@@ -227,26 +222,6 @@ class PlanarArmSim:
         pos, orn = p.getLinkState(self.arm, self.ee_link, computeForwardKinematics=True, physicsClientId=cid)[4:6]
         yaw = p.getEulerFromQuaternion(orn)[2]
         return np.array([pos[0], pos[1], yaw])
-
-    def close(self) -> None:
-        """Disconnect the physics client (idempotent)."""
-        if self._cid is not None:
-            try:
-                p.disconnect(physicsClientId=self._cid)
-            finally:
-                self._cid = None
-
-    def __enter__(self) -> "PlanarArmSim":
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.close()
-
-    def __del__(self) -> None:  # best effort: an un-closed client would leak its physics world
-        try:
-            self.close()
-        except Exception:
-            pass
 
 
 class PlanarPushTask:

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import functools
 import json
+from importlib import import_module
 from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Any, Callable, ClassVar, Mapping
@@ -68,6 +69,70 @@ class PlanarChainDrawing:
         """The constant fields each roll-out event carries for this drawing (docs/PROTOCOL.md)."""
         return {"link_lengths": np.asarray(self.link_lengths, dtype=np.float64),
                 "object_radius": float(self.object_radius), "object_height": float(self.object_height)}
+
+
+@dataclass(frozen=True)
+class MeshChainDrawing:
+    """Draw a robot with the collision shapes of its URDF (meshes and boxes), posed from the
+    executed ``joint_angles`` (T, N) rad at every step (the drawer logs each shape once and its pose
+    per step), the gripper from ``finger_opening`` (T,) m when present (every joint of
+    ``opening_joints`` takes that value), and the handled box from ``object_xyz`` (T, 3) m and
+    ``object_quat`` (T, 4) x, y, z, w; the scene's static parts travel as constant fields.
+
+    robot : the robot kind; the recorder finds this drawing again through the registry.
+    joint_names : the URDF joints of the trajectory's columns, in order.
+    scene : constant named values of the scene (e.g. ``pick_xy`` (2,) m), sent with every event.
+    opening_joints : URDF joints set to ``finger_opening``.
+    urdf : returns the path of the URDF to draw (called by the recorder, not sent).
+    """
+
+    kind: ClassVar[str] = "mesh_chain"
+    #: roll-out states this drawing reads (the first is required, the others optional)
+    states: ClassVar[tuple[str, ...]] = ("joint_angles", "finger_opening", "object_xyz", "object_quat")
+
+    robot: str
+    joint_names: tuple[str, ...]
+    scene: Mapping[str, Any] = field(default_factory=dict)
+    opening_joints: tuple[str, ...] = ()
+    urdf: Callable[[], Any] | None = field(default=None, compare=False, repr=False)
+
+    def event_fields(self) -> dict[str, Any]:
+        """The constant fields each roll-out event carries for this drawing (docs/PROTOCOL.md)."""
+        return {"robot_kind": self.robot, **{k: np.asarray(v, dtype=np.float64) for k, v in self.scene.items()}}
+
+
+@dataclass(frozen=True)
+class PointSetDrawing:
+    """Draw a set of points moving through a roll-out, e.g. the pouring rig's marbles: the state
+    ``marble_xyz`` holds their positions (F, M, 3) m at the control steps ``frame_steps`` (F,). A
+    holder (the cup: boxes in its own frame) turns by the state ``wrist_angle`` (T,) rad about the
+    +y axis through ``pivot``; ``scene_boxes`` stand still; ``poured_g_t`` (T,) g is drawn as a
+    scalar over the roll-out's steps.
+
+    radius : of each point (m).
+    holder_boxes, scene_boxes : tuples of (half extents (3,) m, centre (3,) m, pitch about +y rad).
+    pivot : (3,) m, a point on the holder's axis.
+    """
+
+    kind: ClassVar[str] = "point_set"
+    #: roll-out states this drawing reads (the first is required, the others optional)
+    states: ClassVar[tuple[str, ...]] = ("marble_xyz", "frame_steps", "wrist_angle", "poured_g_t")
+
+    radius: float
+    holder_boxes: tuple = ()
+    scene_boxes: tuple = ()
+    pivot: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    def event_fields(self) -> dict[str, Any]:
+        """The constant fields each roll-out event carries for this drawing (docs/PROTOCOL.md): the
+        radius, the pivot and each box set as ``<set>_half`` (B, 3), ``<set>_center`` (B, 3),
+        ``<set>_pitch`` (B,)."""
+        out: dict[str, Any] = {"point_radius": float(self.radius), "pivot": np.asarray(self.pivot, dtype=np.float64)}
+        for name, boxes in (("holder", self.holder_boxes), ("scene", self.scene_boxes)):
+            out[f"{name}_half"] = np.asarray([b[0] for b in boxes], dtype=np.float64).reshape(-1, 3)
+            out[f"{name}_center"] = np.asarray([b[1] for b in boxes], dtype=np.float64).reshape(-1, 3)
+            out[f"{name}_pitch"] = np.asarray([b[2] for b in boxes], dtype=np.float64).reshape(-1)
+        return out
 
 
 @dataclass(frozen=True)
@@ -211,3 +276,7 @@ register_robot(RobotSpec("planar3", "3-DoF planar arm pushing a cylinder (PyBull
                          tasks={"push": {"n_joints": 3}}, body=functools.partial(_planar_arm_body, 3)))
 register_robot(RobotSpec("planar4", "4-DoF planar arm pushing a cylinder (PyBullet)",
                          tasks={"push": {"n_joints": 4}}, body=functools.partial(_planar_arm_body, 4)))
+register_robot(RobotSpec("ur10", "UR10 with a two-finger gripper, pick and place over an obstacle (PyBullet; E5)",
+                         tasks={"pick_place": {}}, body=lambda: import_module(".ur10", __package__).ur10_body()))
+register_robot(RobotSpec("pour", "a wrist pouring marbles from a cup into another (PyBullet; E6)",
+                         tasks={"pour": {}}, body=lambda: import_module(".pour", __package__).pour_body()))

@@ -12,16 +12,30 @@ import numpy as np
 from ..rollout import RolloutEvaluator
 
 _FACTORIES: dict[str, Callable[[dict[str, Any]], RolloutEvaluator]] = {}
+_CREDITS: dict[str, str] = {}
 
 
-def register_task(name: str):
-    """Decorator: register ``factory(params: dict) -> RolloutEvaluator`` under ``name``."""
+def register_task(name: str, credit: str = "step"):
+    """Decorator: register ``factory(params: dict) -> RolloutEvaluator`` under ``name``.
+
+    ``credit`` is the task's credit for :func:`~acnmp_core.adaptation.adapt` ("step" or "future",
+    the ``credit`` attribute of the evaluators it builds), so an evaluator that only forwards
+    roll-outs to where the task runs (a remote worker) can carry it too.
+    """
 
     def deco(factory):
         _FACTORIES[name] = factory
+        _CREDITS[name] = credit
         return factory
 
     return deco
+
+
+def task_credit(name: str) -> str:
+    """The credit ("step" or "future") of the registered task ``name``; ValueError if unknown."""
+    if name not in _CREDITS:
+        raise ValueError(f"task: unknown task {name!r}; known tasks: {', '.join(task_names())}")
+    return _CREDITS[name]
 
 
 def task_names() -> list[str]:
@@ -56,7 +70,7 @@ def _wall(p: dict) -> RolloutEvaluator:
     return WallTask(**{k: float(v) for k, v in p.items()})
 
 
-@register_task("push")
+@register_task("push", credit="future")
 def _push(p: dict) -> RolloutEvaluator:
     """params: n_joints (int, default 3), tolerance (float, metres, default 0.03), reward
     ("distance", the default, or "final"; see PlanarPushTask)."""
@@ -64,3 +78,28 @@ def _push(p: dict) -> RolloutEvaluator:
 
     return PlanarPushTask(int(p.get("n_joints", 3)), tolerance=float(p.get("tolerance", 0.03)),
                           reward=str(p.get("reward", "distance")))
+
+
+@register_task("pick_place")
+def _pick_place(p: dict) -> RolloutEvaluator:
+    """params: optional place_tolerance, lift_tolerance (floats, metres, default 0.02 each)."""
+    from .ur10_pick_place import UR10PickPlaceTask
+
+    _known(p, "place_tolerance", "lift_tolerance")
+    return UR10PickPlaceTask(**{k: float(p[k]) for k in ("place_tolerance", "lift_tolerance") if k in p})
+
+
+@register_task("pour", credit="future")
+def _pour(p: dict) -> RolloutEvaluator:
+    """params: optional tolerance_g (float, grams, default 30), max_worlds (int, default 2)."""
+    from ..robots.pour import PourTask
+
+    _known(p, "tolerance_g", "max_worlds")
+    return PourTask(tolerance_g=float(p.get("tolerance_g", 30.0)), max_worlds=int(p.get("max_worlds", 2)))
+
+
+def _known(params: dict, *names: str) -> None:
+    """ValueError naming the parameters in ``params`` that are not among ``names``."""
+    unknown = sorted(set(params) - set(names))
+    if unknown:
+        raise ValueError(f"params: unknown parameter(s) {', '.join(unknown)}; expected some of {', '.join(names)}")

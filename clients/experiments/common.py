@@ -16,6 +16,25 @@ def add_output_arguments(p, plot_help: str) -> None:
     p.add_argument("--plot", metavar="FILE", help=plot_help)
 
 
+def add_size_arguments(p, *, seeds: int, train_steps: int, budget: int, budget_help: str) -> None:
+    """Add ``--seeds N`` (default ``seeds``), ``--train-steps N`` and ``--budget N``; the last two
+    default to None, resolved by :func:`sizes` from the experiment module's constants (the help
+    names ``train_steps`` and ``budget``; importing the module here would load torch for ``--help``)."""
+    p.add_argument("--seeds", type=int, default=seeds, help=f"number of seeds 0..N-1 (default {seeds})")
+    p.add_argument("--train-steps", type=int, default=None, help=f"CNMP training steps (default {train_steps})")
+    p.add_argument("--budget", type=int, default=None, help=f"{budget_help} (default {budget})")
+
+
+def sizes(args, train_steps: int, budget: int) -> tuple[int, int]:
+    """``(train steps, budget)`` from ``args`` with the given defaults; ValueError naming the
+    options unless they and ``--seeds`` are positive."""
+    steps = train_steps if args.train_steps is None else args.train_steps
+    budget = budget if args.budget is None else args.budget
+    if args.seeds < 1 or steps < 1 or budget < 1:
+        raise ValueError("--seeds, --train-steps, --budget: expected positive integers")
+    return steps, budget
+
+
 def add_deployment_arguments(p, what: str) -> None:
     """Add ``--distributed`` (help: ``what`` runs where), ``--workers N`` and ``--record FILE.rrd``."""
     p.add_argument("--distributed", action="store_true", help=f"run {what} on a local zenoh deployment")

@@ -10,6 +10,7 @@ set of points) is one function here plus its entry in :data:`DRAWERS`.
 """
 from __future__ import annotations
 
+import functools
 from typing import Callable
 
 import numpy as np
@@ -42,21 +43,15 @@ def draw_planar_chain(rec: rr.RecordingStream, job: str, idx: int, msg: dict, co
     for i in range(1, n + 1):
         pts[:, i, :2] = planar_fk(q[:, :i], lengths[:i])[:, :2]
     pts[:, :, 2] = ARM_Z
-    seq = np.arange(steps, dtype=np.int64)
     ones = np.ones(steps, dtype=np.int64)
     # Columns, not one log call per step: one chunk per roll-out and entity, cheap for T = 300.
     # Every component is a column (one value per step) so each frame is complete on every timeline.
-    indexes = [rr.TimeColumn("step", sequence=seq),
-               rr.TimeColumn("rollout", sequence=np.full(steps, idx, dtype=np.int64)),
-               rr.TimeColumn("rollout_step", sequence=idx * STEP_STRIDE + seq),
-               rr.TimeColumn("wall_time", timestamp=np.full(steps, float(msg["t"])))]
+    indexes = _indexes(idx, np.arange(steps, dtype=np.int64), msg)
     rec.send_columns(
         f"arm/{job}/links", indexes=indexes,
         columns=rr.LineStrips3D.columns(strips=list(pts.astype(np.float32)), colors=[color] * steps,
                                         radii=np.full(steps, 0.006, np.float32)).partition(ones))
-    # The per-roll-out markers appear from the roll-out's first step on every timeline.
-    rec.set_time("step", sequence=0)
-    rec.set_time("rollout_step", sequence=idx * STEP_STRIDE)
+    _at_first_step(rec, idx)
     obj = msg.get("object_xy")
     if obj is not None:
         obj = np.asarray(obj, dtype=np.float64)
@@ -78,8 +73,145 @@ def draw_planar_chain(rec: rr.RecordingStream, job: str, idx: int, msg: dict, co
                                                       colors=[(40, 120, 220)], labels=["target"]))
 
 
+def _indexes(idx: int, steps: np.ndarray, msg: dict) -> list:
+    """The time columns of roll-out ``idx`` at control steps ``steps`` (S,) int: ``step``,
+    ``rollout``, ``rollout_step`` and ``wall_time`` (the event's time ``t``)."""
+    n = len(steps)
+    return [rr.TimeColumn("step", sequence=steps),
+            rr.TimeColumn("rollout", sequence=np.full(n, idx, dtype=np.int64)),
+            rr.TimeColumn("rollout_step", sequence=idx * STEP_STRIDE + steps),
+            rr.TimeColumn("wall_time", timestamp=np.full(n, float(msg["t"])))]
+
+
+def _at_first_step(rec: rr.RecordingStream, idx: int) -> None:
+    """Set the clock to roll-out ``idx``'s first step: what is logged next appears from there on."""
+    rec.set_time("step", sequence=0)
+    rec.set_time("rollout_step", sequence=idx * STEP_STRIDE)
+
+
+def _array(msg: dict, name: str, shape: tuple) -> np.ndarray:
+    """Field ``name`` as float64 with ``shape`` (-1: any length); ValueError naming it otherwise."""
+    a = np.asarray(msg[name], dtype=np.float64)
+    if a.ndim != len(shape) or any(w not in (-1, n) for w, n in zip(shape, a.shape)):
+        raise ValueError(f"{name}: expected shape {shape} (-1: any), got {a.shape}")
+    return a
+
+
+def _pitch_quats(pitch: np.ndarray) -> np.ndarray:
+    """(N, 4) x, y, z, w quaternions of rotations by ``pitch`` (N,) rad about +y."""
+    half = 0.5 * np.asarray(pitch, dtype=np.float64)
+    return np.stack([np.zeros_like(half), np.sin(half), np.zeros_like(half), np.cos(half)], axis=-1)
+
+
+@functools.lru_cache(maxsize=4)
+def _link_poser(robot_kind: str):
+    """The :class:`~acnmp_core.robots.physics.LinkPoser` of a mesh robot kind (built once)."""
+    from acnmp_core.robots.physics import LinkPoser
+    from acnmp_core.robots.registry import robot
+
+    drawing = robot(robot_kind).drawing
+    if drawing is None or getattr(drawing, "urdf", None) is None:
+        raise ValueError(f"robot_kind: {robot_kind!r} has no URDF to draw")
+    return LinkPoser(drawing.urdf()), drawing
+
+
+#: (recording id, entity) of the static shapes already logged: each shape's mesh is sent once.
+_LOGGED: set[tuple[str, str]] = set()
+
+
+def _log_once(rec: rr.RecordingStream, entity: str, archetype_factory) -> None:
+    """Log ``archetype_factory()`` as static data at ``entity`` unless this recording has it."""
+    key = (rec.get_recording_id() or "", entity)
+    if key not in _LOGGED:
+        rec.log(entity, archetype_factory(), static=True)
+        _LOGGED.add(key)
+
+
+def draw_mesh_chain(rec: rr.RecordingStream, job: str, idx: int, msg: dict, color) -> None:
+    """A mesh robot (``robot_kind``, e.g. the UR10): every collision shape of its URDF (STL meshes
+    and boxes) logged once under ``/arm/<job>/robot`` and posed at every step from ``joint_angles``
+    (T, N) rad (and ``finger_opening`` (T,) m); the handled box from ``object_xyz`` (T, 3),
+    ``object_quat`` (T, 4) and ``object_size`` (2,) with its height ``task_params[0]`` (m); the
+    obstacle (``obstacle_xy``, ``obstacle_size``, height ``task_params[1]``) and the place position
+    (``place_xy``) from the roll-out's first step."""
+    poser, drawing = _link_poser(str(msg["robot_kind"]))
+    q = _array(msg, "joint_angles", (-1, len(drawing.joint_names)))
+    steps = q.shape[0]
+    if not 1 <= steps < STEP_STRIDE:
+        raise ValueError(f"joint_angles: expected 1 <= T < {STEP_STRIDE} steps, got {steps}")
+    values = {n: q[:, i] for i, n in enumerate(drawing.joint_names)}
+    if msg.get("finger_opening") is not None:
+        opening = _array(msg, "finger_opening", (steps,))
+        values.update({n: opening for n in drawing.opening_joints})
+    pos, quat = poser.poses(values)
+    indexes = _indexes(idx, np.arange(steps, dtype=np.int64), msg)
+    ones = np.ones(steps, dtype=np.int64)
+    for i, shape in enumerate(poser.shapes):
+        entity = f"arm/{job}/robot/{i:02d}_{rr.escape_entity_path_part(shape.link)}"
+        if shape.kind == "mesh":
+            _log_once(rec, entity, lambda s=shape: rr.Asset3D(path=s.mesh, albedo_factor=(170, 175, 185, 255)))
+        else:
+            _log_once(rec, entity, lambda s=shape: rr.Boxes3D(half_sizes=[s.half_extents], colors=[(60, 60, 60)],
+                                                              fill_mode="solid"))
+        rec.send_columns(entity, indexes=indexes,
+                         columns=rr.Transform3D.columns(translation=pos[:, i], quaternion=quat[:, i]).partition(ones))
+    tp = msg.get("task_params")
+    heights = np.asarray(tp, dtype=np.float64).reshape(-1) if tp is not None else np.zeros(2)
+    if msg.get("object_xyz") is not None and msg.get("object_quat") is not None and msg.get("object_size") is not None:
+        size = _array(msg, "object_size", (2,))
+        half = np.tile([size[0] / 2, size[1] / 2, heights[0] / 2], (steps, 1))
+        rec.send_columns(f"arm/{job}/object", indexes=indexes, columns=rr.Boxes3D.columns(
+            half_sizes=half, centers=_array(msg, "object_xyz", (steps, 3)),
+            quaternions=_array(msg, "object_quat", (steps, 4)), colors=[(200, 40, 40)] * steps).partition(ones))
+    _at_first_step(rec, idx)
+    if msg.get("obstacle_xy") is not None and msg.get("obstacle_size") is not None and len(heights) > 1:
+        (ox, oy), (sx, sy) = _array(msg, "obstacle_xy", (2,)), _array(msg, "obstacle_size", (2,))
+        rec.log(f"arm/{job}/obstacle", rr.Boxes3D(half_sizes=[(sx / 2, sy / 2, heights[1] / 2)],
+                                                  centers=[(ox, oy, heights[1] / 2)], colors=[(90, 90, 200)]))
+    if msg.get("place_xy") is not None:
+        rec.log(f"arm/{job}/place", rr.Points3D([[*_array(msg, "place_xy", (2,)), 0.0]], radii=[0.01],
+                                                colors=[(40, 160, 40)], labels=["place"]))
+
+
+def draw_point_set(rec: rr.RecordingStream, job: str, idx: int, msg: dict, color) -> None:
+    """A set of points (the pouring rig's marbles): ``marble_xyz`` (F, M, 3) m at the control
+    steps ``frame_steps`` (F,) as points of ``point_radius``; the holder's boxes (``holder_*``, in
+    its own frame) turned by ``wrist_angle`` (T,) rad about +y through ``pivot`` at every step; the
+    scene's boxes (``scene_*``) from the roll-out's first step; ``poured_g_t`` (T,) g as a scalar
+    at ``/poured_g/<job>``."""
+    xyz = _array(msg, "marble_xyz", (-1, -1, 3))
+    frames, n_points = xyz.shape[:2]
+    fsteps = np.asarray(msg.get("frame_steps", np.arange(frames)), dtype=np.int64).reshape(-1)
+    if fsteps.shape != (frames,) or np.any(fsteps < 0) or np.any(fsteps >= STEP_STRIDE):
+        raise ValueError(f"frame_steps: expected {frames} steps in [0, {STEP_STRIDE}), got {fsteps.tolist()}")
+    radius = float(msg.get("point_radius", 0.01))
+    rec.send_columns(f"arm/{job}/points", indexes=_indexes(idx, fsteps, msg), columns=rr.Points3D.columns(
+        positions=xyz.reshape(-1, 3), radii=np.full(frames * n_points, radius, np.float32),
+        colors=[color] * (frames * n_points)).partition(np.full(frames, n_points, dtype=np.int64)))
+    pivot = _array(msg, "pivot", (3,)) if msg.get("pivot") is not None else np.zeros(3)
+    if msg.get("wrist_angle") is not None:
+        angle = _array(msg, "wrist_angle", (-1,))
+        steps = len(angle)
+        turn = _pitch_quats(angle)
+        _log_once(rec, f"arm/{job}/holder", lambda: rr.Boxes3D(
+            half_sizes=_array(msg, "holder_half", (-1, 3)), centers=_array(msg, "holder_center", (-1, 3)),
+            quaternions=_pitch_quats(_array(msg, "holder_pitch", (-1,))), colors=[(120, 120, 140)], fill_mode="solid"))
+        rec.send_columns(f"arm/{job}/holder", indexes=_indexes(idx, np.arange(steps, dtype=np.int64), msg),
+                         columns=rr.Transform3D.columns(translation=np.tile(pivot, (steps, 1)),
+                                                        quaternion=turn).partition(np.ones(steps, dtype=np.int64)))
+    if msg.get("poured_g_t") is not None:
+        poured = _array(msg, "poured_g_t", (-1,))
+        rec.send_columns(f"poured_g/{job}", indexes=_indexes(idx, np.arange(len(poured), dtype=np.int64), msg),
+                         columns=rr.Scalars.columns(scalars=poured))
+    if msg.get("scene_half") is not None:
+        _log_once(rec, f"arm/{job}/scene", lambda: rr.Boxes3D(
+            half_sizes=_array(msg, "scene_half", (-1, 3)), centers=_array(msg, "scene_center", (-1, 3)),
+            quaternions=_pitch_quats(_array(msg, "scene_pitch", (-1,))), colors=[(90, 90, 200)]))
+
+
 #: Drawing kind -> its function.
-DRAWERS: dict[str, Drawer] = {"planar_chain": draw_planar_chain}
+DRAWERS: dict[str, Drawer] = {"planar_chain": draw_planar_chain, "mesh_chain": draw_mesh_chain,
+                              "point_set": draw_point_set}
 
 
 def drawer_for(msg: dict) -> Drawer | None:

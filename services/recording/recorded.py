@@ -28,6 +28,7 @@ class RecordedEvaluator:
 
     def __init__(self, inner, publisher: EventPublisher, job: str, robot: str):
         self.inner, self.publisher, self.job = inner, publisher, job
+        self.credit = getattr(inner, "credit", "step")  # adapt() reads the inner task's credit
         self.drawing = robot_drawing(robot)
         self.rollouts = 0
 

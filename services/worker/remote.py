@@ -34,6 +34,7 @@ import numpy as np
 import zenoh
 
 from acnmp_core.rollout import RolloutBatch
+from acnmp_core.tasks.registry import task_credit, task_names
 from services.transport import Keyspace, WireError, alive_tokens, call
 from services.transport.keys import check_name, last_chunk
 
@@ -74,6 +75,8 @@ class RemoteEvaluator:
         self.keys = keys if isinstance(keys, Keyspace) else Keyspace(keys)
         self.robot = check_name("robot", robot)
         self.task = task
+        #: the task's credit for adapt() (the registry's; "step" for a task this process does not know)
+        self.credit = task_credit(task) if task in task_names() else "step"
         self.task_config = dict(task_config or {})
         self.timeout = float(timeout)
         self.discover_timeout = float(discover_timeout)

@@ -100,7 +100,7 @@ def test_an_unknown_drawing_kind_is_recorded_without_a_drawing(tmp_path):
     path = tmp_path / "future.rrd"
     q, obj = _states(0)
     with RrdWriter(path) as w:
-        w.log_event(_event(0, q, obj, drawing="mesh_chain"))
+        w.log_event(_event(0, q, obj, drawing="hologram"))  # a kind of some future robot
     assert _read(path) == {}
     assert summarize(path)["jobs"]["push-extrapolation"]["rollouts"] == 1
 

@@ -1,0 +1,305 @@
+"""E6: pour a target amount of marbles from a cup heavier than any demonstrated one (paper Sec. 4.4,
+Table 2 right).
+
+Per seed, a CNMP is trained on the 16 demonstrations of the scripted expert
+(:mod:`acnmp_core.tasks.pour_demos`: initial weights 650-1200 g, tilts 85-95 deg, 240 rows of the
+wrist angle, rad), conditioned on the task parameters (initial weight g, target amount g) and the
+upright start at t = 0. At the test (:data:`TEST`: 1400 g, pour 1322 g, outside the demonstrations):
+
+* **LfD only**: the conditioned mean is executed once.
+* **ACNMP**: :func:`~acnmp_core.adaptation.adapt` with the project's default
+  :class:`~acnmp_core.adaptation.AdaptConfig` and a budget of :data:`BUDGET` roll-outs. The only
+  reward is minus the final error (g), so :class:`~acnmp_core.robots.pour.PourTask` credits every
+  action with the rewards after it (``credit = "future"``).
+* **Assimilation**: a successful solution joins the demonstrations
+  (:func:`~acnmp_core.assimilation.assimilate`, anchored on the test's conditions); then the model
+  conditioned on the test pours without RL, and each demonstration is reproduced (conditioned on
+  its own weight and poured amount, executed, error against that amount).
+
+``acnmp experiment pour`` and ``benchmarks/e6_pour.py`` are thin adapters around :func:`run_pour`,
+whose result is a JSON-ready dict.
+"""
+from __future__ import annotations
+
+import copy
+import time
+from dataclasses import dataclass, replace
+from typing import Callable
+
+import numpy as np
+
+from ..adaptation import AdaptConfig, AdaptTarget, adapt
+from ..assimilation import AssimilationConfig, assimilate
+from ..cnmp import CNMP, CNMPConfig
+from ..data import DemoSet, Demonstration
+from ..rollout import RolloutBatch, RolloutEvaluator
+from ..training import TrainConfig, train
+
+#: The test: initial weight and target amount (g).
+TEST = {"weight_g": 1400.0, "target_g": 1322.0}
+#: ACNMP's roll-out budget (the paper's solution took 18; issue 15 asks for <= 20).
+BUDGET = 60
+#: Roll-outs within which a success counts for ``success_within_20_rate`` (issue 15).
+WITHIN = 20
+#: Success tolerance (g).
+TOLERANCE_G = 30.0
+#: Supervised training steps of the LfD model.
+TRAIN_STEPS = 3000
+#: The paper's error (g) per roll-out on the real rig (Table 2, right), for the figure.
+PAPER_ERRORS_G = (591, 447, 435, 175, 511, 604, 305, 42, 417, 284, 144, 194, 367, 364, 79, 177, 133, 27)
+
+
+@dataclass
+class PourSetup:
+    """Everything that defines an E6 run.
+
+    demos : the 16 demonstrations (times phase (240,), wrist angle (240, 1) rad, task parameters
+        (initial weight g, poured g) (2,)).
+    times : (240,) query times (phase in [0, 1]).
+    q0 : (1,) the start angle (rad, upright), shared by every demonstration.
+    """
+
+    demos: DemoSet
+    times: np.ndarray
+    q0: np.ndarray
+
+
+class TimedEvaluator:
+    """An evaluator that records the process CPU time (s) per roll-out of every batch in
+    ``cpu_s`` (meaningful for an in-process evaluator only); ``credit`` is the inner one's."""
+
+    def __init__(self, inner: RolloutEvaluator) -> None:
+        self.inner = inner
+        self.credit = getattr(inner, "credit", "step")
+        self.cpu_s: list[float] = []
+
+    def evaluate(self, trajectories, times, task_params=None) -> RolloutBatch:
+        """Evaluate through ``inner``; see :class:`~acnmp_core.rollout.RolloutEvaluator`."""
+        c0 = time.process_time()
+        batch = self.inner.evaluate(trajectories, times, task_params)
+        self.cpu_s.append((time.process_time() - c0) / max(len(batch), 1))
+        return batch
+
+
+def make_setup(demo_path: str | None = None) -> PourSetup:
+    """Load (or generate and cache, ~15-30 s) the E6 demonstrations."""
+    from ..tasks.pour_demos import pour_demos
+
+    arrays = pour_demos(path=demo_path)
+    return PourSetup(demos=arrays.to_demo_set(), times=arrays.times[0].copy(), q0=arrays.values[0, 0].copy())
+
+
+def make_target(setup: PourSetup, task_params) -> AdaptTarget:
+    """The CNMP conditioning for ``task_params`` (2,) = (initial weight g, target g): the upright
+    start observed at t = 0."""
+    return AdaptTarget(obs_times=setup.times[:1].copy(), obs_values=setup.q0[None].copy(),
+                       task_params=np.asarray(task_params, dtype=np.float64), query_times=setup.times.copy())
+
+
+def train_pour_cnmp(demos: DemoSet, seed: int, steps: int = TRAIN_STEPS, progress: bool = False) -> CNMP:
+    """The LfD model of E6: a default-size CNMP over the wrist angle with 2 task parameters."""
+    model = CNMP(CNMPConfig(n_outputs=1, n_task_params=2, output_names=["wrist"],
+                            task_param_names=["initial_weight_g", "target_g"]), seed=seed)
+    train(model, demos, TrainConfig(steps=steps), seed=seed, progress=progress)
+    return model
+
+
+def mean_errors_g(model: CNMP, setup: PourSetup, evaluator: RolloutEvaluator, task_params: np.ndarray) -> np.ndarray:
+    """(N,) error (g) of the model's mean trajectory conditioned on each row of ``task_params``
+    (N, 2), executed once each (one batch per row, since each row has its own weight)."""
+    out = []
+    for tp in np.atleast_2d(task_params):
+        q = make_target(setup, tp)
+        mean = model.predict(q.obs_times, q.obs_values, q.task_params, q.query_times).mean
+        out.append(float(evaluator.evaluate(mean[None], setup.times, tp).remaining_errors()[0]))
+    return np.asarray(out)
+
+
+def run_seed(model: CNMP, setup: PourSetup, evaluator: RolloutEvaluator, cfg: AdaptConfig, seed: int,
+             assimilation: AssimilationConfig | None, on_iteration: Callable | None = None) -> dict:
+    """LfD, ACNMP and (after a solution, with ``assimilation``) the assimilated model's checks,
+    for one seed; ``model`` is adapted in place (pass a copy).
+
+    The solution is adapt()'s final mean when it succeeded within the budget; else, when the final
+    mean (after the last update, which adapt() does not execute) succeeds when run once more, that
+    one: it is executed and verified, and it is reported as ``solved_after_budget`` with one more
+    roll-out. The noisy roll-outs are not solutions here (adapt() stops on its mean only), but the
+    first executed roll-out of any kind within the tolerance is reported.
+
+    Returns ``{"lfd_error_g", "success" (within the budget), "rollouts", "final_error_g" (of the
+    final mean), "solved_after_budget", "first_success_rollout" (1-based index of the first
+    executed roll-out within the tolerance, mean or noisy; None if none), "errors_g_per_rollout"
+    (every executed roll-out in order, the means included), "curve" [[roll-outs, error of the mean
+    g], ...], "assimilation": None or {"error_g_no_rl", "demo_errors_g" (16,), "demos_within_30g"}}``.
+    """
+    tp = np.array([TEST["weight_g"], TEST["target_g"]])
+    target = make_target(setup, tp)
+    per_rollout: list[float] = []
+
+    def record(log, trajs, batch):
+        per_rollout.extend(float(e) for e in batch.remaining_errors())
+        if on_iteration is not None:
+            on_iteration(log, trajs, batch)
+
+    res = adapt(model, setup.demos, target, evaluator, replace(cfg, mode="acnmp"), seed=seed, on_iteration=record)
+    final = float(res.history[-1].mean_error)
+    if not res.success:  # adapt() ends after an update it did not execute: run the final mean once
+        final = float(evaluator.evaluate(res.trajectory[None], res.times, tp).remaining_errors()[0])
+    after = not res.success and final <= TOLERANCE_G
+    hits = [i + 1 for i, e in enumerate(per_rollout) if e <= TOLERANCE_G]
+    out = {"lfd_error_g": float(res.history[0].mean_error), "success": bool(res.success), "rollouts": int(res.rollouts),
+           "final_error_g": final, "solved_after_budget": bool(after),
+           "first_success_rollout": hits[0] if hits else None, "errors_g_per_rollout": per_rollout,
+           "curve": [[h.rollouts, h.mean_error] for h in res.history], "assimilation": None}
+    if (res.success or after) and assimilation is not None:
+        assimilate(model, setup.demos, Demonstration(res.times, res.trajectory, tp), assimilation,
+                   conditions=target, seed=seed)
+        demo_tp = np.stack([d.task_params for d in setup.demos])
+        demo_err = mean_errors_g(model, setup, evaluator, demo_tp)
+        out["assimilation"] = {"error_g_no_rl": float(mean_errors_g(model, setup, evaluator, tp)[0]),
+                               "demo_errors_g": demo_err.tolist(),
+                               "demos_within_30g": int(np.sum(demo_err <= TOLERANCE_G))}
+    return out
+
+
+def run_pour(
+    seeds: int | list[int] = 5,
+    *,
+    train_steps: int = TRAIN_STEPS,
+    adapt_config: AdaptConfig | None = None,
+    assimilation: AssimilationConfig | None = None,
+    assimilate_solution: bool = True,
+    demo_path: str | None = None,
+    evaluator_factory: Callable[[], RolloutEvaluator] | None = None,
+    on_iteration: Callable[[int], Callable] | None = None,
+    progress: bool = False,
+    log: Callable[[str], None] | None = None,
+) -> dict:
+    """Run E6 over several seeds and return the JSON-ready result.
+
+    Parameters
+    ----------
+    seeds : a count N (seeds 0..N-1) or an explicit list; each seeds the CNMP's initialisation and
+        training, the adaptation's exploration and the assimilation's sampling.
+    train_steps : supervised CNMP training steps (batch 32).
+    adapt_config : adaptation settings (default: ``AdaptConfig(max_rollouts=BUDGET)``, the project's
+        defaults otherwise); ``mode`` is set here.
+    assimilation : settings of the continued training (default: ``AssimilationConfig()``).
+    assimilate_solution : False skips the assimilation and its checks (shorter runs).
+    demo_path : demonstration file (default: the cached generated set).
+    evaluator_factory : ``() -> RolloutEvaluator`` (e.g. remote ``pour`` workers), called once per
+        seed; default: one in-process :class:`~acnmp_core.robots.pour.PourTask` shared by all runs.
+        Its ``credit`` reaches adapt() (PourTask's and a remote ``pour`` evaluator's are "future").
+    on_iteration : ``seed -> callback`` for adapt(), e.g. to record.
+    progress : training progress bars. log : called with one line per finished seed.
+
+    Returns
+    -------
+    dict with ``experiment`` "pour", ``seeds`` N, ``seed_list``, ``test`` {weight_g, target_g},
+    ``lfd_only`` {error_g (median over seeds), errors_g (per seed)}, ``acnmp``
+    {errors_g_per_rollout (per seed: every executed roll-out's error, g), rollouts_median,
+    rollouts, success_rate (within the budget), success_within_20_rate, final_error_g_median,
+    solved_after_budget (seeds whose final mean succeeded one roll-out after the budget),
+    first_success_rollout (per seed, see :func:`run_seed`)},
+    ``assimilation`` {error_g_no_rl (median over the seeds that succeeded, None if none),
+    demos_reproduced_within_30g (median count out of 16), seeds_assimilated},
+    ``rollout_cpu_s_median`` (CPU s per roll-out, in-process only, else None), ``wall_time_s``,
+    ``config`` and ``runs`` (per seed).
+    """
+    from ..robots.pour import PourTask
+
+    seed_list = list(range(seeds)) if isinstance(seeds, int) else [int(s) for s in seeds]
+    if not seed_list:
+        raise ValueError("seeds: expected at least one seed")
+    cfg = adapt_config or AdaptConfig(max_rollouts=BUDGET)
+    acfg = (assimilation or AssimilationConfig()) if assimilate_solution else None
+    t0 = time.perf_counter()
+    setup = make_setup(demo_path)
+    shared = PourTask(tolerance_g=TOLERANCE_G) if evaluator_factory is None else None
+    runs: list[dict] = []
+    cpu: list[float] = []
+    try:
+        for seed in seed_list:
+            t1 = time.perf_counter()
+            ev = TimedEvaluator(shared if shared is not None else evaluator_factory())
+            model = train_pour_cnmp(setup.demos, seed, train_steps, progress)
+            cb = on_iteration(seed) if on_iteration else None
+            r = run_seed(copy.deepcopy(model), setup, ev, cfg, seed, acfg, cb)
+            cpu.extend(ev.cpu_s)
+            runs.append({"seed": seed, **r, "time_s": round(time.perf_counter() - t1, 2)})
+            if log:
+                a = r["assimilation"]
+                log(f"seed {seed}: LfD error {r['lfd_error_g']:.0f} g | ACNMP success {r['success']} roll-outs "
+                    f"{r['rollouts']} error {r['final_error_g']:.0f} g, first roll-out within 30 g: "
+                    f"{r['first_success_rollout']}"
+                    + ("" if a is None else f" | assimilated: no-RL error {a['error_g_no_rl']:.0f} g, demos within "
+                                            f"30 g {a['demos_within_30g']}/{len(setup.demos)}")
+                    + f" ({runs[-1]['time_s']:.0f} s)")
+    finally:
+        if shared is not None:
+            shared.close()
+    assim = [r["assimilation"] for r in runs if r["assimilation"] is not None]
+    return {
+        "experiment": "pour",
+        "seeds": len(seed_list),
+        "seed_list": seed_list,
+        "test": dict(TEST),
+        "lfd_only": {"error_g": float(np.median([r["lfd_error_g"] for r in runs])),
+                     "errors_g": [r["lfd_error_g"] for r in runs]},
+        "acnmp": {
+            "errors_g_per_rollout": [r["errors_g_per_rollout"] for r in runs],
+            "rollouts_median": float(np.median([r["rollouts"] for r in runs])),
+            "rollouts": [r["rollouts"] for r in runs],
+            "success_rate": float(np.mean([r["success"] for r in runs])),
+            "success_within_20_rate": float(np.mean([r["success"] and r["rollouts"] <= WITHIN for r in runs])),
+            "final_error_g_median": float(np.median([r["final_error_g"] for r in runs])),
+            "solved_after_budget": int(sum(r["solved_after_budget"] for r in runs)),
+            "first_success_rollout": [r["first_success_rollout"] for r in runs],
+        },
+        "assimilation": {
+            "error_g_no_rl": float(np.median([a["error_g_no_rl"] for a in assim])) if assim else None,
+            "demos_reproduced_within_30g": float(np.median([a["demos_within_30g"] for a in assim])) if assim else None,
+            "seeds_assimilated": len(assim),
+        },
+        "rollout_cpu_s_median": float(np.median(cpu)) if shared is not None and cpu else None,
+        "wall_time_s": round(time.perf_counter() - t0, 2),
+        "config": {"train_steps": train_steps, "adapt": cfg.to_dict(),
+                   "assimilation": None if acfg is None else vars(acfg).copy(), "tolerance_g": TOLERANCE_G},
+        "runs": runs,
+    }
+
+
+def plot_pour(result: dict, path) -> "object":
+    """Write the error (g) of every executed roll-out against its index, one line per seed, like
+    the paper's Table 2 (right), with the tolerance; returns the written path."""
+    from pathlib import Path
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig, ax = plt.subplots(figsize=(7, 4.2))
+    for i, run in enumerate(result["runs"]):
+        errs = run["errors_g_per_rollout"]
+        ax.plot(np.arange(1, len(errs) + 1), errs, ".", color=f"C{i}", alpha=0.4)
+        curve = np.asarray(run["curve"], dtype=np.float64)
+        # Each iteration executes its mean first: after iterations ending at roll-outs R_0, R_1, ...
+        # the means are roll-outs 1, R_0 + 1, R_1 + 1, ...
+        at = np.r_[1.0, curve[:-1, 0] + 1]
+        ax.plot(at, curve[:, 1], "-", color=f"C{i}", lw=1.2, label=f"seed {run['seed']}: mean roll-outs")
+    ax.plot(np.arange(1, len(PAPER_ERRORS_G) + 1), PAPER_ERRORS_G, "kx--", lw=0.8, ms=5,
+            label="paper (Table 2), one run on the real rig")
+    ax.axhline(result["config"]["tolerance_g"], color="k", ls="--", lw=1, label="tolerance 30 g")
+    ax.set_xlabel("roll-out")
+    ax.set_ylabel("|poured - target| (g)")
+    seeds = result["seeds"]
+    ax.set_title(f"E6 pour {result['test']['target_g']:.0f} g from {result['test']['weight_g']:.0f} g "
+                 f"({seeds} seed{'s' if seeds > 1 else ''}; dots: every roll-out)")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path

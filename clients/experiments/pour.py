@@ -1,0 +1,66 @@
+"""``acnmp experiment pour``: E6, pour 1322 g from a 1400 g cup (outside the demonstrations);
+LfD only vs ACNMP, then the assimilated solution."""
+from __future__ import annotations
+
+from .common import (add_deployment_arguments, add_output_arguments, add_size_arguments,
+                     check_deployment_arguments, sizes, write_json)
+
+
+def register(subparsers) -> None:
+    """Add the ``pour`` experiment parser."""
+    p = subparsers.add_parser(
+        "pour",
+        help="E6: pour a target amount of marbles from a cup heavier than any demonstrated one",
+        description=(
+            "Train a CNMP on 16 pouring demonstrations (task parameters: initial cup weight 650-1200 g "
+            "and poured amount), then execute its LfD trajectory and adapt it with ACNMP for a 1400 g "
+            "cup and a 1322 g target in PyBullet, assimilate the solution and check it without RL, "
+            "over several seeds. --json and --plot save results."
+        ),
+    )
+    add_size_arguments(p, seeds=5, train_steps=3000, budget=60, budget_help="ACNMP roll-out budget")
+    p.add_argument("--no-assimilation", action="store_true", help="skip the assimilation and its checks")
+    add_output_arguments(p, "write the error of every roll-out per seed (PNG)")
+    add_deployment_arguments(p, "the roll-outs on pour PyBullet workers")
+    p.add_argument("--quiet", action="store_true", help="no per-seed lines")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    """Run E6 as asked by ``args`` and print a summary; returns the exit code."""
+    import torch
+
+    from acnmp_core.adaptation import AdaptConfig
+    from acnmp_core.experiments.pour import BUDGET, TOLERANCE_G, TRAIN_STEPS, plot_pour, run_pour
+
+    train_steps, budget = sizes(args, TRAIN_STEPS, BUDGET)
+    check_deployment_arguments(args)
+    torch.set_num_threads(1)  # the CNMP is small; threads only contend with the simulator
+    kwargs = dict(train_steps=train_steps, adapt_config=AdaptConfig(max_rollouts=budget),
+                  assimilate_solution=not args.no_assimilation, log=None if args.quiet else print)
+    if args.distributed:
+        from clients.distributed import remote_rollouts
+
+        with remote_rollouts("pour", "pour", workers=args.workers, record=args.record, prefix="e6",
+                             progress=not args.quiet) as make:
+            result = run_pour(args.seeds, evaluator_factory=lambda: make("pour", {"tolerance_g": TOLERANCE_G}),
+                              **kwargs)
+    else:
+        result = run_pour(args.seeds, **kwargs)
+    a, s = result["acnmp"], result["assimilation"]
+    print(f"E6 pour {result['test']['target_g']:.0f} g from {result['test']['weight_g']:.0f} g, "
+          f"{result['seeds']} seed(s), {result['wall_time_s']:.1f} s")
+    print(f"LfD only: error {result['lfd_only']['error_g']:.0f} g (median)")
+    print(f"ACNMP: success {100 * a['success_rate']:.0f}% ({100 * a['success_within_20_rate']:.0f}% within 20 "
+          f"roll-outs), roll-outs {a['rollouts_median']:.0f} (median), final error {a['final_error_g_median']:.0f} g; "
+          f"final mean within 30 g one roll-out after the budget: {a['solved_after_budget']} seed(s); first roll-out "
+          f"within 30 g per seed: {a['first_success_rollout']}")
+    if s["seeds_assimilated"]:
+        print(f"assimilated ({s['seeds_assimilated']} seed(s)): no-RL error {s['error_g_no_rl']:.0f} g, "
+              f"demonstrations within 30 g {s['demos_reproduced_within_30g']:.0f}/16 (medians)")
+    if result["rollout_cpu_s_median"] is not None:
+        print(f"CPU per roll-out: {result['rollout_cpu_s_median']:.2f} s (median)")
+    write_json(result, args.json)
+    if args.plot:
+        print(f"wrote {plot_pour(result, args.plot)}", flush=True)
+    return 0

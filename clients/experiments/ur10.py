@@ -1,0 +1,58 @@
+"""``acnmp experiment ur10``: E5, a UR10 picks and places over an obstacle, extrapolated to taller
+objects and obstacles; LfD only vs ACNMP, per-joint errors against the expert."""
+from __future__ import annotations
+
+from .common import (add_deployment_arguments, add_output_arguments, add_size_arguments,
+                     check_deployment_arguments, sizes, write_json)
+
+
+def register(subparsers) -> None:
+    """Add the ``ur10`` experiment parser."""
+    p = subparsers.add_parser(
+        "ur10",
+        help="E5: UR10 pick and place over an obstacle at object/obstacle heights outside the demos",
+        description=(
+            "Train a CNMP on 8 UR10 pick-and-place demonstrations (task parameters: object and obstacle "
+            "heights, 2-6 and 2-8 cm), then execute its LfD trajectory and adapt it with ACNMP at "
+            "(8, 10) and (9, 11) cm in PyBullet, over several seeds. Prints per-joint errors (deg) "
+            "against the expert at the test heights; --json and --plot save results."
+        ),
+    )
+    add_size_arguments(p, seeds=5, train_steps=3000, budget=60, budget_help="ACNMP roll-out budget per case")
+    add_output_arguments(p, "write the per-joint trajectories of the first seed (PNG)")
+    add_deployment_arguments(p, "the roll-outs on ur10 PyBullet workers")
+    p.add_argument("--quiet", action="store_true", help="no per-run lines")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    """Run E5 as asked by ``args`` and print a summary table; returns the exit code."""
+    import torch
+
+    from acnmp_core.adaptation import AdaptConfig
+    from acnmp_core.experiments.ur10 import BUDGET, TRAIN_STEPS, plot_ur10, run_ur10
+
+    train_steps, budget = sizes(args, TRAIN_STEPS, BUDGET)
+    check_deployment_arguments(args)
+    torch.set_num_threads(1)  # the CNMP is small; threads only contend with the simulator
+    kwargs = dict(train_steps=train_steps, adapt_config=AdaptConfig(max_rollouts=budget),
+                  log=None if args.quiet else print)
+    if args.distributed:
+        from clients.distributed import remote_rollouts
+
+        with remote_rollouts("ur10", "pick_place", workers=args.workers, record=args.record, prefix="e5",
+                             progress=not args.quiet) as make:
+            result = run_ur10(args.seeds, evaluator_factory=lambda case: make(f"ur10-{case}", {}), **kwargs)
+    else:
+        result = run_ur10(args.seeds, **kwargs)
+    print(f"E5 UR10, {result['seeds']} seed(s), {result['wall_time_s']:.1f} s; joint errors (deg, median over seeds) "
+          f"{', '.join(result['joint_names'])}")
+    print(f"{'case':<6} {'method':<9} {'success':>8} {'roll-outs':>9}  joint errors (deg)")
+    for case, methods in result["cases"].items():
+        for m, s in methods.items():
+            errs = " ".join(f"{e:6.2f}" for e in s["joint_error_deg"])
+            print(f"{case:<6} {m:<9} {100 * s['success_rate']:>7.0f}% {s['rollouts_median']:>9.0f}  {errs}")
+    write_json(result, args.json)
+    if args.plot:
+        print(f"wrote {plot_ur10(result, args.plot)}", flush=True)
+    return 0

@@ -1,0 +1,106 @@
+"""E6 in small: one seed, a short training and budget, through the CLI; the JSON has the shape issue
+15 asks for; the assimilation path runs on a stub evaluator that every trajectory satisfies."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+
+from acnmp_core.adaptation import AdaptConfig
+from acnmp_core.assimilation import AssimilationConfig
+from acnmp_core.experiments.pour import TimedEvaluator, make_setup, make_target, run_pour
+from acnmp_core.rollout import RolloutBatch
+from clients.cli import main
+
+
+class _PoursExactly:
+    """Every trajectory pours exactly the target: success at once, no physics."""
+
+    def __init__(self):
+        self.calls = 0
+
+    def evaluate(self, trajectories, times, task_params=None):
+        self.calls += 1
+        b, t, _ = np.shape(trajectories)
+        return RolloutBatch(rewards=np.zeros((b, t)), success=np.ones(b, bool), errors=np.zeros(b))
+
+
+def test_setup_conditions_on_weight_target_and_the_upright_start(pour_demo_file):
+    setup = make_setup(str(pour_demo_file))
+    assert len(setup.demos) == 16 and setup.times.shape == (240,)
+    target = make_target(setup, [1400.0, 1322.0])
+    assert target.obs_times.tolist() == [0.0] and target.obs_values.tolist() == [[0.0]]
+
+
+def test_the_timing_wrapper_keeps_the_inner_credit():
+    inner = _PoursExactly()
+    assert TimedEvaluator(inner).credit == "step"
+    inner.credit = "future"
+    ev = TimedEvaluator(inner)
+    batch = ev.evaluate(np.zeros((2, 5, 1)), np.linspace(0, 1, 5), [1400.0, 1322.0])
+    assert ev.credit == "future" and len(batch) == 2 and len(ev.cpu_s) == 1
+
+
+def test_a_solution_is_assimilated_and_checked_on_every_demonstration(pour_demo_file):
+    stub = _PoursExactly()
+    r = run_pour([0], train_steps=20, assimilation=AssimilationConfig(steps=5), demo_path=str(pour_demo_file),
+                 evaluator_factory=lambda: stub)
+    assert r["acnmp"]["success_rate"] == 1.0 and r["acnmp"]["rollouts_median"] == 1
+    a = r["assimilation"]
+    assert a["seeds_assimilated"] == 1 and a["error_g_no_rl"] == 0.0 and a["demos_reproduced_within_30g"] == 16
+    assert r["rollout_cpu_s_median"] is None  # not measured on a remote (here: stub) evaluator
+    assert stub.calls == 1 + 1 + 16  # the LfD roll-out, the test without RL, each demonstration
+
+
+class _PoursAfter(_PoursExactly):
+    """Misses by 100 g on the first ``n`` batches, pours exactly afterwards."""
+
+    def __init__(self, n):
+        super().__init__()
+        self.n = n
+
+    def evaluate(self, trajectories, times, task_params=None):
+        batch = super().evaluate(trajectories, times, task_params)
+        if self.calls <= self.n:
+            rewards = np.zeros(batch.rewards.shape)
+            rewards[:, -1] = -100.0
+            batch = RolloutBatch(rewards=rewards, success=np.zeros(len(batch), bool), errors=np.full(len(batch), 100.0))
+        return batch
+
+
+def test_a_final_mean_that_succeeds_after_the_budget_is_assimilated(pour_demo_file):
+    """Budget 3: the LfD roll-out and two noisy ones miss; the final mean, run once more, pours exactly."""
+    stub = _PoursAfter(2)
+    r = run_pour([0], train_steps=20, adapt_config=AdaptConfig(max_rollouts=3), assimilation=AssimilationConfig(steps=5),
+                 demo_path=str(pour_demo_file), evaluator_factory=lambda: stub)
+    run = r["runs"][0]
+    assert not run["success"] and run["rollouts"] == 3 and run["solved_after_budget"]
+    assert run["first_success_rollout"] is None and run["errors_g_per_rollout"] == [100.0] * 3
+    assert r["acnmp"]["solved_after_budget"] == 1 and r["assimilation"]["seeds_assimilated"] == 1
+
+
+def test_cli_writes_the_issue_json_and_the_figure(tmp_path, monkeypatch, saved_figures, pour_demo_file):
+    monkeypatch.setenv("ACNMP_CACHE", str(pour_demo_file.parent))
+    out, png = tmp_path / "e6.json", tmp_path / "e6.png"
+    code = main(["experiment", "pour", "--seeds", "1", "--train-steps", "100", "--budget", "3",
+                 "--json", str(out), "--plot", str(png), "--quiet"])
+    assert code == 0
+    r = json.loads(out.read_text())
+    assert r["experiment"] == "pour" and r["seeds"] == 1 and r["test"] == {"weight_g": 1400.0, "target_g": 1322.0}
+    assert r["lfd_only"]["error_g"] >= 0
+    a = r["acnmp"]
+    assert len(a["errors_g_per_rollout"]) == 1 and 1 <= len(a["errors_g_per_rollout"][0]) <= 3
+    assert a["errors_g_per_rollout"][0][0] == r["lfd_only"]["error_g"]  # the first roll-out is the LfD one
+    assert set(a) >= {"rollouts_median", "success_rate", "final_error_g_median"}
+    assert set(r["assimilation"]) >= {"error_g_no_rl", "demos_reproduced_within_30g"}
+    assert r["rollout_cpu_s_median"] > 0 and r["wall_time_s"] > 0
+    assert [p for _, p in saved_figures] == [png]
+    ax = saved_figures[0][0].axes[0]
+    dots = ax.get_lines()[0]
+    assert dots.get_ydata().tolist() == a["errors_g_per_rollout"][0]
+
+
+def test_bad_cli_input_is_a_clear_error(capsys):
+    assert main(["experiment", "pour", "--seeds", "0"]) == 2
+    err = capsys.readouterr().err
+    assert "--seeds" in err and len(err.strip().splitlines()) == 1
