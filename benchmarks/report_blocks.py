@@ -175,3 +175,22 @@ def adaptation_sweep() -> str:
         source(r, "adapt_sweep"),
     ]
     return "\n".join(lines)
+
+
+@renderer("e3-profile")
+def e3_profile() -> str:
+    r = load("e3_profile")
+    c = r["config"]
+    labels = {"first_training": "first training (3000 steps)", "adaptation": "adaptation (adapt(), all of it)",
+              "adaptation_supervised_steps": "… of which the supervised steps", "assimilation": "assimilation",
+              "rollouts": "executed roll-outs (scoring)", "test_evaluation": "test evaluation"}
+    rows = [[labels.get(k, k), f"{v['seconds']:.1f}", pct(v["share"])] for k, v in r["stages"].items()]
+    return "\n".join([
+        table(["stage", "seconds", "share of the run"], rows),
+        "",
+        f"* ACNMP only, {c['envs']} new environments after {c['n_initial']} demonstrated ones, {c['n_test']} "
+        f"test environments: {r['adaptations']} adaptations, {r['trajectories_total']} trajectories, "
+        f"{r['wall_time_s']:.0f} s under cProfile (which slows every Python call; read the shares).",
+        "",
+        source(r, "e3_profile"),
+    ])
