@@ -6,6 +6,10 @@ environments, 200 test environments); the numbers go to benchmarks/results/adapt
 the table on docs/experiments/adaptation.md. Usage::
 
     python benchmarks/adapt_sweep.py [--seeds 10] [--e3-envs 200] [--jobs 2] [--only NAME ...]
+                                     [--experiments e1 e2 e3] [--out FILE]
+
+Several result files (e.g. one per invocation, ``adapt_sweep*.json``) are read together by the
+docs' table; a setting measured in more than one keeps the experiments of each.
 
 About an hour with two processes on the 2-core development machine.
 """
@@ -106,12 +110,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--e3-envs", type=int, default=200)
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--only", nargs="*", choices=sorted(SETTINGS), help="run only these settings")
+    ap.add_argument("--experiments", nargs="*", choices=("e1", "e2", "e3"), default=["e2", "e3", "e1"],
+                    help="run only these experiments for every setting")
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "adapt_sweep.json"))
     args = ap.parse_args(argv)
     meta = provenance()
     names = args.only or list(SETTINGS)
     seeds = list(range(args.seeds))
-    tasks = [(n, e, SETTINGS[n][1], seeds, args.e3_envs) for n in names for e in ("e2", "e3", "e1")]
+    tasks = [(n, e, SETTINGS[n][1], seeds, args.e3_envs) for n in names for e in args.experiments]
     t0 = time.perf_counter()
     results: dict[str, dict] = {n: {"about": SETTINGS[n][0], "fields": SETTINGS[n][1]} for n in names}
     def result(done: int) -> dict:

@@ -133,7 +133,11 @@ def main(argv: list[str] | None = None) -> int:
 # --------------------------------------------------------------------------------------------------
 # Renderers
 # --------------------------------------------------------------------------------------------------
-from benchmarks import report_blocks  # noqa: E402,F401  (registers the renderers)
-
 if __name__ == "__main__":
-    sys.exit(main())
+    # As a script this file is __main__; the renderers register on the importable module.
+    sys.path.insert(0, str(ROOT))
+    from benchmarks import report as _report  # noqa: E402
+
+    sys.exit(_report.main())
+else:
+    from benchmarks import report_blocks  # noqa: E402,F401  (registers the renderers)

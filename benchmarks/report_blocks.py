@@ -1,7 +1,7 @@
 """The renderers of benchmarks/report.py: one function per docs block, each reading its JSON."""
 from __future__ import annotations
 
-from benchmarks.report import fmt, frac, load, pct, renderer, source, table
+from benchmarks.report import RESULTS, fmt, frac, load, pct, renderer, source, table
 
 E1_LABELS = {"lfd_only": "LfD-only", "rl_only": "RL-only", "acnmp": "ACNMP"}
 TWO_LABELS = {"acnmp": "ACNMP", "promp_rl": "ProMP + RL (REPS)"}
@@ -146,10 +146,16 @@ def readme_results() -> str:
 # --------------------------------------------------------------------------------------------------
 @renderer("adaptation-sweep")
 def adaptation_sweep() -> str:
-    r = load("adapt_sweep")
+    files = sorted(p.stem for p in RESULTS.glob("adapt_sweep*.json"))
+    runs = [load(f) for f in files]
+    r = runs[0]
     n, envs = r["config"]["seeds"], r["config"]["e3_envs"]
+    settings: dict[str, dict] = {}
+    for run in runs:  # one table over every sweep file: each setting keeps the experiments of each
+        for name, s in run["settings"].items():
+            settings.setdefault(name, {}).update(s)
     rows = []
-    for name, s in r["settings"].items():
+    for name, s in settings.items():
         e1, e2, e3 = s.get("e1"), s.get("e2"), s.get("e3")
         fields = ", ".join(f"`{k}={v}`" for k, v in s["fields"].items()) or "(none)"
         rows.append([
@@ -169,9 +175,29 @@ def adaptation_sweep() -> str:
                "failed/adaptations"], rows),
         "",
         "* The default: " + ", ".join(f"`{k}={v}`" for k, v in r["config"]["default"].items()) + ".",
-        *([] if r.get("complete", True) else ["* The sweep was stopped before every run finished: '-' marks "
-                                               "a run that has no result."]),
+        "* '-': not run (see the text below the table)."
+        + ("" if all(run.get("complete", True) for run in runs) else " A sweep was stopped before all its runs "
+                                                                     "finished; what it measured is kept."),
         "",
-        source(r, "adapt_sweep"),
+        *[source(run, f) for run, f in zip(runs, files)],
     ]
     return "\n".join(lines)
+
+
+@renderer("e3-profile")
+def e3_profile() -> str:
+    r = load("e3_profile")
+    c = r["config"]
+    labels = {"first_training": "first training (3000 steps)", "adaptation": "adaptation (adapt(), all of it)",
+              "adaptation_supervised_steps": "… of which the supervised steps", "assimilation": "assimilation",
+              "rollouts": "executed roll-outs (scoring)", "test_evaluation": "test evaluation"}
+    rows = [[labels.get(k, k), f"{v['seconds']:.1f}", pct(v["share"])] for k, v in r["stages"].items()]
+    return "\n".join([
+        table(["stage", "seconds", "share of the run"], rows),
+        "",
+        f"* ACNMP only, {c['envs']} new environments after {c['n_initial']} demonstrated ones, {c['n_test']} "
+        f"test environments: {r['adaptations']} adaptations, {r['trajectories_total']} trajectories, "
+        f"{r['wall_time_s']:.0f} s under cProfile (which slows every Python call; read the shares).",
+        "",
+        source(r, "e3_profile"),
+    ])
