@@ -119,6 +119,26 @@ def _serving(config, timeout: float = 15.0):
 
 
 @pytest.fixture(scope="session")
+def wait_job():
+    """``wait_job(session, keys, job, pred, timeout=120)``: poll the job's status until ``pred(status)``
+    holds and return that status (the timeout is only a liveness bound)."""
+    import time
+
+    from services.transport import call
+
+    def wait(session, keys, job: str, pred, timeout: float = 120.0) -> dict:
+        deadline = time.monotonic() + timeout
+        while True:
+            st = call(session, keys.job_status(job), timeout=10)
+            if pred(st):
+                return st
+            assert time.monotonic() < deadline, st
+            time.sleep(0.1)
+
+    return wait
+
+
+@pytest.fixture(scope="session")
 def verify_rrd():
     """``verify_rrd(path)``: ``rerun rrd verify`` passes on ``path`` (the footer and every chunk are
     valid). The ``rerun`` command comes with rerun-sdk; its absence is a broken install, not a skip."""

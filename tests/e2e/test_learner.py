@@ -2,8 +2,6 @@
 skill and its dataset come back intact and an unfinished job resumes and completes."""
 from __future__ import annotations
 
-import time
-
 import numpy as np
 import pytest
 
@@ -35,17 +33,7 @@ def latest(session, skill="e1"):
     return decode_weights(replies[0].ok.payload.to_bytes())
 
 
-def wait_status(session, job, pred, timeout=60):
-    deadline = time.monotonic() + timeout
-    while True:
-        st = call(session, KEYS.job_status(job), timeout=10)
-        if pred(st):
-            return st
-        assert time.monotonic() < deadline, st
-        time.sleep(0.1)
-
-
-def test_learner_survives_kill_9_with_skill_dataset_and_job(tmp_path):
+def test_learner_survives_kill_9_with_skill_dataset_and_job(tmp_path, wait_job):
     setup = make_setup()
     with LocalDeployment(NS, workers=1, model=False, worker_delay=0.25, state_dir=tmp_path) as dep:
         s = dep.session
@@ -70,7 +58,7 @@ def test_learner_survives_kill_9_with_skill_dataset_and_job(tmp_path):
         # a job slow enough (0.25 s per roll-out) to be killed in the middle
         job = call(s, KEYS.adapt("e1"),
                     adapt_request(setup, max_rollouts=9, stop_on_success=False), timeout=10)["job"]
-        wait_status(s, job, lambda st: st["state"] == "running" and st["rollouts"] >= 3)
+        wait_job(s, KEYS, job, lambda st: st["state"] == "running" and st["rollouts"] >= 3)
         dep.kill("learner")  # SIGKILL: no chance to save anything
         dep.respawn("learner")
 
@@ -81,7 +69,7 @@ def test_learner_survives_kill_9_with_skill_dataset_and_job(tmp_path):
         np.testing.assert_array_equal(got.mean, ref.mean)
         np.testing.assert_array_equal(got.std, ref.std)
 
-        st = wait_status(s, job, lambda st: st["state"] in ("done", "failed"))
+        st = wait_job(s, KEYS, job, lambda st: st["state"] in ("done", "failed"))
         assert st["state"] == "done", st["error"]
         assert st["attempt"] == 1  # restarted once, from the beginning with the same seed
         assert st["result"]["rollouts"] == 9 == st["rollouts"]

@@ -7,7 +7,6 @@ import json
 import os
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -39,17 +38,7 @@ def test_a_second_deployment_on_the_same_state_dir_refuses_to_start(tmp_path):
         pass
 
 
-def wait_status(session, keys, job, pred, timeout=120):
-    deadline = time.monotonic() + timeout
-    while True:
-        st = call(session, keys.job_status(job), timeout=10)
-        if pred(st):
-            return st
-        assert time.monotonic() < deadline, st
-        time.sleep(0.1)
-
-
-def test_sigterm_stops_the_learner_first_nothing_is_killed_and_the_job_resumes(tmp_path):
+def test_sigterm_stops_the_learner_first_nothing_is_killed_and_the_job_resumes(tmp_path, wait_job):
     setup = make_setup()
     state = tmp_path / "state"
     train = {"times": np.stack([d.times for d in setup.demos]), "values": np.stack([d.values for d in setup.demos]),
@@ -62,12 +51,12 @@ def test_sigterm_stops_the_learner_first_nothing_is_killed_and_the_job_resumes(t
     with LocalDeployment(NS, workers=1, model=False, worker_delay=0.25, state_dir=state) as dep:
         assert call(dep.session, dep.keys.train("e1"), train, timeout=60)["version"] == 0
         job = call(dep.session, dep.keys.adapt("e1"), adapt, timeout=10)["job"]
-        wait_status(dep.session, dep.keys, job, lambda st: st["state"] == "running" and st["rollouts"] >= 3)
+        wait_job(dep.session, dep.keys, job, lambda st: st["state"] == "running" and st["rollouts"] >= 3)
         codes = dep.stop()  # what SIGTERM of `acnmp up` does
         assert dep.killed == [] and all(code == 0 for code in codes.values()), (codes, dep.killed)
     record = json.loads((state / "jobs" / f"{job}.json").read_text())
     assert record["state"] == "running"  # interrupted, saved; not finished and not failed
     with LocalDeployment(NS, workers=1, model=False, state_dir=state) as dep:
-        st = wait_status(dep.session, dep.keys, job, lambda st: st["state"] in ("done", "failed"))
+        st = wait_job(dep.session, dep.keys, job, lambda st: st["state"] in ("done", "failed"))
     assert st["state"] == "done" and st["attempt"] == 1, st
     assert st["result"]["rollouts"] == 15

@@ -217,18 +217,24 @@ def _reachable(client, key: str) -> None:
             assert exc.code == "unavailable" and time.monotonic() < deadline, exc
 
 
+def _hold_first(client, key: str, entered: threading.Event, release: threading.Event):
+    """Once ``key`` is reachable, send query 1 and wait until the handler holds it; its reply handler."""
+    release.set()
+    _reachable(client, key)
+    release.clear()
+    entered.clear()
+    first = client.get(key, payload=encode({"i": 1}), timeout=30)
+    assert entered.wait(10)
+    return first
+
+
 def test_a_full_queue_answers_overloaded_at_once_and_queued_queries_still_complete(anchor):
     server, ep = anchor
     key = "acnmp/test/queue/full"
     rpc, entered, release, calls = _blocking_service(server, key, max_queue=2)
     try:
         with peer(ep) as client:
-            release.set()
-            _reachable(client, key)
-            release.clear()
-            entered.clear()
-            first = client.get(key, payload=encode({"i": 1}), timeout=30)  # runs, held by the handler
-            assert entered.wait(10)
+            first = _hold_first(client, key, entered, release)  # runs, held by the handler
             queued = [client.get(key, payload=encode({"i": i}), timeout=30) for i in (2, 3)]
             _wait_until(lambda: rpc.waiting == 2)
             with pytest.raises(WireError) as info:
@@ -249,12 +255,7 @@ def test_a_query_whose_timeout_passed_in_the_queue_is_dropped_without_computing(
     rpc, entered, release, calls = _blocking_service(server, key)
     try:
         with peer(ep) as client:
-            release.set()
-            _reachable(client, key)
-            release.clear()
-            entered.clear()
-            first = client.get(key, payload=encode({"i": 1}), timeout=30)
-            assert entered.wait(10)
+            first = _hold_first(client, key, entered, release)
             with pytest.raises(WireError) as info:  # waits in the queue behind the first, gives up
                 call(client, key, {"i": 2}, timeout=0.3)
             assert info.value.code == "timeout"
