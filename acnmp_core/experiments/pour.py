@@ -130,10 +130,14 @@ def run_seed(model: CNMP, setup: PourSetup, evaluator: RolloutEvaluator, cfg: Ad
     final mean), "solved_after_budget", "first_success_rollout" (1-based index of the first
     executed roll-out within the tolerance, mean or noisy; None if none), "errors_g_per_rollout"
     (every executed roll-out in order, the means included), "curve" [[roll-outs, error of the mean
-    g], ...], "assimilation": None or {"error_g_no_rl", "demo_errors_g" (16,), "demos_within_30g"}}``.
+    g], ...], "lfd_demo_errors_g" (16,) and "lfd_demos_within_30g" (the LfD model reproducing each
+    demonstration before adapting, measured with ``assimilation`` only; None otherwise),
+    "assimilation": None or {"error_g_no_rl", "demo_errors_g" (16,), "demos_within_30g"}}``.
     """
     tp = np.array([TEST["weight_g"], TEST["target_g"]])
     target = make_target(setup, tp)
+    demo_tp = np.stack([d.task_params for d in setup.demos])
+    before = mean_errors_g(model, setup, evaluator, demo_tp) if assimilation is not None else None
     per_rollout: list[float] = []
 
     def record(log, trajs, batch):
@@ -150,11 +154,12 @@ def run_seed(model: CNMP, setup: PourSetup, evaluator: RolloutEvaluator, cfg: Ad
     out = {"lfd_error_g": float(res.history[0].mean_error), "success": bool(res.success), "rollouts": int(res.rollouts),
            "final_error_g": final, "solved_after_budget": bool(after),
            "first_success_rollout": hits[0] if hits else None, "errors_g_per_rollout": per_rollout,
-           "curve": [[h.rollouts, h.mean_error] for h in res.history], "assimilation": None}
+           "curve": [[h.rollouts, h.mean_error] for h in res.history], "assimilation": None,
+           "lfd_demos_within_30g": None if before is None else int(np.sum(before <= TOLERANCE_G)),
+           "lfd_demo_errors_g": None if before is None else before.tolist()}
     if (res.success or after) and assimilation is not None:
         assimilate(model, setup.demos, Demonstration(res.times, res.trajectory, tp), assimilation,
                    conditions=target, seed=seed)
-        demo_tp = np.stack([d.task_params for d in setup.demos])
         demo_err = mean_errors_g(model, setup, evaluator, demo_tp)
         out["assimilation"] = {"error_g_no_rl": float(mean_errors_g(model, setup, evaluator, tp)[0]),
                                "demo_errors_g": demo_err.tolist(),
@@ -202,7 +207,8 @@ def run_pour(
     solved_after_budget (seeds whose final mean succeeded one roll-out after the budget),
     first_success_rollout (per seed, see :func:`run_seed`)},
     ``assimilation`` {error_g_no_rl (median over the seeds that succeeded, None if none),
-    demos_reproduced_within_30g (median count out of 16), seeds_assimilated},
+    demos_reproduced_within_30g (median count out of 16), seeds_assimilated,
+    lfd_demos_reproduced_within_30g (the same count for the LfD model before adapting, all seeds)},
     ``rollout_cpu_s_median`` (CPU s per roll-out, in-process only, else None), ``wall_time_s``,
     ``config`` and ``runs`` (per seed).
     """
@@ -260,6 +266,8 @@ def run_pour(
             "error_g_no_rl": float(np.median([a["error_g_no_rl"] for a in assim])) if assim else None,
             "demos_reproduced_within_30g": float(np.median([a["demos_within_30g"] for a in assim])) if assim else None,
             "seeds_assimilated": len(assim),
+            "lfd_demos_reproduced_within_30g": (float(np.median([r["lfd_demos_within_30g"] for r in runs]))
+                                                if acfg is not None else None),
         },
         "rollout_cpu_s_median": float(np.median(cpu)) if shared is not None and cpu else None,
         "wall_time_s": round(time.perf_counter() - t0, 2),

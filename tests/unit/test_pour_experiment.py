@@ -49,7 +49,8 @@ def test_a_solution_is_assimilated_and_checked_on_every_demonstration(pour_demo_
     a = r["assimilation"]
     assert a["seeds_assimilated"] == 1 and a["error_g_no_rl"] == 0.0 and a["demos_reproduced_within_30g"] == 16
     assert r["rollout_cpu_s_median"] is None  # not measured on a remote (here: stub) evaluator
-    assert stub.calls == 1 + 1 + 16  # the LfD roll-out, the test without RL, each demonstration
+    assert a["lfd_demos_reproduced_within_30g"] == 16
+    assert stub.calls == 16 + 1 + 1 + 16  # demos before, the LfD roll-out, the test without RL, demos after
 
 
 class _PoursAfter(_PoursExactly):
@@ -69,8 +70,9 @@ class _PoursAfter(_PoursExactly):
 
 
 def test_a_final_mean_that_succeeds_after_the_budget_is_assimilated(pour_demo_file):
-    """Budget 3: the LfD roll-out and two noisy ones miss; the final mean, run once more, pours exactly."""
-    stub = _PoursAfter(2)
+    """Budget 3: the LfD roll-out and two noisy ones miss; the final mean, run once more, pours exactly
+    (the 16 batches before them are the LfD model reproducing the demonstrations)."""
+    stub = _PoursAfter(16 + 2)
     r = run_pour([0], train_steps=20, adapt_config=AdaptConfig(max_rollouts=3), assimilation=AssimilationConfig(steps=5),
                  demo_path=str(pour_demo_file), evaluator_factory=lambda: stub)
     run = r["runs"][0]
@@ -82,7 +84,7 @@ def test_a_final_mean_that_succeeds_after_the_budget_is_assimilated(pour_demo_fi
 def test_cli_writes_the_issue_json_and_the_figure(tmp_path, monkeypatch, saved_figures, pour_demo_file):
     monkeypatch.setenv("ACNMP_CACHE", str(pour_demo_file.parent))
     out, png = tmp_path / "e6.json", tmp_path / "e6.png"
-    code = main(["experiment", "pour", "--seeds", "1", "--train-steps", "100", "--budget", "3",
+    code = main(["experiment", "pour", "--seeds", "1", "--train-steps", "100", "--budget", "3", "--no-assimilation",
                  "--json", str(out), "--plot", str(png), "--quiet"])
     assert code == 0
     r = json.loads(out.read_text())
@@ -93,6 +95,7 @@ def test_cli_writes_the_issue_json_and_the_figure(tmp_path, monkeypatch, saved_f
     assert a["errors_g_per_rollout"][0][0] == r["lfd_only"]["error_g"]  # the first roll-out is the LfD one
     assert set(a) >= {"rollouts_median", "success_rate", "final_error_g_median"}
     assert set(r["assimilation"]) >= {"error_g_no_rl", "demos_reproduced_within_30g"}
+    assert r["assimilation"]["seeds_assimilated"] == 0 and r["assimilation"]["lfd_demos_reproduced_within_30g"] is None
     assert r["rollout_cpu_s_median"] > 0 and r["wall_time_s"] > 0
     assert [p for _, p in saved_figures] == [png]
     ax = saved_figures[0][0].axes[0]
