@@ -111,7 +111,8 @@ def run_acnmp_case(model: CNMP, setup: PushSetup, case: str, evaluator: RolloutE
     """ACNMP on one test target: LfD roll-out, then adaptation if it missed.
 
     ``model`` is adapted in place (pass a copy). Returns ``{"rollouts", "success", "final_error",
-    "lfd_error", "lfd_success", "adapted", "curve": [[roll-outs, error of the mean], ...]}``.
+    "lfd_error", "lfd_success", "adapted" (more than the LfD roll-out was executed), "curve":
+    [[roll-outs, error of the mean], ...]}``.
     adapt()'s first roll-out is the mean, i.e. the LfD trajectory: when it succeeds the case costs
     one roll-out and no adaptation. Roll-outs count every executed trajectory.
     """
@@ -124,7 +125,7 @@ def run_acnmp_case(model: CNMP, setup: PushSetup, case: str, evaluator: RolloutE
         # adapt() ends after an update it did not execute; measure the final mean once (not counted).
         final_err = _final_error(evaluator, res.trajectory, res.times, setup.targets[case])
     # The curve is the error of the mean roll-out against roll-outs used, as in the paper's Fig. 5(b).
-    return {"lfd_error": lfd_err, "lfd_success": bool(res.history[0].mean_success), "adapted": len(res.history) > 1,
+    return {"lfd_error": lfd_err, "lfd_success": bool(res.history[0].mean_success), "adapted": res.rollouts > 1,
             "curve": [[h.rollouts, h.mean_error] for h in res.history],
             "rollouts": res.rollouts, "success": bool(res.success), "final_error": final_err}
 
