@@ -119,11 +119,11 @@ def test_train_and_adapt_requests_over_the_learners_limits_are_too_large(deploym
 # deployment: random bytes, msgpack of arbitrary shapes, hand-made array maps (bad dtypes, absurd
 # shapes, short data), NaN, unknown versions, and valid requests with one field replaced. Every
 # answer must be a success or a documented code other than `internal`, and every process must be
-# alive and small afterwards. ACNMP_FUZZ_EXAMPLES sets the number per queryable: 250 in the default
+# alive and small afterwards. ACNMP_FUZZ_EXAMPLES sets the number per queryable: 120 in the default
 # suite (the suite must stay under 15 minutes; 2000 per queryable take about 9 minutes on the 2-core
 # machine), `ACNMP_FUZZ_EXAMPLES=2000 pytest tests/e2e/test_hostile.py` for the full size.
 
-FUZZ_EXAMPLES = int(os.environ.get("ACNMP_FUZZ_EXAMPLES", "250"))
+FUZZ_EXAMPLES = int(os.environ.get("ACNMP_FUZZ_EXAMPLES", "120"))
 MODEL_RSS_BOUND = 1 << 30  # peak resident set of the model service, bytes
 
 _leaf = (st.none() | st.booleans() | st.integers(-(2**63), 2**64 - 1) | st.floats() | st.text(max_size=16)
