@@ -168,3 +168,10 @@ def saved_figures(monkeypatch):
     monkeypatch.setattr(Figure, "savefig", savefig)
     return saved
 
+
+
+@pytest.fixture(autouse=True)
+def _private_runtime_dir(tmp_path_factory, monkeypatch):
+    """Every test gets its own runtime directory (services/transport/runfile.py): the run files
+    and secrets of the deployments it starts never meet the user's, nor another test's."""
+    monkeypatch.setenv("ACNMP_RUNTIME_DIR", str(tmp_path_factory.mktemp("run")))

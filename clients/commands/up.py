@@ -22,6 +22,8 @@ def register(subparsers) -> None:
     p.add_argument("--demos", action="append", default=[], metavar="SKILL=FILE.npz",
                    help="have the learner train SKILL from a demonstration file at start (repeatable); "
                         "without it (and without --no-default-skill) it trains E1's via-point skill 'e1'")
+    p.add_argument("--train-steps", type=int, default=None, metavar="N",
+                   help="training steps for --demos and the default skill (default: the learner's, 3000)")
     p.add_argument("--no-default-skill", action="store_true",
                    help="do not train and serve E1's via-point skill 'e1' when no --demos is given")
     p.add_argument("--insecure", action="store_true",
@@ -46,6 +48,10 @@ def run(args) -> int:
     if default_skill:
         demos.append(default_demos(state_dir))
     learner_args = [a for spec in demos for a in ("--demos", spec)]
+    if args.train_steps is not None:
+        if args.train_steps < 1:
+            raise ValueError(f"--train-steps: expected an integer >= 1, got {args.train_steps}")
+        learner_args += ["--train-steps", str(args.train_steps)]
     served = False
     dep = LocalDeployment(args.namespace, args.workers, args.robot, record=args.record, state_dir=state_dir,
                           model=not args.no_model, learner_args=learner_args, secure=not args.insecure)

@@ -177,3 +177,15 @@ class DeploymentSecrets:
     def remove(self) -> None:
         """Delete the directory and its files (the passwords die with the deployment)."""
         shutil.rmtree(self.directory, ignore_errors=True)
+
+
+def authenticated_user(config_file: str | os.PathLike | None) -> str | None:
+    """The zenoh username a process's config file authenticates with (``transport/auth/usrpwd/user``),
+    or None without a file or without user/password authentication."""
+    if config_file is None:
+        return None
+    try:
+        user = json.loads(zenoh.Config.from_file(str(config_file)).get_json("transport/auth/usrpwd/user"))
+    except (zenoh.ZError, ValueError):
+        return None
+    return user or None

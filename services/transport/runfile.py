@@ -147,11 +147,12 @@ class DeploymentNotFound(OSError):
 
 
 def find(namespace: str | None = None) -> RunFile:
-    """The running deployment of ``namespace``; with ``namespace`` None (or no deployment of it
-    and exactly one running), the only one running. Raises :class:`DeploymentNotFound`."""
+    """The running deployment of ``namespace`` (None: the default namespace); when that one does
+    not run and ``namespace`` is None or the default, the only one running if there is exactly
+    one. Raises :class:`DeploymentNotFound`."""
     runs = running()
     for run in runs:
-        if run.namespace == namespace:
+        if run.namespace == (namespace or DEFAULT_NAMESPACE):
             return run
     if len(runs) == 1 and (namespace is None or namespace == DEFAULT_NAMESPACE):
         return runs[0]

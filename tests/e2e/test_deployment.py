@@ -62,7 +62,7 @@ def test_e1_job_end_to_end_is_recorded_exactly(tmp_path, verify_rrd):
 
 def test_acnmp_up_stops_cleanly_on_sigterm(tmp_path, verify_rrd):
     env = dict(os.environ, PYTHONPATH=str(ROOT), RERUN_ANALYTICS="0")
-    proc = subprocess.Popen([sys.executable, "-m", "clients.cli", "up", "--namespace", "upt", "--workers", "1",
+    proc = subprocess.Popen([sys.executable, "-m", "clients.cli", "up", "--namespace", "upt", "--workers", "1", "--no-default-skill",
                              "--record", str(tmp_path / "up.rrd"), "--state-dir", str(tmp_path / "state")],
                             cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     lines = []
@@ -95,7 +95,7 @@ def test_acnmp_up_stops_cleanly_on_sigterm(tmp_path, verify_rrd):
 def test_children_stop_and_the_recording_is_valid_when_the_launcher_is_killed(tmp_path, verify_rrd):
     env = dict(os.environ, PYTHONPATH=str(ROOT), RERUN_ANALYTICS="0")
     rrd = tmp_path / "orphan.rrd"
-    proc = subprocess.Popen([sys.executable, "-m", "clients.cli", "up", "--namespace", "upk", "--workers", "1",
+    proc = subprocess.Popen([sys.executable, "-m", "clients.cli", "up", "--namespace", "upk", "--workers", "1", "--no-default-skill",
                              "--record", str(rrd), "--state-dir", str(tmp_path / "state")],
                             cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     lines, pids = [], []

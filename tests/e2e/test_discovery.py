@@ -1,0 +1,83 @@
+"""``acnmp up`` then, in another process, ``acnmp query`` / ``ACNMPClient()`` / ``acnmp status`` with
+no arguments: the run file finds the deployment, the client's credentials let it in, and the
+default skill (E1's via-point skill ``e1``) answers. Then Ctrl-C stops it and the run file goes."""
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from clients.cli import main
+from clients.client import ACNMPClient
+from services.launcher import LocalDeployment
+from services.transport.runfile import DeploymentNotFound, find, running
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _cli(*args: str, timeout: float = 60) -> subprocess.CompletedProcess:
+    env = dict(os.environ, PYTHONPATH=str(ROOT), RERUN_ANALYTICS="0")
+    return subprocess.run([sys.executable, "-m", "clients.cli", *args], cwd=ROOT, env=env,
+                          capture_output=True, text=True, timeout=timeout)
+
+
+def test_acnmp_up_then_query_with_no_arguments_20_of_20_and_ctrl_c(tmp_path, capsys):
+    env = dict(os.environ, PYTHONPATH=str(ROOT), RERUN_ANALYTICS="0")
+    # --train-steps 20: the default skill is E1's, trained briefly (a user's first start trains 3000 steps)
+    proc = subprocess.Popen([sys.executable, "-m", "clients.cli", "up", "--workers", "0", "--train-steps", "20",
+                             "--state-dir", str(tmp_path / "state")],
+                            cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    lines: list[str] = []
+    try:
+        for line in proc.stdout:
+            lines.append(line)
+            if "deployment is up" in line:
+                break
+        assert any("deployment is up" in ln for ln in lines), "".join(lines)
+        run = find()
+        assert run.namespace == "default" and run.pid == proc.pid
+        for path in (run.path, Path(run.credentials), Path(run.operator_credentials)):
+            assert path.stat().st_mode & 0o777 == 0o600, path
+        assert run.path.parent.stat().st_mode & 0o777 == 0o700
+
+        out = _cli("query", "info", "--skill", "e1")
+        assert out.returncode == 0 and out.stdout.startswith("skill e1 version 0"), out.stderr
+        assert main(["query", "predict", "--skill", "e1", "--obs", "0:0,0", "--steps", "5"]) == 0
+        assert "skill e1 version 0: 5 steps x 2 dims" in capsys.readouterr().out
+
+        # a second deployment: the default namespace is still found, --namespace picks the other
+        with LocalDeployment("other", workers=0, model=False, learner=False, secure=True):
+            assert sorted(r.namespace for r in running()) == ["default", "other"]
+            assert main(["status"]) == 0
+            out = capsys.readouterr().out
+            assert "deployment 'default'" in out and "deployment 'other'" in out
+            health = {ln.split()[0]: ln.split()[-1] for ln in out.splitlines() if ln.startswith("  ") and
+                      ln.split()[0] in ("learner", "model")}
+            assert health == {"learner": "ok", "model": "ok"}, out
+            with ACNMPClient(namespace="other", role="client") as c:
+                assert c.namespace == "other"
+
+        # 20 fresh clients in a row, each a new session finding the deployment by its run file
+        answered = 0
+        for _ in range(20):
+            with ACNMPClient(role="client", timeout=10) as client:
+                answered += client.info("e1")["skill"] == "e1"
+        assert answered == 20
+
+        proc.send_signal(signal.SIGINT)  # what Ctrl-C in its terminal sends
+        rest, _ = proc.communicate(timeout=30)
+        assert proc.returncode == 0, rest
+        assert "deployment stopped: learner=0 model=0" in rest, rest
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert not run.path.parent.exists()  # run file and secrets removed on a clean exit
+    with pytest.raises(DeploymentNotFound):
+        ACNMPClient(role="client")
+    assert main(["query", "info", "--skill", "e1"]) == 1
+    assert "no running deployment" in capsys.readouterr().err
