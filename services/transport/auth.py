@@ -129,13 +129,21 @@ def may(role: str, message: str, key_family: str) -> bool:
     return True
 
 
+def router_settings(listen: Sequence[str], dictionary_file: str | Path, own: Credentials) -> dict:
+    """A router's zenoh config (JSON-able): listening on ``listen``, no multicast scouting,
+    user/password required from ``dictionary_file``, :func:`acl_config`."""
+    return {"mode": "router", "listen": {"endpoints": list(listen)}, "scouting": {"multicast": {"enabled": False}},
+            "transport": {"auth": {"usrpwd": {"user": own.user, "password": own.password,
+                                              "dictionary_file": str(dictionary_file)}}},
+            "access_control": acl_config()}
+
+
 def router_config(listen: Sequence[str], dictionary_file: str | Path, own: Credentials) -> zenoh.Config:
-    """The anchor's zenoh config: a router listening on ``listen`` (no multicast, no gossip
-    auto-connect), requiring user/password from ``dictionary_file``, with :func:`acl_config`."""
+    """:func:`router_settings` as a zenoh Config for the launcher's own session (the anchor)."""
     cfg = make_config("router", list(listen), [], multicast=False)
-    cfg.insert_json5("transport/auth/usrpwd", json.dumps(
-        {"user": own.user, "password": own.password, "dictionary_file": str(dictionary_file)}))
-    cfg.insert_json5("access_control", json.dumps(acl_config()))
+    settings = router_settings(listen, dictionary_file, own)
+    cfg.insert_json5("transport/auth/usrpwd", json.dumps(settings["transport"]["auth"]["usrpwd"]))
+    cfg.insert_json5("access_control", json.dumps(settings["access_control"]))
     return cfg
 
 
@@ -189,3 +197,37 @@ def authenticated_user(config_file: str | os.PathLike | None) -> str | None:
     except (zenoh.ZError, ValueError):
         return None
     return user or None
+
+
+def tls_link(cert_dir: str, *, listen: bool) -> dict:
+    """The ``transport/link/tls`` section for mutual TLS with the certificates of
+    scripts/make_tls_certs.sh in ``cert_dir`` (as seen by the process): the router's
+    certificate for the listening side, the shared client certificate for the others."""
+    side = ("listen", "router") if listen else ("connect", "client")
+    return {"root_ca_certificate": f"{cert_dir}/ca.pem", f"{side[0]}_certificate": f"{cert_dir}/{side[1]}.pem",
+            f"{side[0]}_private_key": f"{cert_dir}/{side[1]}-key.pem", "enable_mtls": True}
+
+
+def write_router_deployment(directory: str | os.PathLike, listen: str, connect: str, *,
+                            tls_dir: str | None = None, at: str | None = None) -> dict[str, Path]:
+    """Write the configs of a router deployment (compose, several hosts) into ``directory``:
+    ``users.txt`` (fresh passwords), ``router.json5`` (listening on ``listen``, the dictionary,
+    :func:`acl_config`) and ``<role>.json5`` per role (client mode, connecting to ``connect``),
+    all mode 0600; with ``tls_dir`` (certificate directory as the processes see it) mutual TLS on
+    every link. ``at`` is where the processes see ``directory`` (default: ``directory`` itself,
+    e.g. ``/etc/acnmp`` in a container). Returns {name: path written}."""
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True, mode=0o700)
+    seen = at or str(directory.resolve())
+    creds = generate_credentials()
+    written = {"users.txt": write_private(directory / "users.txt", dictionary_text(creds))}
+    router = router_settings([listen], f"{seen}/users.txt", creds["launcher"])
+    if tls_dir is not None:
+        router["transport"]["link"] = {"tls": tls_link(tls_dir, listen=True)}
+    written["router.json5"] = write_private(directory / "router.json5", json.dumps(router, indent=2) + "\n")
+    for role, cred in creds.items():
+        cfg = client_config(connect, cred)
+        if tls_dir is not None:
+            cfg["transport"]["link"] = {"tls": tls_link(tls_dir, listen=False)}
+        written[f"{role}.json5"] = write_private(directory / f"{role}.json5", json.dumps(cfg, indent=2) + "\n")
+    return written
