@@ -19,7 +19,7 @@ from typing import Sequence
 import zenoh
 
 from services.transport import DEFAULT_NAMESPACE, WireError, call
-from services.transport.runfile import find
+from services.transport.runfile import RunFile, find, running
 
 #: Environment variable with comma-separated endpoints: connect there, no discovery.
 CONNECT_ENV = "ACNMP_CONNECT"
@@ -40,22 +40,41 @@ def resolve(namespace: str | None, connect: Sequence[str] | None, config_file: s
             mode: str | None, role: str = "operator") -> Target:
     """The :class:`Target` of a client.
 
-    With ``connect``, ``config_file`` or ``$ACNMP_CONNECT``: those, in ``mode`` (default peer),
+    ``connect`` (or ``$ACNMP_CONNECT``) naming the anchor of a running secured deployment, with
+    no ``config_file`` nor ``mode``: that deployment's credentials of ``role``. Otherwise, with
+    ``connect``, ``config_file`` or ``$ACNMP_CONNECT``: those, in ``mode`` (default peer),
     namespace ``namespace`` or the default. Otherwise the running deployment of ``namespace``
     (or the only one running): its anchor and the config file of ``role`` (``operator`` or
     ``client``), in the mode that file says. Raises
     :class:`~services.transport.runfile.DeploymentNotFound` (an OSError) when there is none.
     """
     env = [e for e in os.environ.get(CONNECT_ENV, "").split(",") if e]
+    known = _announced(connect or env) if config_file is None and mode is None else None
+    if known is not None:  # the anchor of a running `acnmp up`: use its credentials
+        namespace = known.namespace if namespace in (None, DEFAULT_NAMESPACE) else namespace
+        connect, config_file = [known.anchor], _credentials(known, role)
     if connect is not None or config_file is not None or env:
         endpoints = list(connect) if connect is not None else (env or None)  # None: the file's
         return Target(namespace or DEFAULT_NAMESPACE, endpoints, config_file,
                       mode if mode is not None or config_file is not None else "peer")
     run = find(namespace)
-    creds = run.operator_credentials if role == "operator" else run.credentials
+    creds = _credentials(run, role)
     if not creds:  # an unsecured deployment: a peer of its mesh
         return Target(run.namespace, [run.anchor], None, mode or "peer")
     return Target(run.namespace, [run.anchor], creds, None)
+
+
+def _credentials(run: RunFile, role: str) -> str | None:
+    """The config file of ``role`` in run file ``run`` (None when it is not secured)."""
+    return (run.operator_credentials if role == "operator" else run.credentials) or None
+
+
+def _announced(endpoints: Sequence[str] | None) -> RunFile | None:
+    """The running secured deployment whose anchor is one of ``endpoints``, if any."""
+    for run in running() if endpoints else ():
+        if run.anchor in endpoints and run.credentials:
+            return run
+    return None
 
 
 def call_when_available(session: zenoh.Session, key: str, payload: dict | None, timeout: float, *,

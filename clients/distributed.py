@@ -7,7 +7,8 @@ E2 and E3 drive their loops in this process and only execute roll-outs remotely:
 :func:`remote_rollouts` starts workers (and a recorder) and hands out evaluators that send the
 roll-outs to the workers and publish each one for the recording.
 
-E1 runs as a client of the services: the learner trains the skill from the demonstrations and runs
+E1 runs as a client of the services (of a fresh deployment, or of the running one
+``acnmp experiment viapoint --distributed`` found by its run file): the learner trains the skill from the demonstrations and runs
 one adaptation job per method, the jobs' roll-outs go to the workers, the recorder logs every one,
 and the assimilated model is read back through the model service. The learner calls the same
 library functions with the same seeds as :func:`acnmp_core.experiments.viapoint.run_viapoint`,

@@ -25,19 +25,10 @@ def _cli(*args: str, timeout: float = 60) -> subprocess.CompletedProcess:
                           capture_output=True, text=True, timeout=timeout)
 
 
-def test_acnmp_up_then_query_with_no_arguments_20_of_20_and_ctrl_c(tmp_path, capsys):
-    env = dict(os.environ, PYTHONPATH=str(ROOT), RERUN_ANALYTICS="0")
+def test_acnmp_up_then_query_with_no_arguments_20_of_20_and_ctrl_c(tmp_path, capsys, acnmp_up):
     # --train-steps 20: the default skill is E1's, trained briefly (a user's first start trains 3000 steps)
-    proc = subprocess.Popen([sys.executable, "-m", "clients.cli", "up", "--workers", "0", "--train-steps", "20",
-                             "--state-dir", str(tmp_path / "state")],
-                            cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    lines: list[str] = []
+    proc, _ = acnmp_up("--workers", "0", "--train-steps", "20", "--state-dir", str(tmp_path / "state"))
     try:
-        for line in proc.stdout:
-            lines.append(line)
-            if "deployment is up" in line:
-                break
-        assert any("deployment is up" in ln for ln in lines), "".join(lines)
         run = find()
         assert run.namespace == "default" and run.pid == proc.pid
         for path in (run.path, Path(run.credentials), Path(run.operator_credentials)):
@@ -48,6 +39,9 @@ def test_acnmp_up_then_query_with_no_arguments_20_of_20_and_ctrl_c(tmp_path, cap
         assert out.returncode == 0 and out.stdout.startswith("skill e1 version 0"), out.stderr
         assert main(["query", "predict", "--skill", "e1", "--obs", "0:0,0", "--steps", "5"]) == 0
         assert "skill e1 version 0: 5 steps x 2 dims" in capsys.readouterr().out
+        # the anchor given by hand (as before the run file): its credentials are used
+        assert main(["query", "info", "--skill", "e1", "--connect", run.anchor]) == 0
+        assert capsys.readouterr().out.startswith("skill e1 version 0")
 
         # a second deployment: the default namespace is still found, --namespace picks the other
         with LocalDeployment("other", workers=0, model=False, learner=False, secure=True):
