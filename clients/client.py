@@ -89,7 +89,8 @@ class ACNMPClient:
     namespace : deployment namespace (``acnmp/<namespace>/...``); None: the discovered one.
     connect : endpoints to connect to; default ``$ACNMP_CONNECT`` (comma-separated), else the
         running deployment found by its run file (clients/discovery.py :func:`resolve`).
-    mode : zenoh mode of the client's own session, ``peer`` (default) or ``client``.
+    mode : zenoh mode of the client's own session, ``peer`` or ``client``; default: what the
+        discovered deployment's config file says (``client`` of an authenticated one), else ``peer``.
     listen, config_file : passed to :func:`services.transport.session.open_session`.
     timeout : default seconds per query. role : credentials taken from a discovered secured
         deployment, ``operator`` (may start jobs) or ``client`` (queries only).

@@ -27,8 +27,9 @@ class ProcessHealth:
 
     @property
     def health(self) -> str:
-        """``ok``, ``no token`` (running, not seen on zenoh) or ``exited``."""
-        return "ok" if self.running and self.live else "no token" if self.running else "exited"
+        """``ok`` (its token is seen on zenoh: it serves, even if restarted under another pid),
+        ``no token`` (the pid runs but is not seen) or ``exited``."""
+        return "ok" if self.live else "no token" if self.running else "exited"
 
 
 def process_health(run, timeout: float) -> list[ProcessHealth]:

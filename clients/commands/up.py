@@ -82,7 +82,7 @@ def run(args) -> int:
 
 def wait_for_skill(dep, skill: str, stop, poll: float = 1.0) -> bool:
     """Wait until the model service serves ``skill`` (its liveliness token; the learner trains it
-    at its first start, ~10 s on one core). False if stopped, or if a child exited first."""
+    at its first start). False if stopped, or if the learner or the model exited first."""
     from services.transport import wait_for_liveliness
 
     print(f"waiting for the model service to serve skill {skill!r} (trained from E1's demonstrations at "

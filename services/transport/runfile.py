@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import tempfile
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -128,7 +129,8 @@ def pid_alive(pid: int) -> bool:
 
 
 def running() -> list[RunFile]:
-    """The run files of live deployments, sorted by namespace; stale ones (dead pid) are removed."""
+    """The run files of live deployments, sorted by namespace; a stale one (dead pid) is removed
+    with the secrets beside it."""
     base = runtime_dir(create=False)
     found = []
     for path in sorted(base.glob(f"*/{RUN_FILE}")) if base.is_dir() else []:
@@ -137,8 +139,8 @@ def running() -> list[RunFile]:
             continue
         if run.alive():
             found.append(run)
-        else:
-            run.remove()
+        else:  # its launcher died without cleaning up (kill -9): drop the run file and the secrets
+            shutil.rmtree(path.parent, ignore_errors=True)
     return found
 
 

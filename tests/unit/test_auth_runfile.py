@@ -70,7 +70,8 @@ def test_run_files_are_found_by_namespace_and_stale_ones_ignored(monkeypatch, tm
     live = _run_file("lab", os.getpid())
     assert _mode(runtime_dir()) == 0o700 and _mode(live.path) == 0o600
     assert RunFile.read(live.path) == live
-    assert [r.namespace for r in running()] == ["lab"] and not stale.path.exists()  # stale: removed
+    assert [r.namespace for r in running()] == ["lab"]
+    assert not stale.path.parent.exists()  # stale: removed with its directory (its secrets)
     assert find().namespace == "lab" and find("default").namespace == "lab"  # the only one running
     _run_file("default", os.getpid())
     assert find().namespace == "default" and find("lab").namespace == "lab"
