@@ -1,8 +1,11 @@
-"""``acnmp up`` then, in another process, ``acnmp query`` / ``ACNMPClient()`` / ``acnmp status`` with
-no arguments: the run file finds the deployment, the client's credentials let it in, and the
-default skill (E1's via-point skill ``e1``) answers. Then Ctrl-C stops it and the run file goes."""
+"""``acnmp up`` then, in another process, ``acnmp query`` / ``ACNMPClient()`` / ``acnmp status`` /
+``acnmp experiment viapoint --distributed`` with no arguments: the run file finds the deployment,
+the client's credentials let it in, and the default skill (E1's via-point skill ``e1``) answers.
+Then Ctrl-C stops it and the run file goes. (That E1 on a deployment gives the in-process numbers
+is tests/e2e/test_e1_distributed.py: the same DeployedSkill code on a fresh deployment.)"""
 from __future__ import annotations
 
+import json
 import os
 import signal
 import subprocess
@@ -17,6 +20,7 @@ from services.launcher import LocalDeployment
 from services.transport.runfile import DeploymentNotFound, find, running
 
 ROOT = Path(__file__).resolve().parents[2]
+E1_ARGS = ["--seed", "1", "--budget", "4", "--train-steps", "30", "--quiet"]
 
 
 def _cli(*args: str, timeout: float = 60) -> subprocess.CompletedProcess:
@@ -27,7 +31,7 @@ def _cli(*args: str, timeout: float = 60) -> subprocess.CompletedProcess:
 
 def test_acnmp_up_then_query_with_no_arguments_20_of_20_and_ctrl_c(tmp_path, capsys, acnmp_up):
     # --train-steps 20: the default skill is E1's, trained briefly (a user's first start trains 3000 steps)
-    proc, _ = acnmp_up("--workers", "0", "--train-steps", "20", "--state-dir", str(tmp_path / "state"))
+    proc, _ = acnmp_up("--workers", "1", "--train-steps", "20", "--state-dir", str(tmp_path / "state"))
     try:
         run = find()
         assert run.namespace == "default" and run.pid == proc.pid
@@ -62,10 +66,20 @@ def test_acnmp_up_then_query_with_no_arguments_20_of_20_and_ctrl_c(tmp_path, cap
                 answered += client.info("e1")["skill"] == "e1"
         assert answered == 20
 
+        # `acnmp experiment viapoint --distributed` runs on this deployment too (role operator)
+        out_json = tmp_path / "e1.json"
+        assert main(["experiment", "viapoint", *E1_ARGS, "--distributed", "--json", str(out_json)]) == 0
+        assert "running E1 on deployment 'default'" in capsys.readouterr().out
+        e1 = json.loads(out_json.read_text())
+        assert e1["attached_to"] == "default" and all(m["job"] for m in e1["methods"].values())
+        # ... which records with its own recorder, and --namespace must name a running deployment
+        assert main(["experiment", "viapoint", *E1_ARGS, "--distributed", "--record", str(tmp_path / "x.rrd")]) == 2
+        assert main(["experiment", "viapoint", *E1_ARGS, "--distributed", "--namespace", "nope"]) == 2
+
         proc.send_signal(signal.SIGINT)  # what Ctrl-C in its terminal sends
         rest, _ = proc.communicate(timeout=30)
         assert proc.returncode == 0, rest
-        assert "deployment stopped: learner=0 model=0" in rest, rest
+        assert "deployment stopped: learner=0 model=0 worker-point2d-0=0" in rest, rest
     finally:
         if proc.poll() is None:
             proc.kill()
