@@ -8,6 +8,8 @@ def register(subparsers) -> None:
     """Add the ``up`` sub-command."""
     from acnmp_core.robots.registry import robot_kinds
 
+    from .query import int_at_least
+
     p = subparsers.add_parser("up", help="start a local deployment on 127.0.0.1 until Ctrl-C / SIGTERM",
                               description=__doc__.splitlines()[0].split(": ", 1)[1])
     p.add_argument("--namespace", "-n", default="default", help="key prefix acnmp/<namespace>/ (default: %(default)s)")
@@ -22,7 +24,7 @@ def register(subparsers) -> None:
     p.add_argument("--demos", action="append", default=[], metavar="SKILL=FILE.npz",
                    help="have the learner train SKILL from a demonstration file at start (repeatable); "
                         "without it (and without --no-default-skill) it trains E1's via-point skill 'e1'")
-    p.add_argument("--train-steps", type=int, default=None, metavar="N",
+    p.add_argument("--train-steps", type=int_at_least(1), default=None, metavar="N",
                    help="training steps for --demos and the default skill (default: the learner's, 3000)")
     p.add_argument("--no-default-skill", action="store_true",
                    help="do not train and serve E1's via-point skill 'e1' when no --demos is given")
@@ -49,8 +51,6 @@ def run(args) -> int:
         demos.append(default_demos(state_dir))
     learner_args = [a for spec in demos for a in ("--demos", spec)]
     if args.train_steps is not None:
-        if args.train_steps < 1:
-            raise ValueError(f"--train-steps: expected an integer >= 1, got {args.train_steps}")
         learner_args += ["--train-steps", str(args.train_steps)]
     served = False
     dep = LocalDeployment(args.namespace, args.workers, args.robot, record=args.record, state_dir=state_dir,
