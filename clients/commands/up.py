@@ -54,7 +54,8 @@ def run(args) -> int:
         learner_args += ["--train-steps", str(args.train_steps)]
     served = False
     dep = LocalDeployment(args.namespace, args.workers, args.robot, record=args.record, state_dir=state_dir,
-                          model=not args.no_model, learner_args=learner_args, secure=not args.insecure)
+                          model=not args.no_model, learner_args=learner_args, secure=not args.insecure,
+                          announce=True)
     try:
         try:
             dep.start()
@@ -62,10 +63,10 @@ def run(args) -> int:
             print(f"acnmp up: {exc}", file=sys.stderr)
             return 1
         print(dep.describe(), flush=True)
-        if dep.announcement is not None:
-            print(f"run file {dep.announcement.run.path} (`acnmp query`, `acnmp status` find it); "
-                  f"credentials: client {dep.announcement.run.credentials}, "
-                  f"operator {dep.announcement.run.operator_credentials}", flush=True)
+        run = dep.announcement.run
+        creds = (f"; credentials: client {run.credentials}, operator {run.operator_credentials}" if dep.secure
+                 else "; NOT authenticated (--insecure): any local process can join")
+        print(f"run file {run.path} (`acnmp query`, `acnmp status` find it){creds}", flush=True)
         served = not default_skill or wait_for_skill(dep, SKILL, stop)
         if served:
             print("deployment is up; Ctrl-C or SIGTERM stops it", flush=True)

@@ -1,5 +1,5 @@
-"""A secured local deployment's secrets and run file: what :class:`LocalDeployment` does with
-``secure=True`` (``acnmp up``), kept out of deployment.py.
+"""A local deployment's run file and, when secured, its secrets: what :class:`LocalDeployment`
+does with ``secure=True`` or ``announce=True`` (``acnmp up``), kept out of deployment.py.
 
 :class:`Announcement` claims ``<runtime dir>/<namespace>/`` (refusing when a live deployment of
 that namespace holds it), writes the secrets there (services/transport/auth.py), gives the
@@ -27,36 +27,41 @@ def role_of(child_name: str) -> str:
 
 
 class Announcement:
-    """The secrets and the run file of one secured deployment of ``namespace``."""
+    """The run file of one deployment of ``namespace`` and, when ``secure``, its secrets."""
 
-    def __init__(self, namespace: str) -> None:
+    def __init__(self, namespace: str, secure: bool = True) -> None:
         self.namespace = namespace
+        self.secure = secure
         self.directory = deployment_dir(namespace)
         self.secrets = DeploymentSecrets(self.directory)
         self.run: RunFile | None = None
         self._claimed = False
 
-    def claim(self, anchor: str) -> zenoh.Config:
-        """Refuse (:class:`NamespaceInUse`) if a live deployment announced this namespace; else
-        write fresh secrets for ``anchor`` and return the anchor's router config."""
+    def claim(self, anchor: str) -> zenoh.Config | None:
+        """Refuse (:class:`NamespaceInUse`) if a live deployment announced this namespace; else,
+        when secure, write fresh secrets for ``anchor`` and return the anchor's router config
+        (None when not secure: the anchor is a peer of the mesh)."""
         other = RunFile.read(self.directory / "run.json")
         if other is not None and other.alive() and other.pid != os.getpid():
             raise NamespaceInUse(f"a deployment of namespace {self.namespace!r} is already running "
                                  f"(launcher pid {other.pid}, anchor {other.anchor}); stop it or use --namespace")
         self.secrets.remove()  # a stale deployment's secrets
-        self.secrets.create(anchor)
         self._claimed = True
+        if not self.secure:
+            return None
+        self.secrets.create(anchor)
         return self.secrets.router_config([anchor])
 
     def child_args(self, child_name: str) -> list[str]:
-        """The extra command-line arguments of a child: its role's zenoh config file."""
-        return ["--config", str(self.secrets.config_path(role_of(child_name)))]
+        """The extra command-line arguments of a child: its role's zenoh config file (none when
+        not secure)."""
+        return ["--config", str(self.secrets.config_path(role_of(child_name)))] if self.secure else []
 
     def publish(self, anchor: str, state_dir: str, processes: Iterable[tuple[str, int, str]]) -> RunFile:
         """Write the run file: ``processes`` is (name, pid, liveliness token) per child."""
+        creds = {r: str(self.secrets.config_path(r)) if self.secure else "" for r in ("client", "operator")}
         self.run = RunFile(self.namespace, anchor, os.getpid(),
-                           credentials=str(self.secrets.config_path("client")),
-                           operator_credentials=str(self.secrets.config_path("operator")),
+                           credentials=creds["client"], operator_credentials=creds["operator"],
                            state_dir=str(state_dir),
                            processes=[ProcessEntry(n, int(p), t) for n, p, t in processes])
         self.run.write()

@@ -78,7 +78,8 @@ class LocalDeployment:
     log_dir : children's logs (default: ``<state_dir>/logs``).
     secure : authenticated deployment (``acnmp up``): the anchor is a zenoh router requiring a
         per-deployment password per role and applying the ACL of services/transport/auth.py, every
-        child is its client, and a run file announces it (services/launcher/announce.py).
+        child is its client; it writes a run file so clients find it (services/launcher/announce.py).
+    announce : write that run file for an unauthenticated deployment too.
 
     Attributes once started: ``session`` (the launcher's open session, usable by clients),
     ``anchor`` (endpoint to ``--connect`` to), ``children`` ({name: Child}).
@@ -88,7 +89,7 @@ class LocalDeployment:
                  record: str | os.PathLike | None = None, state_dir: str | os.PathLike | None = None, *,
                  model: bool = True, learner: bool = True, worker_delay: float = 0.0, chunk_timeout: float = 60.0,
                  start_timeout: float = 60.0, stop_timeout: float = 8.0, log_dir: str | os.PathLike | None = None,
-                 learner_args: Sequence[str] = (), secure: bool = False):
+                 learner_args: Sequence[str] = (), secure: bool = False, announce: bool = False):
         self.robot = robot_spec(robot).kind  # UnknownRobotError (a ValueError) for a kind not registered
         if workers < 0:
             raise ValueError(f"workers: expected >= 0, got {workers}")
@@ -112,7 +113,8 @@ class LocalDeployment:
         self.session: zenoh.Session | None = None
         self.anchor = ""
         self._stack = contextlib.ExitStack()
-        self.announcement = Announcement(namespace) if secure else None
+        self.secure = bool(secure)
+        self.announcement = Announcement(namespace, self.secure) if secure or announce else None
 
     # ----- starting --------------------------------------------------------------------------
     def _spawn(self, name: str, module: str, args: Sequence[str], token: str, serves: Sequence[str] = ()) -> Child:
@@ -160,8 +162,9 @@ class LocalDeployment:
         try:
             port = free_port()
             self.anchor = loopback_endpoint(port)
-            if self.announcement is not None:
-                self.session = self._stack.enter_context(open_session(config=self.announcement.claim(self.anchor)))
+            router = self.announcement.claim(self.anchor) if self.announcement is not None else None
+            if router is not None:
+                self.session = self._stack.enter_context(open_session(config=router))
             else:
                 self.session = self._stack.enter_context(open_session("peer", [self.anchor], multicast=False))
             keys = self.keys
@@ -197,7 +200,7 @@ class LocalDeployment:
     def describe(self) -> str:
         """A table of what runs where: process, pid, liveliness token, keys served, log file."""
         layout = ("zenoh router on 127.0.0.1, every process its authenticated client, ACL on"
-                  if self.announcement is not None else "peer mesh on 127.0.0.1")
+                  if self.secure else "peer mesh on 127.0.0.1")
         lines = [f"acnmp deployment '{self.namespace}': anchor {self.anchor} ({layout}, "
                  f"multicast off); state {self.state_dir}"]
         if self.record is not None:
