@@ -19,7 +19,8 @@ With every process a client of the router, the router accepts every link and kno
 username, so the ACL applies to all traffic.
 
 The ACL's key expressions use ``acnmp/*/...``: they hold for every namespace, so the same rules
-go into a static router config (deploy/tls/router.json5) and into :func:`router_config`.
+go into the launcher's router (:func:`router_config`) and into the router config of a compose or
+multi-host deployment (:func:`write_router_deployment`, ``acnmp credentials``).
 """
 from __future__ import annotations
 
@@ -38,8 +39,6 @@ from .session import make_config
 
 #: One zenoh username per role; a process of the deployment authenticates as its role.
 ROLES = ("launcher", "learner", "model", "worker", "recorder", "operator", "client")
-#: Roles a user's own tools use: ``operator`` may start jobs, ``client`` only asks.
-USER_ROLES = ("operator", "client")
 
 
 @dataclass(frozen=True)
