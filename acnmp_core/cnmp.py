@@ -199,8 +199,11 @@ class CNMP(nn.Module):
     def decode(self, latent: torch.Tensor, tgt_x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """Latent (B, L) and targets (B, M, 1+P) -> mean, std (B, M, D) in normalised units."""
         r = latent[:, None, :].expand(-1, tgt_x.shape[1], -1)
-        out = self.decoder(torch.cat([r, tgt_x], dim=-1))
-        mean, raw = out.chunk(2, dim=-1)
+        return self._head(torch.cat([r, tgt_x], dim=-1))
+
+    def _head(self, dec_x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """Decoder inputs (..., L+1+P) -> mean, std (..., D) in normalised units."""
+        mean, raw = self.decoder(dec_x).chunk(2, dim=-1)
         return mean, self.config.std_floor + F.softplus(raw)
 
     def forward(self, obs_x, obs_mask, tgt_x):
@@ -339,6 +342,32 @@ class CNMP(nn.Module):
             mean = self.value_norm.denormalize(mean[0].double())
             std = self.value_norm.denormalize_std(std[0].double())
         return Prediction(query.times.copy(), mean.numpy(), std.numpy(), latent[0].double().numpy())
+
+    def predict_queries(self, queries: Sequence[Query]) -> list[Prediction]:
+        """Several prepared single queries (B = 1 each, any N and T) in one forward pass.
+
+        The observations of all queries go through the encoder as one (sum N, 1+P+2D) matrix, each
+        query's latent is the mean of its own rows, and all targets go through the decoder as one
+        (sum T, L+1+P) matrix: no padding, so the cost is that of the queries' points, and element i
+        of the returned list (a :class:`Prediction` like :meth:`predict_query`'s, raw units) equals
+        ``predict_query(queries[i])`` (the network is applied row by row; see
+        tests/unit/test_cnmp.py for how exactly).
+        """
+        if not queries:
+            return []
+        n_obs = [q.obs_x.shape[1] for q in queries]
+        n_tgt = [q.tgt_x.shape[1] for q in queries]
+        with torch.no_grad():
+            h = self.encoder(torch.cat([q.obs_x[0] for q in queries]))
+            # the same masked mean as encode() on each query (its mask is all ones)
+            latents = [part.sum(0) / float(n) for part, n in zip(h.split(n_obs), n_obs)]
+            rows = torch.cat([torch.cat([lat.expand(q.tgt_x.shape[1], -1), q.tgt_x[0]], dim=-1)
+                              for lat, q in zip(latents, queries)])
+            mean, std = self._head(rows)
+            mean = self.value_norm.denormalize(mean.double())
+            std = self.value_norm.denormalize_std(std.double())
+        return [Prediction(q.times.copy(), m.numpy(), s.numpy(), lat.double().numpy())
+                for q, m, s, lat in zip(queries, mean.split(n_tgt), std.split(n_tgt), latents)]
 
     def predict_batch(self, obs_times, obs_values, task_params=None, query_times=None, *,
                       obs_dims_mask=None) -> Prediction:
