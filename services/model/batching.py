@@ -23,12 +23,17 @@ from acnmp_core.cnmp import Query
 from services.transport.rpc import Expired
 from services.transport.wire import WireError
 
-from .handlers import MAX_BATCH_POINTS, PredictItem, SkillModel, pin_threads, predict_reply
+from .handlers import PredictItem, SkillModel, pin_threads, predict_reply
 
 log = logging.getLogger(__name__)
 
 #: Predicts of one skill run in one forward pass at most (the service's ``--batch-max`` default).
 DEFAULT_BATCH_MAX = 16
+#: Observation plus query points (N + T) of one pass at most, beyond which a pass is split: the
+#: decoder's activations of a larger pass (3200 rows of 128 floats) fall out of the cache and cost
+#: more per row than several passes (measured: 0.17 ms per 200 rows up to 1600 rows, 0.47 ms at 3200).
+#: A single predict larger than this runs alone.
+PASS_POINTS = 2048
 #: Seconds the batcher waits for more predicts once it has one (``--batch-window``, default 0:
 #: it takes what is waiting, so a lone predict is never delayed; see benchmarks/bench_predict.py).
 DEFAULT_BATCH_WINDOW = 0.0
@@ -55,12 +60,13 @@ class PredictBatcher:
     max_items : predicts in one forward pass at most (1: each alone, in arrival order).
     window : seconds to wait for more predicts after the first of a pass (0: only those waiting).
     max_pending : predicts waiting at most; :meth:`submit` raises WireError ``overloaded`` beyond.
-    max_points : observation plus query points (N + T) of one pass at most, so a pass never costs
-        more than the largest single query may (:data:`services.model.handlers.MAX_BATCH_POINTS`).
+    max_points : observation plus query points (N + T) of one pass at most (:data:`PASS_POINTS`);
+        a predict larger than that runs alone, so a pass never costs more than the largest single
+        query may (:data:`services.model.handlers.MAX_BATCH_POINTS`).
     """
 
     def __init__(self, max_items: int = DEFAULT_BATCH_MAX, window: float = DEFAULT_BATCH_WINDOW, *,
-                 max_pending: int = 64, max_points: int = MAX_BATCH_POINTS):
+                 max_pending: int = 64, max_points: int = PASS_POINTS):
         if max_items < 1:
             raise ValueError(f"max_items: expected >= 1, got {max_items}")
         if not window >= 0:
