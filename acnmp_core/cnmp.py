@@ -303,21 +303,29 @@ class CNMP(nn.Module):
 
     def _build_query(self, obs_times: np.ndarray, obs_values: np.ndarray, dims: np.ndarray, task_params: np.ndarray,
                      query_times: np.ndarray) -> Query:
-        """Checked raw arrays (B, N), (B, N, D), (B, N, D), (B, P), (T,) -> normalised network inputs."""
+        """Checked raw arrays (B, N), (B, N, D), (B, N, D), (B, P), (T,) -> normalised network inputs.
+
+        In numpy rather than torch: on arrays this small, each torch call costs more than its
+        arithmetic, and a predict is answered per request by the model service. Every operation is
+        elementwise in float64 then rounded to float32 once, exactly as torch would compute it.
+        """
         b, n = obs_times.shape
-        p = task_params.shape[1]
-        with torch.no_grad():
-            tn = self.time_norm.normalize(torch.from_numpy(obs_times.copy())[..., None])
-            vn = self.value_norm.normalize(torch.from_numpy(obs_values.copy()))
-            dm = torch.from_numpy(np.array(dims))
-            pn = self.task_norm.normalize(torch.from_numpy(task_params.copy()))[:, None, :]  # (B, 1, P)
-            obs_x = torch.cat([tn, pn.expand(b, n, p), vn * dm, dm], dim=-1)
-            qn = self.time_norm.normalize(torch.from_numpy(query_times.copy())[:, None])  # (T, 1)
-            tgt_x = torch.cat([qn.expand(b, -1, -1), pn.expand(b, len(query_times), p)], dim=-1)
+        p, t = task_params.shape[1], len(query_times)
+
+        def norm(x: np.ndarray, normalizer: AffineNormalizer) -> np.ndarray:
+            return (x - normalizer.shift.numpy()) / normalizer.scale.numpy()
+
+        tn = norm(obs_times[..., None], self.time_norm)  # (B, N, 1)
+        dm = np.asarray(dims, dtype=np.float64)
+        vn = norm(obs_values, self.value_norm)
+        pn = norm(task_params, self.task_norm)[:, None, :]  # (B, 1, P)
+        obs_x = np.concatenate([tn, np.broadcast_to(pn, (b, n, p)), vn * dm, dm], axis=-1)
+        qn = norm(query_times[:, None], self.time_norm)  # (T, 1)
+        tgt_x = np.concatenate([np.broadcast_to(qn, (b, t, 1)), np.broadcast_to(pn, (b, t, p))], axis=-1)
         return Query(
-            obs_x=obs_x.float(),
+            obs_x=torch.from_numpy(obs_x.astype(np.float32)),
             obs_mask=torch.ones(b, n, dtype=torch.bool),
-            tgt_x=tgt_x.float(),
+            tgt_x=torch.from_numpy(tgt_x.astype(np.float32)),
             times=query_times,
         )
 
@@ -361,9 +369,8 @@ class CNMP(nn.Module):
             h = self.encoder(torch.cat([q.obs_x[0] for q in queries]))
             # the same masked mean as encode() on each query (its mask is all ones)
             latents = [part.sum(0) / float(n) for part, n in zip(h.split(n_obs), n_obs)]
-            rows = torch.cat([torch.cat([lat.expand(q.tgt_x.shape[1], -1), q.tgt_x[0]], dim=-1)
-                              for lat, q in zip(latents, queries)])
-            mean, std = self._head(rows)
+            r = torch.stack(latents).repeat_interleave(torch.tensor(n_tgt), dim=0)  # (sum T, L)
+            mean, std = self._head(torch.cat([r, torch.cat([q.tgt_x[0] for q in queries])], dim=-1))
             mean = self.value_norm.denormalize(mean.double())
             std = self.value_norm.denormalize_std(std.double())
         return [Prediction(q.times.copy(), m.numpy(), s.numpy(), lat.double().numpy())

@@ -8,7 +8,9 @@ predict's future with its own reply. Nothing here imports zenoh: the futures are
 services/transport/rpc.py.
 
 Why one thread: the forward passes are what is shared; torch runs each on one core
-(``torch.set_num_threads(1)``), leaving the other to decoding, encoding and zenoh.
+(``torch.set_num_threads(1)``), leaving the other to decoding, encoding and zenoh. The replies of a
+pass are built and sent on a second thread, so that the next pass (whose torch kernels release the
+GIL) overlaps with the Python work of encoding the last one.
 """
 from __future__ import annotations
 
@@ -16,7 +18,7 @@ import collections
 import logging
 import threading
 import time
-from concurrent.futures import Future
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 
 from acnmp_core.cnmp import Query
@@ -79,6 +81,7 @@ class PredictBatcher:
         self.computed = 0    # predicts computed in them
         self.largest = 0     # most predicts in one pass
         self.expired = 0     # dropped uncomputed: their deadline had passed
+        self._replier = ThreadPoolExecutor(1, thread_name_prefix="model-replies")
         self._thread = threading.Thread(target=self._run, name="model-batcher", daemon=True)
         self._thread.start()
 
@@ -151,6 +154,10 @@ class PredictBatcher:
         self.passes += 1
         self.computed += len(jobs)
         self.largest = max(self.largest, len(jobs))
+        self._replier.submit(self._reply, entry, jobs, preds)
+
+    @staticmethod
+    def _reply(entry: SkillModel, jobs: list[_Job], preds: list) -> None:
         for job, pred in zip(jobs, preds):
             try:
                 reply = predict_reply(entry, job.item, pred)
@@ -165,3 +172,4 @@ class PredictBatcher:
             self._stopping = True
             self._cond.notify_all()
         self._thread.join(timeout=10.0)
+        self._replier.shutdown(wait=True)
