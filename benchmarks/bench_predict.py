@@ -64,6 +64,11 @@ def _serve(checkpoint: str, endpoint: str, workers: int, batch_max: int, window:
             ready.set()
             while not stop.wait(0.2):
                 pass
+            b = service.batcher
+            if b is not None:
+                print(f"batcher (max {b.max_items}, window {b.window}, passes {b.max_passes}): {b.computed} predicts "
+                      f"in {b.passes} passes, "
+                      f"largest {b.largest}", file=sys.stderr, flush=True)
         q.undeclare()
 
 
@@ -115,8 +120,19 @@ def measure_latency(clients: dict, model, n: int, warmup: int) -> dict:
     return {name: _stats(v) for name, v in times.items()}
 
 
-def measure_throughput(endpoint: str, n_clients: int, duration: float) -> dict:
-    """Predicts per second with ``n_clients`` threads, each with its own session, for ``duration`` s."""
+def _cpu_seconds(proc) -> float:
+    """User + system CPU seconds of a psutil process so far."""
+    t = proc.cpu_times()
+    return t.user + t.system
+
+
+def measure_throughput(endpoint: str, n_clients: int, duration: float, service=None, empty: bool = False) -> dict:
+    """Predicts per second with ``n_clients`` threads, each with its own session, for ``duration`` s;
+    with ``service`` (a psutil process) also the CPU milliseconds per predict of the service and
+    of this (the clients') process. ``empty``: empty queries instead of predicts (the transport's
+    floor), counted the same way."""
+    import psutil
+
     from clients.client import ACNMPClient
 
     counts, errors = [0] * n_clients, [0] * n_clients
@@ -125,11 +141,18 @@ def measure_throughput(endpoint: str, n_clients: int, duration: float) -> dict:
 
     def worker(i: int) -> None:
         with ACNMPClient(NS, connect=[endpoint], timeout=30.0) as c:
+            def op():
+                if empty:
+                    if not [r for r in c.session.get(EMPTY_KEY, timeout=30.0) if r.ok is not None]:
+                        raise RuntimeError("no empty reply")
+                else:
+                    c.predict("reach", OBS_T, OBS_V, n_steps=STEPS)
+
             c.predict("reach", OBS_T, OBS_V, n_steps=STEPS)  # connected and warm
             start.wait()
             while not stop.is_set():
                 try:
-                    c.predict("reach", OBS_T, OBS_V, n_steps=STEPS)
+                    op()
                     counts[i] += 1
                 except Exception:
                     errors[i] += 1
@@ -137,18 +160,26 @@ def measure_throughput(endpoint: str, n_clients: int, duration: float) -> dict:
     threads = [threading.Thread(target=worker, args=(i,)) for i in range(n_clients)]
     for t in threads:
         t.start()
+    me = psutil.Process()
     start.wait()
+    cpu0 = (_cpu_seconds(service) if service is not None else 0.0, _cpu_seconds(me))
     t0 = time.perf_counter()
     time.sleep(duration)
     stop.set()
     for t in threads:
         t.join()
     elapsed = time.perf_counter() - t0
+    cpu1 = (_cpu_seconds(service) if service is not None else 0.0, _cpu_seconds(me))
+    n = max(sum(counts), 1)
     return {"clients": n_clients, "predicts": sum(counts), "errors": sum(errors),
-            "seconds": elapsed, "predicts_per_s": sum(counts) / elapsed}
+            "seconds": elapsed, "predicts_per_s": sum(counts) / elapsed,
+            "service_cpu_ms_per_predict": 1e3 * (cpu1[0] - cpu0[0]) / n if service is not None else None,
+            "client_cpu_ms_per_predict": 1e3 * (cpu1[1] - cpu0[1]) / n}
 
 
-MODES = {"off": 1, "on": None, "window": None}  # mode -> batch_max (None: the service default)
+#: The configurations: ``off``, ``on``, ``window`` (services), ``empty`` (empty queries to the ``on``
+#: service: the transport's floor, throughput only).
+MODES = ("off", "on", "window", "empty")
 
 
 def _wait_served(client) -> None:
@@ -175,13 +206,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--duration", type=float, default=3.0, help="seconds per throughput point")
     parser.add_argument("--clients", default="1,4,16", help="concurrent clients per throughput point")
     parser.add_argument("--reps", type=int, default=3, help="repetitions of the throughput points (default: %(default)s)")
-    parser.add_argument("--modes", default="off,on,window", help="service configurations (default: %(default)s)")
+    parser.add_argument("--modes", default="off,on,window,empty", help="configurations (default: %(default)s)")
     parser.add_argument("--window", type=float, default=0.001, help="collection window of mode 'window', seconds")
     parser.add_argument("--workers", type=int, default=2, help="model service predict threads")
     parser.add_argument("--train-steps", type=int, default=300, help="training steps of the benchmarked model")
     parser.add_argument("--json", metavar="FILE", help="write the results here")
     args = parser.parse_args(argv)
 
+    import psutil
     import torch
 
     torch.set_num_threads(1)
@@ -195,25 +227,26 @@ def main(argv: list[str] | None = None) -> int:
     if "on" not in modes or any(m not in MODES for m in modes):
         parser.error(f"--modes: a comma-separated subset of {', '.join(MODES)} that includes 'on'")
     settings = {"off": (1, 0.0), "on": (DEFAULT_BATCH_MAX, DEFAULT_BATCH_WINDOW),
-                "window": (DEFAULT_BATCH_MAX, args.window)}
+                "window": (DEFAULT_BATCH_MAX, args.window), "empty": (None, None)}
     n_clients = [int(k) for k in args.clients.split(",")]
     ctx = mp.get_context("spawn")  # zenoh sessions do not survive fork
     with tempfile.TemporaryDirectory(prefix="bench-predict-") as tmp:
         ckpt = Path(tmp) / "reach.pt"
         model = _train_checkpoint(ckpt, args.train_steps)
-        endpoints = {m: loopback_endpoint(free_port()) for m in modes}
+        served = [m for m in modes if m != "empty"]
+        endpoints = {m: loopback_endpoint(free_port()) for m in served}
         stop = ctx.Event()
         children, readies = {}, {}
-        for m in modes:
+        for m in served:
             readies[m] = ctx.Event()
             children[m] = ctx.Process(target=_serve, args=(str(ckpt), endpoints[m], args.workers, *settings[m],
                                                            readies[m], stop), daemon=True)
             children[m].start()
         try:
-            for m in modes:
+            for m in served:
                 if not readies[m].wait(60):
                     raise RuntimeError(f"model service ({m}) did not start")
-            clients = {m: ACNMPClient(NS, connect=[endpoints[m]], timeout=10.0) for m in modes}
+            clients = {m: ACNMPClient(NS, connect=[endpoints[m]], timeout=10.0) for m in served}
             try:
                 for c in clients.values():
                     _wait_served(c)
@@ -226,7 +259,9 @@ def main(argv: list[str] | None = None) -> int:
                 order = modes[rep % len(modes):] + modes[:rep % len(modes)]
                 for k in n_clients:
                     for m in order:
-                        runs.append({"rep": rep, "mode": m, **measure_throughput(endpoints[m], k, args.duration)})
+                        on = "on" if m == "empty" else m
+                        runs.append({"rep": rep, "mode": m, **measure_throughput(
+                            endpoints[on], k, args.duration, psutil.Process(children[on].pid), empty=m == "empty")})
         finally:
             stop.set()
             for child in children.values():
@@ -242,14 +277,21 @@ def main(argv: list[str] | None = None) -> int:
         rate = {k: _median([r["predicts_per_s"] for r in runs if r["mode"] == m and r["clients"] == k])
                 for k in n_clients}
         per_rep = {k: [r["predicts_per_s"] for r in runs if r["mode"] == m and r["clients"] == k] for k in n_clients}
+        lat = latency["empty_query" if m == "empty" else f"predict_{m}"]
         by_mode[m] = {
             "batch_max": settings[m][0], "batch_window_s": settings[m][1],
-            "p50_ms": latency[f"predict_{m}"]["p50_ms"], "p50_ratio": latency[f"predict_{m}"]["p50_ms"] / floor,
+            "p50_ms": lat["p50_ms"], "p50_ratio": lat["p50_ms"] / floor,
             "predicts_per_s_median": {str(k): rate[k] for k in n_clients},
             "scaling_vs_1": {str(k): rate[k] / rate[n_clients[0]] for k in n_clients},
             "scaling_vs_1_per_rep": {str(k): [a / b for a, b in zip(per_rep[k], per_rep[n_clients[0]])]
                                      for k in n_clients},
             "errors": sum(r["errors"] for r in runs if r["mode"] == m),
+            "service_cpu_ms_per_predict_median": {
+                str(k): _median([r["service_cpu_ms_per_predict"] for r in runs if r["mode"] == m and r["clients"] == k])
+                for k in n_clients},
+            "client_cpu_ms_per_predict_median": {
+                str(k): _median([r["client_cpu_ms_per_predict"] for r in runs if r["mode"] == m and r["clients"] == k])
+                for k in n_clients},
         }
     top = str(n_clients[-1])
     result = {
@@ -273,8 +315,10 @@ def main(argv: list[str] | None = None) -> int:
     print(f"p50 ratio predict/(in-process + empty) = {ratio:.2f} (target <= 1.5: {'met' if ratio <= 1.5 else 'NOT met'})")
     for m, row in by_mode.items():
         rates = ", ".join(f"{k}: {v:.0f}/s" for k, v in row["predicts_per_s_median"].items())
+        cpu = ", ".join(f"{k}: {row['service_cpu_ms_per_predict_median'][k]:.2f}+"
+                        f"{row['client_cpu_ms_per_predict_median'][k]:.2f}" for k in row["predicts_per_s_median"])
         print(f"{m:7s} p50 ratio {row['p50_ratio']:.2f}; {rates}; x{row['scaling_vs_1'][top]:.2f} at {top} "
-              f"({row['errors']} errors)")
+              f"({row['errors']} errors); CPU ms per predict service+clients {cpu}")
     if args.json:
         save_result(result, args.json)
     return 0
