@@ -86,6 +86,10 @@ class ModelService:
         self.swaps = 0
         self.rejected = 0
         sub_skills = ["*"] if skills is None else list(self.registry.allowed)
+        if batch_max < 1:
+            raise ValueError(f"--batch-max: expected >= 1 (1 turns batching off), got {batch_max}")
+        if not batch_window >= 0:
+            raise ValueError(f"--batch-window: expected >= 0 seconds, got {batch_window}")
         self.batcher = (PredictBatcher(batch_max, batch_window, max_pending=max_queue)
                         if batch_max > 1 else None)
         self._subs = [session.declare_subscriber(self.keys.weights(s), self._on_weights) for s in sub_skills]
