@@ -41,6 +41,7 @@ from services.learner.store import DirectoryLock
 from services.transport import Keyspace, free_port, loopback_endpoint, open_session, wait_for_liveliness
 from services.transport.lifetime import PARENT_PID_ENV
 
+from .announce import Announcement
 from .processes import entry_module
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -75,6 +76,10 @@ class LocalDeployment:
     worker_delay : seconds per roll-out each worker sleeps (simulates a slow robot; tests).
     chunk_timeout : the learner's per-chunk worker timeout. start_timeout, stop_timeout : seconds.
     log_dir : children's logs (default: ``<state_dir>/logs``).
+    secure : authenticated deployment (``acnmp up``): the anchor is a zenoh router requiring a
+        per-deployment password per role and applying the ACL of services/transport/auth.py, every
+        child is its client; it writes a run file so clients find it (services/launcher/announce.py).
+    announce : write that run file for an unauthenticated deployment too.
 
     Attributes once started: ``session`` (the launcher's open session, usable by clients),
     ``anchor`` (endpoint to ``--connect`` to), ``children`` ({name: Child}).
@@ -84,7 +89,7 @@ class LocalDeployment:
                  record: str | os.PathLike | None = None, state_dir: str | os.PathLike | None = None, *,
                  model: bool = True, learner: bool = True, worker_delay: float = 0.0, chunk_timeout: float = 60.0,
                  start_timeout: float = 60.0, stop_timeout: float = 8.0, log_dir: str | os.PathLike | None = None,
-                 learner_args: Sequence[str] = ()):
+                 learner_args: Sequence[str] = (), secure: bool = False, announce: bool = False):
         self.robot = robot_spec(robot).kind  # UnknownRobotError (a ValueError) for a kind not registered
         if workers < 0:
             raise ValueError(f"workers: expected >= 0, got {workers}")
@@ -108,12 +113,16 @@ class LocalDeployment:
         self.session: zenoh.Session | None = None
         self.anchor = ""
         self._stack = contextlib.ExitStack()
+        self.secure = bool(secure)
+        self.announcement = Announcement(namespace, self.secure) if secure or announce else None
 
     # ----- starting --------------------------------------------------------------------------
     def _spawn(self, name: str, module: str, args: Sequence[str], token: str, serves: Sequence[str] = ()) -> Child:
         self.log_dir.mkdir(parents=True, exist_ok=True)
         log = self.log_dir / f"{name}.log"
         argv = [sys.executable, "-m", module, "--namespace", self.namespace, "--connect", self.anchor, *args]
+        if self.announcement is not None:
+            argv += self.announcement.child_args(name)
         proc = _popen(argv, log)
         child = Child(name, argv, proc, token, list(serves), log)
         self.children[name] = child
@@ -153,7 +162,11 @@ class LocalDeployment:
         try:
             port = free_port()
             self.anchor = loopback_endpoint(port)
-            self.session = self._stack.enter_context(open_session("peer", [self.anchor], multicast=False))
+            router = self.announcement.claim(self.anchor) if self.announcement is not None else None
+            if router is not None:
+                self.session = self._stack.enter_context(open_session(config=router))
+            else:
+                self.session = self._stack.enter_context(open_session("peer", [self.anchor], multicast=False))
             keys = self.keys
             if self.record is not None:
                 self.record.parent.mkdir(parents=True, exist_ok=True)
@@ -175,6 +188,9 @@ class LocalDeployment:
             for i in range(self.n_workers):
                 started.append(self.start_worker(f"{self.robot}-{i}", wait=False))
             self._wait_live(started)
+            if self.announcement is not None:
+                self.announcement.publish(self.anchor, str(self.state_dir),
+                                          [(c.name, c.pid, c.token) for c in self.children.values()])
         except BaseException:
             self.stop()
             raise
@@ -183,7 +199,9 @@ class LocalDeployment:
     # ----- inspecting ------------------------------------------------------------------------
     def describe(self) -> str:
         """A table of what runs where: process, pid, liveliness token, keys served, log file."""
-        lines = [f"acnmp deployment '{self.namespace}': anchor {self.anchor} (peer mesh on 127.0.0.1, "
+        layout = ("zenoh router on 127.0.0.1, every process its authenticated client, ACL on"
+                  if self.secure else "peer mesh on 127.0.0.1")
+        lines = [f"acnmp deployment '{self.namespace}': anchor {self.anchor} ({layout}, "
                  f"multicast off); state {self.state_dir}"]
         if self.record is not None:
             lines.append(f"recording to {self.record}")
@@ -244,6 +262,8 @@ class LocalDeployment:
                     self.killed.append(c.name)
         self._stack.close()
         self.session = None
+        if self.announcement is not None:
+            self.announcement.withdraw()
         self._dir_lock.release()
         codes = {n: c.proc.returncode for n, c in self.children.items()}
         if self._tmp is not None:
