@@ -125,8 +125,8 @@ def test_n_parameters_is_computed_from_the_config_without_building(cfg):
 def test_queries_of_different_sizes_in_one_forward_pass_equal_each_alone(e1_model):
     # the model service's dynamic batching relies on this: a predict's answer does not depend on
     # what it is batched with beyond float32 rounding (the matrix kernels of a few rows sum in
-    # another order than those of many: measured up to ~5e-7 in normalised units), and a query
-    # alone in a pass is bit for bit its unbatched answer
+    # another order than those of many: on this machine, queries of 2-3 observations or 2 query
+    # times differ in the last bits), and a query alone in a pass is bit for bit its unbatched answer
     rng = np.random.default_rng(0)
     lo, hi = e1_model.time_range()
     queries = []
