@@ -199,8 +199,11 @@ class CNMP(nn.Module):
     def decode(self, latent: torch.Tensor, tgt_x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """Latent (B, L) and targets (B, M, 1+P) -> mean, std (B, M, D) in normalised units."""
         r = latent[:, None, :].expand(-1, tgt_x.shape[1], -1)
-        out = self.decoder(torch.cat([r, tgt_x], dim=-1))
-        mean, raw = out.chunk(2, dim=-1)
+        return self._head(torch.cat([r, tgt_x], dim=-1))
+
+    def _head(self, dec_x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """Decoder inputs (..., L+1+P) -> mean, std (..., D) in normalised units."""
+        mean, raw = self.decoder(dec_x).chunk(2, dim=-1)
         return mean, self.config.std_floor + F.softplus(raw)
 
     def forward(self, obs_x, obs_mask, tgt_x):
@@ -300,21 +303,29 @@ class CNMP(nn.Module):
 
     def _build_query(self, obs_times: np.ndarray, obs_values: np.ndarray, dims: np.ndarray, task_params: np.ndarray,
                      query_times: np.ndarray) -> Query:
-        """Checked raw arrays (B, N), (B, N, D), (B, N, D), (B, P), (T,) -> normalised network inputs."""
+        """Checked raw arrays (B, N), (B, N, D), (B, N, D), (B, P), (T,) -> normalised network inputs.
+
+        In numpy rather than torch: on arrays this small, each torch call costs more than its
+        arithmetic, and a predict is answered per request by the model service. Every operation is
+        elementwise in float64 then rounded to float32 once, exactly as torch would compute it.
+        """
         b, n = obs_times.shape
-        p = task_params.shape[1]
-        with torch.no_grad():
-            tn = self.time_norm.normalize(torch.from_numpy(obs_times.copy())[..., None])
-            vn = self.value_norm.normalize(torch.from_numpy(obs_values.copy()))
-            dm = torch.from_numpy(np.array(dims))
-            pn = self.task_norm.normalize(torch.from_numpy(task_params.copy()))[:, None, :]  # (B, 1, P)
-            obs_x = torch.cat([tn, pn.expand(b, n, p), vn * dm, dm], dim=-1)
-            qn = self.time_norm.normalize(torch.from_numpy(query_times.copy())[:, None])  # (T, 1)
-            tgt_x = torch.cat([qn.expand(b, -1, -1), pn.expand(b, len(query_times), p)], dim=-1)
+        p, t = task_params.shape[1], len(query_times)
+
+        def norm(x: np.ndarray, normalizer: AffineNormalizer) -> np.ndarray:
+            return (x - normalizer.shift.numpy()) / normalizer.scale.numpy()
+
+        tn = norm(obs_times[..., None], self.time_norm)  # (B, N, 1)
+        dm = np.asarray(dims, dtype=np.float64)
+        vn = norm(obs_values, self.value_norm)
+        pn = norm(task_params, self.task_norm)[:, None, :]  # (B, 1, P)
+        obs_x = np.concatenate([tn, np.broadcast_to(pn, (b, n, p)), vn * dm, dm], axis=-1)
+        qn = norm(query_times[:, None], self.time_norm)  # (T, 1)
+        tgt_x = np.concatenate([np.broadcast_to(qn, (b, t, 1)), np.broadcast_to(pn, (b, t, p))], axis=-1)
         return Query(
-            obs_x=obs_x.float(),
+            obs_x=torch.from_numpy(obs_x.astype(np.float32)),
             obs_mask=torch.ones(b, n, dtype=torch.bool),
-            tgt_x=tgt_x.float(),
+            tgt_x=torch.from_numpy(tgt_x.astype(np.float32)),
             times=query_times,
         )
 
@@ -339,6 +350,32 @@ class CNMP(nn.Module):
             mean = self.value_norm.denormalize(mean[0].double())
             std = self.value_norm.denormalize_std(std[0].double())
         return Prediction(query.times.copy(), mean.numpy(), std.numpy(), latent[0].double().numpy())
+
+    def predict_queries(self, queries: Sequence[Query]) -> list[Prediction]:
+        """Several prepared single queries (B = 1 each, any N and T) in one forward pass.
+
+        The observations of all queries go through the encoder as one (sum N, 1+P+2D) matrix, each
+        query's latent is the mean of its own rows, and all targets go through the decoder as one
+        (sum T, L+1+P) matrix: no padding, so the cost is that of the queries' points, and element i
+        of the returned list (a :class:`Prediction` like :meth:`predict_query`'s, raw units) equals
+        ``predict_query(queries[i])``: bit for bit for a single query, to float32 rounding for
+        several (matrix kernels of a few rows sum in another order than those of many; see
+        tests/unit/test_cnmp.py).
+        """
+        if len(queries) <= 1:  # alone: the plain path (fewer tensor operations, the same numbers)
+            return [self.predict_query(q) for q in queries]
+        n_obs = [q.obs_x.shape[1] for q in queries]
+        n_tgt = [q.tgt_x.shape[1] for q in queries]
+        with torch.no_grad():
+            h = self.encoder(torch.cat([q.obs_x[0] for q in queries]))
+            # the same masked mean as encode() on each query (its mask is all ones)
+            latents = [part.sum(0) / float(n) for part, n in zip(h.split(n_obs), n_obs)]
+            r = torch.stack(latents).repeat_interleave(torch.tensor(n_tgt), dim=0)  # (sum T, L)
+            mean, std = self._head(torch.cat([r, torch.cat([q.tgt_x[0] for q in queries])], dim=-1))
+            mean = self.value_norm.denormalize(mean.double())
+            std = self.value_norm.denormalize_std(std.double())
+        return [Prediction(q.times.copy(), m.numpy(), s.numpy(), lat.double().numpy())
+                for q, m, s, lat in zip(queries, mean.split(n_tgt), std.split(n_tgt), latents)]
 
     def predict_batch(self, obs_times, obs_values, task_params=None, query_times=None, *,
                       obs_dims_mask=None) -> Prediction:

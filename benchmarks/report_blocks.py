@@ -137,6 +137,17 @@ def readme_results() -> str:
     p = load("bench_predict")
     rows.append(["predict latency", "–", f"p50 {p['latency']['predict_zenoh']['p50_ms']:.2f} ms over zenoh = "
                  f"{p['p50_ratio']:.2f}x (in-process + empty query), target ≤ {p['target_ratio']}x"])
+    if "modes" in p:
+        on, off = p["modes"]["on"], p["modes"]["off"]
+        top = max(on["scaling_vs_1"], key=int)
+        rows.append(["predict throughput", "–",
+                     f"{top} clients: {on['scaling_vs_1'][top]:.2f}x one client with dynamic batching "
+                     f"({on['predicts_per_s_median'][top]:.0f}/s), {off['scaling_vs_1'][top]:.2f}x without "
+                     f"({off['predicts_per_s_median'][top]:.0f}/s); target ≥ 3x; medians of {p['reps']} runs, 2 shared cores"])
+    h = load("bench_hostile")
+    rows.append(["hostile input", "–",
+                 f"{h['requests']:,} generated requests: {h['documented_pct']:.0f} % documented codes, "
+                 f"{h['crashes']} crashes, model-service peak RSS {h['model_peak_rss_mib']:.0f} MiB (bound 1 GiB)"])
     return table(["experiment", "paper", "measured here (JSON in `benchmarks/results/`)"], rows)
 
 

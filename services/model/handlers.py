@@ -7,15 +7,19 @@ from __future__ import annotations
 
 import threading
 import time
+from concurrent.futures import Future
 from dataclasses import dataclass, field as dc_field
-from typing import Iterable
+from typing import TYPE_CHECKING, Iterable
 
 import numpy as np
 import torch
 
-from acnmp_core.cnmp import CNMP
+from acnmp_core.cnmp import CNMP, Prediction, Query
 from services.transport.errors import wire_error
 from services.transport.wire import DEFAULT_MAX_BYTES, WireError, array_field, field, require_payload
+
+if TYPE_CHECKING:  # batching imports this module
+    from .batching import PredictBatcher
 
 #: Bounds on one predict request (absurd sizes get ``too_large``, never a stalled service).
 MAX_OBS = 4096            # observations N
@@ -203,22 +207,32 @@ def check_cost(entry: SkillModel, items: list[PredictItem]) -> None:
         raise WireError("too_large", f"the reply would be about {reply} bytes, at most {MAX_REPLY_BYTES}")
 
 
-def run_predict(entry: SkillModel, item: PredictItem) -> dict:
-    """Answer a checked request with ``entry``'s model: ``{"v", "skill", "version", "times" (T,),
-    "mean" (T, D), "std" (T, D), "latent" (L,)}`` in raw units (float64), plus ``"samples"``
-    (S, T, D) drawn independently per step from N(mean, std^2) when S > 0."""
+def item_query(entry: SkillModel, item: PredictItem) -> Query:
+    """The network inputs of a checked request (times checked against the model's trained range);
+    WireError (``bad_request`` or the code of a typed input error) on a request the model refuses."""
     try:
-        query = entry.model.make_query(item.obs_times, item.obs_values, item.task_params, item.query_times,
-                                       n_steps=item.n_steps, obs_dims_mask=item.obs_dims_mask)
+        return entry.model.make_query(item.obs_times, item.obs_values, item.task_params, item.query_times,
+                                      n_steps=item.n_steps, obs_dims_mask=item.obs_dims_mask)
     except ValueError as exc:  # every ValueError of make_query is about the request; typed ones carry their code
         raise wire_error(exc, default="bad_request") from None
-    pred = entry.model.predict_query(query)
+
+
+def predict_reply(entry: SkillModel, item: PredictItem, pred: Prediction) -> dict:
+    """The reply to ``item`` from its prediction: ``{"v", "skill", "version", "times" (T,),
+    "mean" (T, D), "std" (T, D), "latent" (L,)}`` in raw units (float64), plus ``"samples"``
+    (S, T, D) drawn independently per step from N(mean, std^2) with the item's seed when S > 0."""
     reply = {"v": 1, "skill": entry.skill, "version": entry.version, "times": pred.times,
              "mean": pred.mean, "std": pred.std, "latent": pred.latent}
     if item.n_samples:
         rng = np.random.default_rng(item.seed)
         reply["samples"] = pred.mean + pred.std * rng.standard_normal((item.n_samples, *pred.mean.shape))
     return reply
+
+
+def run_predict(entry: SkillModel, item: PredictItem) -> dict:
+    """Answer a checked request with ``entry``'s model alone (one forward pass): the reply of
+    :func:`predict_reply`."""
+    return predict_reply(entry, item, entry.model.predict_query(item_query(entry, item)))
 
 
 def predict_one(entry: SkillModel, request: dict) -> dict:
@@ -233,7 +247,7 @@ def predict_one(entry: SkillModel, request: dict) -> dict:
 _thread_state = threading.local()
 
 
-def _pin_threads() -> None:
+def pin_threads() -> None:
     """Give this thread the process's torch thread count.
 
     MKL keeps its thread count per OS thread: a fresh handler thread would use every core, and a
@@ -245,18 +259,27 @@ def _pin_threads() -> None:
         _thread_state.pinned = True
 
 
-def handle_predict(registry: ModelRegistry, skill: str, request) -> dict:
+def handle_predict(registry: ModelRegistry, skill: str, request, batcher: PredictBatcher | None = None,
+                   deadline: float | None = None) -> dict | Future:
     """Answer a predict query for ``skill``: a single request or ``{"batch": [request, ...]}``.
 
     The entry is taken once, so every item of a batch uses the same model version. A batched
     reply is ``{"v", "skill", "version", "results": [single reply, ...]}``; a bad item fails the
-    whole batch with its index in the message.
+    whole batch with its index in the message; its items are computed one by one, so each equals
+    its single predict bit for bit. With a
+    ``batcher`` (services/model/batching.py), a single request is checked here (every error is
+    raised here) and handed to it: the return value is then a future of the reply, computed in one
+    forward pass with other predicts of the same model, dropped uncomputed after ``deadline``.
     """
     request = require_payload(request, "a predict request (obs_times, obs_values, ...)")
     entry = registry.get(skill)
-    _pin_threads()
+    pin_threads()
     if "batch" not in request:
-        return predict_one(entry, request)
+        if batcher is None:
+            return predict_one(entry, request)
+        item = parse_predict(entry, request)
+        check_cost(entry, [item])
+        return batcher.submit(entry, item, item_query(entry, item), deadline)
     batch = field(request, "batch", list)
     if not batch:
         raise WireError("bad_request", "field 'batch': empty")

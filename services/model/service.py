@@ -34,6 +34,7 @@ from services.transport.auth import authenticated_user
 from services.transport.keys import check_name, skill_from_key
 from services.transport.wire import WireError
 
+from .batching import DEFAULT_BATCH_MAX, DEFAULT_BATCH_WINDOW, PredictBatcher
 from .handlers import ModelRegistry, SkillModel, handle_info, handle_predict
 from .weights import decode_weights
 
@@ -65,14 +66,19 @@ class ModelService:
     workers : threads answering queries (zenoh's own threads are never held by a predict).
     fetch_latest : query ``weights/latest`` at start and while skills are missing.
     max_queue : predict queries waiting for a thread before more are answered ``overloaded``; a
-        waiting query whose timeout has passed is dropped without being computed.
+        waiting query whose timeout has passed is dropped without being computed. The same bound
+        applies to checked predicts waiting for a forward pass.
     weights_source : what ``info`` says for weights that came over zenoh: ``learner`` where the
         deployment's ACL lets only the learner put them, ``unauthenticated`` where anyone could.
+    batch_max : concurrent single predicts of one skill model run in one forward pass, at most this
+        many (services/model/batching.py); 1 turns batching off (each computed on its handler thread).
+    batch_window : seconds a pass's leader waits for more predicts after the first of a pass.
     """
 
     def __init__(self, session: zenoh.Session, namespace: str = "default", *,
                  skills: Sequence[str] | None = None, workers: int = 2, fetch_latest: bool = True,
-                 max_queue: int = MAX_QUEUE, weights_source: str = "learner"):
+                 max_queue: int = MAX_QUEUE, weights_source: str = "learner",
+                 batch_max: int = DEFAULT_BATCH_MAX, batch_window: float = DEFAULT_BATCH_WINDOW):
         self.session = session
         self.weights_source = weights_source
         self.keys = Keyspace(namespace)
@@ -84,14 +90,21 @@ class ModelService:
         self.swaps = 0
         self.rejected = 0
         sub_skills = ["*"] if skills is None else list(self.registry.allowed)
+        if batch_max < 1:
+            raise ValueError(f"--batch-max: expected >= 1 (1 turns batching off), got {batch_max}")
+        if not batch_window >= 0:
+            raise ValueError(f"--batch-window: expected >= 0 seconds, got {batch_window}")
+        self.batcher = (PredictBatcher(batch_max, batch_window, max_pending=max_queue)
+                        if batch_max > 1 else None)
         self._subs = [session.declare_subscriber(self.keys.weights(s), self._on_weights) for s in sub_skills]
         # complete=False: this process does not claim to serve every skill name, so a wildcard or
         # unknown-skill query still reaches the other model processes
         self._rpcs = [
             declare_rpc(session, self.keys.predict("*"),
-                        lambda req, q: handle_predict(self.registry, _skill_of(q), req),
+                        lambda req, q, deadline: handle_predict(self.registry, _skill_of(q), req,
+                                                                self.batcher, deadline),
                         workers=workers, complete=False, max_queue=max_queue,
-                        default_timeout=DEFAULT_QUERY_TIMEOUT),
+                        default_timeout=DEFAULT_QUERY_TIMEOUT, pass_deadline=True),
             declare_rpc(session, self.keys.info("*"),
                         lambda req, q: handle_info(self.registry, _skill_of(q), req),
                         workers=1, complete=False),
@@ -192,6 +205,8 @@ class ModelService:
             token.undeclare()
         for rpc in self._rpcs:
             rpc.close()
+        if self.batcher is not None:  # after the queryables: predicts already handed over are answered
+            self.batcher.close()
 
     def __enter__(self) -> "ModelService":
         return self
@@ -224,6 +239,11 @@ class ModelConfig(Service):
     workers: int = option(2, "threads answering predict queries (default: %(default)s)", metavar="N")
     max_queue: int = option(MAX_QUEUE, "predict queries that may wait for a thread; more are answered "
                                        "'overloaded' (default: %(default)s)", metavar="N")
+    batch_max: int = option(DEFAULT_BATCH_MAX, "concurrent predicts of one skill computed in one forward pass, "
+                                               "at most N; 1 turns batching off (default: %(default)s)", metavar="N")
+    batch_window: float = option(DEFAULT_BATCH_WINDOW, "seconds to wait for more predicts to batch with the "
+                                                       "first (default: %(default)s: only those already waiting)",
+                                 metavar="SECONDS")
 
     def serve(self, session: zenoh.Session, stop: threading.Event, ready: Ready) -> int:
         """Serve until ``stop``: checkpoints are loaded before ``ready`` is called."""
@@ -232,7 +252,8 @@ class ModelConfig(Service):
         torch.set_num_threads(1)  # one predict is small; threads would only fight over the cores
         source = "learner" if authenticated_user(self.session.config) else "unauthenticated"
         with ModelService(session, self.session.namespace, skills=self.skills, workers=self.workers,
-                          max_queue=self.max_queue, weights_source=source) as service:
+                          max_queue=self.max_queue, weights_source=source, batch_max=self.batch_max,
+                          batch_window=self.batch_window) as service:
             for value in self.checkpoints:
                 skill, path = _parse_checkpoint_arg(value)
                 entry = service.load_checkpoint(path, skill)

@@ -14,7 +14,7 @@ import math
 import threading
 import time
 import traceback
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Any, Callable
 
 import zenoh
@@ -74,7 +74,12 @@ def call(session: zenoh.Session, key: str, payload: dict | bytes | None = None, 
     raise WireError("timeout", f"no reply on {key} within {timeout}s")
 
 
-Handler = Callable[[Any, zenoh.Query], Any]
+Handler = Callable[..., Any]
+
+
+class Expired(Exception):
+    """A deferred handler's result (see :func:`declare_rpc`) for a query whose deadline passed before
+    it was computed: the query is dropped unanswered, like one that expired in the queue."""
 
 
 class RpcQueryable:
@@ -87,7 +92,7 @@ class RpcQueryable:
     def __init__(self, session: zenoh.Session, key_expr: str, handler: Handler, *, workers: int = 0,
                  decode_payload: bool = True, expect_version: int | None = SCHEMA_VERSION,
                  max_bytes: int = DEFAULT_MAX_BYTES, complete: bool = True, max_queue: int | None = None,
-                 default_timeout: float | None = None):
+                 default_timeout: float | None = None, pass_deadline: bool = False):
         self.key_expr = key_expr
         self._handler = handler
         self._decode = decode_payload
@@ -96,6 +101,7 @@ class RpcQueryable:
         self._pool = ThreadPoolExecutor(workers, thread_name_prefix="rpc") if workers > 0 else None
         self.max_queue = max_queue
         self.default_timeout = default_timeout
+        self._pass_deadline = pass_deadline
         self.served = 0
         self.failed = 0
         self.overloaded = 0  # refused at once: the queue was full
@@ -138,27 +144,55 @@ class RpcQueryable:
                 self.expired += 1
             query.drop()  # its querier has given up: nothing is computed and nobody waits for a reply
             return
-        self._serve(query)
+        self._serve(query, deadline)
 
-    def _serve(self, query: zenoh.Query) -> None:
+    def _serve(self, query: zenoh.Query, deadline: float | None = None) -> None:
+        try:
+            request = None
+            if self._decode:
+                raw = query.payload.to_bytes() if query.payload is not None else b""
+                request = decode(raw, expect_version=self._expect_version,
+                                 max_bytes=self._max_bytes) if raw else None
+            result = (self._handler(request, query, deadline) if self._pass_deadline
+                      else self._handler(request, query))
+        except Exception as exc:  # a raising callback would send no reply at all
+            with query:
+                self._fail_with(query, exc)
+            return
+        if isinstance(result, Future):  # answered when it completes, on the thread completing it
+            result.add_done_callback(lambda fut: self._complete(query, fut))
+        else:
+            self._answer(query, result)
+
+    def _complete(self, query: zenoh.Query, future: Future) -> None:
+        exc = future.exception()
+        if isinstance(exc, Expired):
+            with self._lock:
+                self.expired += 1
+            query.drop()
+        elif exc is not None:
+            with query:
+                self._fail_with(query, exc)
+        else:
+            self._answer(query, future.result())
+
+    def _answer(self, query: zenoh.Query, result) -> None:
         # `with query` drops it at the end: the querier's get() only finishes once it is dropped
         with query:
             try:
-                request = None
-                if self._decode:
-                    raw = query.payload.to_bytes() if query.payload is not None else b""
-                    request = decode(raw, expect_version=self._expect_version,
-                                     max_bytes=self._max_bytes) if raw else None
-                result = self._handler(request, query)
                 body = encode(result) if isinstance(result, dict) else bytes(result)
                 query.reply(self._reply_key(query), body)
                 with self._lock:
                     self.served += 1
-            except Exception as exc:  # a raising callback would send no reply at all
-                err = wire_error(exc)
-                if err.code == "internal":
-                    log.error("handler for %s failed:\n%s", self.key_expr, traceback.format_exc())
-                self._fail(query, err.code, err.message)
+            except Exception as exc:
+                self._fail_with(query, exc)
+
+    def _fail_with(self, query: zenoh.Query, exc: BaseException) -> None:
+        err = wire_error(exc)
+        if err.code == "internal":
+            log.error("handler for %s failed:\n%s", self.key_expr,
+                      "".join(traceback.format_exception(type(exc), exc, exc.__traceback__)))
+        self._fail(query, err.code, err.message)
 
     def _reply_key(self, query: zenoh.Query) -> str:
         # replies must intersect the query's key; a concrete query key is always safe
@@ -198,6 +232,10 @@ def declare_rpc(session: zenoh.Session, key_expr: str, handler: Handler, **kwarg
     query waits in a queue: ``max_queue=M`` answers ``overloaded`` at once while M are waiting, and a
     query still waiting when its timeout (selector parameter ``timeout``, else ``default_timeout``
     seconds, else none) has passed is dropped without being computed (counted in ``expired``).
+    ``pass_deadline=True`` calls ``handler(request, query, deadline)`` with that deadline
+    (``time.monotonic()`` seconds, or None). A handler may return a :class:`concurrent.futures.Future`
+    instead of a reply: the query is answered when it completes (its result or exception, as
+    above; :class:`Expired` drops the query unanswered), on the thread that completes it.
     Other keyword arguments: see :class:`RpcQueryable`.
     """
     return RpcQueryable(session, key_expr, handler, **kwargs)

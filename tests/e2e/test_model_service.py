@@ -244,3 +244,37 @@ def test_weights_whose_config_is_too_large_are_rejected_before_building(mesh, sm
             assert time.monotonic() < deadline, "the weights were never rejected"
             time.sleep(0.05)
         assert client.info("reach")["version"] == 1
+
+
+def test_concurrent_predicts_are_batched_and_each_gets_its_own_answer(mesh, small_model):
+    ep, server, client = mesh
+    n = 6
+    # a long collection window: the batcher waits until all six have arrived (or 30 s)
+    with ModelService(server, NS, fetch_latest=False, workers=2, batch_max=n, batch_window=30.0) as service:
+        service.load(SkillModel("reach", 1, small_model))
+        wait_for(lambda: client.info("reach"))
+        starts = [(np.array([0.1 * (i + 1)]), np.array([[0.05 * i, 0.0]]), 20 + 10 * i) for i in range(n)]
+        start, got, errors = threading.Barrier(n), [None] * n, []
+
+        def one(i):
+            t, v, steps = starts[i]
+            try:
+                with ACNMPClient(NS, connect=[ep], timeout=60.0) as own:
+                    wait_for(lambda: own.info("reach"))
+                    start.wait()
+                    got[i] = own.predict("reach", t, v, n_steps=steps, n_samples=2, seed=i)
+            except Exception as exc:  # reported below
+                errors.append(repr(exc))
+
+        threads = [threading.Thread(target=one, args=(i,)) for i in range(n)]
+        for th in threads:
+            th.start()
+        for th in threads:
+            th.join(timeout=90)
+        assert not errors, errors
+        assert service.batcher.largest > 1 and service.batcher.computed >= n
+    for (t, v, steps), reply in zip(starts, got):
+        ref = small_model.predict(t, v, n_steps=steps)
+        assert reply.mean.shape == (steps, 2) and reply.samples.shape == (2, steps, 2)
+        np.testing.assert_allclose(reply.mean, ref.mean, rtol=1e-5, atol=1e-6)
+        np.testing.assert_allclose(reply.std, ref.std, rtol=1e-5, atol=1e-6)

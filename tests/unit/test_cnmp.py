@@ -120,3 +120,35 @@ def test_n_parameters_is_computed_from_the_config_without_building(cfg):
     assert config.n_parameters == sum(p.numel() for p in CNMP(config).parameters())
     # a config that would allocate ~1 GB is counted, not built
     assert CNMPConfig(n_outputs=2, encoder_widths=(16000, 16000)).n_parameters > 256_000_000
+
+
+def test_queries_of_different_sizes_in_one_forward_pass_equal_each_alone(e1_model):
+    # the model service's dynamic batching relies on this: a predict's answer does not depend on
+    # what it is batched with beyond float32 rounding (the matrix kernels of a few rows sum in
+    # another order than those of many: on this machine, queries of 2-3 observations or 2 query
+    # times differ in the last bits), and a query alone in a pass is bit for bit its unbatched answer
+    rng = np.random.default_rng(0)
+    lo, hi = e1_model.time_range()
+    queries = []
+    for _ in range(12):
+        n, t = int(rng.integers(1, 40)), int(rng.integers(1, 300))
+        queries.append(e1_model.make_query(rng.uniform(lo, hi, n), rng.normal(size=(n, 2)),
+                                           query_times=np.sort(rng.uniform(lo, hi, t))))
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)  # as in the model service
+    try:
+        together = e1_model.predict_queries(queries)
+        alone = [e1_model.predict_query(q) for q in queries]
+        singly = [e1_model.predict_queries([q])[0] for q in queries]
+    finally:
+        torch.set_num_threads(threads)
+    assert len(together) == len(queries) and e1_model.predict_queries([]) == []
+    scale = e1_model.value_norm.denormalize_std(torch.ones(2, dtype=torch.float64)).numpy()
+    for a, b, c in zip(alone, together, singly):
+        np.testing.assert_array_equal(a.times, b.times)
+        for name in ("mean", "std", "latent"):
+            x, y, z = getattr(a, name), getattr(b, name), getattr(c, name)
+            assert x.shape == y.shape
+            np.testing.assert_array_equal(x, z, err_msg=name)
+            atol = 1e-5 * (scale.max() if name != "latent" else 1.0)
+            np.testing.assert_allclose(y, x, rtol=1e-5, atol=atol, err_msg=name)

@@ -100,3 +100,71 @@ def test_the_reply_size_estimate_bounds_the_encoded_reply(small_model):
         estimate = 8 * item.reply_values(cfg.n_outputs, cfg.latent_dim) + REPLY_OVERHEAD
         actual = len(encode(run_predict(entry, item)))
         assert actual <= estimate <= actual + REPLY_OVERHEAD, (request.keys(), actual, estimate)
+
+
+def test_batched_predicts_answer_each_its_own_request_in_one_forward_pass(small_model):
+    import threading
+    from concurrent.futures import Future
+
+    from services.model.batching import PredictBatcher
+
+    reg = ModelRegistry()
+    reg.offer(SkillModel("reach", 1, small_model))
+    requests = [{**OBS, "n_steps": 50}, {"obs_times": [0.5], "obs_values": [[0.3, 0.1]], "n_steps": 7},
+                {**OBS, "query_times": np.linspace(0.2, 0.8, 30), "n_samples": 3, "seed": 5},
+                {"obs_times": [0.1, 0.4, 0.9], "obs_values": np.ones((3, 2)), "n_steps": 200}]
+    # four handler threads at once and a long window: the first to submit leads the pass and waits
+    # until it has all four, so they run as one pass
+    batcher = PredictBatcher(max_items=len(requests), window=60.0)
+    futures = [None] * len(requests)
+
+    def handler(i):
+        futures[i] = handle_predict(reg, "reach", requests[i], batcher)
+
+    threads = [threading.Thread(target=handler, args=(i,)) for i in range(len(requests))]
+    try:
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join(timeout=60)
+        assert all(isinstance(f, Future) for f in futures)
+        got = [f.result(timeout=60) for f in futures]
+    finally:
+        batcher.close()
+    assert (batcher.passes, batcher.computed, batcher.largest) == (1, 4, 4)
+    for request, reply in zip(requests, got):
+        ref = handle_predict(reg, "reach", request)
+        assert set(reply) == set(ref) and reply["version"] == 1
+        for key in ("times", "mean", "std", "latent") + (("samples",) if "n_samples" in request else ()):
+            assert reply[key].shape == ref[key].shape, key
+            np.testing.assert_allclose(reply[key], ref[key], rtol=1e-5, atol=1e-5, err_msg=key)
+
+
+def test_the_batcher_drops_expired_predicts_and_never_mixes_models(small_model):
+    import time
+
+    from services.model.batching import PredictBatcher
+    from services.transport.rpc import Expired
+
+    reg = ModelRegistry()
+    reg.offer(SkillModel("a", 1, small_model))
+    reg.offer(SkillModel("b", 1, copy.deepcopy(small_model)))
+    batcher = PredictBatcher(max_items=8, window=0.0)
+    try:
+        late = handle_predict(reg, "a", {**OBS, "n_steps": 5}, batcher, deadline=time.monotonic() - 1.0)
+        assert isinstance(late.exception(timeout=30), Expired)
+        # alone, a predict is computed on the thread that submits it: its future is done on return
+        assert handle_predict(reg, "a", {**OBS, "n_steps": 5}, batcher).done()
+        pending = [handle_predict(reg, s, {**OBS, "n_steps": 5}, batcher) for s in "abab"]
+        replies = [f.result(timeout=30) for f in pending]
+    finally:
+        batcher.close()
+    assert [r["skill"] for r in replies] == list("abab") and batcher.expired == 1
+    assert batcher.computed == 5 and batcher.passes >= 3  # a pass holds one model only
+    # bad requests are refused on the handler's thread, before the batcher sees them
+    with pytest.raises(WireError) as info:
+        handle_predict(reg, "a", {**OBS, "n_steps": 10**6}, batcher)
+    assert info.value.code == "too_large"
+    with pytest.raises(WireError) as info:
+        handle_predict(reg, "a", {**OBS, "n_steps": 5}, batcher)
+    assert info.value.code == "unavailable"  # closed

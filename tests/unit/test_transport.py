@@ -122,6 +122,9 @@ def test_every_process_parses_its_options_into_its_config():
         args = parser.parse_args(["serve", name, *argv[name], "--namespace", "lab"])
         cfg = from_args(service_class(name), args)
         assert cfg.session.namespace == "lab" and cfg.name == name
+    model = from_args(service_class("model"), parser.parse_args(["serve", "model", "--batch-max", "1",
+                                                                  "--batch-window", "0.002"]))
+    assert (model.batch_max, model.batch_window) == (1, 0.002)
     worker = from_args(service_class("worker"), parser.parse_args(["serve", "worker", *argv["worker"]]))
     assert (worker.robot, worker.worker_id, worker.delay) == ("planar4", "arm1", 0.1)
     learner = from_args(service_class("learner"), parser.parse_args(["serve", "learner", *argv["learner"]]))
