@@ -61,6 +61,13 @@ def register(subparsers) -> None:
     _common(skills, skill=False)
     skills.set_defaults(func=_run_skills)
 
+    cancel = sub.add_parser("cancel", help="cancel an adaptation job on the learner",
+                            description="Cancel a job: a queued one at once, a running one after its current "
+                                        "iteration (saved as cancelled). Prints the job's state.")
+    _common(cancel, skill=False)
+    cancel.add_argument("job", metavar="JOB", help="job id (as the adapt reply gave it)")
+    cancel.set_defaults(func=_run_cancel)
+
 
 def _common(parser: argparse.ArgumentParser, skill: bool = True) -> None:
     # the same session options as every process (services/transport/session.py); a command has no
@@ -246,4 +253,20 @@ def _run_skills(args) -> int:
         print(json.dumps(names))
     else:
         print("\n".join(names) if names else "no skill is served (no model liveliness token found)")
+    return 0
+
+
+def _run_cancel(args) -> int:
+    from clients.client import ClientError
+
+    with _client(args) as client:
+        try:
+            status = client.cancel(args.job)
+        except ClientError as exc:
+            return _fail(exc)
+    if args.json:
+        print(json.dumps(jsonable(status)))
+    else:
+        pending = " (cancel requested: it stops after its current iteration)" if status["state"] == "running" else ""
+        print(f"job {status['job']}: {status['state']}{pending}")
     return 0

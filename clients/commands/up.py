@@ -25,7 +25,8 @@ def register(subparsers) -> None:
 
 
 def run(args) -> int:
-    """Start the deployment, print what runs where, wait for SIGINT/SIGTERM, stop everything; exit 0."""
+    """Start the deployment, print what runs where, wait for SIGINT/SIGTERM (restarting children that
+    die meanwhile, see services/launcher/supervision.py), stop everything; exit 0."""
     from services.launcher import LocalDeployment
     from services.learner.store import StateDirInUse
     from services.transport import install_shutdown_handlers
@@ -34,7 +35,7 @@ def run(args) -> int:
     learner_args = [a for spec in args.demos for a in ("--demos", spec)]
     state_dir = args.state_dir or f"runs/{args.namespace}/state"
     dep = LocalDeployment(args.namespace, args.workers, args.robot, record=args.record, state_dir=state_dir,
-                          model=not args.no_model, learner_args=learner_args)
+                          model=not args.no_model, learner_args=learner_args, report=report)
     try:
         try:
             dep.start()
@@ -43,8 +44,8 @@ def run(args) -> int:
             return 1
         print(dep.describe(), flush=True)
         print("deployment is up; Ctrl-C or SIGTERM stops it", flush=True)
-        while not stop.is_set():
-            wait_until_stopped_or_child_exit(dep, stop)
+        while not stop.wait(0.5):  # the deployment's supervisor restarts (and reports) dead children
+            pass
     finally:
         codes = dep.stop()
     bad = {n: c for n, c in codes.items() if c != 0}
@@ -54,12 +55,6 @@ def run(args) -> int:
     return 0
 
 
-def wait_until_stopped_or_child_exit(dep, stop, poll: float = 0.5) -> None:
-    """Wait ``poll`` seconds for ``stop``; report (once) a child that exited on its own."""
-    if stop.wait(poll):
-        return
-    for name, child in dep.children.items():
-        if child.proc.poll() is not None and not getattr(child, "_reported", False):
-            child._reported = True
-            print(f"acnmp up: {name} (pid {child.pid}) exited with code {child.proc.returncode}; log {child.log}",
-                  file=sys.stderr, flush=True)
+def report(line: str) -> None:
+    """One line of the supervisor (a child restarted, live again, given up) on stderr."""
+    print(f"acnmp up: {line}", file=sys.stderr, flush=True)

@@ -16,6 +16,11 @@
    (so it records the last events and writes its footer), each group waited for and SIGKILLed
    only if still alive after ``stop_timeout`` seconds; then it closes its session.
 
+While it runs, a :class:`~services.launcher.supervision.Supervisor` restarts a child that dies
+(backoff, a restart limit; each restart logged and published as a ``process`` event); a
+restarted recorder writes a new file ``<name>.<n>.rrd`` beside the first (``recordings``), since
+the dead one's file cannot be reopened. ``stop()`` ends supervision before it stops anything.
+
 The state directory is locked (``<state_dir>/deployment.lock``) while the deployment runs, so a
 second deployment on it refuses to start; the learner locks it too (``learner.lock``).
 
@@ -29,19 +34,22 @@ import signal
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Sequence
+from typing import Callable, Sequence
 
 import zenoh
 
 from acnmp_core.robots.registry import robot as robot_spec
 from services.learner.store import DirectoryLock
+from services.recording.publisher import EventPublisher
 from services.transport import Keyspace, free_port, loopback_endpoint, open_session, wait_for_liveliness
 from services.transport.lifetime import PARENT_PID_ENV
 
 from .processes import entry_module
+from .supervision import RestartPolicy, Supervisor
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -75,16 +83,20 @@ class LocalDeployment:
     worker_delay : seconds per roll-out each worker sleeps (simulates a slow robot; tests).
     chunk_timeout : the learner's per-chunk worker timeout. start_timeout, stop_timeout : seconds.
     log_dir : children's logs (default: ``<state_dir>/logs``).
+    supervise : restart children that die (``restart_policy``, default :class:`RestartPolicy`);
+        ``report(line)`` gets a line per restart (default: the log).
 
     Attributes once started: ``session`` (the launcher's open session, usable by clients),
-    ``anchor`` (endpoint to ``--connect`` to), ``children`` ({name: Child}).
+    ``anchor`` (endpoint to ``--connect`` to), ``children`` ({name: Child}), ``supervisor``
+    (None without supervision), ``recordings`` (the recorder's files, first one first).
     """
 
     def __init__(self, namespace: str = "default", workers: int = 2, robot: str = "point2d",
                  record: str | os.PathLike | None = None, state_dir: str | os.PathLike | None = None, *,
                  model: bool = True, learner: bool = True, worker_delay: float = 0.0, chunk_timeout: float = 60.0,
                  start_timeout: float = 60.0, stop_timeout: float = 8.0, log_dir: str | os.PathLike | None = None,
-                 learner_args: Sequence[str] = ()):
+                 learner_args: Sequence[str] = (), supervise: bool = True,
+                 restart_policy: RestartPolicy | None = None, report: Callable[[str], None] | None = None):
         self.robot = robot_spec(robot).kind  # UnknownRobotError (a ValueError) for a kind not registered
         if workers < 0:
             raise ValueError(f"workers: expected >= 0, got {workers}")
@@ -103,6 +115,12 @@ class LocalDeployment:
         self.start_timeout, self.stop_timeout = float(start_timeout), float(stop_timeout)
         self.learner_args = list(learner_args)
         self.children: dict[str, Child] = {}
+        self._children_lock = threading.RLock()  # the supervisor replaces children from its thread
+        self.supervise, self.restart_policy = bool(supervise), restart_policy or RestartPolicy()
+        self.report = report
+        self.supervisor: Supervisor | None = None
+        self._events: EventPublisher | None = None
+        self.recordings: list[Path] = [] if self.record is None else [self.record]
         self._dir_lock = DirectoryLock(self.state_dir, "deployment.lock", "deployment")
         self.killed: list[str] = []  # children that needed SIGKILL when stopping
         self.session: zenoh.Session | None = None
@@ -116,7 +134,8 @@ class LocalDeployment:
         argv = [sys.executable, "-m", module, "--namespace", self.namespace, "--connect", self.anchor, *args]
         proc = _popen(argv, log)
         child = Child(name, argv, proc, token, list(serves), log)
-        self.children[name] = child
+        with self._children_lock:
+            self.children[name] = child
         return child
 
     def _wait_live(self, children: Sequence[Child]) -> None:
@@ -175,6 +194,10 @@ class LocalDeployment:
             for i in range(self.n_workers):
                 started.append(self.start_worker(f"{self.robot}-{i}", wait=False))
             self._wait_live(started)
+            self._events = EventPublisher(self.session, self.keys)
+            if self.supervise:
+                self.supervisor = Supervisor(self, self.restart_policy,
+                                             **({} if self.report is None else {"report": self.report})).start()
         except BaseException:
             self.stop()
             raise
@@ -206,16 +229,45 @@ class LocalDeployment:
                 child.proc.wait(timeout=10)
 
     def respawn(self, name: str, *, wait: bool = True) -> Child:
-        """Start child ``name`` again with the same command line (after it died); returns the new Child."""
-        old = self.children[name]
-        if old.proc.poll() is None:
-            raise RuntimeError(f"{name} (pid {old.pid}) is still running")
-        proc = _popen(old.argv, old.log)
-        child = Child(name, old.argv, proc, old.token, old.serves, old.log)
-        self.children[name] = child
+        """Start child ``name`` again with the same command line (after it died); returns the new
+        Child. (The supervisor does this by itself; this is for a deployment without supervision.)"""
+        self.restart_child(name)
+        child = self.children[name]
         if wait:
             self._wait_live([child])
         return child
+
+    # ----- what the supervisor uses (services/launcher/supervision.py, Supervised) -------------
+    def dead_children(self) -> list[tuple[str, int, int]]:
+        """(name, pid, exit code) of every child that has exited."""
+        with self._children_lock:
+            return [(n, c.pid, c.proc.returncode) for n, c in self.children.items() if c.proc.poll() is not None]
+
+    def restart_child(self, name: str) -> int:
+        """Start dead child ``name`` again with its command line (a recorder on a new file); returns
+        the new pid. RuntimeError if it is still running."""
+        with self._children_lock:
+            old = self.children[name]
+            if old.proc.poll() is None:
+                raise RuntimeError(f"{name} (pid {old.pid}) is still running")
+            argv = list(old.argv)
+            if name == "recorder":  # the dead recorder's file has no footer and cannot be appended to
+                out = argv.index("--out") + 1
+                argv[out] = str(self.record.with_name(f"{self.record.stem}.{len(self.recordings)}{self.record.suffix}"))
+                self.recordings.append(Path(argv[out]))
+            child = Child(name, argv, _popen(argv, old.log), old.token, old.serves, old.log)
+            self.children[name] = child
+            return child.pid
+
+    def wait_child_live(self, name: str) -> None:
+        """Block until child ``name`` is live (its liveliness token); RuntimeError if it exits first,
+        TimeoutError after ``start_timeout``."""
+        self._wait_live([self.children[name]])
+
+    def publish_event(self, event: dict) -> None:
+        """Publish one event (a ``process`` event of the supervisor) on the launcher's session."""
+        if self._events is not None:
+            self._events.publish(event)
 
     # ----- stopping --------------------------------------------------------------------------
     def stop(self) -> dict[str, int | None]:
@@ -224,8 +276,10 @@ class LocalDeployment:
         is saved and resumes on the next start), then the model and the workers, then the recorder
         (it records the last events and writes its footer). Closes the session and unlocks the
         state directory. Returns {name: exit code}; names SIGKILLed are added to ``killed``.
-        Safe to call twice.
+        Supervision ends first, so nothing stopped here is restarted. Safe to call twice.
         """
+        if self.supervisor is not None:
+            self.supervisor.stop()
         groups = [[c for n, c in self.children.items() if n == "learner"],
                   [c for n, c in self.children.items() if n not in ("learner", "recorder")],
                   [c for n, c in self.children.items() if n == "recorder"]]

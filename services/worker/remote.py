@@ -66,11 +66,13 @@ class RemoteEvaluator:
     timeout : seconds one chunk may take before it goes to another worker.
     discover_timeout : seconds to wait for a live worker when there is none.
     max_attempts : chunk re-sends per batch before giving up (RuntimeError).
+    stop : when set (the learner shutting down), a batch in flight is abandoned at once with
+        InterruptedError instead of waiting for its replies.
     """
 
     def __init__(self, session: zenoh.Session, keys: Keyspace | str, robot: str, task: str,
                  task_config: dict | None = None, *, timeout: float = 60.0, discover_timeout: float = 10.0,
-                 max_attempts: int = 20):
+                 max_attempts: int = 20, stop: threading.Event | None = None):
         self.session = session
         self.keys = keys if isinstance(keys, Keyspace) else Keyspace(keys)
         self.robot = check_name("robot", robot)
@@ -81,6 +83,7 @@ class RemoteEvaluator:
         self.timeout = float(timeout)
         self.discover_timeout = float(discover_timeout)
         self.max_attempts = int(max_attempts)
+        self.stop = stop
         self._pattern = self.keys.worker_token(self.robot)
         self._turn = random.randrange(1 << 30)  # which worker a batch starts on (round robin)
 
@@ -182,6 +185,8 @@ class RemoteEvaluator:
                 while True:
                     if fatal:
                         raise fatal[0]
+                    if self.stop is not None and self.stop.is_set():
+                        raise InterruptedError("stopping: roll-out batch abandoned")
                     # chunks on a worker that died: abandon and re-send
                     for att, chunk in list(inflight.items()):
                         if chunk.worker in dead:

@@ -60,7 +60,8 @@ def test_learner_survives_kill_9_with_skill_dataset_and_job(tmp_path, wait_job):
                     adapt_request(setup, max_rollouts=9, stop_on_success=False), timeout=10)["job"]
         wait_job(s, KEYS, job, lambda st: st["state"] == "running" and st["rollouts"] >= 3)
         dep.kill("learner")  # SIGKILL: no chance to save anything
-        dep.respawn("learner")
+        (restart,) = dep.supervisor.wait_restarts("learner", 1, timeout=60)  # the launcher restarts it
+        assert restart.exit_code == -9 and restart.pid == dep.children["learner"].pid
 
         after = latest(s)
         assert (after.version, after.data_hash, after.n_demos) == (0, before.data_hash, 6)

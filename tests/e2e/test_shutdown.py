@@ -55,7 +55,7 @@ def test_sigterm_stops_the_learner_first_nothing_is_killed_and_the_job_resumes(t
         codes = dep.stop()  # what SIGTERM of `acnmp up` does
         assert dep.killed == [] and all(code == 0 for code in codes.values()), (codes, dep.killed)
     record = json.loads((state / "jobs" / f"{job}.json").read_text())
-    assert record["state"] == "running"  # interrupted, saved; not finished and not failed
+    assert record["state"] == "interrupted"  # saved as such; not finished, not failed, not left "running"
     with LocalDeployment(NS, workers=1, model=False, state_dir=state) as dep:
         st = wait_job(dep.session, dep.keys, job, lambda st: st["state"] in ("done", "failed"))
     assert st["state"] == "done" and st["attempt"] == 1, st
