@@ -11,15 +11,18 @@
    children in order, once each; the recorder is started and awaited first, so no event is lost;
 3. it waits until every child's liveliness token is seen (a child that exits first is reported
    with the tail of its log);
-4. on exit it sends SIGTERM to the learner first (so its running job finishes the iteration in
-   flight on live workers and is saved), then to the model and the workers, then to the recorder
-   (so it records the last events and writes its footer), each group waited for and SIGKILLed
-   only if still alive after ``stop_timeout`` seconds; then it closes its session.
+4. on exit it sends SIGTERM to the learner, the model and the workers at once (the learner's
+   running job abandons its batch in flight and is saved ``interrupted``), then, once the learner
+   has exited, to the recorder (so it records the last events and writes its footer); a child
+   still alive after ``stop_timeout`` seconds is SIGKILLed; then it closes its session.
 
 While it runs, a :class:`~services.launcher.supervision.Supervisor` restarts a child that dies
 (backoff, a restart limit; each restart logged and published as a ``process`` event); a
 restarted recorder writes a new file ``<name>.<n>.rrd`` beside the first (``recordings``), since
-the dead one's file cannot be reopened. ``stop()`` ends supervision before it stops anything.
+the dead one's file cannot be reopened, under the same Rerun recording id; ``stop()`` merges
+the files back into ``record`` (``rerun rrd merge``: one recording that verifies; the events
+published while no recorder ran are not in it). ``stop()`` ends supervision before it stops
+anything.
 
 The state directory is locked (``<state_dir>/deployment.lock``) while the deployment runs, so a
 second deployment on it refuses to start; the learner locks it too (``learner.lock``).
@@ -29,6 +32,7 @@ Children's output goes to ``<log_dir>/<name>.log``.
 from __future__ import annotations
 
 import contextlib
+import logging
 import os
 import signal
 import subprocess
@@ -36,6 +40,7 @@ import sys
 import tempfile
 import threading
 import time
+import uuid
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Sequence
@@ -52,6 +57,7 @@ from .processes import entry_module
 from .supervision import RestartPolicy, Supervisor
 
 ROOT = Path(__file__).resolve().parents[2]
+log = logging.getLogger(__name__)
 
 
 @dataclass
@@ -121,6 +127,7 @@ class LocalDeployment:
         self.supervisor: Supervisor | None = None
         self._events: EventPublisher | None = None
         self.recordings: list[Path] = [] if self.record is None else [self.record]
+        self.recording_id = uuid.uuid4().hex  # kept by a restarted recorder
         self._dir_lock = DirectoryLock(self.state_dir, "deployment.lock", "deployment")
         self.killed: list[str] = []  # children that needed SIGKILL when stopping
         self.session: zenoh.Session | None = None
@@ -176,7 +183,8 @@ class LocalDeployment:
             keys = self.keys
             if self.record is not None:
                 self.record.parent.mkdir(parents=True, exist_ok=True)
-                rec = self._spawn("recorder", entry_module("recorder"), ["--out", str(self.record)],
+                rec = self._spawn("recorder", entry_module("recorder"),
+                                  ["--out", str(self.record), "--recording-id", self.recording_id],
                                   keys.tokens("recorder"), [keys.events() + " (subscriber)", keys.recorder_status()])
                 self._wait_live([rec])
             started = []
@@ -271,39 +279,72 @@ class LocalDeployment:
 
     # ----- stopping --------------------------------------------------------------------------
     def stop(self) -> dict[str, int | None]:
-        """Stop the children in order, each group with SIGTERM, then SIGKILL after ``stop_timeout``:
-        the learner first (its running job needs the workers to finish its current iteration; it
-        is saved and resumes on the next start), then the model and the workers, then the recorder
-        (it records the last events and writes its footer). Closes the session and unlocks the
-        state directory. Returns {name: exit code}; names SIGKILLed are added to ``killed``.
-        Supervision ends first, so nothing stopped here is restarted. Safe to call twice.
+        """Stop the children with SIGTERM (SIGKILL after ``stop_timeout``), in two overlapping steps:
+        the learner, the model and the workers at once (the learner abandons the batch in flight
+        of its running job, which is saved ``interrupted`` and resumes on the next start, so it
+        needs no worker to stop), then, as soon as the learner is gone and its last events are out,
+        the recorder (it records them and writes its footer). Closes the session, merges the
+        recorder's files after a restart, unlocks the state directory. Returns {name: exit code};
+        names SIGKILLed are added to ``killed``. Supervision ends first, so nothing stopped here is
+        restarted. Safe to call twice.
         """
         if self.supervisor is not None:
             self.supervisor.stop()
-        groups = [[c for n, c in self.children.items() if n == "learner"],
-                  [c for n, c in self.children.items() if n not in ("learner", "recorder")],
-                  [c for n, c in self.children.items() if n == "recorder"]]
-        for group in groups:
-            for c in group:
-                if c.proc.poll() is None:
-                    with contextlib.suppress(ProcessLookupError):
-                        c.proc.send_signal(signal.SIGTERM)
-            deadline = time.monotonic() + self.stop_timeout
-            for c in group:
-                try:
-                    c.proc.wait(timeout=max(0.1, deadline - time.monotonic()))
-                except subprocess.TimeoutExpired:
-                    c.proc.kill()
-                    c.proc.wait(timeout=10)
-                    self.killed.append(c.name)
+        with self._children_lock:
+            children = dict(self.children)
+        learner = [c for n, c in children.items() if n == "learner"]
+        others = [c for n, c in children.items() if n not in ("learner", "recorder")]
+        recorder = [c for n, c in children.items() if n == "recorder"]
+        deadline = time.monotonic() + self.stop_timeout
+        self._terminate(learner + others)
+        self._reap(learner, deadline)
+        self._terminate(recorder)
+        self._reap(others, deadline)
+        self._reap(recorder, time.monotonic() + self.stop_timeout)
         self._stack.close()
         self.session = None
+        self._merge_recordings()
         self._dir_lock.release()
         codes = {n: c.proc.returncode for n, c in self.children.items()}
         if self._tmp is not None:
             self._tmp.cleanup()
             self._tmp = None
         return codes
+
+    @staticmethod
+    def _terminate(group: Sequence[Child]) -> None:
+        for c in group:
+            if c.proc.poll() is None:
+                with contextlib.suppress(ProcessLookupError):
+                    c.proc.send_signal(signal.SIGTERM)
+
+    def _reap(self, group: Sequence[Child], deadline: float) -> None:
+        """Wait for ``group`` to exit until ``deadline`` (monotonic s); SIGKILL what is left."""
+        for c in group:
+            try:
+                c.proc.wait(timeout=max(0.1, deadline - time.monotonic()))
+            except subprocess.TimeoutExpired:
+                c.proc.kill()
+                c.proc.wait(timeout=10)
+                self.killed.append(c.name)
+
+    def _merge_recordings(self) -> None:
+        """After a recorder restart: merge its files into ``record`` (the first has no footer, as its
+        writer was killed) and remove the others; on failure keep them all and say so."""
+        if len(self.recordings) < 2:
+            return
+        rerun = Path(sys.executable).with_name("rerun")
+        merged = self.record.with_name(f".{self.record.name}.merged")
+        out = subprocess.run([str(rerun), "rrd", "merge", "--continue-on-error", *map(str, self.recordings),
+                              "-o", str(merged)], capture_output=True, text=True, timeout=300)
+        if out.returncode != 0 or not merged.is_file():
+            (self.report or log.warning)(f"could not merge the recordings {[str(p) for p in self.recordings]}: "
+                                   f"{out.stderr.strip().splitlines()[-1:] or out.returncode}")
+            return
+        os.replace(merged, self.record)
+        for extra in self.recordings[1:]:
+            extra.unlink(missing_ok=True)
+        self.recordings = [self.record]
 
     def __enter__(self) -> "LocalDeployment":
         return self.start()

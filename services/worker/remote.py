@@ -91,6 +91,24 @@ class RemoteEvaluator:
         """Ids of the workers of this robot kind alive now (one liveliness query)."""
         return [last_chunk(k) for k in alive_tokens(self.session, self._pattern)]
 
+    def _check_stop(self) -> None:
+        if self.stop is not None and self.stop.is_set():
+            raise InterruptedError("stopping: roll-out batch abandoned")
+
+    def _wait_for(self, cond: threading.Condition, predicate, timeout: float) -> bool:
+        """``cond.wait_for(predicate, timeout)`` (caller holds ``cond``), but raising InterruptedError
+        within 0.1 s of ``stop`` being set: waiting for workers that a shutdown stopped would hold
+        the learner for the whole ``discover_timeout``."""
+        if self.stop is None:
+            return cond.wait_for(predicate, timeout=timeout)
+        end = time.monotonic() + timeout
+        while True:
+            if cond.wait_for(predicate, timeout=max(0.0, min(0.1, end - time.monotonic()))):
+                return True
+            self._check_stop()
+            if time.monotonic() >= end:
+                return False
+
     def evaluate(self, trajectories, times, task_params=None) -> ExecutedBatch:
         """trajectories (B, T, D), times (T,), task_params (P,) or None -> the B roll-outs in order,
         with the worker that executed each (``batch.workers``)."""
@@ -177,7 +195,7 @@ class RemoteEvaluator:
             now = set(self.workers())
             with cond:
                 live |= now - dead
-                if not cond.wait_for(lambda: bool(live), timeout=self.discover_timeout):
+                if not self._wait_for(cond, lambda: bool(live), self.discover_timeout):
                     raise RuntimeError(f"no live {self.robot} worker in namespace {self.keys.namespace} "
                                        f"after {self.discover_timeout}s")
                 dispatch(0, b, set())
@@ -185,8 +203,7 @@ class RemoteEvaluator:
                 while True:
                     if fatal:
                         raise fatal[0]
-                    if self.stop is not None and self.stop.is_set():
-                        raise InterruptedError("stopping: roll-out batch abandoned")
+                    self._check_stop()
                     # chunks on a worker that died: abandon and re-send
                     for att, chunk in list(inflight.items()):
                         if chunk.worker in dead:
@@ -203,12 +220,11 @@ class RemoteEvaluator:
                                         chunk.worker, why, chunk.start, chunk.stop - 1)
                             if not live - {chunk.worker}:
                                 # nobody else: wait a little for a worker to (re)appear
-                                cond.wait_for(lambda: bool(live - {chunk.worker}),
-                                              timeout=self.discover_timeout)
+                                self._wait_for(cond, lambda: bool(live - {chunk.worker}), self.discover_timeout)
                             dispatch(chunk.start, chunk.stop, {chunk.worker})
                     if not inflight and not failed:
                         break
-                    cond.wait(timeout=0.5)
+                    cond.wait(timeout=0.5 if self.stop is None else 0.1)  # a stop is seen within 0.1 s
                     if time.monotonic() > deadline + self.timeout * (self.max_attempts + 1):
                         raise RuntimeError("roll-out batch did not complete")
         finally:

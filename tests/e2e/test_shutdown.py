@@ -1,6 +1,6 @@
-"""Stopping a deployment: the state directory is locked per deployment, and SIGTERM stops the
-learner before the workers its running job needs, so nothing is SIGKILLed and the job resumes
-on the next start."""
+"""Stopping a deployment: the state directory is locked per deployment, and SIGTERM during a job
+stops every process without SIGKILL (the learner abandons the batch in flight instead of waiting
+for workers), the job is saved as interrupted and resumes on the next start."""
 from __future__ import annotations
 
 import json
@@ -38,7 +38,7 @@ def test_a_second_deployment_on_the_same_state_dir_refuses_to_start(tmp_path):
         pass
 
 
-def test_sigterm_stops_the_learner_first_nothing_is_killed_and_the_job_resumes(tmp_path, wait_job):
+def test_sigterm_during_a_job_kills_nothing_saves_it_interrupted_and_it_resumes(tmp_path, wait_job):
     setup = make_setup()
     state = tmp_path / "state"
     train = {"times": np.stack([d.times for d in setup.demos]), "values": np.stack([d.values for d in setup.demos]),
