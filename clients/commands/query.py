@@ -222,17 +222,26 @@ def _run_predict(args) -> int:
     return 0
 
 
-def _run_info(args) -> int:
+def _ask(args, ask) -> tuple[dict | None, int]:
+    """``ask(client)`` on a client made from ``args``: (reply, 0) for the caller to print; (None,
+    exit code) when it is done: an error reply was reported (1) or ``--json`` printed the reply (0)."""
     from clients.client import ClientError
 
     with _client(args) as client:
         try:
-            info = client.info(args.skill)
+            reply = ask(client)
         except ClientError as exc:
-            return _fail(exc)
+            return None, _fail(exc)
     if args.json:
-        print(json.dumps(jsonable(info)))
-        return 0
+        print(json.dumps(jsonable(reply)))
+        return None, 0
+    return reply, 0
+
+
+def _run_info(args) -> int:
+    info, code = _ask(args, lambda client: client.info(args.skill))
+    if info is None:
+        return code
     print(f"skill {info['skill']} version {info['version']} ({info['source']})")
     print(f"  outputs ({info['n_outputs']}): {', '.join(info['output_names'])}")
     lo, hi = info["value_low"], info["value_high"]
@@ -257,16 +266,9 @@ def _run_skills(args) -> int:
 
 
 def _run_cancel(args) -> int:
-    from clients.client import ClientError
-
-    with _client(args) as client:
-        try:
-            status = client.cancel(args.job)
-        except ClientError as exc:
-            return _fail(exc)
-    if args.json:
-        print(json.dumps(jsonable(status)))
-    else:
-        pending = " (cancel requested: it stops after its current iteration)" if status["state"] == "running" else ""
-        print(f"job {status['job']}: {status['state']}{pending}")
+    status, code = _ask(args, lambda client: client.cancel(args.job))
+    if status is None:
+        return code
+    pending = " (cancel requested: it stops after its current iteration)" if status["state"] == "running" else ""
+    print(f"job {status['job']}: {status['state']}{pending}")
     return 0

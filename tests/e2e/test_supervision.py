@@ -62,7 +62,7 @@ def test_a_killed_child_is_restarted_and_recorded_then_given_up_after_the_limit(
 
 
 def test_distributed_e1_survives_a_learner_killed_mid_job(tmp_path, verify_rrd):
-    args = dict(seed=2, budget=15, train_steps=600)
+    args = dict(seed=2, budget=10, train_steps=300)
     reference = run_viapoint(**args, progress=False)  # the in-process run (= an undisturbed distributed one)
     rrd = tmp_path / "e1.rrd"
     killed = threading.Event()
