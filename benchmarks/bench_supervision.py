@@ -249,15 +249,16 @@ def main(argv: list[str] | None = None) -> int:
     result: dict = {"benchmark": "supervision", "provenance": prov, "target_s": TARGET_S}
     with tempfile.TemporaryDirectory(prefix="bench-sup-") as tmp:
         tmp = Path(tmp)
+        # the result is written after each part, so a long part 2 cannot lose the others
         if 1 in parts:
             result["restart_latency"] = restart_latency(tmp, args.reps)
-            print(json.dumps(result["restart_latency"], indent=1), flush=True)
+            save_result(result, args.out, headline=("restart_latency",))
         if 3 in parts:
             result["sigterm"] = sigterm_during_job(tmp)
-            print(json.dumps(result["sigterm"], indent=1), flush=True)
+            save_result(result, args.out, headline=("sigterm",))
         if 2 in parts:
             result["e1_kill_9"] = e1_under_kills(tmp, args.budget, args.train_steps, args.seed)
-    save_result(result, args.out, headline=("restart_latency", "sigterm", "e1_kill_9"))
+            save_result(result, args.out, headline=("e1_kill_9",))
     return 0
 
 
