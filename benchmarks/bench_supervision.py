@@ -106,6 +106,7 @@ def e1_under_kills(tmp: Path, budget: int, train_steps: int, seed: int) -> dict:
     """Part 2: E1 undisturbed, then with a worker, the model, the learner and the recorder killed."""
     import zenoh
 
+    from clients.client import ACNMPClient
     from clients.distributed import run_viapoint_distributed
     from services.launcher import LocalDeployment
     from services.transport import decode
@@ -136,8 +137,9 @@ def e1_under_kills(tmp: Path, budget: int, train_steps: int, seed: int) -> dict:
 
         sub = dep.session.declare_subscriber(f"{dep.keys.prefix}/event/job_progress/**", on_progress)
         try:
-            killed = run_viapoint_distributed(seed, budget=budget, train_steps=train_steps, progress=False,
-                                              deployment=dep)
+            with ACNMPClient(dep.namespace, session=dep.session, timeout=30) as client:
+                killed = run_viapoint_distributed(seed, budget=budget, train_steps=train_steps, progress=False,
+                                                  client=client)
         finally:
             sub.undeclare()
         restarts = [{"process": r.name, "exit_code": r.exit_code, "live_after_s": r.live_after,

@@ -66,8 +66,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"acnmp: error: {exc}", file=sys.stderr)
         return 2
     except ConnectionError as exc:
-        print(f"acnmp: {exc} (is a router listening there? a deployment of `acnmp up` takes "
-              f"--mode peer --connect <its anchor>)", file=sys.stderr)
+        print(f"acnmp: {exc} (is a router listening there? for a deployment of `acnmp up`, leave out "
+              f"--connect: its run file gives the anchor and the credentials)", file=sys.stderr)
         return 1
     except OSError as exc:  # a file that cannot be read or written
         where = f"{exc.filename}: " if exc.filename else ""

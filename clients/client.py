@@ -1,19 +1,19 @@
 """A Python client for an ACNMP deployment: predict/info on the model service, train/adapt/job
 status on the learner (key expressions and messages: docs/PROTOCOL.md).
 
-    with ACNMPClient(connect=["tcp/127.0.0.1:7447"]) as client:
+    with ACNMPClient() as client:          # the deployment `acnmp up` runs (its run file)
         p = client.predict("reach", obs_times=[0.0], obs_values=[[0.0, 0.0]], n_steps=200)
         p.mean  # (200, 2) numpy array, raw units
 
 Every error reply becomes a :class:`ClientError` carrying the service's code
 (services/transport/wire.py ``ERROR_CODES``) and message; nothing answering is ``unavailable``, no
-answer in time ``timeout``. Queries go through the transport's one RPC caller
-(:func:`services.transport.rpc.call`).
+answer in time ``timeout``; a query answered ``unavailable`` is retried until its timeout (the
+service may still be appearing; clients/discovery.py). Queries go through the transport's one RPC
+caller (:func:`services.transport.rpc.call`).
 """
 from __future__ import annotations
 
 import contextlib
-import os
 import time
 from dataclasses import dataclass
 from typing import Any, Sequence
@@ -22,10 +22,12 @@ import numpy as np
 import zenoh
 
 from acnmp_core.adapt_job import AdaptJob
-from services.transport import DEFAULT_NAMESPACE, Keyspace, WireError, alive_tokens, call, open_session
+from services.transport import DEFAULT_NAMESPACE, Keyspace, WireError, alive_tokens, open_session
 from services.transport.keys import last_chunk
 
-#: Where the client connects when neither ``connect`` nor $ACNMP_CONNECT says: the router default.
+from .discovery import call_when_available, resolve
+
+#: The default router address of the compose deployment (``ACNMP_CONNECT=tcp/127.0.0.1:7447``).
 DEFAULT_CONNECT = "tcp/127.0.0.1:7447"
 
 TERMINAL_JOB_STATES = ("done", "failed", "cancelled")
@@ -86,30 +88,31 @@ class ACNMPClient:
 
     Parameters
     ----------
-    namespace : deployment namespace (``acnmp/<namespace>/...``).
-    connect : endpoints to connect to; default ``$ACNMP_CONNECT`` (comma-separated) or
-        :data:`DEFAULT_CONNECT`.
-    mode : zenoh mode of the client's own session, ``peer`` (default) or ``client``.
+    namespace : deployment namespace (``acnmp/<namespace>/...``); None: the discovered one.
+    connect : endpoints to connect to; default ``$ACNMP_CONNECT`` (comma-separated), else the
+        running deployment found by its run file (clients/discovery.py :func:`resolve`).
+    mode : zenoh mode of the client's own session, ``peer`` or ``client``; default: what the
+        discovered deployment's config file says (``client`` of an authenticated one), else ``peer``.
     listen, config_file : passed to :func:`services.transport.session.open_session`.
-    timeout : default seconds per query.
+    timeout : default seconds per query. role : credentials taken from a discovered secured
+        deployment, ``operator`` (may start jobs) or ``client`` (queries only).
 
     Use as a context manager, or call :meth:`close`: an open session keeps the process from exiting.
     """
 
-    def __init__(self, namespace: str = DEFAULT_NAMESPACE, connect: Sequence[str] | None = None,
-                 mode: str = "peer", listen: Sequence[str] | None = None, config_file: str | None = None,
-                 timeout: float = 10.0, session: zenoh.Session | None = None):
-        self.keys = Keyspace(namespace)
-        self.namespace = namespace
+    def __init__(self, namespace: str | None = None, connect: Sequence[str] | None = None,
+                 mode: str | None = None, listen: Sequence[str] | None = None, config_file: str | None = None,
+                 timeout: float = 10.0, session: zenoh.Session | None = None, role: str = "operator"):
         self.timeout = float(timeout)
         self._stack = contextlib.ExitStack()
         if session is None:
-            if connect is None:
-                env = os.environ.get("ACNMP_CONNECT", "")
-                connect = [e for e in env.split(",") if e] or [DEFAULT_CONNECT]
+            target = resolve(namespace, connect, config_file, mode, role)
+            namespace = target.namespace
             # a client-mode session waits for its router at most the query timeout
-            session = self._stack.enter_context(open_session(mode, listen, list(connect), config_file,
+            session = self._stack.enter_context(open_session(target.mode, listen, target.connect, target.config_file,
                                                              open_timeout=self.timeout))
+        self.namespace = namespace or DEFAULT_NAMESPACE
+        self.keys = Keyspace(self.namespace)
         self.session = session
 
     def close(self) -> None:
@@ -126,7 +129,7 @@ class ACNMPClient:
     def request(self, key: str, payload: dict | None = None, timeout: float | None = None) -> dict:
         """Send one query on ``key`` and return the decoded reply map (the first successful one when
         several services answer); raises :class:`ClientError`. See :func:`services.transport.rpc.call`."""
-        return call(self.session, key, payload, self.timeout if timeout is None else float(timeout))
+        return call_when_available(self.session, key, payload, self.timeout if timeout is None else float(timeout))
 
     # ----- model service ---------------------------------------------------------------------
     def predict(self, skill: str, obs_times, obs_values, task_params=None, query_times=None, *,

@@ -7,7 +7,8 @@ E2 and E3 drive their loops in this process and only execute roll-outs remotely:
 :func:`remote_rollouts` starts workers (and a recorder) and hands out evaluators that send the
 roll-outs to the workers and publish each one for the recording.
 
-E1 runs as a client of the services: the learner trains the skill from the demonstrations and runs
+E1 runs as a client of the services (of a fresh deployment, or of the running one
+``acnmp experiment viapoint --distributed`` found by its run file): the learner trains the skill from the demonstrations and runs
 one adaptation job per method, the jobs' roll-outs go to the workers, the recorder logs every one,
 and the assimilated model is read back through the model service. The learner calls the same
 library functions with the same seeds as :func:`acnmp_core.experiments.viapoint.run_viapoint`,
@@ -23,10 +24,11 @@ same model, perhaps under the next version number).
 """
 from __future__ import annotations
 
+import contextlib
 import itertools
 import os
 import time
-from contextlib import contextmanager, nullcontext
+from contextlib import contextmanager
 from typing import Callable, Iterator, TypeVar
 
 import numpy as np
@@ -137,25 +139,25 @@ class DeployedSkill:
 
 def run_viapoint_distributed(seed: int = 0, variant: str = "2d", *, budget: int = 100, train_steps: int = 3000,
                              workers: int = 2, record: str | None = None, progress: bool = True,
-                             adapt_overrides: dict | None = None,
-                             deployment: LocalDeployment | None = None) -> ViaPointRun:
+                             adapt_overrides: dict | None = None, client: ACNMPClient | None = None) -> ViaPointRun:
     """Run E1 on a fresh local deployment (``workers`` point-mass workers, a recorder writing
-    ``record`` when given), or on ``deployment`` when given (started, with a learner, a model
-    service and point2d workers; it is not stopped here). Returns a :class:`ViaPointRun` like the
-    in-process run, its summary marked ``distributed`` with the workers, the recording and each
-    method's job id."""
-    fresh = deployment is None
-    owned = LocalDeployment(f"e1-{os.getpid()}", workers=workers, robot="point2d", record=record) if fresh \
-        else nullcontext(deployment)
-    with owned as dep, ACNMPClient(dep.namespace, session=dep.session, timeout=30) as client:
-        if progress:
-            print(dep.describe(), flush=True)
+    ``record`` when given), or with ``client`` on the running deployment it is connected to
+    (``acnmp up``: its learner, model service and point2d workers; ``workers`` and ``record`` are
+    then the deployment's). Returns a :class:`ViaPointRun` like the in-process run, its summary
+    marked ``distributed`` with the workers, the recording and each method's job id."""
+    attached = None if client is None else client.namespace
+    with contextlib.ExitStack() as stack:
+        if client is None:
+            ns = f"e1-{os.getpid()}"
+            dep = stack.enter_context(LocalDeployment(ns, workers=workers, robot="point2d", record=record))
+            client = stack.enter_context(ACNMPClient(ns, session=dep.session, timeout=30))
+            if progress:
+                print(dep.describe(), flush=True)
         skill = DeployedSkill(client, progress=False)
         run = run_viapoint(seed, variant, budget=budget, train_steps=train_steps, backend=skill,
                            progress=progress, adapt_overrides=adapt_overrides)
-    if not fresh:
-        workers, record = deployment.n_workers, deployment.record
-    run.summary.update(distributed=True, workers=int(workers), recording=str(record) if record else None)
+    run.summary.update(distributed=True, workers=int(workers) if attached is None else None,
+                       recording=str(record) if record else None, attached_to=attached)
     for method, job in skill.jobs.items():
         run.summary["methods"][method]["job"] = job
     return run

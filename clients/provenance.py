@@ -53,7 +53,8 @@ def provenance(argv: list[str] | None = None) -> dict:
     Returns ``{"commit": sha or None, "dirty": bool or None (tracked files other than
     :data:`NOT_CODE` changed), "command":
     str, "started_at": ISO time (UTC), "python": version, "libraries": {name: version},
-    "machine": {"platform", "cpu", "cpu_count", "torch_threads"}}``. ``commit`` is None outside
+    "machine": {"platform", "cpu", "cpu_count", "torch_threads", "torch_cpu_capability"}}``
+    (the capability is the SIMD level torch's kernels dispatch to, e.g. "AVX2", "AVX512"). ``commit`` is None outside
     a git checkout (an installed wheel).
     """
     import torch
@@ -73,5 +74,6 @@ def provenance(argv: list[str] | None = None) -> dict:
         "python": platform.python_version(),
         "libraries": {name: _version(name) for name in LIBRARIES},
         "machine": {"platform": platform.platform(), "cpu": _cpu_model(), "cpu_count": os.cpu_count(),
-                    "torch_threads": torch.get_num_threads()},
+                    "torch_threads": torch.get_num_threads(),
+                    "torch_cpu_capability": torch.backends.cpu.get_cpu_capability()},
     }

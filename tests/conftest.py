@@ -168,3 +168,31 @@ def saved_figures(monkeypatch):
     monkeypatch.setattr(Figure, "savefig", savefig)
     return saved
 
+
+
+@pytest.fixture(autouse=True)
+def _private_runtime_dir(tmp_path_factory, monkeypatch):
+    """Every test gets its own runtime directory (services/transport/runfile.py): the run files
+    and secrets of the deployments it starts never meet the user's, nor another test's."""
+    monkeypatch.setenv("ACNMP_RUNTIME_DIR", str(tmp_path_factory.mktemp("run")))
+
+
+@pytest.fixture(scope="session")
+def acnmp_up():
+    """``start(*args)``: run ``acnmp up ARGS`` as a child process (stdout piped, text) and read its
+    output until "deployment is up"; returns (Popen, lines read). The caller stops it (in a finally)."""
+    root = Path(__file__).resolve().parents[1]
+
+    def start(*args: str) -> tuple[subprocess.Popen, list[str]]:
+        env = dict(os.environ, PYTHONPATH=str(root), RERUN_ANALYTICS="0")
+        proc = subprocess.Popen([sys.executable, "-m", "clients.cli", "up", *args], cwd=root, env=env,
+                                stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        lines = []
+        for line in proc.stdout:
+            lines.append(line)
+            if "deployment is up" in line:
+                return proc, lines
+        proc.wait()
+        raise AssertionError("acnmp up ended before it was up:\n" + "".join(lines))
+
+    return start

@@ -12,15 +12,18 @@ from services.transport import SessionOptions, jsonable
 
 EPILOG = """\
 examples:
-  acnmp query skills --connect tcp/127.0.0.1:7447
+  acnmp query skills                        # the deployment `acnmp up` runs (found by its run file)
+  acnmp query skills --namespace lab        # one of several: `acnmp status` lists them
   acnmp query info --skill reach
   acnmp query predict --skill reach --obs 0:0.0,0.0 --obs 1:1.0,0.2 --steps 200
   acnmp query predict --skill push --obs 0:0.1,0.2,_ --task-params 0.4,0.3 --times 0,0.5,1 --json
   acnmp query predict --skill reach --obs-json '[[0.0, [0.0, 0.0]]]' --samples 5 --seed 1
 
 An observation is TIME:V1,V2,... with one value per output dimension; write _ for a dimension the
-observation does not carry (it is masked out). The connection defaults to $ACNMP_CONNECT or
-tcp/127.0.0.1:7447 (the router's default address).
+observation does not carry (it is masked out). Without --connect or --config the command finds
+the running deployment of --namespace (or the only one running) by the run file `acnmp up`
+writes, with its client credentials; $ACNMP_CONNECT (e.g. tcp/127.0.0.1:7447 for the compose
+router) skips that.
 """
 
 
@@ -71,7 +74,7 @@ def register(subparsers) -> None:
 
 def _common(parser: argparse.ArgumentParser, skill: bool = True) -> None:
     # the same session options as every process (services/transport/session.py); a command has no
-    # router role, and without --connect it goes to $ACNMP_CONNECT or tcp/127.0.0.1:7447
+    # router role; without --connect it finds the running deployment (clients/discovery.py)
     SessionOptions.add_arguments(parser, modes=("peer", "client"))
     parser.add_argument("--timeout", type=positive_float, default=10.0,
                         help="seconds to wait for a reply (default: %(default)s)")
@@ -177,8 +180,9 @@ def _client(args):
     from clients.client import ACNMPClient
 
     opts = SessionOptions.from_args(args)
+    # no --connect/--config: the running deployment of --namespace (its run file), as role client
     return ACNMPClient(opts.namespace, connect=opts.connect, mode=opts.mode, listen=opts.listen,
-                       config_file=opts.config, timeout=args.timeout)
+                       config_file=opts.config, timeout=args.timeout, role="client")
 
 
 def _fail(exc) -> int:

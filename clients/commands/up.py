@@ -8,6 +8,8 @@ def register(subparsers) -> None:
     """Add the ``up`` sub-command."""
     from acnmp_core.robots.registry import robot_kinds
 
+    from .query import int_at_least
+
     p = subparsers.add_parser("up", help="start a local deployment on 127.0.0.1 until Ctrl-C / SIGTERM",
                               description=__doc__.splitlines()[0].split(": ", 1)[1])
     p.add_argument("--namespace", "-n", default="default", help="key prefix acnmp/<namespace>/ (default: %(default)s)")
@@ -20,39 +22,87 @@ def register(subparsers) -> None:
                         "(default: runs/<namespace>/state)")
     p.add_argument("--no-model", action="store_true", help="do not start the model service")
     p.add_argument("--demos", action="append", default=[], metavar="SKILL=FILE.npz",
-                   help="have the learner train SKILL from a demonstration file at start (repeatable)")
+                   help="have the learner train SKILL from a demonstration file at start (repeatable); "
+                        "without it (and without --no-default-skill) it trains E1's via-point skill 'e1'")
+    p.add_argument("--train-steps", type=int_at_least(1), default=None, metavar="N",
+                   help="training steps for --demos and the default skill (default: the learner's, 3000)")
+    p.add_argument("--no-default-skill", action="store_true",
+                   help="do not train and serve E1's via-point skill 'e1' when no --demos is given")
+    p.add_argument("--insecure", action="store_true",
+                   help="no authentication: a zenoh peer mesh any local process can join (debugging only)")
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
-    """Start the deployment, print what runs where, wait for SIGINT/SIGTERM (restarting children that
-    die meanwhile, see services/launcher/supervision.py), stop everything; exit 0."""
+    """Start the deployment (authenticated unless ``--insecure``, announced by its run file; the
+    default skill served first), print what runs where, wait for SIGINT/SIGTERM (restarting children
+    that die meanwhile, see services/launcher/supervision.py), stop everything.
+    Exit 0; 1 if it could not start or the default skill was never served."""
+    from clients.default_skill import SKILL, default_demos
     from services.launcher import LocalDeployment
+    from services.launcher.announce import NamespaceInUse
     from services.learner.store import StateDirInUse
     from services.transport import install_shutdown_handlers
 
     stop = install_shutdown_handlers()
-    learner_args = [a for spec in args.demos for a in ("--demos", spec)]
     state_dir = args.state_dir or f"runs/{args.namespace}/state"
+    demos = list(args.demos)
+    default_skill = not demos and not args.no_default_skill and not args.no_model
+    if default_skill:
+        demos.append(default_demos(state_dir))
+    learner_args = [a for spec in demos for a in ("--demos", spec)]
+    if args.train_steps is not None:
+        learner_args += ["--train-steps", str(args.train_steps)]
+    served = False
     dep = LocalDeployment(args.namespace, args.workers, args.robot, record=args.record, state_dir=state_dir,
-                          model=not args.no_model, learner_args=learner_args, report=report)
+                          model=not args.no_model, learner_args=learner_args, secure=not args.insecure,
+                          announce=True, report=report)
     try:
         try:
             dep.start()
-        except StateDirInUse as exc:  # nothing was started
+        except (StateDirInUse, NamespaceInUse) as exc:  # nothing was started
             print(f"acnmp up: {exc}", file=sys.stderr)
             return 1
         print(dep.describe(), flush=True)
-        print("deployment is up; Ctrl-C or SIGTERM stops it", flush=True)
-        while not stop.wait(0.5):  # the deployment's supervisor restarts (and reports) dead children
-            pass
+        run = dep.announcement.run
+        creds = (f"; credentials: client {run.credentials}, operator {run.operator_credentials}" if dep.secure
+                 else "; NOT authenticated (--insecure): any local process can join")
+        print(f"run file {run.path} (`acnmp query`, `acnmp status` find it){creds}", flush=True)
+        served = not default_skill or wait_for_skill(dep, SKILL, stop)
+        if served:
+            print("deployment is up; Ctrl-C or SIGTERM stops it", flush=True)
+            while not stop.wait(0.5):  # the deployment's supervisor restarts (and reports) dead children
+                pass
     finally:
         codes = dep.stop()
     bad = {n: c for n, c in codes.items() if c != 0}
     if bad:
         print(f"acnmp up: processes ended with errors: {bad}", file=sys.stderr)
     print("deployment stopped: " + " ".join(f"{n}={c}" for n, c in codes.items()), flush=True)
-    return 0
+    return 0 if served or stop.is_set() else 1
+
+
+def wait_for_skill(dep, skill: str, stop, poll: float = 1.0) -> bool:
+    """Wait until the model service serves ``skill`` (its liveliness token; the learner trains it
+    at its first start). False if stopped, or if the learner or the model exited first."""
+    from services.transport import wait_for_liveliness
+
+    print(f"waiting for the model service to serve skill {skill!r} (trained from E1's demonstrations at "
+          f"the first start; --no-default-skill skips it)", flush=True)
+    while not stop.is_set():
+        try:
+            wait_for_liveliness(dep.session, dep.keys.model_token(skill), timeout=poll)
+            return True
+        except TimeoutError:
+            # under supervision a dead child is restarted: only one given up on is gone for good
+            gone = dep.supervisor.given_up if dep.supervisor is not None else \
+                {n for n, c in dep.children.items() if c.proc.poll() is not None}
+            dead = [n for n in ("learner", "model") if n in gone]
+            if dead:
+                print(f"acnmp up: {', '.join(dead)} exited before serving {skill!r}; logs in {dep.log_dir}",
+                      file=sys.stderr, flush=True)
+                return False
+    return False
 
 
 def report(line: str) -> None:

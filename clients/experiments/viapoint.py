@@ -1,6 +1,7 @@
 """``acnmp experiment viapoint``: E1, LfD-only vs RL-only vs ACNMP on an extrapolated via-point."""
 from __future__ import annotations
 
+import contextlib
 import sys
 
 import numpy as np
@@ -26,6 +27,10 @@ def register(subparsers) -> None:
     p.add_argument("--train-steps", type=int, default=3000, help="supervised training steps (default 3000)")
     add_output_arguments(p, "write Fig. 3-like PNG (and FILE_latents.png like Fig. 4)")
     add_deployment_arguments(p, "training and adaptation jobs on the learner, roll-outs on point2d workers")
+    p.add_argument("--namespace", "-n", default=None, metavar="NS",
+                   help="with --distributed: run on the running deployment of NS (`acnmp status` lists them)")
+    p.add_argument("--fresh", action="store_true",
+                   help="with --distributed: always start a fresh deployment, even when one is running")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.set_defaults(func=run)
 
@@ -48,7 +53,8 @@ def run(args) -> int:
     if args.distributed:
         from clients.distributed import run_viapoint_distributed
 
-        result = run_viapoint_distributed(workers=args.workers, record=args.record, **kwargs)
+        with _running_deployment(args) as client:
+            result = run_viapoint_distributed(workers=args.workers, record=args.record, client=client, **kwargs)
     else:
         result = run_viapoint(**kwargs)
     s = result.summary
@@ -71,3 +77,33 @@ def run(args) -> int:
             print(f"wrote {p}")
     sys.stdout.flush()
     return 0
+
+
+@contextlib.contextmanager
+def _running_deployment(args):
+    """An operator client of the running deployment ``--distributed`` uses (``--namespace``, or
+    the one `acnmp up` runs), or None for a fresh deployment (``--fresh``, or none running).
+    ValueError when ``--namespace`` names none, or ``--record`` asks a running one to record."""
+    from clients.client import ACNMPClient
+    from services.transport.runfile import DeploymentNotFound, find
+
+    if (args.namespace is not None or args.fresh) and not args.distributed:
+        raise ValueError("--namespace, --fresh: only with --distributed")
+    if args.namespace is not None and args.fresh:
+        raise ValueError("--namespace and --fresh: choose a running deployment or a fresh one")
+    if args.fresh:
+        yield None
+        return
+    try:
+        run = find(args.namespace)
+    except DeploymentNotFound:
+        if args.namespace is not None:
+            raise ValueError(f"--namespace {args.namespace}: no such deployment is running (`acnmp status`)") from None
+        yield None
+        return
+    if args.record:
+        raise ValueError(f"--record: deployment {run.namespace!r} is running; its recorder (acnmp up --record) "
+                         "records, or use --fresh")
+    print(f"running E1 on deployment {run.namespace!r} (anchor {run.anchor}); --fresh starts a new one", flush=True)
+    with ACNMPClient(run.namespace, role="operator", timeout=30) as client:
+        yield client

@@ -5,7 +5,9 @@ module                    one job
 ========================  =========================================================
 ``processes``             the process table: name -> entry module and config class
 ``deployment``            :class:`LocalDeployment`: recorder, learner, model, workers as
-                          child processes on a loopback peer mesh
+                          child processes on a loopback peer mesh, or (``secure=True``)
+                          as authenticated clients of the launcher's router
+``announce``              a secured deployment's secrets and run file
 ========================  =========================================================
 """
 from .deployment import Child, LocalDeployment

@@ -53,6 +53,7 @@ from services.recording.publisher import EventPublisher
 from services.transport import Keyspace, free_port, loopback_endpoint, open_session, wait_for_liveliness
 from services.transport.lifetime import PARENT_PID_ENV
 
+from .announce import Announcement
 from .processes import entry_module
 from .supervision import RestartPolicy, Supervisor
 
@@ -89,6 +90,10 @@ class LocalDeployment:
     worker_delay : seconds per roll-out each worker sleeps (simulates a slow robot; tests).
     chunk_timeout : the learner's per-chunk worker timeout. start_timeout, stop_timeout : seconds.
     log_dir : children's logs (default: ``<state_dir>/logs``).
+    secure : authenticated deployment (``acnmp up``): the anchor is a zenoh router requiring a
+        per-deployment password per role and applying the ACL of services/transport/auth.py, every
+        child is its client; it writes a run file so clients find it (services/launcher/announce.py).
+    announce : write that run file for an unauthenticated deployment too.
     supervise : restart children that die (``restart_policy``, default :class:`RestartPolicy`);
         ``report(line)`` gets a line per restart (default: the log).
 
@@ -101,8 +106,9 @@ class LocalDeployment:
                  record: str | os.PathLike | None = None, state_dir: str | os.PathLike | None = None, *,
                  model: bool = True, learner: bool = True, worker_delay: float = 0.0, chunk_timeout: float = 60.0,
                  start_timeout: float = 60.0, stop_timeout: float = 8.0, log_dir: str | os.PathLike | None = None,
-                 learner_args: Sequence[str] = (), supervise: bool = True,
-                 restart_policy: RestartPolicy | None = None, report: Callable[[str], None] | None = None):
+                 learner_args: Sequence[str] = (), secure: bool = False, announce: bool = False,
+                 supervise: bool = True, restart_policy: RestartPolicy | None = None,
+                 report: Callable[[str], None] | None = None):
         self.robot = robot_spec(robot).kind  # UnknownRobotError (a ValueError) for a kind not registered
         if workers < 0:
             raise ValueError(f"workers: expected >= 0, got {workers}")
@@ -133,12 +139,16 @@ class LocalDeployment:
         self.session: zenoh.Session | None = None
         self.anchor = ""
         self._stack = contextlib.ExitStack()
+        self.secure = bool(secure)
+        self.announcement = Announcement(namespace, self.secure) if secure or announce else None
 
     # ----- starting --------------------------------------------------------------------------
     def _spawn(self, name: str, module: str, args: Sequence[str], token: str, serves: Sequence[str] = ()) -> Child:
         self.log_dir.mkdir(parents=True, exist_ok=True)
         log = self.log_dir / f"{name}.log"
         argv = [sys.executable, "-m", module, "--namespace", self.namespace, "--connect", self.anchor, *args]
+        if self.announcement is not None:
+            argv += self.announcement.child_args(name)
         proc = _popen(argv, log)
         child = Child(name, argv, proc, token, list(serves), log)
         with self._children_lock:
@@ -179,7 +189,11 @@ class LocalDeployment:
         try:
             port = free_port()
             self.anchor = loopback_endpoint(port)
-            self.session = self._stack.enter_context(open_session("peer", [self.anchor], multicast=False))
+            router = self.announcement.claim(self.anchor) if self.announcement is not None else None
+            if router is not None:
+                self.session = self._stack.enter_context(open_session(config=router))
+            else:
+                self.session = self._stack.enter_context(open_session("peer", [self.anchor], multicast=False))
             keys = self.keys
             if self.record is not None:
                 self.record.parent.mkdir(parents=True, exist_ok=True)
@@ -202,6 +216,9 @@ class LocalDeployment:
             for i in range(self.n_workers):
                 started.append(self.start_worker(f"{self.robot}-{i}", wait=False))
             self._wait_live(started)
+            if self.announcement is not None:
+                self.announcement.publish(self.anchor, str(self.state_dir),
+                                          [(c.name, c.pid, c.token) for c in self.children.values()])
             self._events = EventPublisher(self.session, self.keys)
             if self.supervise:
                 self.supervisor = Supervisor(self, self.restart_policy,
@@ -214,7 +231,9 @@ class LocalDeployment:
     # ----- inspecting ------------------------------------------------------------------------
     def describe(self) -> str:
         """A table of what runs where: process, pid, liveliness token, keys served, log file."""
-        lines = [f"acnmp deployment '{self.namespace}': anchor {self.anchor} (peer mesh on 127.0.0.1, "
+        layout = ("zenoh router on 127.0.0.1, every process its authenticated client, ACL on"
+                  if self.secure else "peer mesh on 127.0.0.1")
+        lines = [f"acnmp deployment '{self.namespace}': anchor {self.anchor} ({layout}, "
                  f"multicast off); state {self.state_dir}"]
         if self.record is not None:
             lines.append(f"recording to {self.record}")
@@ -304,6 +323,8 @@ class LocalDeployment:
         self._stack.close()
         self.session = None
         self._merge_recordings()
+        if self.announcement is not None:
+            self.announcement.withdraw()
         self._dir_lock.release()
         codes = {n: c.proc.returncode for n, c in self.children.items()}
         if self._tmp is not None:

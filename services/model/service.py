@@ -30,6 +30,7 @@ import zenoh
 
 from acnmp_core.checkpoint import load_checkpoint
 from services.transport import Keyspace, Ready, Service, declare_rpc, option, wait_until_stopped
+from services.transport.auth import authenticated_user
 from services.transport.keys import check_name, skill_from_key
 from services.transport.wire import WireError
 
@@ -65,12 +66,15 @@ class ModelService:
     fetch_latest : query ``weights/latest`` at start and while skills are missing.
     max_queue : predict queries waiting for a thread before more are answered ``overloaded``; a
         waiting query whose timeout has passed is dropped without being computed.
+    weights_source : what ``info`` says for weights that came over zenoh: ``learner`` where the
+        deployment's ACL lets only the learner put them, ``unauthenticated`` where anyone could.
     """
 
     def __init__(self, session: zenoh.Session, namespace: str = "default", *,
                  skills: Sequence[str] | None = None, workers: int = 2, fetch_latest: bool = True,
-                 max_queue: int = MAX_QUEUE):
+                 max_queue: int = MAX_QUEUE, weights_source: str = "learner"):
         self.session = session
+        self.weights_source = weights_source
         self.keys = Keyspace(namespace)
         self.registry = ModelRegistry(None if skills is None else [check_name("skill", s) for s in skills])
         self._lock = threading.Lock()
@@ -116,7 +120,7 @@ class ModelService:
                 return
             try:
                 w = decode_weights(payload)
-                self.load(SkillModel(w.skill, w.version, w.model, w.data_hash, w.n_demos, source="learner"))
+                self.load(SkillModel(w.skill, w.version, w.model, w.data_hash, w.n_demos, source=self.weights_source))
             except WireError as exc:
                 self.rejected += 1
                 log.warning("rejected weights from %s: %s", origin, exc)
@@ -226,8 +230,9 @@ class ModelConfig(Service):
         import torch
 
         torch.set_num_threads(1)  # one predict is small; threads would only fight over the cores
+        source = "learner" if authenticated_user(self.session.config) else "unauthenticated"
         with ModelService(session, self.session.namespace, skills=self.skills, workers=self.workers,
-                          max_queue=self.max_queue) as service:
+                          max_queue=self.max_queue, weights_source=source) as service:
             for value in self.checkpoints:
                 skill, path = _parse_checkpoint_arg(value)
                 entry = service.load_checkpoint(path, skill)

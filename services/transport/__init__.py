@@ -15,6 +15,8 @@ module                  one job
 ``service``             :class:`Service`, :func:`option`, :func:`run_service`, :func:`main`:
                         one way to configure and run any process
 ``router``              :class:`RouterConfig`, a zenoh router process
+``auth``                per-deployment passwords per role, the router's ACL, configs
+``runfile``             the run file of a running deployment (discovery on one machine)
 ======================  ===============================================================
 """
 from .errors import wire_error

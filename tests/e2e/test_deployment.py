@@ -6,8 +6,6 @@ from __future__ import annotations
 import os
 import re
 import signal
-import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -18,7 +16,6 @@ from services.launcher import LocalDeployment
 from services.recording.replay import summarize
 from services.transport import call
 
-ROOT = Path(__file__).resolve().parents[2]
 NS = "e2e"
 
 
@@ -60,18 +57,10 @@ def test_e1_job_end_to_end_is_recorded_exactly(tmp_path, verify_rrd):
     verify_rrd(rrd)
 
 
-def test_acnmp_up_stops_cleanly_on_sigterm(tmp_path, verify_rrd):
-    env = dict(os.environ, PYTHONPATH=str(ROOT), RERUN_ANALYTICS="0")
-    proc = subprocess.Popen([sys.executable, "-m", "clients.cli", "up", "--namespace", "upt", "--workers", "1",
-                             "--record", str(tmp_path / "up.rrd"), "--state-dir", str(tmp_path / "state")],
-                            cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    lines = []
+def test_acnmp_up_stops_cleanly_on_sigterm(tmp_path, verify_rrd, acnmp_up):
+    proc, lines = acnmp_up("--namespace", "upt", "--workers", "1", "--no-default-skill",
+                           "--record", str(tmp_path / "up.rrd"), "--state-dir", str(tmp_path / "state"))
     try:
-        for line in proc.stdout:
-            lines.append(line)
-            if "deployment is up" in line:
-                break
-        assert any("deployment is up" in ln for ln in lines), "".join(lines)
         pids = [int(m.group(1)) for ln in lines if (m := re.match(r"\s+(?:recorder|learner|model|worker\S*)\s+(\d+)\s", ln))]
         assert len(pids) == 4, "".join(lines)  # recorder, learner, model, one worker
         proc.send_signal(signal.SIGTERM)
@@ -92,18 +81,12 @@ def test_acnmp_up_stops_cleanly_on_sigterm(tmp_path, verify_rrd):
     verify_rrd(tmp_path / "up.rrd")
 
 
-def test_children_stop_and_the_recording_is_valid_when_the_launcher_is_killed(tmp_path, verify_rrd):
-    env = dict(os.environ, PYTHONPATH=str(ROOT), RERUN_ANALYTICS="0")
+def test_children_stop_and_the_recording_is_valid_when_the_launcher_is_killed(tmp_path, verify_rrd, acnmp_up):
     rrd = tmp_path / "orphan.rrd"
-    proc = subprocess.Popen([sys.executable, "-m", "clients.cli", "up", "--namespace", "upk", "--workers", "1",
-                             "--record", str(rrd), "--state-dir", str(tmp_path / "state")],
-                            cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    lines, pids = [], []
+    pids = []
+    proc, lines = acnmp_up("--namespace", "upk", "--workers", "1", "--no-default-skill",
+                           "--record", str(rrd), "--state-dir", str(tmp_path / "state"))
     try:
-        for line in proc.stdout:
-            lines.append(line)
-            if "deployment is up" in line:
-                break
         pids = [int(m.group(1)) for ln in lines if (m := re.match(r"\s+(?:recorder|learner|model|worker\S*)\s+(\d+)\s", ln))]
         assert len(pids) == 4, "".join(lines)
         proc.kill()  # SIGKILL: the launcher cannot stop its children itself

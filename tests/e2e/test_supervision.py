@@ -11,6 +11,7 @@ import numpy as np
 import zenoh
 
 from acnmp_core.experiments.viapoint import make_setup, run_viapoint
+from clients.client import ACNMPClient
 from clients.distributed import run_viapoint_distributed
 from services.launcher import LocalDeployment
 from services.launcher.supervision import RestartPolicy
@@ -77,7 +78,8 @@ def test_distributed_e1_survives_a_learner_killed_mid_job(tmp_path, verify_rrd):
 
         sub = dep.session.declare_subscriber(f"{dep.keys.prefix}/event/job_progress/**", on_progress)
         try:
-            run = run_viapoint_distributed(**args, progress=False, deployment=dep)
+            with ACNMPClient(dep.namespace, session=dep.session, timeout=30) as client:
+                run = run_viapoint_distributed(**args, progress=False, client=client)
         finally:
             sub.undeclare()
         assert killed.is_set()

@@ -1,0 +1,26 @@
+"""The skill ``acnmp up`` serves with no arguments: E1's via-point skill (paper Sec. 4.1).
+
+:func:`default_demos` writes E1's six obstacle-avoidance demonstrations (times (T,) in [0, 1] s,
+values (T, 2) = (x, y) in metres, the ones :func:`acnmp_core.experiments.viapoint.make_setup`
+uses) as a demonstration file, so the learner trains skill ``e1`` from it at its first start
+(``--demos e1=FILE``) and keeps the checkpoint in the state directory afterwards.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+from acnmp_core.demo_io import save_demos
+from acnmp_core.tasks.viapoint import obstacle_demos
+from services.learner.store import demo_set_to_arrays
+
+#: The default skill's name (the same as ``acnmp experiment viapoint --distributed`` trains).
+SKILL = "e1"
+
+
+def default_demos(directory: str | Path) -> str:
+    """Write ``<directory>/e1-demos.npz`` (if missing) and return the learner's ``--demos`` spec
+    ``e1=<path>``."""
+    path = Path(directory) / f"{SKILL}-demos.npz"
+    if not path.exists():
+        save_demos(path, demo_set_to_arrays(obstacle_demos(), value_names=("x", "y")))
+    return f"{SKILL}={path.resolve()}"

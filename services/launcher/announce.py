@@ -1,0 +1,77 @@
+"""A local deployment's run file and, when secured, its secrets: what :class:`LocalDeployment`
+does with ``secure=True`` or ``announce=True`` (``acnmp up``), kept out of deployment.py.
+
+:class:`Announcement` claims ``<runtime dir>/<namespace>/`` (refusing when a live deployment of
+that namespace holds it), writes the secrets there (services/transport/auth.py), gives the
+anchor's router config and each child's ``--config``, writes the run file once every child is
+live (services/transport/runfile.py) and removes all of it when the deployment stops.
+"""
+from __future__ import annotations
+
+import os
+from typing import Iterable
+
+import zenoh
+
+from services.transport.auth import DeploymentSecrets
+from services.transport.runfile import ProcessEntry, RunFile, deployment_dir
+
+
+class NamespaceInUse(RuntimeError):
+    """Another live deployment announced the same namespace on this machine."""
+
+
+def role_of(child_name: str) -> str:
+    """The zenoh username a child authenticates as: ``worker-<id>`` -> ``worker``, else its name."""
+    return "worker" if child_name.startswith("worker") else child_name
+
+
+class Announcement:
+    """The run file of one deployment of ``namespace`` and, when ``secure``, its secrets."""
+
+    def __init__(self, namespace: str, secure: bool = True) -> None:
+        self.namespace = namespace
+        self.secure = secure
+        self.directory = deployment_dir(namespace)
+        self.secrets = DeploymentSecrets(self.directory)
+        self.run: RunFile | None = None
+        self._claimed = False
+
+    def claim(self, anchor: str) -> zenoh.Config | None:
+        """Refuse (:class:`NamespaceInUse`) if a live deployment announced this namespace; else,
+        when secure, write fresh secrets for ``anchor`` and return the anchor's router config
+        (None when not secure: the anchor is a peer of the mesh)."""
+        other = RunFile.read(self.directory / "run.json")
+        if other is not None and other.alive() and other.pid != os.getpid():
+            raise NamespaceInUse(f"a deployment of namespace {self.namespace!r} is already running "
+                                 f"(launcher pid {other.pid}, anchor {other.anchor}); stop it or use --namespace")
+        self.secrets.remove()  # a stale deployment's secrets
+        self._claimed = True
+        if not self.secure:
+            return None
+        self.secrets.create(anchor)
+        return self.secrets.router_config([anchor])
+
+    def child_args(self, child_name: str) -> list[str]:
+        """The extra command-line arguments of a child: its role's zenoh config file (none when
+        not secure)."""
+        return ["--config", str(self.secrets.config_path(role_of(child_name)))] if self.secure else []
+
+    def publish(self, anchor: str, state_dir: str, processes: Iterable[tuple[str, int, str]]) -> RunFile:
+        """Write the run file: ``processes`` is (name, pid, liveliness token) per child."""
+        creds = {r: str(self.secrets.config_path(r)) if self.secure else "" for r in ("client", "operator")}
+        self.run = RunFile(self.namespace, anchor, os.getpid(),
+                           credentials=creds["client"], operator_credentials=creds["operator"],
+                           state_dir=str(state_dir),
+                           processes=[ProcessEntry(n, int(p), t) for n, p, t in processes])
+        self.run.write()
+        return self.run
+
+    def withdraw(self) -> None:
+        """Remove the run file and the secrets (only if this deployment claimed them)."""
+        if not self._claimed:
+            return
+        if self.run is not None:
+            self.run.remove()
+        self.secrets.remove()
+        self._claimed = False

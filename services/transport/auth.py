@@ -1,0 +1,232 @@
+"""Authenticated deployments with zenoh's own mechanisms: user/password authentication and ACL.
+
+What is checked where (docs/PROTOCOL.md, "Security"):
+
+* every process of a secured deployment is a zenoh **client** of one **router** (the launcher's
+  session, the anchor). The router has the deployment's dictionary (``users.txt``, one
+  ``user:password`` per role, mode 0600) in ``transport/auth/usrpwd``, so a process without a
+  password of the dictionary cannot open a link at all: no query, no put, no subscription.
+* the router applies the **access control** of :func:`acl_config` to what comes in on each link,
+  by the username that link authenticated with. Only the learner may put weights or answer
+  ``weights/latest``; only the model service may answer predict/info; only ``operator`` (and the
+  learner) may start jobs; ``client`` may query but change nothing.
+
+Why a router and not the peer mesh: zenoh's user/password exchange authenticates the side that
+*opens* a link to the side that *accepts* it, and only the acceptor learns the username. In a
+gossip mesh either side may open a link, and the ACL of a process that opened the link sees no
+username (verified on loopback with zenoh 1.10: a denied user's puts passed over such a link).
+With every process a client of the router, the router accepts every link and knows every
+username, so the ACL applies to all traffic.
+
+The ACL's key expressions use ``acnmp/*/...``: they hold for every namespace, so the same rules
+go into the launcher's router (:func:`router_config`) and into the router config of a compose or
+multi-host deployment (:func:`write_router_deployment`, ``acnmp credentials``).
+"""
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import secrets
+import shutil
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Mapping, Sequence
+
+import zenoh
+
+from .session import make_config
+
+#: One zenoh username per role; a process of the deployment authenticates as its role.
+ROLES = ("launcher", "learner", "model", "worker", "recorder", "operator", "client")
+
+
+@dataclass(frozen=True)
+class Credentials:
+    """A zenoh user/password pair (``transport/auth/usrpwd``)."""
+
+    user: str
+    password: str
+
+
+def generate_credentials(roles: Sequence[str] = ROLES) -> dict[str, Credentials]:
+    """A fresh random password (32 url-safe bytes of :mod:`secrets`) per role: {role: Credentials}."""
+    return {role: Credentials(role, secrets.token_urlsafe(32)) for role in roles}
+
+
+def write_private(path: Path, text: str) -> Path:
+    """Write ``text`` to ``path`` readable only by its owner (mode 0600, created so, never widened)."""
+    path = Path(path)
+    tmp = path.with_name(path.name + ".tmp")
+    with contextlib.suppress(FileNotFoundError):
+        tmp.unlink()
+    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+    with os.fdopen(fd, "w", encoding="utf-8") as f:
+        f.write(text)
+    os.replace(tmp, path)
+    return path
+
+
+def dictionary_text(creds: Mapping[str, Credentials]) -> str:
+    """The router's dictionary file: one ``user:password`` line per role."""
+    return "".join(f"{c.user}:{c.password}\n" for c in creds.values())
+
+
+def client_config(anchor: str, cred: Credentials) -> dict:
+    """A zenoh client config (JSON-able) that connects to ``anchor`` as ``cred``: loopback, no
+    multicast scouting, user/password authentication."""
+    return {"mode": "client", "connect": {"endpoints": [anchor]},
+            "scouting": {"multicast": {"enabled": False}},
+            "transport": {"auth": {"usrpwd": {"user": cred.user, "password": cred.password}}}}
+
+
+# ----- access control ---------------------------------------------------------------------------
+#: (rule id, messages, key expressions, roles allowed). Every other role is denied these messages
+#: on these keys (``ingress`` at the router). A reply is checked on its own key, so a queryable
+#: declared on a wider key (``acnmp/**``) still cannot answer on a protected key.
+_PROTECTED: tuple[tuple[str, tuple[str, ...], tuple[str, ...], tuple[str, ...]], ...] = (
+    ("weights", ("put", "delete"), ("acnmp/*/skill/*/weights",), ("learner",)),
+    ("weights-latest", ("declare_queryable", "reply"), ("acnmp/*/skill/*/weights/latest",), ("learner",)),
+    ("model-answers", ("declare_queryable", "reply"),
+     ("acnmp/*/skill/*/predict", "acnmp/*/skill/*/info"), ("model",)),
+    ("model-tokens", ("liveliness_token",), ("acnmp/*/model/*", "acnmp/*/service/model/*"), ("model",)),
+    ("start-jobs", ("query",), ("acnmp/*/skill/*/train", "acnmp/*/skill/*/adapt", "acnmp/*/job/*/cancel"),
+     ("learner", "operator")),
+    ("learner-answers", ("declare_queryable", "reply"),
+     ("acnmp/*/skill/*/train", "acnmp/*/skill/*/adapt", "acnmp/*/job/*/status", "acnmp/*/job/*/cancel"),
+     ("learner",)),
+    ("learner-tokens", ("liveliness_token",), ("acnmp/*/learner/*",), ("learner",)),
+    ("events", ("put", "delete"), ("acnmp/*/event/**",), ("learner", "worker", "operator")),
+    ("workers", ("declare_queryable", "reply", "liveliness_token"), ("acnmp/*/worker/*/*", "acnmp/*/worker/*/*/rollout"),
+     ("worker",)),
+    ("recorder", ("declare_queryable", "reply", "liveliness_token"),
+     ("acnmp/*/recorder/status", "acnmp/*/recorder/*"), ("recorder",)),
+)
+
+
+def acl_config(roles: Sequence[str] = ROLES) -> dict:
+    """The router's ``access_control`` section (JSON-able): default allow, and for each protected
+    (messages, keys) of ``_PROTECTED`` a deny rule for every role not allowed. Every link is
+    authenticated (the dictionary), so every link matches exactly one role's subject."""
+    rules, policies = [], []
+    for rule_id, messages, keys, allowed in _PROTECTED:
+        rules.append({"id": rule_id, "permission": "deny", "flows": ["ingress"],
+                      "messages": list(messages), "key_exprs": list(keys)})
+        denied = [r for r in roles if r not in allowed]
+        if denied:
+            policies.append({"rules": [rule_id], "subjects": denied})
+    return {"enabled": True, "default_permission": "allow", "rules": rules,
+            "subjects": [{"id": r, "usernames": [r]} for r in roles], "policies": policies}
+
+
+def may(role: str, message: str, key_family: str) -> bool:
+    """Whether :func:`acl_config` lets ``role`` send ``message`` on a key of rule ``key_family``
+    (a rule id of the table, e.g. ``may("client", "put", "weights")``); for docs and tests."""
+    for rule_id, messages, _keys, allowed in _PROTECTED:
+        if rule_id == key_family and message in messages:
+            return role in allowed
+    return True
+
+
+def router_settings(listen: Sequence[str], dictionary_file: str | Path, own: Credentials) -> dict:
+    """A router's zenoh config (JSON-able): listening on ``listen``, no multicast scouting,
+    user/password required from ``dictionary_file``, :func:`acl_config`."""
+    return {"mode": "router", "listen": {"endpoints": list(listen)}, "scouting": {"multicast": {"enabled": False}},
+            "transport": {"auth": {"usrpwd": {"user": own.user, "password": own.password,
+                                              "dictionary_file": str(dictionary_file)}}},
+            "access_control": acl_config()}
+
+
+def router_config(listen: Sequence[str], dictionary_file: str | Path, own: Credentials) -> zenoh.Config:
+    """:func:`router_settings` as a zenoh Config for the launcher's own session (the anchor)."""
+    cfg = make_config("router", list(listen), [], multicast=False)
+    settings = router_settings(listen, dictionary_file, own)
+    cfg.insert_json5("transport/auth/usrpwd", json.dumps(settings["transport"]["auth"]["usrpwd"]))
+    cfg.insert_json5("access_control", json.dumps(settings["access_control"]))
+    return cfg
+
+
+class DeploymentSecrets:
+    """The secrets of one running deployment in a private directory (mode 0700):
+    ``users.txt`` (the router's dictionary) and ``<role>.json5`` (a client config per role, to
+    pass as ``--config``), all mode 0600. :meth:`remove` deletes them when the deployment stops."""
+
+    def __init__(self, directory: str | os.PathLike) -> None:
+        self.directory = Path(directory)
+        self.credentials: dict[str, Credentials] = {}
+
+    @property
+    def dictionary(self) -> Path:
+        """The router's dictionary file."""
+        return self.directory / "users.txt"
+
+    def config_path(self, role: str) -> Path:
+        """The client config file of ``role``."""
+        if role not in ROLES:
+            raise ValueError(f"unknown role {role!r}; roles: {', '.join(ROLES)}")
+        return self.directory / f"{role}.json5"
+
+    def create(self, anchor: str) -> "DeploymentSecrets":
+        """Generate a password per role and write the dictionary and each role's config for
+        ``anchor``; returns self."""
+        self.directory.mkdir(parents=True, exist_ok=True, mode=0o700)
+        os.chmod(self.directory, 0o700)
+        self.credentials = generate_credentials()
+        write_private(self.dictionary, dictionary_text(self.credentials))
+        for role, cred in self.credentials.items():
+            write_private(self.config_path(role), json.dumps(client_config(anchor, cred), indent=2) + "\n")
+        return self
+
+    def router_config(self, listen: Sequence[str]) -> zenoh.Config:
+        """The anchor's config (:func:`router_config`) with these secrets."""
+        return router_config(listen, self.dictionary, self.credentials["launcher"])
+
+    def remove(self) -> None:
+        """Delete the directory and its files (the passwords die with the deployment)."""
+        shutil.rmtree(self.directory, ignore_errors=True)
+
+
+def authenticated_user(config_file: str | os.PathLike | None) -> str | None:
+    """The zenoh username a process's config file authenticates with (``transport/auth/usrpwd/user``),
+    or None without a file or without user/password authentication."""
+    if config_file is None:
+        return None
+    try:
+        user = json.loads(zenoh.Config.from_file(str(config_file)).get_json("transport/auth/usrpwd/user"))
+    except (zenoh.ZError, ValueError):
+        return None
+    return user or None
+
+
+def tls_link(cert_dir: str, *, listen: bool) -> dict:
+    """The ``transport/link/tls`` section for mutual TLS with the certificates of
+    scripts/make_tls_certs.sh in ``cert_dir`` (as seen by the process): the router's
+    certificate for the listening side, the shared client certificate for the others."""
+    side = ("listen", "router") if listen else ("connect", "client")
+    return {"root_ca_certificate": f"{cert_dir}/ca.pem", f"{side[0]}_certificate": f"{cert_dir}/{side[1]}.pem",
+            f"{side[0]}_private_key": f"{cert_dir}/{side[1]}-key.pem", "enable_mtls": True}
+
+
+def write_router_deployment(directory: str | os.PathLike, listen: str, connect: str, *,
+                            tls_dir: str | None = None, at: str | None = None) -> dict[str, Path]:
+    """Write the configs of a router deployment (compose, several hosts) into ``directory``:
+    ``users.txt`` (fresh passwords), ``router.json5`` (listening on ``listen``, the dictionary,
+    :func:`acl_config`) and ``<role>.json5`` per role (client mode, connecting to ``connect``),
+    all mode 0600; with ``tls_dir`` (certificate directory as the processes see it) mutual TLS on
+    every link. ``at`` is where the processes see ``directory`` (default: ``directory`` itself,
+    e.g. ``/etc/acnmp`` in a container). Returns {name: path written}."""
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True, mode=0o700)
+    seen = at or str(directory.resolve())
+    creds = generate_credentials()
+    written = {"users.txt": write_private(directory / "users.txt", dictionary_text(creds))}
+    router = router_settings([listen], f"{seen}/users.txt", creds["launcher"])
+    if tls_dir is not None:
+        router["transport"]["link"] = {"tls": tls_link(tls_dir, listen=True)}
+    written["router.json5"] = write_private(directory / "router.json5", json.dumps(router, indent=2) + "\n")
+    for role, cred in creds.items():
+        cfg = client_config(connect, cred)
+        if tls_dir is not None:
+            cfg["transport"]["link"] = {"tls": tls_link(tls_dir, listen=False)}
+        written[f"{role}.json5"] = write_private(directory / f"{role}.json5", json.dumps(cfg, indent=2) + "\n")
+    return written
