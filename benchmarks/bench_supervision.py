@@ -74,7 +74,7 @@ def restart_latency(tmp: Path, reps: int) -> dict:
     train, _ = _train_and_job(setup, 10)
     out: dict = {}
     rrd = tmp / "latency.rrd"
-    with LocalDeployment("bsup", workers=2, record=rrd, state_dir=tmp / "latency") as dep:
+    with LocalDeployment(f"bsup-{os.getpid()}", workers=2, record=rrd, state_dir=tmp / "latency") as dep:
         call(dep.session, dep.keys.train("e1"), train, timeout=120)
         for name in KINDS:
             kill_to_live, live_after = [], []
@@ -122,7 +122,7 @@ def e1_under_kills(tmp: Path, budget: int, train_steps: int, seed: int) -> dict:
     kills: dict[str, float] = {}
     rrd = tmp / "e1_killed.rrd"
     t0 = time.monotonic()
-    with LocalDeployment("bsup-e1", workers=2, robot="point2d", record=rrd, state_dir=tmp / "e1") as dep:
+    with LocalDeployment(f"bsup-e1-{os.getpid()}", workers=2, robot="point2d", record=rrd, state_dir=tmp / "e1") as dep:
         lock = threading.Lock()
 
         def on_progress(sample: zenoh.Sample) -> None:
@@ -205,32 +205,46 @@ def sigterm_during_job(tmp: Path) -> dict:
     """Part 3: SIGTERM of ``acnmp up`` idle (baseline) and during a job; the job resumes after."""
     from acnmp_core.experiments.viapoint import make_setup
     from clients.client import ACNMPClient
+    from clients.distributed import patiently
 
     setup = make_setup()
     train, adapt = _train_and_job(setup, 5000)
-    proc, _, pids, _ = _up(tmp, "bsup-idle", tmp / "idle", tmp / "idle.rrd")
+    ns = f"bsup-up-{os.getpid()}"  # never a namespace another run (or a leftover) uses
+    proc, _, pids, _ = _up(tmp, f"bsup-idle-{os.getpid()}", tmp / "idle", tmp / "idle.rrd")
     idle = _sigterm(proc, pids)
 
     state, rrd = tmp / "up", tmp / "up.rrd"
-    proc, anchor, pids, _ = _up(tmp, "bsup-up", state, rrd)
-    with ACNMPClient("bsup-up", connect=[anchor], timeout=60) as client:
-        client.request(client.keys.train("e1"), train, timeout=120)
-        job = client.request(client.keys.adapt("e1"), adapt)["job"]
-        while (st := client.job_status(job))["state"] != "running" or st["rollouts"] < 3:
-            time.sleep(0.1)
-    during = _sigterm(proc, pids)
+    proc, anchor, pids, _ = _up(tmp, ns, state, rrd)
+    try:
+        # a fresh peer may ask before it has discovered the learner: ask again on `unavailable`
+        with ACNMPClient(ns, connect=[anchor], timeout=60) as client:
+            patiently(lambda: client.request(client.keys.train("e1"), train, timeout=120), "train")
+            job = patiently(lambda: client.request(client.keys.adapt("e1"), adapt), "adapt")["job"]
+            while (st := client.job_status(job))["state"] != "running" or st["rollouts"] < 3:
+                time.sleep(0.1)
+        during = _sigterm(proc, pids)
+    finally:
+        if proc.poll() is None:
+            proc.send_signal(signal.SIGTERM)
+            proc.wait(timeout=60)
     saved = json.loads((state / "jobs" / f"{job}.json").read_text())["state"]
     first_verifies = _verify(rrd)
 
-    proc, anchor, pids, _ = _up(tmp, "bsup-up", state, tmp / "up2.rrd")
-    with ACNMPClient("bsup-up", connect=[anchor], timeout=60) as client:
-        deadline = time.monotonic() + 120
-        while (st := client.job_status(job))["state"] != "running" and time.monotonic() < deadline:
-            time.sleep(0.1)
-        resumed = {"state": st["state"], "attempt": st["attempt"]}
-        cancelled = client.cancel(job)["state"]
-        final = client.wait_job(job, timeout=120, progress=False)["state"]
-    again = _sigterm(proc, pids)
+    proc, anchor, pids, _ = _up(tmp, ns, state, tmp / "up2.rrd")
+    try:
+        with ACNMPClient(ns, connect=[anchor], timeout=60) as client:
+            deadline = time.monotonic() + 120
+            while (st := patiently(lambda: client.job_status(job), "status"))["state"] != "running" \
+                    and time.monotonic() < deadline:
+                time.sleep(0.1)
+            resumed = {"state": st["state"], "attempt": st["attempt"]}
+            cancelled = client.cancel(job)["state"]
+            final = client.wait_job(job, timeout=120, progress=False)["state"]
+        again = _sigterm(proc, pids)
+    finally:
+        if proc.poll() is None:
+            proc.send_signal(signal.SIGTERM)
+            proc.wait(timeout=60)
     return {"idle": idle, "during_job": during, "ratio_during_job_over_idle": round(
         during["all_gone_s"] / idle["all_gone_s"], 3), "within_target": during["all_gone_s"] <= TARGET_S,
             "job_saved_as": saved, "resumed": resumed, "cancel_reply": cancelled, "after_cancel": final,

@@ -248,7 +248,8 @@ class LocalDeployment:
         return "\n".join(lines)
 
     def kill(self, name: str, sig: int = signal.SIGKILL) -> None:
-        """Send ``sig`` (default SIGKILL) to child ``name`` and reap it if it was killed."""
+        """Send ``sig`` (default SIGKILL) to child ``name`` and reap it if it was killed. Under
+        supervision the child is then restarted, as after any crash (this is how tests make one)."""
         child = self.children[name]
         if child.proc.poll() is None:
             child.proc.send_signal(sig)
