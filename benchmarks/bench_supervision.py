@@ -167,6 +167,7 @@ def _up(tmp: Path, ns: str, state: Path, rrd: Path) -> tuple[subprocess.Popen, s
     """Start ``acnmp up``; returns (process, anchor, child pids, its output lines so far)."""
     env = dict(os.environ, PYTHONPATH=str(ROOT), RERUN_ANALYTICS="0")
     proc = subprocess.Popen([sys.executable, "-m", "clients.cli", "up", "--namespace", ns, "--workers", "2",
+                             "--no-default-skill",
                              "--record", str(rrd), "--state-dir", str(state)], cwd=ROOT, env=env,
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     lines = []
@@ -217,7 +218,7 @@ def sigterm_during_job(tmp: Path) -> dict:
     proc, anchor, pids, _ = _up(tmp, ns, state, rrd)
     try:
         # a fresh peer may ask before it has discovered the learner: ask again on `unavailable`
-        with ACNMPClient(ns, connect=[anchor], timeout=60) as client:
+        with ACNMPClient(ns, timeout=60) as client:
             patiently(lambda: client.request(client.keys.train("e1"), train, timeout=120), "train")
             job = patiently(lambda: client.request(client.keys.adapt("e1"), adapt), "adapt")["job"]
             while (st := client.job_status(job))["state"] != "running" or st["rollouts"] < 3:
@@ -232,7 +233,7 @@ def sigterm_during_job(tmp: Path) -> dict:
 
     proc, anchor, pids, _ = _up(tmp, ns, state, tmp / "up2.rrd")
     try:
-        with ACNMPClient(ns, connect=[anchor], timeout=60) as client:
+        with ACNMPClient(ns, timeout=60) as client:
             deadline = time.monotonic() + 120
             while (st := patiently(lambda: client.job_status(job), "status"))["state"] != "running" \
                     and time.monotonic() < deadline:

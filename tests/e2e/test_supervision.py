@@ -36,8 +36,10 @@ def test_a_killed_child_is_restarted_and_recorded_then_given_up_after_the_limit(
     setup = make_setup()
     lines: list[str] = []
     rrd = tmp_path / "sup.rrd"
+    # secure, as `acnmp up` runs by default: the launcher's process events pass the router's ACL
     with LocalDeployment("sup", workers=1, model=False, learner=False, record=rrd, state_dir=tmp_path / "state",
-                         restart_policy=RestartPolicy(max_restarts=1, window=60.0), report=lines.append) as dep:
+                         secure=True, restart_policy=RestartPolicy(max_restarts=1, window=60.0),
+                         report=lines.append) as dep:
         first = dep.children[WORKER].pid
         dep.kill(WORKER)  # SIGKILL, as a crash would
         (restart,) = dep.supervisor.wait_restarts(WORKER, 1, timeout=60)
