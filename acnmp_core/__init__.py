@@ -4,17 +4,34 @@ Learn a movement skill from a few demonstrations (:class:`CNMP`, :func:`train`),
 via-points and task parameters (:meth:`CNMP.predict`), adapt it by reinforcement learning with
 simultaneous supervised learning (:func:`adapt`), and assimilate the solution. No zenoh or rerun
 import happens here: the library is usable in a notebook.
-"""
-from .adaptation import AdaptConfig, AdaptResult, AdaptTarget, adapt
-from .checkpoint import load_checkpoint, save_checkpoint
-from .cnmp import CNMP, CNMPConfig, Prediction
-from .data import DemoSet, Demonstration
-from .rollout import RolloutBatch, RolloutEvaluator
-from .training import TrainConfig, train
 
-__all__ = [
-    "AdaptConfig", "AdaptResult", "AdaptTarget", "adapt", "load_checkpoint", "save_checkpoint", "CNMP",
-    "CNMPConfig", "Prediction", "DemoSet", "Demonstration", "RolloutBatch", "RolloutEvaluator",
-    "TrainConfig", "train",
-]
+The names below are imported on first use (PEP 562): importing a light submodule such as
+``acnmp_core.errors`` or ``acnmp_core.robots.registry`` does not import torch, which takes seconds
+and would slow down every process that starts (a restarted worker or recorder, say).
+"""
+from __future__ import annotations
+
+import importlib
+
+#: public name -> submodule that defines it
+_EXPORTS = {
+    "AdaptConfig": "adaptation", "AdaptResult": "adaptation", "AdaptTarget": "adaptation", "adapt": "adaptation",
+    "load_checkpoint": "checkpoint", "save_checkpoint": "checkpoint",
+    "CNMP": "cnmp", "CNMPConfig": "cnmp", "Prediction": "cnmp",
+    "DemoSet": "data", "Demonstration": "data",
+    "RolloutBatch": "rollout", "RolloutEvaluator": "rollout",
+    "TrainConfig": "training", "train": "training",
+}
+
+__all__ = list(_EXPORTS)
 __version__ = "0.1.0"
+
+
+def __getattr__(name: str):
+    """``acnmp_core.<name>`` for the names of ``__all__``: imported from their submodule on first use."""
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module 'acnmp_core' has no attribute {name!r}")
+    value = getattr(importlib.import_module(f".{module}", __name__), name)
+    globals()[name] = value
+    return value

@@ -31,6 +31,8 @@ from .discovery import call_when_available, resolve
 DEFAULT_CONNECT = "tcp/127.0.0.1:7447"
 
 TERMINAL_JOB_STATES = ("done", "failed", "cancelled")
+#: Error codes that mean "nobody answered now" (a service restarting), not "the request is wrong".
+RETRY_CODES = ("unavailable", "timeout")
 
 
 #: An error reply (or no reply) from the deployment: ``code`` and ``message`` as on the wire.
@@ -188,17 +190,31 @@ class ACNMPClient:
         """The learner's status map of ``job`` (state, iteration, rollouts, ...)."""
         return self.request(self.keys.job_status(job), None, timeout)
 
+    def cancel(self, job: str, timeout: float | None = None) -> dict:
+        """Cancel ``job`` on the learner; returns its status map afterwards: ``cancelled`` for a job
+        that was queued, ``running`` with ``cancel_requested`` for one that stops after its current
+        iteration, its final state for a finished one. ClientError ``unknown_job`` if there is none."""
+        return self.request(self.keys.job_cancel(job), None, timeout)
+
     def wait_job(self, job: str, timeout: float = 600.0, *, poll: float = 0.5, progress: bool = True) -> dict:
         """Poll ``job`` until it is done, failed or cancelled; return its last status map.
 
         With ``progress`` a tqdm bar shows roll-outs used (out of the budget when the status has
-        one). Raises ClientError ``timeout`` after ``timeout`` seconds.
+        one). While no learner answers (``unavailable``/``timeout``: it is restarting, say) polling
+        goes on: the restarted learner resumes the job from its checkpoint and answers again.
+        Raises ClientError ``timeout`` after ``timeout`` seconds.
         """
         bar = None
         deadline = time.monotonic() + timeout
         try:
             while True:
-                status = self.job_status(job)
+                try:
+                    status = self.job_status(job)
+                except ClientError as exc:
+                    if exc.code not in RETRY_CODES or time.monotonic() > deadline:
+                        raise
+                    time.sleep(poll)
+                    continue
                 if progress:
                     bar = _update_bar(bar, job, status)
                 if status.get("state") in TERMINAL_JOB_STATES:

@@ -13,6 +13,14 @@ one adaptation job per method, the jobs' roll-outs go to the workers, the record
 and the assimilated model is read back through the model service. The learner calls the same
 library functions with the same seeds as :func:`acnmp_core.experiments.viapoint.run_viapoint`,
 so the numbers are the same as in one process.
+
+Fail-over: the deployment restarts a child that dies (services/launcher/supervision.py). While a
+service is away its queries answer ``unavailable`` (or ``timeout``); :class:`DeployedSkill` then
+waits and asks again (up to ``patience`` seconds per request) instead of failing: a restarted
+learner resumes the job from its checkpoint (same seed, so the same result) and
+:meth:`~clients.client.ACNMPClient.wait_job` re-attaches to it by polling its status; a restarted
+model service loads the learner's latest weights. A train request is sent again (same seed: the
+same model, perhaps under the next version number).
 """
 from __future__ import annotations
 
@@ -21,20 +29,39 @@ import itertools
 import os
 import time
 from contextlib import contextmanager
-from typing import Callable, Iterator
+from typing import Callable, Iterator, TypeVar
 
 import numpy as np
 
 from acnmp_core.adapt_job import AdaptJob, result_from_dict
 from acnmp_core.adaptation import AdaptResult
 from acnmp_core.experiments.viapoint import ViaPointRun, ViaPointSetup, run_viapoint
-from clients.client import ACNMPClient
+from clients.client import RETRY_CODES, ACNMPClient, ClientError
 from services.launcher import LocalDeployment
 from services.recording.publisher import EventPublisher
 from services.recording.recorded import RecordedEvaluator
 from services.worker.remote import RemoteEvaluator
 
 SKILL = "e1"
+#: Seconds one request may wait for its service to come back (a restart takes a few seconds).
+PATIENCE = 120.0
+
+T = TypeVar("T")
+
+
+def patiently(send: Callable[[], T], what: str, patience: float = PATIENCE, *, progress: bool = False) -> T:
+    """``send()``, sent again while it fails with ``unavailable``/``timeout`` (the service is being
+    restarted), for up to ``patience`` seconds; other errors, and the last one, are raised."""
+    deadline = time.monotonic() + patience
+    while True:
+        try:
+            return send()
+        except ClientError as exc:
+            if exc.code not in RETRY_CODES or time.monotonic() > deadline:
+                raise
+            if progress:
+                print(f"{what}: {exc.code}; waiting for the service to come back", flush=True)
+            time.sleep(0.5)
 
 
 @contextmanager
@@ -77,17 +104,19 @@ class DeployedSkill:
 
     def train(self, demos, steps: int, seed: int) -> None:
         arrays = np.stack([d.values for d in demos])
-        reply = self.client.train(SKILL, demos[0].times, arrays, train={"steps": steps}, seed=seed, timeout=600)
+        reply = patiently(lambda: self.client.train(SKILL, demos[0].times, arrays, train={"steps": steps},
+                                                    seed=seed, timeout=600), "train", progress=self.progress)
         self._wait_version(reply["version"])
 
     def predict(self, obs_times, obs_values, task_params, query_times):
-        return self.client.predict(SKILL, obs_times, obs_values, task_params, query_times, timeout=30)
+        return patiently(lambda: self.client.predict(SKILL, obs_times, obs_values, task_params, query_times,
+                                                     timeout=30), "predict", progress=self.progress)
 
     def adapt(self, setup: ViaPointSetup, method: str, cfg, seed: int, assimilation) -> AdaptResult:
         job = AdaptJob(setup.target, "viapoint", "point2d", setup.task_config, cfg, seed=seed,
                        commit=assimilation is not None,
                        **({} if assimilation is None else {"assimilate_steps": assimilation.steps}))
-        job_id = self.client.adapt(SKILL, job)
+        job_id = patiently(lambda: self.client.adapt(SKILL, job), "adapt", progress=self.progress)
         self.jobs[method] = job_id
         status = self.client.wait_job(job_id, timeout=1800, progress=self.progress)
         if status["state"] != "done":

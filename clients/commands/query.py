@@ -64,6 +64,13 @@ def register(subparsers) -> None:
     _common(skills, skill=False)
     skills.set_defaults(func=_run_skills)
 
+    cancel = sub.add_parser("cancel", help="cancel an adaptation job on the learner",
+                            description="Cancel a job: a queued one at once, a running one after its current "
+                                        "iteration (saved as cancelled). Prints the job's state.")
+    _common(cancel, skill=False)
+    cancel.add_argument("job", metavar="JOB", help="job id (as the adapt reply gave it)")
+    cancel.set_defaults(func=_run_cancel)
+
 
 def _common(parser: argparse.ArgumentParser, skill: bool = True) -> None:
     # the same session options as every process (services/transport/session.py); a command has no
@@ -219,17 +226,26 @@ def _run_predict(args) -> int:
     return 0
 
 
-def _run_info(args) -> int:
+def _ask(args, ask) -> tuple[dict | None, int]:
+    """``ask(client)`` on a client made from ``args``: (reply, 0) for the caller to print; (None,
+    exit code) when it is done: an error reply was reported (1) or ``--json`` printed the reply (0)."""
     from clients.client import ClientError
 
     with _client(args) as client:
         try:
-            info = client.info(args.skill)
+            reply = ask(client)
         except ClientError as exc:
-            return _fail(exc)
+            return None, _fail(exc)
     if args.json:
-        print(json.dumps(jsonable(info)))
-        return 0
+        print(json.dumps(jsonable(reply)))
+        return None, 0
+    return reply, 0
+
+
+def _run_info(args) -> int:
+    info, code = _ask(args, lambda client: client.info(args.skill))
+    if info is None:
+        return code
     print(f"skill {info['skill']} version {info['version']} ({info['source']})")
     print(f"  outputs ({info['n_outputs']}): {', '.join(info['output_names'])}")
     lo, hi = info["value_low"], info["value_high"]
@@ -250,4 +266,13 @@ def _run_skills(args) -> int:
         print(json.dumps(names))
     else:
         print("\n".join(names) if names else "no skill is served (no model liveliness token found)")
+    return 0
+
+
+def _run_cancel(args) -> int:
+    status, code = _ask(args, lambda client: client.cancel(args.job))
+    if status is None:
+        return code
+    pending = " (cancel requested: it stops after its current iteration)" if status["state"] == "running" else ""
+    print(f"job {status['job']}: {status['state']}{pending}")
     return 0

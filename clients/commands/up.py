@@ -35,7 +35,8 @@ def register(subparsers) -> None:
 
 def run(args) -> int:
     """Start the deployment (authenticated unless ``--insecure``, announced by its run file; the
-    default skill served first), print what runs where, wait for SIGINT/SIGTERM, stop everything.
+    default skill served first), print what runs where, wait for SIGINT/SIGTERM (restarting children
+    that die meanwhile, see services/launcher/supervision.py), stop everything.
     Exit 0; 1 if it could not start or the default skill was never served."""
     from clients.default_skill import SKILL, default_demos
     from services.launcher import LocalDeployment
@@ -55,7 +56,7 @@ def run(args) -> int:
     served = False
     dep = LocalDeployment(args.namespace, args.workers, args.robot, record=args.record, state_dir=state_dir,
                           model=not args.no_model, learner_args=learner_args, secure=not args.insecure,
-                          announce=True)
+                          announce=True, report=report)
     try:
         try:
             dep.start()
@@ -70,8 +71,8 @@ def run(args) -> int:
         served = not default_skill or wait_for_skill(dep, SKILL, stop)
         if served:
             print("deployment is up; Ctrl-C or SIGTERM stops it", flush=True)
-            while not stop.is_set():
-                wait_until_stopped_or_child_exit(dep, stop)
+            while not stop.wait(0.5):  # the deployment's supervisor restarts (and reports) dead children
+                pass
     finally:
         codes = dep.stop()
     bad = {n: c for n, c in codes.items() if c != 0}
@@ -93,7 +94,10 @@ def wait_for_skill(dep, skill: str, stop, poll: float = 1.0) -> bool:
             wait_for_liveliness(dep.session, dep.keys.model_token(skill), timeout=poll)
             return True
         except TimeoutError:
-            dead = [n for n, c in dep.children.items() if c.proc.poll() is not None and n in ("learner", "model")]
+            # under supervision a dead child is restarted: only one given up on is gone for good
+            gone = dep.supervisor.given_up if dep.supervisor is not None else \
+                {n for n, c in dep.children.items() if c.proc.poll() is not None}
+            dead = [n for n in ("learner", "model") if n in gone]
             if dead:
                 print(f"acnmp up: {', '.join(dead)} exited before serving {skill!r}; logs in {dep.log_dir}",
                       file=sys.stderr, flush=True)
@@ -101,12 +105,6 @@ def wait_for_skill(dep, skill: str, stop, poll: float = 1.0) -> bool:
     return False
 
 
-def wait_until_stopped_or_child_exit(dep, stop, poll: float = 0.5) -> None:
-    """Wait ``poll`` seconds for ``stop``; report (once) a child that exited on its own."""
-    if stop.wait(poll):
-        return
-    for name, child in dep.children.items():
-        if child.proc.poll() is not None and not getattr(child, "_reported", False):
-            child._reported = True
-            print(f"acnmp up: {name} (pid {child.pid}) exited with code {child.proc.returncode}; log {child.log}",
-                  file=sys.stderr, flush=True)
+def report(line: str) -> None:
+    """One line of the supervisor (a child restarted, live again, given up) on stderr."""
+    print(f"acnmp up: {line}", file=sys.stderr, flush=True)

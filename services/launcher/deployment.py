@@ -11,10 +11,18 @@
    children in order, once each; the recorder is started and awaited first, so no event is lost;
 3. it waits until every child's liveliness token is seen (a child that exits first is reported
    with the tail of its log);
-4. on exit it sends SIGTERM to the learner first (so its running job finishes the iteration in
-   flight on live workers and is saved), then to the model and the workers, then to the recorder
-   (so it records the last events and writes its footer), each group waited for and SIGKILLed
-   only if still alive after ``stop_timeout`` seconds; then it closes its session.
+4. on exit it sends SIGTERM to the learner, the model and the workers at once (the learner's
+   running job abandons its batch in flight and is saved ``interrupted``), then, once the learner
+   has exited, to the recorder (so it records the last events and writes its footer); a child
+   still alive after ``stop_timeout`` seconds is SIGKILLed; then it closes its session.
+
+While it runs, a :class:`~services.launcher.supervision.Supervisor` restarts a child that dies
+(backoff, a restart limit; each restart logged and published as a ``process`` event); a
+restarted recorder writes a new file ``<name>.<n>.rrd`` beside the first (``recordings``), since
+the dead one's file cannot be reopened, under the same Rerun recording id; ``stop()`` merges
+the files back into ``record`` (``rerun rrd merge``: one recording that verifies; the events
+published while no recorder ran are not in it). ``stop()`` ends supervision before it stops
+anything.
 
 The state directory is locked (``<state_dir>/deployment.lock``) while the deployment runs, so a
 second deployment on it refuses to start; the learner locks it too (``learner.lock``).
@@ -24,27 +32,33 @@ Children's output goes to ``<log_dir>/<name>.log``.
 from __future__ import annotations
 
 import contextlib
+import logging
 import os
 import signal
 import subprocess
 import sys
 import tempfile
+import threading
 import time
+import uuid
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Sequence
+from typing import Callable, Sequence
 
 import zenoh
 
 from acnmp_core.robots.registry import robot as robot_spec
 from services.learner.store import DirectoryLock
+from services.recording.publisher import EventPublisher
 from services.transport import Keyspace, free_port, loopback_endpoint, open_session, wait_for_liveliness
 from services.transport.lifetime import PARENT_PID_ENV
 
 from .announce import Announcement
 from .processes import entry_module
+from .supervision import RestartPolicy, Supervisor
 
 ROOT = Path(__file__).resolve().parents[2]
+log = logging.getLogger(__name__)
 
 
 @dataclass
@@ -80,16 +94,21 @@ class LocalDeployment:
         per-deployment password per role and applying the ACL of services/transport/auth.py, every
         child is its client; it writes a run file so clients find it (services/launcher/announce.py).
     announce : write that run file for an unauthenticated deployment too.
+    supervise : restart children that die (``restart_policy``, default :class:`RestartPolicy`);
+        ``report(line)`` gets a line per restart (default: the log).
 
     Attributes once started: ``session`` (the launcher's open session, usable by clients),
-    ``anchor`` (endpoint to ``--connect`` to), ``children`` ({name: Child}).
+    ``anchor`` (endpoint to ``--connect`` to), ``children`` ({name: Child}), ``supervisor``
+    (None without supervision), ``recordings`` (the recorder's files, first one first).
     """
 
     def __init__(self, namespace: str = "default", workers: int = 2, robot: str = "point2d",
                  record: str | os.PathLike | None = None, state_dir: str | os.PathLike | None = None, *,
                  model: bool = True, learner: bool = True, worker_delay: float = 0.0, chunk_timeout: float = 60.0,
                  start_timeout: float = 60.0, stop_timeout: float = 8.0, log_dir: str | os.PathLike | None = None,
-                 learner_args: Sequence[str] = (), secure: bool = False, announce: bool = False):
+                 learner_args: Sequence[str] = (), secure: bool = False, announce: bool = False,
+                 supervise: bool = True, restart_policy: RestartPolicy | None = None,
+                 report: Callable[[str], None] | None = None):
         self.robot = robot_spec(robot).kind  # UnknownRobotError (a ValueError) for a kind not registered
         if workers < 0:
             raise ValueError(f"workers: expected >= 0, got {workers}")
@@ -108,6 +127,13 @@ class LocalDeployment:
         self.start_timeout, self.stop_timeout = float(start_timeout), float(stop_timeout)
         self.learner_args = list(learner_args)
         self.children: dict[str, Child] = {}
+        self._children_lock = threading.RLock()  # the supervisor replaces children from its thread
+        self.supervise, self.restart_policy = bool(supervise), restart_policy or RestartPolicy()
+        self.report = report
+        self.supervisor: Supervisor | None = None
+        self._events: EventPublisher | None = None
+        self.recordings: list[Path] = [] if self.record is None else [self.record]
+        self.recording_id = uuid.uuid4().hex  # kept by a restarted recorder
         self._dir_lock = DirectoryLock(self.state_dir, "deployment.lock", "deployment")
         self.killed: list[str] = []  # children that needed SIGKILL when stopping
         self.session: zenoh.Session | None = None
@@ -125,7 +151,8 @@ class LocalDeployment:
             argv += self.announcement.child_args(name)
         proc = _popen(argv, log)
         child = Child(name, argv, proc, token, list(serves), log)
-        self.children[name] = child
+        with self._children_lock:
+            self.children[name] = child
         return child
 
     def _wait_live(self, children: Sequence[Child]) -> None:
@@ -170,7 +197,8 @@ class LocalDeployment:
             keys = self.keys
             if self.record is not None:
                 self.record.parent.mkdir(parents=True, exist_ok=True)
-                rec = self._spawn("recorder", entry_module("recorder"), ["--out", str(self.record)],
+                rec = self._spawn("recorder", entry_module("recorder"),
+                                  ["--out", str(self.record), "--recording-id", self.recording_id],
                                   keys.tokens("recorder"), [keys.events() + " (subscriber)", keys.recorder_status()])
                 self._wait_live([rec])
             started = []
@@ -191,6 +219,10 @@ class LocalDeployment:
             if self.announcement is not None:
                 self.announcement.publish(self.anchor, str(self.state_dir),
                                           [(c.name, c.pid, c.token) for c in self.children.values()])
+            self._events = EventPublisher(self.session, self.keys)
+            if self.supervise:
+                self.supervisor = Supervisor(self, self.restart_policy,
+                                             **({} if self.report is None else {"report": self.report})).start()
         except BaseException:
             self.stop()
             raise
@@ -216,7 +248,8 @@ class LocalDeployment:
         return "\n".join(lines)
 
     def kill(self, name: str, sig: int = signal.SIGKILL) -> None:
-        """Send ``sig`` (default SIGKILL) to child ``name`` and reap it if it was killed."""
+        """Send ``sig`` (default SIGKILL) to child ``name`` and reap it if it was killed. Under
+        supervision the child is then restarted, as after any crash (this is how tests make one)."""
         child = self.children[name]
         if child.proc.poll() is None:
             child.proc.send_signal(sig)
@@ -224,44 +257,73 @@ class LocalDeployment:
                 child.proc.wait(timeout=10)
 
     def respawn(self, name: str, *, wait: bool = True) -> Child:
-        """Start child ``name`` again with the same command line (after it died); returns the new Child."""
-        old = self.children[name]
-        if old.proc.poll() is None:
-            raise RuntimeError(f"{name} (pid {old.pid}) is still running")
-        proc = _popen(old.argv, old.log)
-        child = Child(name, old.argv, proc, old.token, old.serves, old.log)
-        self.children[name] = child
+        """Start child ``name`` again with the same command line (after it died); returns the new
+        Child. (The supervisor does this by itself; this is for a deployment without supervision.)"""
+        self.restart_child(name)
+        child = self.children[name]
         if wait:
             self._wait_live([child])
         return child
 
+    # ----- what the supervisor uses (services/launcher/supervision.py, Supervised) -------------
+    def dead_children(self) -> list[tuple[str, int, int]]:
+        """(name, pid, exit code) of every child that has exited."""
+        with self._children_lock:
+            return [(n, c.pid, c.proc.returncode) for n, c in self.children.items() if c.proc.poll() is not None]
+
+    def restart_child(self, name: str) -> int:
+        """Start dead child ``name`` again with its command line (a recorder on a new file); returns
+        the new pid. RuntimeError if it is still running."""
+        with self._children_lock:
+            old = self.children[name]
+            if old.proc.poll() is None:
+                raise RuntimeError(f"{name} (pid {old.pid}) is still running")
+            argv = list(old.argv)
+            if name == "recorder":  # the dead recorder's file has no footer and cannot be appended to
+                out = argv.index("--out") + 1
+                argv[out] = str(self.record.with_name(f"{self.record.stem}.{len(self.recordings)}{self.record.suffix}"))
+                self.recordings.append(Path(argv[out]))
+            child = Child(name, argv, _popen(argv, old.log), old.token, old.serves, old.log)
+            self.children[name] = child
+            return child.pid
+
+    def wait_child_live(self, name: str) -> None:
+        """Block until child ``name`` is live (its liveliness token); RuntimeError if it exits first,
+        TimeoutError after ``start_timeout``."""
+        self._wait_live([self.children[name]])
+
+    def publish_event(self, event: dict) -> None:
+        """Publish one event (a ``process`` event of the supervisor) on the launcher's session."""
+        if self._events is not None:
+            self._events.publish(event)
+
     # ----- stopping --------------------------------------------------------------------------
     def stop(self) -> dict[str, int | None]:
-        """Stop the children in order, each group with SIGTERM, then SIGKILL after ``stop_timeout``:
-        the learner first (its running job needs the workers to finish its current iteration; it
-        is saved and resumes on the next start), then the model and the workers, then the recorder
-        (it records the last events and writes its footer). Closes the session and unlocks the
-        state directory. Returns {name: exit code}; names SIGKILLed are added to ``killed``.
-        Safe to call twice.
+        """Stop the children with SIGTERM (SIGKILL after ``stop_timeout``), in two overlapping steps:
+        the learner, the model and the workers at once (the learner abandons the batch in flight
+        of its running job, which is saved ``interrupted`` and resumes on the next start, so it
+        needs no worker to stop), then, as soon as the learner is gone and its last events are out,
+        the recorder (it records them and writes its footer). Closes the session, merges the
+        recorder's files after a restart, unlocks the state directory. Returns {name: exit code};
+        names SIGKILLed are added to ``killed``. Supervision ends first, so nothing stopped here is
+        restarted. Safe to call twice.
         """
-        groups = [[c for n, c in self.children.items() if n == "learner"],
-                  [c for n, c in self.children.items() if n not in ("learner", "recorder")],
-                  [c for n, c in self.children.items() if n == "recorder"]]
-        for group in groups:
-            for c in group:
-                if c.proc.poll() is None:
-                    with contextlib.suppress(ProcessLookupError):
-                        c.proc.send_signal(signal.SIGTERM)
-            deadline = time.monotonic() + self.stop_timeout
-            for c in group:
-                try:
-                    c.proc.wait(timeout=max(0.1, deadline - time.monotonic()))
-                except subprocess.TimeoutExpired:
-                    c.proc.kill()
-                    c.proc.wait(timeout=10)
-                    self.killed.append(c.name)
+        if self.supervisor is not None:
+            self.supervisor.stop()
+        with self._children_lock:
+            children = dict(self.children)
+        learner = [c for n, c in children.items() if n == "learner"]
+        others = [c for n, c in children.items() if n not in ("learner", "recorder")]
+        recorder = [c for n, c in children.items() if n == "recorder"]
+        deadline = time.monotonic() + self.stop_timeout
+        self._terminate(learner + others)
+        self._reap(learner, deadline)
+        self._terminate(recorder)
+        self._reap(others, deadline)
+        self._reap(recorder, time.monotonic() + self.stop_timeout)
         self._stack.close()
         self.session = None
+        self._merge_recordings()
         if self.announcement is not None:
             self.announcement.withdraw()
         self._dir_lock.release()
@@ -270,6 +332,41 @@ class LocalDeployment:
             self._tmp.cleanup()
             self._tmp = None
         return codes
+
+    @staticmethod
+    def _terminate(group: Sequence[Child]) -> None:
+        for c in group:
+            if c.proc.poll() is None:
+                with contextlib.suppress(ProcessLookupError):
+                    c.proc.send_signal(signal.SIGTERM)
+
+    def _reap(self, group: Sequence[Child], deadline: float) -> None:
+        """Wait for ``group`` to exit until ``deadline`` (monotonic s); SIGKILL what is left."""
+        for c in group:
+            try:
+                c.proc.wait(timeout=max(0.1, deadline - time.monotonic()))
+            except subprocess.TimeoutExpired:
+                c.proc.kill()
+                c.proc.wait(timeout=10)
+                self.killed.append(c.name)
+
+    def _merge_recordings(self) -> None:
+        """After a recorder restart: merge its files into ``record`` (the first has no footer, as its
+        writer was killed) and remove the others; on failure keep them all and say so."""
+        if len(self.recordings) < 2:
+            return
+        rerun = Path(sys.executable).with_name("rerun")
+        merged = self.record.with_name(f".{self.record.name}.merged")
+        out = subprocess.run([str(rerun), "rrd", "merge", "--continue-on-error", *map(str, self.recordings),
+                              "-o", str(merged)], capture_output=True, text=True, timeout=300)
+        if out.returncode != 0 or not merged.is_file():
+            (self.report or log.warning)(f"could not merge the recordings {[str(p) for p in self.recordings]}: "
+                                   f"{out.stderr.strip().splitlines()[-1:] or out.returncode}")
+            return
+        os.replace(merged, self.record)
+        for extra in self.recordings[1:]:
+            extra.unlink(missing_ok=True)
+        self.recordings = [self.record]
 
     def __enter__(self) -> "LocalDeployment":
         return self.start()

@@ -1,7 +1,6 @@
 """``python -m services.learner [--state-dir DIR] [--namespace NS] [--connect EP] ...``."""
-import sys
-
 from services.learner.service import LearnerConfig
+from services.transport.lifetime import exit_now
 from services.transport.service import main
 
-sys.exit(main(LearnerConfig))
+exit_now(main(LearnerConfig))  # everything is closed: skip the slow interpreter teardown

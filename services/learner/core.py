@@ -16,6 +16,12 @@ indices the earlier attempts reserved, so a recording never holds one index twic
 a job carries ``attempt``; the job status reports ``rollouts`` (what the final attempt used) and
 ``rollouts_executed`` (all attempts). A job whose adaptation had finished but whose assimilation
 had not is only re-assimilated (once).
+
+Stopping and cancelling: :meth:`LearnerCore.close` (SIGTERM) interrupts the running job at once
+(the evaluator sees :attr:`LearnerCore.stopping`; the iteration in flight is dropped, since the
+next attempt starts over) and saves it as ``interrupted``. :meth:`LearnerCore.cancel` ends a
+queued job at once and a running one after the iteration in flight (its roll-outs are recorded),
+saved as ``cancelled``.
 """
 from __future__ import annotations
 
@@ -41,7 +47,7 @@ from acnmp_core.training import TrainConfig, train
 from services.recording.events import (batch_rollout_events, job_progress_event, latent_event,
                                        model_version_event, robot_drawing)
 
-from .jobs import UNFINISHED, JobRecord
+from .jobs import TERMINAL, UNFINISHED, JobRecord
 from .store import DirectoryLock, JobStore, SkillState, SkillStore
 
 log = logging.getLogger(__name__)
@@ -53,6 +59,10 @@ class UnknownSkillError(ValueError):
 
 class UnknownJobError(ValueError):
     """No job of that id on this learner (answered ``unknown_job``)."""
+
+
+class JobCancelled(Exception):
+    """Raised inside a job's adaptation once its cancellation was asked for."""
 
 
 @dataclass(frozen=True)
@@ -96,13 +106,23 @@ class LearnerCore:
         self._queue: queue.Queue = queue.Queue()
         self._stop = threading.Event()
         for job in self.jobs.values():
-            if job.state in UNFINISHED:
-                if job.state == "running":  # interrupted: restart under a new attempt number
-                    job.attempt += 1
-                    job.state = "queued"
-                    self.job_store.save(job)
-                self._queue.put(job.job)
+            if job.state not in UNFINISHED:
+                continue
+            if job.cancel_requested:  # cancelled, but the learner stopped before the job saw it
+                job.state = "cancelled"
+                self.job_store.save(job)
+                continue
+            if job.state in ("running", "interrupted"):  # restart under a new attempt number
+                job.attempt += 1
+                job.state = "queued"
+                self.job_store.save(job)
+            self._queue.put(job.job)
         self._thread = threading.Thread(target=self._job_loop, name="jobs", daemon=True)
+
+    @property
+    def stopping(self) -> threading.Event:
+        """Set once :meth:`close` was called: an evaluator may watch it to abandon a batch in flight."""
+        return self._stop
 
     def start(self) -> "LearnerCore":
         """Start running queued jobs (on a background thread); returns self."""
@@ -171,6 +191,30 @@ class LearnerCore:
                 raise UnknownJobError(f"no job {job_id!r}")
             return job.status()
 
+    def cancel(self, job_id: str) -> dict:
+        """Cancel job ``job_id``; returns its status reply afterwards.
+
+        A queued or interrupted job is ``cancelled`` at once; a running one gets
+        ``cancel_requested`` and ends ``cancelled`` after its current iteration; a finished job
+        is left as it is (its state answers). :class:`UnknownJobError` if there is none.
+        """
+        with self._lock:
+            job = self.jobs.get(job_id)
+            if job is None:
+                raise UnknownJobError(f"no job {job_id!r}")
+            if job.state in TERMINAL:
+                return job.status()
+            job.cancel_requested = True
+            now = job.state != "running"
+            if now:
+                job.state = "cancelled"
+            self.job_store.save(job)
+            status = job.status()
+        if now:
+            self._safe_progress(job, "cancelled")
+        log.info("job %s: cancel requested (%s)", job_id, status["state"])
+        return status
+
     def wait_idle(self, timeout: float | None = None) -> bool:
         """Block until no job is queued or running (True), or ``timeout`` passes (False). For tests."""
         end = None if timeout is None else time.monotonic() + timeout
@@ -191,16 +235,32 @@ class LearnerCore:
                 continue
             try:
                 self._run_job(job_id)
-            except InterruptedError:  # shutting down: the record stays "running", a restart resumes it
+            except InterruptedError:  # shutting down: saved "interrupted", a restart resumes it
                 log.info("job %s interrupted by shutdown", job_id)
+                self._end_job(job_id, "interrupted")
                 return
+            except JobCancelled:
+                log.info("job %s cancelled", job_id)
+                self._end_job(job_id, "cancelled")
             except Exception as exc:  # a job failure must not stop the loop
+                if self._stop.is_set():  # e.g. the session closing under a batch: not the job's fault
+                    log.info("job %s interrupted by shutdown (%s)", job_id, exc)
+                    self._end_job(job_id, "interrupted")
+                    return
                 log.exception("job %s failed", job_id)
                 with self._lock:
                     job = self.jobs[job_id]
                     job.state, job.error = "failed", f"{type(exc).__name__}: {exc}"
                     self.job_store.save(job)
                 self._safe_progress(job, "failed")
+
+    def _end_job(self, job_id: str, state: str) -> None:
+        """Save job ``job_id`` in ``state`` and publish its progress event."""
+        with self._lock:
+            job = self.jobs[job_id]
+            job.state = state
+            self.job_store.save(job)
+        self._safe_progress(job, state)
 
     def _safe_progress(self, job: JobRecord, state: str) -> None:
         try:
@@ -219,6 +279,8 @@ class LearnerCore:
             job = self.jobs[job_id]
             if self._stop.is_set() or job.state not in UNFINISHED:
                 return
+            if job.cancel_requested:
+                raise JobCancelled(job_id)
             skill = self.skills[job.skill]
             model, demos, start_version = copy.deepcopy(skill.model), skill.demos, skill.version
             job.state = "running"
@@ -233,6 +295,8 @@ class LearnerCore:
                 job.rollouts = job_result.rollouts
                 job.result = job_result
                 self.job_store.save(job)  # adaptation done: a crash from here on only re-assimilates
+        if job.cancel_requested:  # asked for while the last iteration ran: do not assimilate
+            raise JobCancelled(job_id)
         if req.commit and job.result.success:
             self._assimilate(job, model if skill.version == start_version else None)
         with self._lock:
@@ -265,6 +329,8 @@ class LearnerCore:
                 ev["attempt"] = int(job.attempt)
                 self.publish(ev)
             self.publish(self._progress_event(job, "running"))
+            if job.cancel_requested:  # this iteration's roll-outs are recorded; no further one runs
+                raise JobCancelled(job.job)
 
         return on_iteration
 
@@ -295,7 +361,8 @@ class LearnerCore:
             self.job_store.save(job)
 
     def close(self, timeout: float = 10.0) -> None:
-        """Stop running jobs: the running one is interrupted at its next iteration and resumes on restart."""
+        """Stop running jobs: the running one is interrupted (at its next iteration, or at once by an
+        evaluator watching :attr:`stopping`), saved ``interrupted``, and resumes on restart."""
         self._stop.set()
         if self._thread.is_alive():
             self._thread.join(timeout=timeout)

@@ -18,9 +18,13 @@ from acnmp_core.adapt_job import AdaptJob, result_from_dict, result_to_dict
 from acnmp_core.adaptation import AdaptResult
 from services.transport.wire import jsonable
 
-#: Job states: queued -> running -> done | failed. A running job found at start-up was interrupted.
-JOB_STATES = ("queued", "running", "done", "failed")
-UNFINISHED = ("queued", "running")
+#: Job states: queued -> running -> done | failed | cancelled. ``interrupted``: the learner stopped
+#: (SIGTERM) while the job ran; a ``running`` record found at start-up means the learner died
+#: (kill -9). Both resume on the next start under a new attempt number.
+JOB_STATES = ("queued", "running", "interrupted", "done", "failed", "cancelled")
+UNFINISHED = ("queued", "running", "interrupted")
+#: States a job never leaves.
+TERMINAL = ("done", "failed", "cancelled")
 
 
 @dataclass
@@ -33,6 +37,8 @@ class JobRecord:
         events naming them are published). attempt_start_index : first index of this attempt.
     iteration, rollouts : of the current attempt. best_return : best return seen, or None.
     result : the adaptation's outcome once it finished. error : why it failed.
+    cancel_requested : a ``cancel`` query arrived while the job ran; it stops at its next
+        iteration (also after a restart) and ends ``cancelled``.
     committed_version : the skill version holding the assimilated solution.
     created, updated : wall time (s since the epoch).
     """
@@ -50,6 +56,7 @@ class JobRecord:
     result: AdaptResult | None = None
     error: str | None = None
     committed_version: int | None = None
+    cancel_requested: bool = False
     created: float = field(default_factory=time.time)
     updated: float = 0.0
 
@@ -79,5 +86,6 @@ class JobRecord:
         return {"v": 1, "job": self.job, "skill": self.skill, "state": self.state, "attempt": self.attempt,
                 "iteration": self.iteration, "rollouts": self.rollouts, "rollouts_executed": self.next_index,
                 "best_return": self.best_return, "error": self.error, "committed_version": self.committed_version,
+                "cancel_requested": self.cancel_requested,
                 "task": req.task, "robot": req.robot, "commit": req.commit,
                 "result": None if self.result is None else result_to_dict(self.result)}

@@ -3,8 +3,8 @@
 Declared entities (``<ns>`` namespace; docs/PROTOCOL.md has every field):
 
 - queryables ``acnmp/<ns>/skill/*/train`` (train a skill from demonstrations -> new version),
-  ``acnmp/<ns>/skill/*/adapt`` (queue an adaptation job -> job id), ``acnmp/<ns>/job/*/status``
-  and ``acnmp/<ns>/skill/*/weights/latest`` (a wildcard query gets one reply per skill);
+  ``acnmp/<ns>/skill/*/adapt`` (queue an adaptation job -> job id), ``acnmp/<ns>/job/*/status``,
+  ``acnmp/<ns>/job/*/cancel`` (cancel a job -> its status) and ``acnmp/<ns>/skill/*/weights/latest`` (a wildcard query gets one reply per skill);
 - puts: weights messages on ``acnmp/<ns>/skill/<skill>/weights`` (services/model/weights.py), and
   the core's events (services/recording/events.py): ``model_version`` per version, per job one
   ``rollout`` per executed trajectory and one ``job_progress`` per iteration;
@@ -131,6 +131,7 @@ class LearnerService:
             declare_rpc(session, keys.train("*"), self._handle_train, workers=1),
             declare_rpc(session, keys.adapt("*"), self._handle_adapt, workers=1),
             declare_rpc(session, keys.job_status("*"), self._handle_status, workers=1),
+            declare_rpc(session, keys.job_cancel("*"), self._handle_cancel, workers=1),
         ]
         self._latest = session.declare_queryable(keys.weights_latest("*"), self._handle_latest)
         self.core.start()
@@ -145,7 +146,7 @@ class LearnerService:
     # ----- what the core calls ---------------------------------------------------------------
     def _evaluator(self, job: AdaptJob) -> RemoteEvaluator:
         return RemoteEvaluator(self.session, self.keys, job.robot, job.task, dict(job.task_config),
-                               timeout=self.chunk_timeout)
+                               timeout=self.chunk_timeout, stop=self.core.stopping)
 
     def _publish(self, event: dict) -> None:
         if not self._recorder_checked:
@@ -189,8 +190,16 @@ class LearnerService:
         return {"v": 1, "job": job.job, "skill": skill, "state": job.state}
 
     def _handle_status(self, _msg, query: zenoh.Query) -> dict:
+        return self._job_reply(self.core.status, query)
+
+    def _handle_cancel(self, _msg, query: zenoh.Query) -> dict:
+        return self._job_reply(self.core.cancel, query)
+
+    @staticmethod
+    def _job_reply(action, query: zenoh.Query) -> dict:
+        """``action(job id)`` for the job named by the query's key, errors mapped to wire codes."""
         try:
-            return self.core.status(job_from_key(str(query.key_expr)))
+            return action(job_from_key(str(query.key_expr)))
         except UnknownJobError as exc:
             raise WireError("unknown_job", str(exc)) from None
         except ValueError as exc:

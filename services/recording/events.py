@@ -3,7 +3,7 @@
 Every event is a wire map (services/transport/wire.py) with ``"v": 1``, ``"kind"`` and ``"t"``
 (sender wall time, seconds since the epoch), published on ``acnmp/<ns>/event/<kind>/<id>``
 (:meth:`Keyspace.event`; :class:`~services.recording.publisher.EventPublisher` publishes).
-The four kinds and their fields (``?`` marks optional ones; ``T`` steps, ``D`` output dims):
+The five kinds and their fields (``?`` marks optional ones; ``T`` steps, ``D`` output dims):
 
 rollout       job str, rollout_index int>=0, trajectory (T,D) float, times (T,) float,
               reward (T,) float (per step), return float, success bool, worker str,
@@ -13,7 +13,11 @@ rollout       job str, rollout_index int>=0, trajectory (T,D) float, times (T,) 
 latent        skill str, version int, latent (L,) float, label? str, robot? str
 model_version skill str, version int, loss? float, n_demos? int, note? str
 job_progress  job str, iteration int, rollouts int, best_return float|None,
-              success_rate? float, state? "running"|"done"|"failed"|"cancelled", skill? str
+              success_rate? float, state? "running"|"done"|"failed"|"cancelled"|"interrupted", skill? str
+process       process str (the launcher's child name), action "restarted"|"gave_up", pid int (the new
+              process; the last one for gave_up), exit_code int (negative: killed by that signal),
+              restarts int (within the restart window), delay float (s of backoff),
+              live_after? float (s from the exit being seen to the new process's liveliness token)
 
 Unknown extra fields are kept (forward compatible) but must be plain scalars or strings.
 The builders here validate what they build, so a bad event fails at the sender, and
@@ -32,9 +36,11 @@ from services.transport.keys import EVENT_KINDS, Keyspace, check_name
 from services.transport.wire import WireError, array_field, decode, field
 
 #: Per-kind field that names the event's key chunk.
-_IDENT_FIELD = {"rollout": "job", "job_progress": "job", "latent": "skill", "model_version": "skill"}
+_IDENT_FIELD = {"rollout": "job", "job_progress": "job", "latent": "skill", "model_version": "skill",
+                "process": "process"}
 
-JOB_STATES = ("running", "done", "failed", "cancelled")
+JOB_STATES = ("running", "done", "failed", "cancelled", "interrupted")
+PROCESS_ACTIONS = ("restarted", "gave_up")
 
 #: Longest trajectory / latent an event may carry; beyond that an event is surely a bug.
 MAX_STEPS = 100_000
@@ -143,6 +149,17 @@ def job_progress_event(job: str, iteration: int, rollouts: int, best_return: flo
     return validate_event(msg)
 
 
+def process_event(process: str, action: str, *, pid: int, exit_code: int, restarts: int, delay: float,
+                  live_after: float | None = None, t: float | None = None) -> dict:
+    """Build and validate a ``process`` event: the launcher restarted a child (or gave up on it)."""
+    msg = _base("process", t)
+    msg.update(process=process, action=action, pid=int(pid), exit_code=int(exit_code), restarts=int(restarts),
+               delay=float(delay))
+    if live_after is not None:
+        msg["live_after"] = float(live_after)
+    return validate_event(msg)
+
+
 def validate_event(msg: dict) -> dict:
     """Check an event map (built here or decoded from the wire) and return it.
 
@@ -173,6 +190,15 @@ def validate_event(msg: dict) -> dict:
         state = field(msg, "state", str, default="running")
         if state not in JOB_STATES:
             raise WireError("bad_request", f"field 'state': {state!r} is not one of {JOB_STATES}")
+    elif kind == "process":
+        action = field(msg, "action", str)
+        if action not in PROCESS_ACTIONS:
+            raise WireError("bad_request", f"field 'action': {action!r} is not one of {PROCESS_ACTIONS}")
+        field(msg, "pid", int)
+        field(msg, "exit_code", int)
+        _nonneg(msg, "restarts")
+        field(msg, "delay", float)
+        field(msg, "live_after", float, default=None)
     for key, value in msg.items():
         if isinstance(value, (dict, list)) and key not in ("condition",):
             raise WireError("bad_request", f"field '{key}': nested values are not allowed in events")

@@ -48,16 +48,22 @@ class RecorderConfig(Service):
 
     out: str = option("runs/recording.rrd", "recording to write (default: %(default)s)", short="-o",
                       metavar="FILE.rrd")
+    recording_id: str | None = option(None, "Rerun recording id (default: a new one); a recorder restarted by "
+                                            "its launcher keeps the id, so its files merge into one recording",
+                                      metavar="ID")
     final: dict = field(default_factory=dict, init=False, repr=False)
 
     def serve(self, session: zenoh.Session, stop: threading.Event, ready: Ready) -> int:
-        self.final = record(session, Keyspace(self.session.namespace), self.out, stop, ready)
+        self.final = record(session, Keyspace(self.session.namespace), self.out, stop, ready,
+                            recording_id=self.recording_id)
         return 0
 
 
-def record(session: zenoh.Session, keys: Keyspace, path: str, stop: threading.Event, ready: Ready) -> dict:
+def record(session: zenoh.Session, keys: Keyspace, path: str, stop: threading.Event, ready: Ready, *,
+           recording_id: str | None = None) -> dict:
     """Record the events of ``keys``' namespace into ``path`` until ``stop`` is set; returns the
-    final counts. ``ready`` gets one line once the recorder is live (its token is declared)."""
+    final counts. ``ready`` gets one line once the recorder is live (its token is declared).
+    ``recording_id``: the Rerun recording id (None: a new one)."""
     events: queue.Queue = queue.Queue(maxsize=QUEUE_SIZE)
     rejected = [0]
 
@@ -84,7 +90,7 @@ def record(session: zenoh.Session, keys: Keyspace, path: str, stop: threading.Ev
                     overflow.append(msg)
                     return
 
-    writer = RrdWriter(path)
+    writer = RrdWriter(path, recording_id=recording_id)
     try:
         sub = session.declare_subscriber(keys.events(), on_sample)
         status = declare_rpc(session, keys.recorder_status(),

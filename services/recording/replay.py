@@ -38,7 +38,9 @@ def summarize(path: str | Path) -> dict:
     """Summarise a recording written by the recorder.
 
     Returns ``{"path", "application_id", "recording_id", "footer", "jobs": {job: {...}},
-    "skills": {skill: {"versions": [...], "latents": n}}, "events": {kind: n}}``; per job:
+    "skills": {skill: {"versions": [...], "latents": n}}, "processes": [...], "events": {kind: n}}``;
+    ``processes`` lists the launcher's restarts (``process`` events: process, action, pid,
+    exit_code, restarts); per job:
     ``rollouts`` (rows logged), ``unique_rollouts`` (distinct indices), ``duplicates`` (indices
     logged more than once), ``mean_return``, ``best_return``, ``success_rate``, ``workers``
     ({worker: roll-outs}) and ``last_progress`` (the latest job_progress values).
@@ -65,12 +67,13 @@ def summarize(path: str | Path) -> dict:
     progress: dict[str, list[dict]] = defaultdict(list)
     versions: dict[str, set] = defaultdict(set)
     latents: Counter = Counter()
+    processes: list[dict] = []
     for chunk in reader.stream(store=store):
         if chunk.is_static or chunk.is_empty:
             continue
         parts = chunk.entity_path.strip("/").split("/")
         head = parts[0]
-        if head not in ("rollouts", "progress", "models", "latent") or len(parts) < 2:
+        if head not in ("rollouts", "progress", "models", "latent", "processes") or len(parts) < 2:
             continue
         batch = chunk.to_record_batch()
         if head == "rollouts":
@@ -87,6 +90,10 @@ def summarize(path: str | Path) -> dict:
                     versions[parts[1]].add(int(v))
         elif head == "latent":
             latents[parts[1]] += batch.num_rows
+        elif head == "processes":
+            cols = {c: _column(batch, c) for c in ("action", "pid", "exit_code", "restarts")}
+            for i in range(batch.num_rows):
+                processes.append({"process": parts[1], **{c: cols[c][i] for c in cols}})
 
     jobs = {}
     for job in sorted(set(rollouts) | set(progress)):
@@ -118,7 +125,8 @@ def summarize(path: str | Path) -> dict:
         "footer": has_footer(path),
         "jobs": jobs,
         "skills": skills,
-        "events": {"rollout": sum(len(r) for r in rollouts.values()),
+        "processes": processes,
+        "events": {"process": len(processes),"rollout": sum(len(r) for r in rollouts.values()),
                    "job_progress": sum(len(p) for p in progress.values()),
                    "model_version": sum(len(v) for v in versions.values()),
                    "latent": sum(latents.values())},
@@ -149,6 +157,8 @@ def format_summary(summary: dict) -> str:
                          f"best {num(p['best_return'])}, {p['state']}")
     for skill, s in summary["skills"].items():
         lines.append(f"  skill {skill}: model versions {s['versions'] or '-'}, {s['latents']} latent vector(s)")
+    for p in summary.get("processes", []):
+        lines.append(f"  process {p['process']} {p['action']} (exit code {p['exit_code']}, pid {p['pid']})")
     lines.append(f"open it in the viewer:  rerun {summary['path']}   "
                  f"(or: python -m rerun {summary['path']})")
     return "\n".join(lines)

@@ -27,6 +27,8 @@ entity                             archetype                       from event
 /models/<skill>                    AnyValues (version, ...)        model_version
 /model_version/<skill>             Scalars                         model_version
 /log/jobs, /log/models             TextLog                         job_progress, model_version
+/processes/<name>                  AnyValues (action, pid, ...)    process (a child restarted)
+/log/processes                     TextLog                         process
 =================================  ==============================  ===========================
 
 Timelines: ``rollout`` (sequence: the roll-out index of a rollout event, the roll-out count of a
@@ -122,7 +124,7 @@ class RrdWriter:
         """Log one validated event map (see services/events.py); unknown kinds raise ValueError."""
         kind = msg.get("kind")
         fn = {"rollout": self._rollout, "latent": self._latent, "model_version": self._model_version,
-              "job_progress": self._job_progress}.get(kind)
+              "job_progress": self._job_progress, "process": self._process}.get(kind)
         if fn is None:
             raise ValueError(f"unknown event kind {kind!r}")
         with self._lock:
@@ -215,6 +217,17 @@ class RrdWriter:
         level = "ERROR" if state == "failed" else "INFO"
         self.rec.log("log/jobs", rr.TextLog(
             f"{msg['job']} it={msg['iteration']} rollouts={rollouts} best={best_txt} {state}", level=level))
+
+    def _process(self, msg: dict) -> None:
+        name = str(msg["process"])
+        live = msg.get("live_after")
+        self.rec.log(f"processes/{_part(name)}", rr.AnyValues(
+            action=str(msg["action"]), pid=int(msg["pid"]), exit_code=int(msg["exit_code"]),
+            restarts=int(msg["restarts"]), delay=float(msg["delay"]), live_after=-1.0 if live is None else float(live)))
+        back = "" if live is None else f", live after {float(live):.2f}s"
+        self.rec.log("log/processes", rr.TextLog(
+            f"{name} {msg['action']} (exit {msg['exit_code']}, restart {msg['restarts']}, pid {msg['pid']}{back})",
+            level="ERROR" if msg["action"] == "gave_up" else "WARN"))
 
     # -- end ---------------------------------------------------------------------------------
 

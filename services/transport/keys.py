@@ -17,7 +17,7 @@ DEFAULT_NAMESPACE = "default"
 _NAME = re.compile(r"^[A-Za-z0-9_.\-]{1,64}$")
 
 #: Event kinds (see services/recording/events.py); each is published under ``Keyspace.event``.
-EVENT_KINDS = ("rollout", "latent", "model_version", "job_progress")
+EVENT_KINDS = ("rollout", "latent", "model_version", "job_progress", "process")
 
 
 def check_name(kind: str, value: str) -> str:
@@ -103,6 +103,11 @@ class Keyspace:
         name = job if job == "*" else check_name("job", job)
         return f"{self.prefix}/job/{name}/status"
 
+    def job_cancel(self, job: str = "*") -> str:
+        """``.../job/<job>/cancel``: cancel a job (``*``: the learner's queryable, for every job)."""
+        name = job if job == "*" else check_name("job", job)
+        return f"{self.prefix}/job/{name}/cancel"
+
     # ----- liveliness tokens ------------------------------------------------------------------
     def token(self, service: str, *parts: str) -> str:
         """``acnmp/<ns>/<service>/<parts...>``: a liveliness token of a running process."""
@@ -149,7 +154,8 @@ class Keyspace:
     # ----- events -----------------------------------------------------------------------------
     def event(self, kind: str, ident: str) -> str:
         """``.../event/<kind>/<ident>``: where one event is published (``ident``: the job id for
-        rollout and job_progress events, the skill for latent and model_version events)."""
+        rollout and job_progress events, the skill for latent and model_version events, the
+        process name for process events)."""
         if kind not in EVENT_KINDS:
             raise ValueError(f"event kind {kind!r} is not one of {EVENT_KINDS}")
         return f"{self.prefix}/event/{kind}/{check_name('event id', ident)}"

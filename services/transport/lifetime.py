@@ -8,7 +8,9 @@ from __future__ import annotations
 import logging
 import os
 import signal
+import sys
 import threading
+from typing import NoReturn
 
 log = logging.getLogger(__name__)
 
@@ -72,3 +74,19 @@ def wait_until_stopped(stop: threading.Event, poll: float = 0.2) -> None:
     while not stop.wait(poll):
         pass
 
+
+def exit_now(code: int) -> NoReturn:
+    """End a service process with exit ``code`` at once, skipping the interpreter's teardown.
+
+    Call it only once the service has closed everything it owns (its session, files and
+    recording: :func:`services.transport.service.run_service` returns after that). The teardown
+    skipped is the garbage collection of torch, zenoh and rerun modules, which took 1.8-2.1 s per
+    process on the 2-core test machine: without it a deployment stops in about half the time.
+    """
+    logging.shutdown()
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):  # a closed or broken stream: nothing more to say anyway
+            pass
+    os._exit(int(code))

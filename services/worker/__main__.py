@@ -1,7 +1,6 @@
 """``python -m services.worker --robot point2d [--id ID] [--namespace NS] [--connect EP] ...``."""
-import sys
-
+from services.transport.lifetime import exit_now
 from services.transport.service import main
 from services.worker.service import WorkerConfig
 
-sys.exit(main(WorkerConfig))
+exit_now(main(WorkerConfig))  # everything is closed: skip the slow interpreter teardown

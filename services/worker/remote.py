@@ -66,11 +66,13 @@ class RemoteEvaluator:
     timeout : seconds one chunk may take before it goes to another worker.
     discover_timeout : seconds to wait for a live worker when there is none.
     max_attempts : chunk re-sends per batch before giving up (RuntimeError).
+    stop : when set (the learner shutting down), a batch in flight is abandoned at once with
+        InterruptedError instead of waiting for its replies.
     """
 
     def __init__(self, session: zenoh.Session, keys: Keyspace | str, robot: str, task: str,
                  task_config: dict | None = None, *, timeout: float = 60.0, discover_timeout: float = 10.0,
-                 max_attempts: int = 20):
+                 max_attempts: int = 20, stop: threading.Event | None = None):
         self.session = session
         self.keys = keys if isinstance(keys, Keyspace) else Keyspace(keys)
         self.robot = check_name("robot", robot)
@@ -81,12 +83,31 @@ class RemoteEvaluator:
         self.timeout = float(timeout)
         self.discover_timeout = float(discover_timeout)
         self.max_attempts = int(max_attempts)
+        self.stop = stop
         self._pattern = self.keys.worker_token(self.robot)
         self._turn = random.randrange(1 << 30)  # which worker a batch starts on (round robin)
 
     def workers(self) -> list[str]:
         """Ids of the workers of this robot kind alive now (one liveliness query)."""
         return [last_chunk(k) for k in alive_tokens(self.session, self._pattern)]
+
+    def _check_stop(self) -> None:
+        if self.stop is not None and self.stop.is_set():
+            raise InterruptedError("stopping: roll-out batch abandoned")
+
+    def _wait_for(self, cond: threading.Condition, predicate, timeout: float) -> bool:
+        """``cond.wait_for(predicate, timeout)`` (caller holds ``cond``), but raising InterruptedError
+        within 0.1 s of ``stop`` being set: waiting for workers that a shutdown stopped would hold
+        the learner for the whole ``discover_timeout``."""
+        if self.stop is None:
+            return cond.wait_for(predicate, timeout=timeout)
+        end = time.monotonic() + timeout
+        while True:
+            if cond.wait_for(predicate, timeout=max(0.0, min(0.1, end - time.monotonic()))):
+                return True
+            self._check_stop()
+            if time.monotonic() >= end:
+                return False
 
     def evaluate(self, trajectories, times, task_params=None) -> ExecutedBatch:
         """trajectories (B, T, D), times (T,), task_params (P,) or None -> the B roll-outs in order,
@@ -174,7 +195,7 @@ class RemoteEvaluator:
             now = set(self.workers())
             with cond:
                 live |= now - dead
-                if not cond.wait_for(lambda: bool(live), timeout=self.discover_timeout):
+                if not self._wait_for(cond, lambda: bool(live), self.discover_timeout):
                     raise RuntimeError(f"no live {self.robot} worker in namespace {self.keys.namespace} "
                                        f"after {self.discover_timeout}s")
                 dispatch(0, b, set())
@@ -182,6 +203,7 @@ class RemoteEvaluator:
                 while True:
                     if fatal:
                         raise fatal[0]
+                    self._check_stop()
                     # chunks on a worker that died: abandon and re-send
                     for att, chunk in list(inflight.items()):
                         if chunk.worker in dead:
@@ -198,12 +220,11 @@ class RemoteEvaluator:
                                         chunk.worker, why, chunk.start, chunk.stop - 1)
                             if not live - {chunk.worker}:
                                 # nobody else: wait a little for a worker to (re)appear
-                                cond.wait_for(lambda: bool(live - {chunk.worker}),
-                                              timeout=self.discover_timeout)
+                                self._wait_for(cond, lambda: bool(live - {chunk.worker}), self.discover_timeout)
                             dispatch(chunk.start, chunk.stop, {chunk.worker})
                     if not inflight and not failed:
                         break
-                    cond.wait(timeout=0.5)
+                    cond.wait(timeout=0.5 if self.stop is None else 0.1)  # a stop is seen within 0.1 s
                     if time.monotonic() > deadline + self.timeout * (self.max_attempts + 1):
                         raise RuntimeError("roll-out batch did not complete")
         finally:

@@ -36,9 +36,6 @@ class WorkerConfig(Service):
     delay: float = option(0.0, "sleep S seconds per roll-out, to simulate a slow robot (default: 0)", metavar="S")
 
     def serve(self, session: zenoh.Session, stop: threading.Event, ready: Ready) -> int:
-        import torch
-
-        torch.set_num_threads(1)
         keys = Keyspace(self.session.namespace)
         worker = Worker(self.robot, self.worker_id or f"{self.robot}-{os.getpid()}", delay=self.delay)
         try:
@@ -48,6 +45,11 @@ class WorkerConfig(Service):
             token_key = keys.worker_token(self.robot, worker.worker_id)
             token = session.liveliness().declare_token(token_key)
             ready(f"worker live as {token_key}")
+            # torch (for the tasks that use it) is imported once live: it takes seconds, and a
+            # worker restarted by its launcher should be back sooner (a request meanwhile waits)
+            import torch
+
+            torch.set_num_threads(1)
             wait_until_stopped(stop)
             token.undeclare()
             rpc.close()

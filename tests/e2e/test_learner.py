@@ -1,11 +1,17 @@
-"""The learner as a real process: training over zenoh, bad requests, and kill -9 + restart: the
-skill and its dataset come back intact and an unfinished job resumes and completes."""
+"""The learner as a real process: training over zenoh, bad requests, and kill -9 + restart by the
+launcher's supervisor: the skill and its dataset come back intact and an unfinished job resumes and
+completes; a running job is cancelled through the client and the command line."""
 from __future__ import annotations
+
+import json
+import time
 
 import numpy as np
 import pytest
 
 from acnmp_core.experiments.viapoint import make_setup
+from clients.cli import main
+from clients.client import ACNMPClient
 from services.launcher import LocalDeployment
 from services.model.weights import decode_weights
 from services.transport import Keyspace, WireError, call
@@ -60,7 +66,8 @@ def test_learner_survives_kill_9_with_skill_dataset_and_job(tmp_path, wait_job):
                     adapt_request(setup, max_rollouts=9, stop_on_success=False), timeout=10)["job"]
         wait_job(s, KEYS, job, lambda st: st["state"] == "running" and st["rollouts"] >= 3)
         dep.kill("learner")  # SIGKILL: no chance to save anything
-        dep.respawn("learner")
+        (restart,) = dep.supervisor.wait_restarts("learner", 1, timeout=60)  # the launcher restarts it
+        assert restart.exit_code == -9 and restart.pid == dep.children["learner"].pid
 
         after = latest(s)
         assert (after.version, after.data_hash, after.n_demos) == (0, before.data_hash, 6)
@@ -75,3 +82,36 @@ def test_learner_survives_kill_9_with_skill_dataset_and_job(tmp_path, wait_job):
         assert st["result"]["rollouts"] == 9 == st["rollouts"]
         assert st["rollouts_executed"] >= 9 + 3  # the first attempt's roll-outs keep their indices
         assert st["result"]["trajectory"].shape == (len(setup.target.query_times), 2)
+
+
+def test_a_running_job_is_cancelled_by_the_client_and_the_cli_reports_it(tmp_path, wait_job, capsys):
+    setup = make_setup()
+    with LocalDeployment(NS, workers=1, model=False, worker_delay=0.25, state_dir=tmp_path) as dep, \
+            ACNMPClient(NS, session=dep.session, timeout=10) as client:
+        call(dep.session, KEYS.train("e1"), train_request(setup.demos, steps=50), timeout=60)
+        job = call(dep.session, KEYS.adapt("e1"),
+                   adapt_request(setup, max_rollouts=200, stop_on_success=False), timeout=10)["job"]
+        wait_job(dep.session, KEYS, job, lambda st: st["state"] == "running" and st["rollouts"] >= 1)
+        reply = client.cancel(job)
+        assert reply["state"] == "running" and reply["cancel_requested"] is True  # stops after this iteration
+        st = client.wait_job(job, timeout=60, progress=False)
+        assert st["state"] == "cancelled" and st["rollouts"] < 200 and st["result"] is None
+        # the shell: a finished job answers its state; an unknown one is a one-line error
+        code, out, _ = _cli_once_discovered(capsys, "query", "cancel", job, "-n", NS, "--connect", dep.anchor)
+        assert code == 0 and out.strip() == f"job {job}: cancelled"
+        code, _, err = _cli_once_discovered(capsys, "query", "cancel", "e1-nothing", "-n", NS, "--connect", dep.anchor)
+        assert code == 1 and len(err.strip().splitlines()) == 1 and err.startswith("acnmp query: unknown_job"), err
+    record = json.loads((tmp_path / "jobs" / f"{job}.json").read_text())
+    assert record["state"] == "cancelled"
+
+
+def _cli_once_discovered(capsys, *argv, timeout: float = 30.0) -> tuple[int, str, str]:
+    """Run ``acnmp`` in-process; again while it answers ``unavailable``: a fresh peer session may
+    query before it has discovered the learner's queryable (issue 12, discovery, is another item)."""
+    deadline = time.monotonic() + timeout
+    while True:
+        code = main(list(argv))
+        out, err = capsys.readouterr()
+        if "unavailable" not in err or time.monotonic() > deadline:
+            return code, out, err
+        time.sleep(0.2)

@@ -1,6 +1,6 @@
-"""Stopping a deployment: the state directory is locked per deployment, and SIGTERM stops the
-learner before the workers its running job needs, so nothing is SIGKILLed and the job resumes
-on the next start."""
+"""Stopping a deployment: the state directory is locked per deployment, and SIGTERM during a job
+stops every process without SIGKILL (the learner abandons the batch in flight instead of waiting
+for workers), the job is saved as interrupted and resumes on the next start."""
 from __future__ import annotations
 
 import json
@@ -38,7 +38,7 @@ def test_a_second_deployment_on_the_same_state_dir_refuses_to_start(tmp_path):
         pass
 
 
-def test_sigterm_stops_the_learner_first_nothing_is_killed_and_the_job_resumes(tmp_path, wait_job):
+def test_sigterm_during_a_job_kills_nothing_saves_it_interrupted_and_it_resumes(tmp_path, wait_job):
     setup = make_setup()
     state = tmp_path / "state"
     train = {"times": np.stack([d.times for d in setup.demos]), "values": np.stack([d.values for d in setup.demos]),
@@ -55,7 +55,7 @@ def test_sigterm_stops_the_learner_first_nothing_is_killed_and_the_job_resumes(t
         codes = dep.stop()  # what SIGTERM of `acnmp up` does
         assert dep.killed == [] and all(code == 0 for code in codes.values()), (codes, dep.killed)
     record = json.loads((state / "jobs" / f"{job}.json").read_text())
-    assert record["state"] == "running"  # interrupted, saved; not finished and not failed
+    assert record["state"] == "interrupted"  # saved as such; not finished, not failed, not left "running"
     with LocalDeployment(NS, workers=1, model=False, state_dir=state) as dep:
         st = wait_job(dep.session, dep.keys, job, lambda st: st["state"] in ("done", "failed"))
     assert st["state"] == "done" and st["attempt"] == 1, st

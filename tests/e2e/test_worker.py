@@ -70,8 +70,9 @@ def test_worker_rejects_bad_input_and_keeps_serving(tmp_path, setup):
 def test_batch_survives_a_worker_killed_mid_batch(tmp_path, setup):
     t = setup.target.query_times
     trajs = np.random.default_rng(1).normal(scale=0.3, size=(8, len(t), 2))
+    # supervise=False: this is the evaluator's fail-over alone, the killed worker stays dead
     with LocalDeployment("wkill", workers=2, model=False, learner=False, worker_delay=0.4,
-                         state_dir=tmp_path) as dep:
+                         state_dir=tmp_path, supervise=False) as dep:
         ev = RemoteEvaluator(dep.session, dep.keys, "point2d", "viapoint", setup.task_config, timeout=30)
         assert ev.workers() == ["point2d-0", "point2d-1"]
         out = {}

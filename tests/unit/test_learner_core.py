@@ -1,6 +1,9 @@
 """The learner without zenoh: a job runs on the in-process task, is recorded event by event,
-assimilates into a new version, and a restart resumes what was running."""
+assimilates into a new version, and a restart resumes what was running; cancel and shutdown
+(a job saved as interrupted) keep their promises."""
 from __future__ import annotations
+
+import threading
 
 import pytest
 
@@ -10,6 +13,7 @@ from acnmp_core.cnmp import CNMPConfig
 from acnmp_core.experiments.viapoint import make_setup
 from acnmp_core.training import TrainConfig
 from services.learner.core import LearnerCore, TrainSpec, UnknownJobError, UnknownSkillError
+from services.learner.store import JobStore
 from services.recording.events import validate_event
 from services.worker.core import ExecutedBatch
 
@@ -102,3 +106,100 @@ def test_a_second_learner_on_the_same_state_dir_is_refused(tmp_path, setup):
         _core(tmp_path, setup, [], [])
     first.close()
     _core(tmp_path, setup, [], []).close()  # free again once the first one is gone
+
+
+class Gated(Recorded):
+    """The in-process task, but each batch waits until ``gate`` is set (``started`` says one is in)."""
+
+    def __init__(self, task):
+        super().__init__(task)
+        self.started, self.gate = threading.Event(), threading.Event()
+
+    def evaluate(self, trajectories, times, task_params=None):
+        self.started.set()
+        assert self.gate.wait(60), "the test never opened the gate"
+        return super().evaluate(trajectories, times, task_params)
+
+
+def _gated_core(tmp_path, setup, events):
+    gated = Gated(setup.task)
+    core = LearnerCore(tmp_path, evaluator_for=lambda job: gated, publish=events.append)
+    spec = TrainSpec(setup.demos, CNMPConfig(n_outputs=2, **SMALL), TrainConfig(steps=50), seed=3)
+    core.train_skill("e1", spec)
+    return core, gated
+
+
+def test_cancel_ends_a_queued_job_at_once_and_a_running_one_after_its_iteration(tmp_path, setup):
+    events = []
+    core, gated = _gated_core(tmp_path, setup, events)
+    running = core.submit("e1", _job(setup, max_rollouts=30, stop_on_success=False))
+    queued = core.submit("e1", _job(setup, max_rollouts=3))
+    core.start()
+    try:
+        assert gated.started.wait(60)
+        assert core.cancel(queued.job)["state"] == "cancelled"  # never ran
+        reply = core.cancel(running.job)
+        assert reply["state"] == "running" and reply["cancel_requested"] is True
+        gated.gate.set()  # the iteration in flight finishes, then the job stops
+        assert core.wait_idle(60)
+        with pytest.raises(UnknownJobError):
+            core.cancel("e1-nothing")
+        st = core.status(running.job)
+        assert core.cancel(running.job)["state"] == "cancelled"  # a finished job stays as it is
+    finally:
+        core.close()
+    assert st["state"] == "cancelled" and st["rollouts"] < 30 and st["result"] is None
+    assert gated.calls == 1  # one batch ran (its roll-outs are recorded), no second one
+    rollouts = [e for e in events if e["kind"] == "rollout" and e["job"] == running.job]
+    assert len(rollouts) == st["rollouts_executed"] > 0
+    states = {e["job"]: e["state"] for e in events if e["kind"] == "job_progress"}
+    assert states == {running.job: "cancelled", queued.job: "cancelled"}
+    # saved: a restarted learner knows both as cancelled and runs neither
+    fresh = Recorded(setup.task)
+    again = LearnerCore(tmp_path, evaluator_for=lambda job: fresh).start()
+    try:
+        assert again.wait_idle(30)
+        assert {again.status(j.job)["state"] for j in (running, queued)} == {"cancelled"}
+    finally:
+        again.close()
+    assert fresh.calls == 0
+
+
+def test_close_saves_the_running_job_as_interrupted_and_a_restart_resumes_it(tmp_path, setup):
+    events = []
+    core, gated = _gated_core(tmp_path, setup, events)
+    job = core.submit("e1", _job(setup, max_rollouts=6, stop_on_success=False))
+    core.start()
+    assert gated.started.wait(60)
+    closing = threading.Thread(target=core.close)
+    closing.start()
+    assert core.stopping.wait(10)
+    gated.gate.set()
+    closing.join(30)
+    assert not closing.is_alive()
+    saved = JobStore(tmp_path).load_all()[job.job]
+    assert saved.state == "interrupted"
+    assert [e["state"] for e in events if e["kind"] == "job_progress"][-1] == "interrupted"
+
+    again = LearnerCore(tmp_path, evaluator_for=lambda j: Recorded(setup.task)).start()
+    try:
+        assert again.wait_idle(120)
+        st = again.status(job.job)
+    finally:
+        again.close()
+    assert st["state"] == "done" and st["attempt"] == 1 and st["rollouts"] == 6
+
+
+def test_a_cancel_asked_before_a_crash_ends_the_job_on_restart(tmp_path, setup):
+    core, _ = _gated_core(tmp_path, setup, [])  # not started
+    job = core.submit("e1", _job(setup, max_rollouts=3))
+    job.state, job.cancel_requested = "running", True  # the learner died before the job saw it
+    core.job_store.save(job)
+    core.close()
+    fresh = Recorded(setup.task)
+    again = LearnerCore(tmp_path, evaluator_for=lambda j: fresh).start()
+    try:
+        assert again.wait_idle(30) and again.status(job.job)["state"] == "cancelled"
+    finally:
+        again.close()
+    assert fresh.calls == 0
