@@ -4,7 +4,8 @@ Per run (seed):
 
 1. Two :class:`~acnmp_core.transfer.TransferPair` s are trained on the 12 paired proxy
    demonstrations of :mod:`acnmp_core.tasks.transfer_demos` (time the only input): one with the
-   latent alignment term (``TransferConfig.latent_weight``), one without it (weight 0).
+   latent alignment term (``TransferConfig.latent_weight``), one without it (weight 0); a few
+   pair seeds (``pair_seeds``) are shared by the runs, each run adapting fresh copies.
 2. Three conditions run the same RL in robot B (the 4-DoF arm) on the cube-through-the-gap task
    (:class:`~acnmp_core.tasks.transfer_scene.CubeGapTask`), with :func:`~acnmp_core.adaptation.adapt`
    training robot B's decoder only (its supervised steps on B's proxy demonstrations):
@@ -40,6 +41,7 @@ from ..adaptation import AdaptConfig, AdaptTarget, adapt
 from ..data import DemoSet
 from ..rollout import RolloutEvaluator
 from ..transfer import TransferConfig, TransferPair, TransferredSkill, spread_observations, train_pair
+from ..validation import check_positive_int
 
 CONDITIONS = ("transfer", "no_alignment", "no_transfer")
 #: RL iterations at which the paper reports success: 23, 73, 90 and 100 %.
@@ -68,16 +70,25 @@ class TransferExperimentConfig:
         makes every latent the same and the decoders give the mean demonstration
         (docs/experiments/e4_transfer.md).
     adapt : RL in robot B. n_obs : points of robot A's trajectory to condition on (the authors' 11).
+    pair_seeds : how many pairs (of each kind) are trained, seeds 0..pair_seeds-1; run r adapts a
+        copy of pair r mod pair_seeds with RL seed r (as the authors, who trained one transfer model
+        and repeated the RL; training a pair per run would cost more than all the RL on this machine).
     """
 
     pair: TransferConfig = field(default_factory=lambda: TransferConfig(latent_weight=1e3, steps=1000,
                                                                         widths=(64, 64, 64)))
     adapt: AdaptConfig = field(default_factory=e4_adapt_config)
     n_obs: int = 11
+    pair_seeds: int = 5
+
+    def __post_init__(self) -> None:
+        check_positive_int("n_obs", self.n_obs)
+        check_positive_int("pair_seeds", self.pair_seeds)
 
     def to_dict(self) -> dict:
         """Plain JSON-ready dict."""
-        return {"pair": self.pair.to_dict(), "adapt": self.adapt.to_dict(), "n_obs": self.n_obs}
+        return {"pair": self.pair.to_dict(), "adapt": self.adapt.to_dict(), "n_obs": self.n_obs,
+                "pair_seeds": self.pair_seeds}
 
 
 @dataclass
@@ -234,8 +245,9 @@ def run_transfer(
 
     Parameters
     ----------
-    runs : a count N (seeds 0..N-1) or an explicit list of seeds; a seed sets the pairs' weights,
-        their training, exploration and supervised sampling.
+    runs : a count N (seeds 0..N-1) or an explicit list of seeds; run seed r adapts pair
+        r mod ``cfg.pair_seeds`` (a pair seed sets its weights and training) with exploration and
+        supervised sampling seeded by r.
     cfg : :class:`TransferExperimentConfig` (default: its defaults).
     conditions : a subset of :data:`CONDITIONS`.
     authors_data : run :func:`authors_data_check` (seed 0) too.
@@ -272,19 +284,24 @@ def run_transfer(
     per_run: list[dict] = []
     alignment: dict[str, list[float]] = {"aligned": [], "plain": []}
     done: list[int] = []
+    trained: dict[int, dict[str, TransferPair]] = {}
     try:
         for seed in seed_list:
             if time_budget_s is not None and time.perf_counter() - t0 > time_budget_s:
                 break
             done.append(seed)
-            pairs = train_pairs(setup, cfg, seed)
-            for name, pair in pairs.items():
-                alignment[name].append(paired_latent_distance(pair, setup))
+            key = seed % cfg.pair_seeds
+            if key not in trained:
+                trained[key] = train_pairs(setup, cfg, key)
+                for name, pair in trained[key].items():
+                    alignment[name].append(paired_latent_distance(pair, setup))
+            pairs = trained[key]
             for cond in conditions:
                 t1 = time.perf_counter()
                 ev = shared if shared is not None else evaluator_factory(cond)
                 cb = on_iteration(cond, seed) if on_iteration else None
-                r = {"seed": seed, "condition": cond, **run_condition(pairs, setup, cond, ev, cfg, seed, cb),
+                r = {"seed": seed, "pair_seed": key, "condition": cond,
+                     **run_condition(pairs, setup, cond, ev, cfg, seed, cb),
                      "time_s": round(time.perf_counter() - t1, 2)}
                 per_run.append(r)
                 if log:
