@@ -18,6 +18,10 @@ def register(subparsers) -> None:
         ),
     )
     p.add_argument("--runs", type=int, default=30, help="runs (seeds 0..N-1, default 30)")
+    p.add_argument("--pair-steps", type=int, default=None,
+                   help="training steps of each transfer pair (default 1000)")
+    p.add_argument("--budget", type=int, default=None,
+                   help="roll-outs per RL run in robot B, 2 per iteration (default 40)")
     p.add_argument("--no-authors-data", action="store_true",
                    help="skip the check on the authors' published arrays (../shared/data/acnmp-paper)")
     add_output_arguments(p, "write success vs RL iteration per condition, the paper's beside (PNG)")
@@ -30,13 +34,23 @@ def run(args) -> int:
     """Run E4 as asked by ``args`` and print a summary table; returns the exit code."""
     import torch
 
-    from acnmp_core.experiments.transfer import run_transfer, task_config
+    from dataclasses import replace
+
+    from acnmp_core.experiments.transfer import TransferExperimentConfig, run_transfer, task_config
 
     torch.set_num_threads(1)  # the CNMPs are small; threads only contend with the simulator
-    if args.runs < 1:
-        raise ValueError(f"--runs: expected a positive integer, got {args.runs}")
+    for name in ("runs", "pair_steps", "budget"):
+        value = getattr(args, name)
+        if value is not None and value < 1:
+            raise ValueError(f"--{name.replace('_', '-')}: expected a positive integer, got {value}")
     check_deployment_arguments(args)
-    kwargs = dict(authors_data=not args.no_authors_data, log=None if args.quiet else (lambda s: print(s, flush=True)))
+    cfg = TransferExperimentConfig()
+    if args.pair_steps is not None:
+        cfg.pair = replace(cfg.pair, steps=args.pair_steps)
+    if args.budget is not None:
+        cfg.adapt = replace(cfg.adapt, max_rollouts=args.budget)
+    kwargs = dict(cfg=cfg, authors_data=not args.no_authors_data,
+                  log=None if args.quiet else (lambda s: print(s, flush=True)))
     if args.distributed:
         from clients.distributed import remote_rollouts
 
