@@ -169,8 +169,10 @@ def plot_transfer(result: dict, path) -> "object":
         if not its:
             continue
         share = [np.mean([i is not None and i <= k for i in its]) for k in ks]
+        # The controls often coincide: the dashed one is drawn on top so both stay visible.
+        dashed = cond == "no_alignment"
         ax.step(ks, 100 * np.asarray(share), where="post", color=color, lw=2, label=label,
-                ls="--" if cond == "no_alignment" else "-")
+                ls="--" if dashed else "-", zorder=3 if dashed else 2)
     paper = result["paper"]["success_by_iteration"]
     ax.plot([int(k) for k in paper], [100 * v for v in paper.values()], "ks", ms=7, mfc="none",
             label="paper (Akbulut et al. 2020)")
