@@ -188,6 +188,7 @@ class TransferredSkill(nn.Module):
             raise ValueError("task_params: a transferred skill has none (time is its only input)")
         qa = self.model_a.make_query(obs_times, obs_values, None, query_times, n_steps=n_steps,
                                      obs_dims_mask=obs_dims_mask)
+        # B's targets (normalised by B's own time statistics); the dummy observation is never encoded.
         qb = self.model_b.make_query(qa.times[:1], np.zeros((1, self.config.n_outputs)), None, qa.times)
         return Query(obs_x=qa.obs_x, obs_mask=qa.obs_mask, tgt_x=qb.tgt_x, times=qa.times)
 
