@@ -260,8 +260,8 @@ def run_transfer(
 
     Returns
     -------
-    dict: ``experiment`` "transfer", ``runs`` (completed), ``runs_requested``, ``seed_list``, ``success_by_iteration`` {"3", "7",
-    "11", "19": share}, ``iterations_median``, ``rollouts_median`` (the transfer condition),
+    dict: ``experiment`` "transfer", ``runs`` (completed), ``runs_requested``, ``seed_list``,
+    ``success_by_iteration`` {"3", "7", "11", "19": share}, ``iterations_median``, ``rollouts_median`` (the transfer condition),
     ``controls`` {no_alignment, no_transfer: the same keys}, ``conditions`` (all three summaries),
     ``paper`` (the paper's success shares), ``authors_data``, ``latent_alignment`` (median paired
     latent distance per pair, see :func:`paired_latent_distance`), ``demo_error`` (m), ``config``,
