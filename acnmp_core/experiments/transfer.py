@@ -66,7 +66,7 @@ class TransferExperimentConfig:
     """Settings of E4 (the library's defaults stay untouched; see :func:`e4_adapt_config`).
 
     pair : training of the transfer pairs (the no-alignment pair uses the same with weight 0). Weight
-        1e3, not the authors' 5e6: with our 1000 batched steps (theirs: 250k-1M of batch 1) 5e6
+        1e3, not the authors' 5e6: with our 3000 batched steps (theirs: 250k-1M of batch 1) 5e6
         makes every latent the same and the decoders give the mean demonstration
         (docs/experiments/e4_transfer.md).
     adapt : RL in robot B. n_obs : points of robot A's trajectory to condition on (the authors' 11).
@@ -75,7 +75,7 @@ class TransferExperimentConfig:
         and repeated the RL; training a pair per run would cost more than all the RL on this machine).
     """
 
-    pair: TransferConfig = field(default_factory=lambda: TransferConfig(latent_weight=1e3, steps=1000,
+    pair: TransferConfig = field(default_factory=lambda: TransferConfig(latent_weight=1e3, steps=3000,
                                                                         widths=(64, 64, 64)))
     adapt: AdaptConfig = field(default_factory=e4_adapt_config)
     n_obs: int = 11
