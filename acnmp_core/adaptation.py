@@ -40,7 +40,7 @@ conditioned mean once and does not adapt. The settings were chosen on E1, E2 and
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field, fields
-from typing import Callable
+from typing import Callable, Iterable
 
 import numpy as np
 import torch
@@ -235,13 +235,14 @@ class _Updater:
     """The network updates of one adaptation: RL steps on roll-outs and SL steps on the demos."""
 
     def __init__(self, model: CNMP, query: Query, cfg: AdaptConfig, demos: DemoSet, train_cfg: TrainConfig,
-                 gen: torch.Generator) -> None:
+                 gen: torch.Generator, params: list[torch.nn.Parameter] | None = None) -> None:
         self.model, self.query, self.cfg, self.gen = model, query, cfg, gen
         self.sampler = make_sampler(model, demos, train_cfg) if cfg.mode == "acnmp" else None
+        params = list(model.parameters()) if params is None else params
         # Separate Adam moments for the RL and the SL steps: their gradients differ in scale by
         # orders of magnitude, and a shared second moment lets the larger one silence the other.
-        self.opt_rl = torch.optim.Adam(model.parameters(), lr=cfg.lr, fused=True)
-        self.opt_sl = torch.optim.Adam(model.parameters(), lr=cfg.sl_lr, fused=True)
+        self.opt_rl = torch.optim.Adam(params, lr=cfg.lr, fused=True)
+        self.opt_sl = torch.optim.Adam(params, lr=cfg.sl_lr, fused=True)
 
     def mean(self) -> torch.Tensor:
         """Current mean (T, D), normalised units, no gradient."""
@@ -324,6 +325,7 @@ def adapt(
     seed: int = 0,
     train_cfg: TrainConfig | None = None,
     on_iteration: Callable[[IterationLog, np.ndarray, RolloutBatch], None] | None = None,
+    params: Iterable[torch.nn.Parameter] | None = None,
 ) -> AdaptResult:
     """Adapt ``model`` in place so that its output for ``target`` maximises the evaluator's reward.
 
@@ -337,6 +339,9 @@ def adapt(
     train_cfg : episode sampling for the supervised steps (defaults to TrainConfig()).
     on_iteration : called after each iteration with (log, executed trajectories (1+K, T, D) raw,
         RolloutBatch); services use it to record every roll-out.
+    params : the parameters the RL and SL steps train (default: all of ``model``'s); e.g. one
+        robot's decoder when adapting a transferred skill (:mod:`acnmp_core.transfer`). The others
+        keep their values, their gradients are computed but never applied.
 
     Returns an :class:`AdaptResult` whose ``trajectory`` is the model's mean for ``target`` at the end.
     """
@@ -351,7 +356,7 @@ def adapt(
     rng = np.random.default_rng(seed)
     gen = torch.Generator().manual_seed(seed)
     noise = SmoothNoise(len(times), min(cfg.n_knots, len(times)))
-    updater = _Updater(model, query, cfg, demos, train_cfg, gen)
+    updater = _Updater(model, query, cfg, demos, train_cfg, gen, None if params is None else list(params))
     credit = getattr(evaluator, "credit", "step")
     history: list[IterationLog] = []
     rollouts, it, success, err0 = 0, 0, False, None

@@ -147,3 +147,41 @@ def plot_wall(result: dict, path) -> "object":
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
+
+
+def plot_transfer(result: dict, path) -> "object":
+    """Write E4's figure: share of runs whose mean roll-out succeeded within k RL iterations, per
+    condition (transfer and both controls), with the paper's 23/73/90/100 % at 3/7/11/19 beside.
+    Returns the written path."""
+    from .experiments import transfer as transfer_exp
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig, ax = plt.subplots(figsize=(6.5, 4.2))
+    styles = {"transfer": ("tab:green", "transfer (A's encoder -> B's decoder)"),
+              "no_alignment": ("tab:orange", "control: no latent alignment"),
+              "no_transfer": ("tab:red", "control: B's own LfD model")}
+    runs = result["per_run"]
+    top = max(max(r["curve"][-1][0] for r in runs), max(transfer_exp.CHECKPOINTS))
+    ks = np.arange(0, top + 1)
+    for cond, (color, label) in styles.items():
+        its = [r["iterations"] for r in runs if r["condition"] == cond]
+        if not its:
+            continue
+        share = [np.mean([i is not None and i <= k for i in its]) for k in ks]
+        # The controls often coincide: the dashed one is drawn on top so both stay visible.
+        dashed = cond == "no_alignment"
+        ax.step(ks, 100 * np.asarray(share), where="post", color=color, lw=2, label=label,
+                ls="--" if dashed else "-", zorder=3 if dashed else 2)
+    paper = result["paper"]["success_by_iteration"]
+    ax.plot([int(k) for k in paper], [100 * v for v in paper.values()], "ks", ms=7, mfc="none",
+            label="paper (Akbulut et al. 2020)")
+    ax.set_xlabel("RL iterations (2 roll-outs each)")
+    ax.set_ylabel("runs succeeded (%)")
+    ax.set_ylim(-3, 103)
+    ax.set_title(f"E4: 3-DoF -> 4-DoF transfer, cube through the gap ({result['runs']} runs)")
+    ax.legend(fontsize=8, loc="lower right")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path

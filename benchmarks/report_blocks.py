@@ -212,3 +212,42 @@ def e3_profile() -> str:
         "",
         source(r, "e3_profile"),
     ])
+
+
+# --------------------------------------------------------------------------------------------------
+# E4
+# --------------------------------------------------------------------------------------------------
+E4_LABELS = {"transfer": "transfer (A's encoder, B's decoder)", "no_alignment": "control a: no alignment term",
+             "no_transfer": "control b: B's own LfD model"}
+
+
+@renderer("e4-results")
+def e4_results() -> str:
+    r = load("e4_transfer")
+    paper = r["paper"]["success_by_iteration"]
+    rows = [["paper", *(pct(v) for v in paper.values()), "-", "-", "-"]]
+    for cond, label in E4_LABELS.items():
+        s = r["conditions"].get(cond)
+        if s is None:
+            continue
+        rows.append([label, *(pct(s["success_by_iteration"][k]) for k in paper), fmt(s["iterations_median"]),
+                     fmt(s["initial_error_median"]), fmt(s["initial_rmse_to_expert_median"])])
+    a = r.get("authors_data")
+    la = r["latent_alignment"]
+    lines = [
+        table(["condition", *(f"success after {k} it." for k in paper), "iterations (median)",
+               "first cube error (median, m)", "first trajectory vs expert (median RMSE, rad)"], rows),
+        "",
+        f"* Runs: {r['runs']} of {r['runs_requested']} requested, RL seeds {r['seed_list'][0]}..{r['seed_list'][-1]}, "
+        f"{r['config']['pair_seeds']} pair seeds shared by the runs; 2 roll-outs per iteration "
+        "(iteration 0 is the un-adapted trajectory).",
+        f"* Paired latent distance (relative to the distance between different skills' latents, median over "
+        f"pairs): {fmt(la['aligned'])} with the alignment term, {fmt(la['plain'])} without.",
+        f"* The 3-DoF demonstration of the new skill leaves the cube {fmt(1000 * r['demo_error'])} mm from the goal.",
+    ]
+    if a:
+        lines.append(f"* Authors' data (their arrays, seed {a['seed']}): RMSE of the transferred 4-DoF button press "
+                     f"{fmt(a['transfer_rmse'])} rad; mean 4-DoF demonstration {fmt(a['mean_demo_rmse'])} rad; "
+                     f"4-DoF partner of the nearest 3-DoF demonstration {fmt(a['nearest_partner_rmse'])} rad.")
+    lines += ["", source(r, "e4_transfer")]
+    return "\n".join(lines)

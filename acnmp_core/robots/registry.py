@@ -272,10 +272,10 @@ def _planar_arm_body(n_joints: int) -> RobotBody:
 
 register_robot(RobotSpec("point2d", "a point moving in the plane, scored analytically (E1 via-point, E3 wall)",
                          tasks={"viapoint": {}, "wall": {}}))
-register_robot(RobotSpec("planar3", "3-DoF planar arm pushing a cylinder (PyBullet; E2)",
-                         tasks={"push": {"n_joints": 3}}, body=functools.partial(_planar_arm_body, 3)))
-register_robot(RobotSpec("planar4", "4-DoF planar arm pushing a cylinder (PyBullet)",
-                         tasks={"push": {"n_joints": 4}}, body=functools.partial(_planar_arm_body, 4)))
+register_robot(RobotSpec("planar3", "3-DoF planar arm pushing a cylinder (PyBullet; E2) or a cube through a gap (E4)",
+                         tasks={"push": {"n_joints": 3}, "cube_gap": {"n_joints": 3}}, body=functools.partial(_planar_arm_body, 3)))
+register_robot(RobotSpec("planar4", "4-DoF planar arm pushing a cylinder or a cube through a gap (PyBullet; E4)",
+                         tasks={"push": {"n_joints": 4}, "cube_gap": {"n_joints": 4}}, body=functools.partial(_planar_arm_body, 4)))
 register_robot(RobotSpec("ur10", "UR10 with a two-finger gripper, pick and place over an obstacle (PyBullet; E5)",
                          tasks={"pick_place": {}}, body=lambda: import_module(".ur10", __package__).ur10_body()))
 register_robot(RobotSpec("pour", "a wrist pouring marbles from a cup into another (PyBullet; E6)",

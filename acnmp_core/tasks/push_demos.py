@@ -95,6 +95,12 @@ def home_configuration(geometry: ArmGeometry, obj: PushObject) -> np.ndarray:
     s = np.asarray(obj.start_xy, dtype=np.float64)
     u = s / np.linalg.norm(s)
     pose = np.array([*(s - SAFE_RADIUS * u), np.arctan2(u[1], u[0])])
+    return ik_from_seeds(pose, geometry)
+
+
+def ik_from_seeds(pose, geometry: ArmGeometry) -> np.ndarray:
+    """(N,) joint angles (rad) putting the tip at ``pose`` (3,) ``[x, y, heading]``, from the first of a
+    few fixed IK seeds that reaches it; ValueError if none does."""
     n = geometry.n_joints
     if n < 3:
         raise ValueError(f"geometry: the expert needs at least 3 joints to set the paddle's heading, got {n}")
@@ -166,12 +172,20 @@ def expert_push_trajectory(target_xy, aim_xy=None, *, geometry: ArmGeometry | No
     aim = target if aim_xy is None else check_array("aim_xy", aim_xy, shape=(2,))
     if np.linalg.norm(aim - np.asarray(obj.start_xy)) < 1e-3:
         raise ValueError("target_xy: expected a target away from the cylinder's start")
-    poses = _pose_path(aim, geometry, obj)
-    q = home_configuration(geometry, obj)
+    return follow_poses(_pose_path(aim, geometry, obj), geometry, home_configuration(geometry, obj))
+
+
+def follow_poses(poses, geometry: ArmGeometry, q0) -> np.ndarray:
+    """Joint trajectory (T, N) rad tracking tip poses (T, 3) ``[x, y, heading]`` from posture ``q0`` (N,).
+
+    IK is warm-started from the previous row (a smooth path gives a smooth trajectory); a redundant
+    arm is pulled towards ``q0`` in its null space. Raises ValueError if a pose is out of reach.
+    """
+    q = np.asarray(q0, dtype=np.float64).copy()
     rest = q.copy()
-    traj = np.empty((N_STEPS, geometry.n_joints))
-    for k in range(N_STEPS):
-        q = _ik_checked(poses[k], q, geometry, q_rest=rest)
+    traj = np.empty((len(poses), geometry.n_joints))
+    for k, pose in enumerate(poses):
+        q = _ik_checked(pose, q, geometry, q_rest=rest)
         traj[k] = q
     return traj
 

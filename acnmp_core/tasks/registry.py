@@ -103,3 +103,12 @@ def _known(params: dict, *names: str) -> None:
     unknown = sorted(set(params) - set(names))
     if unknown:
         raise ValueError(f"params: unknown parameter(s) {', '.join(unknown)}; expected some of {', '.join(names)}")
+
+
+@register_task("cube_gap", credit="future")
+def _cube_gap(p: dict) -> RolloutEvaluator:
+    """params: n_joints (int, default 3). E4's scene: a cube pushed through the gap between two
+    walls to a goal (see acnmp_core.tasks.transfer_scene.CubeGapTask)."""
+    from .transfer_scene import CubeGapTask
+
+    return CubeGapTask(int(p.get("n_joints", 3)))

@@ -13,7 +13,7 @@ def register(subparsers) -> None:
     """Add ``experiment`` with one sub-command per module of :mod:`clients.experiments`."""
     parser = subparsers.add_parser(
         "experiment",
-        help="reproduce one of the paper's experiments (E1 viapoint, E2 push, E3 wall, E5 ur10, E6 pour)",
+        help="reproduce one of the paper's experiments (E1 viapoint, E2 push, E3 wall, E4 transfer, E5 ur10, E6 pour)",
         description="Reproduce one of the paper's experiments in simulation; --json and --plot save results.",
     )
     sub = parser.add_subparsers(dest="experiment", metavar="NAME", required=True)

@@ -1,0 +1,82 @@
+"""``acnmp experiment transfer``: E4, a 3-DoF arm's skill transferred to a 4-DoF arm and refined by RL."""
+from __future__ import annotations
+
+from .common import add_deployment_arguments, add_output_arguments, check_deployment_arguments, write_json
+
+
+def register(subparsers) -> None:
+    """Add the ``transfer`` experiment parser."""
+    p = subparsers.add_parser(
+        "transfer",
+        help="E4: transfer a cube-pushing skill from a 3-DoF to a 4-DoF planar arm through a shared latent space",
+        description=(
+            "Train two CNMPs (3-DoF and 4-DoF arm) on 12 paired proxy demonstrations with a latent "
+            "alignment loss, encode the 3-DoF arm's demonstration of a new skill (pushing a cube "
+            "through a gap between two walls) and decode it for the 4-DoF arm, then refine it by RL "
+            "in the 4-DoF arm (its decoder only). Controls in the same run: no alignment term, and "
+            "RL from the 4-DoF arm's own LfD model. Prints success after 3/7/11/19 RL iterations."
+        ),
+    )
+    p.add_argument("--runs", type=int, default=30, help="runs (seeds 0..N-1, default 30)")
+    p.add_argument("--pair-steps", type=int, default=None,
+                   help="training steps of each transfer pair (default 3000)")
+    p.add_argument("--budget", type=int, default=None,
+                   help="roll-outs per RL run in robot B, 2 per iteration (default 40)")
+    p.add_argument("--no-authors-data", action="store_true",
+                   help="skip the check on the authors' published arrays (../shared/data/acnmp-paper)")
+    add_output_arguments(p, "write success vs RL iteration per condition, the paper's beside (PNG)")
+    add_deployment_arguments(p, "the 4-DoF arm's roll-outs on planar4 PyBullet workers")
+    p.add_argument("--quiet", action="store_true", help="no per-run lines")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    """Run E4 as asked by ``args`` and print a summary table; returns the exit code."""
+    import torch
+
+    from dataclasses import replace
+
+    from acnmp_core.experiments.transfer import TransferExperimentConfig, run_transfer, task_config
+
+    torch.set_num_threads(1)  # the CNMPs are small; threads only contend with the simulator
+    for name in ("runs", "pair_steps", "budget"):
+        value = getattr(args, name)
+        if value is not None and value < 1:
+            raise ValueError(f"--{name.replace('_', '-')}: expected a positive integer, got {value}")
+    check_deployment_arguments(args)
+    cfg = TransferExperimentConfig()
+    if args.pair_steps is not None:
+        cfg.pair = replace(cfg.pair, steps=args.pair_steps)
+    if args.budget is not None:
+        cfg.adapt = replace(cfg.adapt, max_rollouts=args.budget)
+    kwargs = dict(cfg=cfg, authors_data=not args.no_authors_data,
+                  log=None if args.quiet else (lambda s: print(s, flush=True)))
+    if args.distributed:
+        from clients.distributed import remote_rollouts
+
+        with remote_rollouts("planar4", "cube_gap", workers=args.workers, record=args.record, prefix="e4",
+                             progress=not args.quiet) as make:
+            result = run_transfer(args.runs, evaluator_factory=lambda cond: make(f"transfer-{cond}", task_config()),
+                                  **kwargs)
+    else:
+        result = run_transfer(args.runs, **kwargs)
+    print(f"E4 transfer 3-DoF -> 4-DoF, {result['runs']} run(s), {result['wall_time_s']:.1f} s")
+    print(f"{'condition':<13} " + " ".join(f"{'after ' + k:>9}" for k in result["paper"]["success_by_iteration"])
+          + f" {'iterations (median)':>20} {'initial error (m)':>18}")
+    paper = result["paper"]["success_by_iteration"]
+    print(f"{'paper':<13} " + " ".join(f"{100 * v:>8.0f}%" for v in paper.values()))
+    for cond, s in result["conditions"].items():
+        med = "-" if s["iterations_median"] is None else f"{s['iterations_median']:.0f}"
+        print(f"{cond:<13} " + " ".join(f"{100 * s['success_by_iteration'][k]:>8.0f}%" for k in paper)
+              + f" {med:>20} {s['initial_error_median']:>18.4f}")
+    a = result["authors_data"]
+    if a:
+        print(f"authors' data, RMSE (rad) against the 4-DoF ground truth: transfer {a['transfer_rmse']:.3f}, "
+              f"mean demonstration {a['mean_demo_rmse']:.3f}, nearest demonstration's partner "
+              f"{a['nearest_partner_rmse']:.3f}")
+    write_json(result, args.json)
+    if args.plot:
+        from acnmp_core.plots import plot_transfer
+
+        print(f"wrote {plot_transfer(result, args.plot)}", flush=True)
+    return 0
