@@ -14,6 +14,7 @@ EPILOG = """\
 examples:
   acnmp query skills                        # the deployment `acnmp up` runs (found by its run file)
   acnmp query skills --namespace lab        # one of several: `acnmp status` lists them
+  acnmp query info                          # the deployment's one skill (after `acnmp up`: e1)
   acnmp query info --skill reach
   acnmp query predict --skill reach --obs 0:0.0,0.0 --obs 1:1.0,0.2 --steps 200
   acnmp query predict --skill push --obs 0:0.1,0.2,_ --task-params 0.4,0.3 --times 0,0.5,1 --json
@@ -80,7 +81,8 @@ def _common(parser: argparse.ArgumentParser, skill: bool = True) -> None:
                         help="seconds to wait for a reply (default: %(default)s)")
     parser.add_argument("--json", action="store_true", help="print the full reply as JSON")
     if skill:
-        parser.add_argument("--skill", "-s", required=True, help="skill name")
+        parser.add_argument("--skill", "-s", default=None,
+                            help="skill name (default: the deployment's skill, when it serves exactly one)")
 
 
 def int_at_least(lo: int):
@@ -202,7 +204,7 @@ def _run_predict(args) -> int:
     n_steps = None if query_times is not None else (100 if args.steps is None else args.steps)
     with _client(args) as client:
         try:
-            p = client.predict(args.skill, times, values, task_params,
+            p = client.predict(_skill(args, client), times, values, task_params,
                                query_times, n_steps=n_steps, obs_dims_mask=None if mask.all() else mask,
                                n_samples=args.samples, seed=args.seed)
         except ClientError as exc:
@@ -226,6 +228,20 @@ def _run_predict(args) -> int:
     return 0
 
 
+def _skill(args, client) -> str:
+    """``--skill``, or the one skill the deployment serves (liveliness tokens); a ClientError
+    (``unknown_skill``) naming the choices when none or several are served."""
+    from clients.client import ClientError
+
+    if args.skill is not None:
+        return args.skill
+    names = client.skills()
+    if len(names) == 1:
+        return names[0]
+    found = ", ".join(names) if names else "none yet"
+    raise ClientError("unknown_skill", f"--skill: choose the skill to ask (served: {found})")
+
+
 def _ask(args, ask) -> tuple[dict | None, int]:
     """``ask(client)`` on a client made from ``args``: (reply, 0) for the caller to print; (None,
     exit code) when it is done: an error reply was reported (1) or ``--json`` printed the reply (0)."""
@@ -243,7 +259,7 @@ def _ask(args, ask) -> tuple[dict | None, int]:
 
 
 def _run_info(args) -> int:
-    info, code = _ask(args, lambda client: client.info(args.skill))
+    info, code = _ask(args, lambda client: client.info(_skill(args, client)))
     if info is None:
         return code
     print(f"skill {info['skill']} version {info['version']} ({info['source']})")

@@ -39,9 +39,10 @@ def test_acnmp_up_then_query_with_no_arguments_20_of_20_and_ctrl_c(tmp_path, cap
             assert path.stat().st_mode & 0o777 == 0o600, path
         assert run.path.parent.stat().st_mode & 0o777 == 0o700
 
-        out = _cli("query", "info", "--skill", "e1")
+        # no argument at all: the run file finds the deployment, its one served skill is asked
+        out = _cli("query", "info")
         assert out.returncode == 0 and out.stdout.startswith("skill e1 version 0"), out.stderr
-        assert main(["query", "predict", "--skill", "e1", "--obs", "0:0,0", "--steps", "5"]) == 0
+        assert main(["query", "predict", "--obs", "0:0,0", "--steps", "5"]) == 0
         assert "skill e1 version 0: 5 steps x 2 dims" in capsys.readouterr().out
         # the anchor given by hand (as before the run file): its credentials are used
         assert main(["query", "info", "--skill", "e1", "--connect", run.anchor]) == 0
