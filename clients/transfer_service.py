@@ -107,11 +107,12 @@ def run_transfer_distributed(runs, *, workers: int = 2, record: str | None = Non
     result, marked ``distributed`` with the workers, the recording and the pair jobs."""
     from acnmp_core.experiments.transfer import make_setup
 
-    reference = {"reference_joint_angles": make_setup().new_a,
+    setup = make_setup()
+    reference = {"reference_joint_angles": setup.new_a,
                  "reference_link_lengths": np.asarray(robot(ROBOT_A).drawing.event_fields()["link_lengths"])}
     with transfer_deployment(workers, record, progress) as (pairs, make):
         result = run_transfer(runs, evaluator_factory=lambda cond: make(f"transfer-{cond}", task_config(), reference),
-                              pair_trainer=pairs.train, first_attempt=pairs.first_attempt, **kwargs)
+                              pair_trainer=pairs.train, first_attempt=pairs.first_attempt, setup=setup, **kwargs)
     result.update(distributed=True, workers=int(workers), recording=str(record) if record else None,
                   pair_jobs=dict(pairs.jobs))
     return result

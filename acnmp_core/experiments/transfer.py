@@ -260,6 +260,7 @@ def run_transfer(
     time_budget_s: float | None = None,
     pair_trainer: PairTrainer | None = None,
     first_attempt: Callable[[int], FirstAttempt] | None = None,
+    setup: E4Setup | None = None,
 ) -> dict:
     """Run E4 over several seeds; returns the JSON-ready result.
 
@@ -282,6 +283,7 @@ def run_transfer(
     first_attempt : ``(pair seed) -> FirstAttempt``: robot B's first attempt from another source
         (a model service's transfer query), compared per run with the one the RL starts from
         (``first_attempt_diff`` in ``per_run``).
+    setup : the demonstrations (default :func:`make_setup`; a caller that needs them too passes its own).
 
     Returns
     -------
@@ -300,7 +302,7 @@ def run_transfer(
         raise ValueError(f"conditions: expected a non-empty subset of {CONDITIONS}, got {list(conditions)}")
     cfg = cfg or TransferExperimentConfig()
     t0 = time.perf_counter()
-    setup = make_setup()
+    setup = setup or make_setup()
     shared = None
     if evaluator_factory is None:
         from ..tasks.transfer_scene import CubeGapTask

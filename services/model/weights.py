@@ -111,7 +111,11 @@ def parse_weights(msg: dict) -> ModelWeights:
     pair = field(msg, "partner", dict, default=None)
     if pair is not None:
         what = f"weights of skill {skill!r}: partner"
-        partner = _parse_model(field(pair, "config", dict), field(pair, "state", dict), what)
+        try:
+            p_config, p_state = field(pair, "config", dict), field(pair, "state", dict)
+        except WireError as exc:
+            raise WireError(exc.code, f"{what}: {exc.message}") from None
+        partner = _parse_model(p_config, p_state, what)
         for m, side in ((model, "A"), (partner, "B")):
             if m.config.n_task_params:
                 raise WireError("bad_request", f"{what}: robot {side}'s model has task parameters; a pair has none")

@@ -66,7 +66,7 @@ def draw_planar_chain(rec: rr.RecordingStream, job: str, idx: int, msg: dict, co
             f"arm/{job}/object", indexes=indexes,
             columns=rr.Cylinders3D.columns(centers=centers, lengths=np.full(steps, height, np.float32),
                                            radii=np.full(steps, radius, np.float32),
-                                           colors=[(200, 40, 40)] * steps).partition(ones))
+                                           colors=[(200, 40, 40)] * steps).partition(np.ones(steps, np.int64)))
         rec.log(f"arm/{job}/object_path", rr.LineStrips3D(
             [np.concatenate([obj, np.zeros((steps, 1))], axis=1)], colors=[color], labels=[f"#{idx}"]))
     tp = msg.get("task_params")
