@@ -200,16 +200,15 @@ class LearnerCore:
         """
         model = self.skill(skill).model
         request.target.query(model)  # the target must fit this skill's model
-        job = JobRecord.new(skill, request)
-        with self._lock:
-            self.jobs[job.job] = job
-            self.job_store.save(job)
-        self._queue.put(job.job)
-        return job
+        return self._enqueue(skill, request)
 
     def submit_pair(self, skill: str, request: PairTrainJob) -> JobRecord:
         """Queue the training of paired skill ``skill`` (a new skill, or the next version of one);
         returns the new job's record. On success the pair is committed as the skill's next version."""
+        return self._enqueue(skill, request)
+
+    def _enqueue(self, skill: str, request: AdaptJob | PairTrainJob) -> JobRecord:
+        """Record a new queued job of ``request`` on ``skill`` (saved first) and queue it."""
         job = JobRecord.new(skill, request)
         with self._lock:
             self.jobs[job.job] = job
