@@ -97,9 +97,9 @@ class PairTrainJob:
             if demos.n_task_params:
                 raise InputError(f"{name}: a transfer pair has no task parameters (time is its only input)")
             shortest = min(len(d.times) for d in demos)
-            if self.config.max_obs + self.config.n_targets > shortest:
-                raise InputError(f"config: max_obs + n_targets ({self.config.max_obs + self.config.n_targets}) "
-                                 f"exceeds the {shortest} points of the shortest demonstration of {name}")
+            if self.config.max_obs + 1 > shortest:  # the sampler's own bound (it trims n_targets to fit)
+                raise InputError(f"config.max_obs: the shortest demonstration of {name} has {shortest} points; "
+                                 f"need max_obs < {shortest}")
         for name in ("robot_a", "robot_b"):
             value = getattr(self, name)
             if value is not None:

@@ -74,7 +74,7 @@ def test_a_train_pair_request_round_trips_through_the_wire_and_the_job_record():
     ({"demos_a": {"times": T[::-1].copy(), "values": np.zeros((4, 30, 3))}}, "bad_request", "demos_a"),
     ({"config": {"warp": 9}}, "bad_request", "warp"),
     ({"config": {"steps": -1}}, "bad_request", "steps"),
-    ({"config": {"max_obs": 25, "n_targets": 10}}, "bad_request", "max_obs"),
+    ({"config": {"max_obs": 30}}, "bad_request", "max_obs"),
     ({"config": {"steps": 10**6}}, "too_large", "config.steps"),
     ({"config": {"widths": [4096] * 8}}, "too_large", "parameters"),
     ({"robot_b": "hexapod"}, "bad_request", "hexapod"),
