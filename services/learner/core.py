@@ -1,4 +1,5 @@
-"""The learner without zenoh: skills (CNMP + demonstrations + version), training, adaptation jobs.
+"""The learner without zenoh: skills (CNMP + demonstrations + version), training, adaptation and
+paired-skill jobs.
 
 :class:`LearnerCore` owns the durable state (services/learner/store.py) and runs one job at a time
 on a background thread: :func:`acnmp_core.adaptation.adapt` on a copy of the skill's model, with the
@@ -8,6 +9,11 @@ task). With ``commit`` a successful solution is assimilated: added to the demons
 trains on (``fit_normalization=False``) and a new version is committed. Everything the outside
 sees goes through two callables: ``publish(event)`` for events (services/recording/events.py) and
 ``on_version(state)`` when a skill version is committed (the service puts the weights).
+
+A ``train_pair`` job (:class:`~acnmp_core.transfer_job.PairTrainJob`) runs on the same queue:
+:func:`acnmp_core.transfer.train_pair` on a fresh pair, progress every 5 % of its steps, and the
+pair committed as the skill's next version (robot A's CNMP as its model, robot B's as its
+``partner``), with the latents of both robots' demonstrations published.
 
 Restart: skills reload with their demonstrations (hash-checked); a job that was running restarts
 **from its beginning with the same seed** under a new ``attempt`` number (adapt() cannot be resumed
@@ -316,15 +322,11 @@ class LearnerCore:
                 raise JobCancelled(job_id)
             job.state = "running"
             job.attempt_start_index = job.next_index
-            if isinstance(job.request, PairTrainJob):
-                self.job_store.save(job)
-                pair_job = True
-            else:
-                pair_job = False
+            if not isinstance(job.request, PairTrainJob):  # an adaptation, on a copy of its skill's model
                 skill = self.skills[job.skill]
                 model, demos, start_version = copy.deepcopy(skill.model), skill.demos, skill.version
-                self.job_store.save(job)
-        if pair_job:
+            self.job_store.save(job)
+        if isinstance(job.request, PairTrainJob):
             self._run_pair(job)
             return
         req = job.request

@@ -1,11 +1,14 @@
-"""An adaptation job as the learner keeps it: the request, where it stands, and its result.
+"""A job as the learner keeps it: the request, where it stands, and its result.
+
+A job is an adaptation (request :class:`~acnmp_core.adapt_job.AdaptJob`, result
+:class:`~acnmp_core.adaptation.AdaptResult`) or a paired skill's training (``kind``
+``train_pair``: :class:`~acnmp_core.transfer_job.PairTrainJob`, :class:`~acnmp_core.transfer_job.PairJobResult`);
+a record without ``kind`` is an adaptation, so the records of earlier versions load.
 
 One :class:`JobRecord` per job lives in the learner's memory and, as JSON, in
-``<state_dir>/jobs/<job>.json`` (services/learner/store.py). The request is the typed
-:class:`~acnmp_core.adapt_job.AdaptJob` and the result the typed
-:class:`~acnmp_core.adaptation.AdaptResult`; only :meth:`JobRecord.to_dict` and
-:meth:`JobRecord.from_dict` turn them into plain values and back. The JSON layout is the one the
-learner has always written, so job records of earlier versions load.
+``<state_dir>/jobs/<job>.json`` (services/learner/store.py). Request and result are typed; only
+:meth:`JobRecord.to_dict` and :meth:`JobRecord.from_dict` turn them into plain values and back.
+The JSON layout is the one the learner has always written, plus ``kind``.
 """
 from __future__ import annotations
 
