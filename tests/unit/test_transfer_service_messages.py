@@ -258,3 +258,18 @@ def test_the_recording_draws_both_arms_and_the_latent_map(tmp_path, verify_rrd):
             "/arm/transfer-0/reference"} <= entities
     with pytest.raises(WireError):  # a map position is two numbers
         decode_event(encode({**events[0], "map_xy": np.zeros(3)}))
+
+
+def test_query_transfer_takes_the_predict_options_but_no_task_parameters(capsys):
+    from clients.cli import main
+
+    with pytest.raises(SystemExit) as exit_:
+        main(["query", "transfer", "--help"])
+    out = capsys.readouterr().out
+    assert exit_.value.code == 0 and "robot A" in out
+    for text in ("--obs", "--obs-json", "--steps", "--times", "--samples", "--json", "--skill"):
+        assert text in out
+    assert "--task-params P1" not in out  # (the shared examples below the options mention predict's)
+    with pytest.raises(SystemExit) as exit_:  # argparse: usage and one line naming the option
+        main(["query", "transfer", "--task-params", "1"])
+    assert exit_.value.code == 2 and "--task-params" in capsys.readouterr().err.splitlines()[-1]
