@@ -16,7 +16,9 @@ demonstrations.
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass, field, fields
+from typing import Any, Callable
 
 import numpy as np
 import torch
@@ -25,7 +27,8 @@ from torch import nn
 from .cnmp import CNMP, CNMPConfig, Prediction, Query
 from .data import DemoSet, Episode
 from .training import TrainConfig, make_sampler, nll_loss
-from .validation import check_array, check_positive_int
+from .errors import InputError
+from .validation import check_array, check_positive_int, check_type
 
 
 @dataclass
@@ -67,6 +70,24 @@ class TransferConfig:
         d["widths"] = list(self.widths)
         return d
 
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> "TransferConfig":
+        """Inverse of :meth:`to_dict`: any subset of the fields (the rest take their defaults).
+        An unknown field or an invalid value raises :class:`~acnmp_core.errors.InputError`."""
+        check_type("config", d, Mapping)
+        names = {f.name for f in fields(cls)}
+        unknown = sorted(set(d) - names)
+        if unknown:
+            raise InputError(f"config: unknown setting(s) {unknown}; allowed: {sorted(names)}")
+        values = dict(d)
+        if "widths" in values:
+            check_type("config.widths", values["widths"], (list, tuple))
+            values["widths"] = tuple(values["widths"])
+        try:
+            return cls(**values)
+        except (TypeError, ValueError) as exc:
+            raise InputError(f"config: {exc}") from None
+
     def sampling(self) -> TrainConfig:
         """The episode sampling of this config as a :class:`TrainConfig` (full observations only)."""
         return TrainConfig(batch_size=self.batch_size, min_obs=self.min_obs, max_obs=self.max_obs,
@@ -95,6 +116,19 @@ class TransferPair:
         self.model_a = CNMP(CNMPConfig(n_a, 0, cfg.widths, cfg.widths), seed=seed)
         self.model_b = CNMP(CNMPConfig(n_b, 0, cfg.widths, cfg.widths), seed=seed + 1)
 
+    @classmethod
+    def from_models(cls, model_a: CNMP, model_b: CNMP) -> "TransferPair":
+        """A pair of two existing CNMPs (e.g. rebuilt from a weights message), used as they are.
+        Raises InputError unless both have no task parameters and latents of one size."""
+        if model_a.config.n_task_params or model_b.config.n_task_params:
+            raise InputError("models: a transfer pair's CNMPs have no task parameters")
+        if model_a.config.latent_dim != model_b.config.latent_dim:
+            raise InputError(f"model_b: latent size {model_b.config.latent_dim} differs from model_a's "
+                             f"{model_a.config.latent_dim}")
+        pair = cls.__new__(cls)
+        pair.model_a, pair.model_b = model_a, model_b
+        return pair
+
     def latent_a(self, times, values_a) -> np.ndarray:
         """Latent (L,) of robot A's observations: times (N,), values_a (N, D_A) raw units."""
         return self.model_a.encode_demo(times, values_a)
@@ -121,13 +155,15 @@ def _paired_episodes(samplers, batch_size: int, n_demos: int, gen: torch.Generat
 
 
 def train_pair(pair: TransferPair, demos_a: DemoSet, demos_b: DemoSet, cfg: TransferConfig | None = None, *,
-               seed: int = 0) -> PairTrainResult:
+               seed: int = 0, on_step: Callable[[int, PairTrainResult], None] | None = None) -> PairTrainResult:
     """Train both CNMPs of ``pair`` in place on paired demonstrations.
 
     demos_a (n demos of (T, D_A)) and demos_b (n of (T, D_B)), raw units; demonstration i of one
     pairs with demonstration i of the other. Each step draws ``batch_size`` demonstrations, an
     episode of each robot from each (its own observation and target times), and minimises
     ``NLL_A + NLL_B + latent_weight * mean((r_A - r_B)^2)``. Deterministic given ``seed``.
+    ``on_step(steps_done, losses_so_far)`` is called after every step (a service reports progress
+    from it, or raises to stop the training; the models are then left half-trained, in train mode).
     Returns the per-step losses.
     """
     cfg = cfg or TransferConfig()
@@ -154,6 +190,8 @@ def train_pair(pair: TransferPair, demos_a: DemoSet, demos_b: DemoSet, cfg: Tran
         result.nll_a.append(la.item())
         result.nll_b.append(lb.item())
         result.align.append(align.item())
+        if on_step is not None:
+            on_step(len(result.align), result)
     a.eval()
     b.eval()
     return result
@@ -228,3 +266,16 @@ def spread_observations(times, values, n_obs: int) -> tuple[np.ndarray, np.ndarr
     n_obs = check_positive_int("n_obs", n_obs)
     idx = np.linspace(0, len(times) - 1, n_obs).round().astype(int)
     return times[idx], values[idx]
+
+
+def latent_plane(latents) -> np.ndarray:
+    """Latents (M, L) -> (M, 2): their coordinates on the plane of their first two principal
+    components (centred; a zero column where fewer than two directions vary). The map the paper's
+    Fig. 6 draws: paired demonstrations of two robots land on (nearly) the same point when aligned."""
+    x = check_array("latents", latents, ndim=2, min_size=1)
+    x = x - x.mean(axis=0)
+    _, _, vt = np.linalg.svd(x, full_matrices=False)
+    out = np.zeros((len(x), 2))
+    k = min(2, vt.shape[0])
+    out[:, :k] = x @ vt[:k].T
+    return out

@@ -22,6 +22,7 @@ import numpy as np
 import zenoh
 
 from acnmp_core.adapt_job import AdaptJob
+from acnmp_core.transfer_job import PairTrainJob
 from services.transport import DEFAULT_NAMESPACE, Keyspace, WireError, alive_tokens, open_session
 from services.transport.keys import last_chunk
 
@@ -145,6 +146,19 @@ class ACNMPClient:
                               obs_dims_mask=obs_dims_mask, n_samples=n_samples, seed=seed)
         return PredictResult.from_reply(self.request(self.keys.predict(skill), req, timeout))
 
+    def transfer(self, skill: str, obs_times, obs_values, query_times=None, *, n_steps: int | None = None,
+                 obs_dims_mask=None, n_samples: int | None = None, seed: int | None = None,
+                 timeout: float | None = None) -> PredictResult:
+        """Robot B's trajectory for robot A's observations, from paired skill ``skill`` (A's encoder,
+        B's decoder; docs/PROTOCOL.md ``skill/<skill>/transfer``).
+
+        obs_times (N,), obs_values (N, D_A) robot A's raw units, query_times (T,) or ``n_steps``.
+        Returns a :class:`PredictResult`: mean, std (T, D_B) robot B's raw units, latent (L,).
+        """
+        req = predict_request(obs_times, obs_values, None, query_times, n_steps=n_steps,
+                              obs_dims_mask=obs_dims_mask, n_samples=n_samples, seed=seed)
+        return PredictResult.from_reply(self.request(self.keys.transfer(skill), req, timeout))
+
     def predict_batch(self, skill: str, requests: Sequence[dict], timeout: float | None = None) -> list[PredictResult]:
         """Several predict requests (maps from :func:`predict_request`) in one query, answered by one
         model version. Returns one :class:`PredictResult` per request, in order."""
@@ -178,6 +192,19 @@ class ACNMPClient:
         """Queue adaptation ``job`` (:class:`~acnmp_core.adapt_job.AdaptJob`) on ``skill``; returns the
         job id. The request is ``job.to_dict()`` (docs/PROTOCOL.md, ``skill/<skill>/adapt``)."""
         return self._job(self.request(self.keys.adapt(skill), {"v": 1, **job.to_dict()}, timeout))
+
+    def train_pair(self, skill: str, job: PairTrainJob, timeout: float | None = None) -> str:
+        """Queue the training of paired skill ``skill`` (:class:`~acnmp_core.transfer_job.PairTrainJob`:
+        two robots' paired demonstrations, a TransferConfig, a seed) on the learner; returns the job
+        id (follow it with :meth:`wait_job`; its status' ``committed_version`` is the new version)."""
+        return self._job(self.request(self.keys.train_pair(skill), {"v": 1, **job.to_dict()}, timeout))
+
+    def weights(self, skill: str, timeout: float | None = None):
+        """The learner's newest weights of ``skill``, rebuilt and checked
+        (:class:`services.model.weights.ModelWeights`: ``model``, and ``partner`` for a paired skill)."""
+        from services.model.weights import parse_weights
+
+        return parse_weights(self.request(self.keys.weights_latest(skill), None, timeout))
 
     @staticmethod
     def _job(reply: dict) -> str:

@@ -68,28 +68,37 @@ def patiently(send: Callable[[], T], what: str, patience: float = PATIENCE, *, p
 def remote_rollouts(robot: str, task: str, *, workers: int = 2, record: str | None = None,
                     prefix: str = "exp", progress: bool = True) -> Iterator[Callable[..., object]]:
     """Start ``workers`` workers of ``robot`` (and a recorder writing ``record`` when given) on a
-    fresh local deployment; yield ``make(job, task_config=None)``, which returns an evaluator that
-    executes roll-outs of ``task`` on those workers (with fail-over) and, when recording, publishes
-    every roll-out under the job name ``<job>-<n>`` (n counts the evaluators made, so repeated runs
-    of one method never share roll-out indices). Everything stops when the block exits."""
+    fresh local deployment; yield ``make(job, task_config=None, extra=None)``, which returns an
+    evaluator that executes roll-outs of ``task`` on those workers (with fail-over) and, when
+    recording, publishes every roll-out under the job name ``<job>-<n>`` (n counts the evaluators
+    made, so repeated runs of one method never share roll-out indices), with the fields ``extra``
+    added to each event. Everything stops when the block exits."""
     ns = f"{prefix}-{os.getpid()}"
     with LocalDeployment(ns, workers=workers, robot=robot, record=record, model=False, learner=False) as dep:
         if progress:
             print(dep.describe(), flush=True)
-        publisher = None
-        if record:
-            publisher = EventPublisher(dep.session, dep.keys)
-            if not publisher.wait_for_recorder(timeout=30):
-                raise RuntimeError(f"the recorder of deployment {ns!r} did not come up")
-        counter = itertools.count()
+        yield evaluator_maker(dep, robot, task, record=bool(record))
 
-        def make(job: str, task_config: dict | None = None):
-            remote = RemoteEvaluator(dep.session, dep.keys, robot, task, task_config)
-            if publisher is None:
-                return remote
-            return RecordedEvaluator(remote, publisher, f"{job}-{next(counter)}", robot)
 
-        yield make
+def evaluator_maker(dep: LocalDeployment, robot: str, task: str, *, record: bool) -> Callable[..., object]:
+    """``make(job, task_config=None, extra=None)`` for a started deployment ``dep``: an evaluator
+    that executes roll-outs of ``task`` on its ``robot`` workers (with fail-over) and, with
+    ``record``, publishes every roll-out under the job name ``<job>-<n>`` (n counts the evaluators
+    made) with the fields ``extra`` added to each event. RuntimeError if its recorder is not up."""
+    publisher = None
+    if record:
+        publisher = EventPublisher(dep.session, dep.keys)
+        if not publisher.wait_for_recorder(timeout=30):
+            raise RuntimeError(f"the recorder of deployment {dep.namespace!r} did not come up")
+    counter = itertools.count()
+
+    def make(job: str, task_config: dict | None = None, extra: dict | None = None):
+        remote = RemoteEvaluator(dep.session, dep.keys, robot, task, task_config)
+        if publisher is None:
+            return remote
+        return RecordedEvaluator(remote, publisher, f"{job}-{next(counter)}", robot, extra)
+
+    return make
 
 
 class DeployedSkill:

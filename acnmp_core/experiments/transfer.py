@@ -151,12 +151,22 @@ def paired_latent_distance(pair: TransferPair, setup: E4Setup) -> float:
     return float(paired / max(spread[np.triu_indices(len(ra), 1)].mean(), 1e-12))
 
 
+#: ``(condition, target) -> (T, D_B)``: robot B's first attempt as another source gives it (the model
+#: service's transfer query), or None where it has none (control b has no transfer).
+FirstAttempt = Callable[[str, AdaptTarget], "np.ndarray | None"]
+#: ``(setup, cfg, pair seed) -> {"aligned": pair, "plain": pair}``: how the pairs are trained.
+PairTrainer = Callable[[E4Setup, TransferExperimentConfig, int], dict[str, TransferPair]]
+
+
 def run_condition(pairs: dict[str, TransferPair], setup: E4Setup, condition: str, evaluator: RolloutEvaluator,
-                  cfg: TransferExperimentConfig, seed: int, on_iteration: Callable | None = None) -> dict:
+                  cfg: TransferExperimentConfig, seed: int, on_iteration: Callable | None = None,
+                  first_attempt: FirstAttempt | None = None) -> dict:
     """RL in robot B for one condition (on copies of the pairs' models). Returns ``{"success",
     "iterations" (to the first successful mean, None if none), "rollouts", "initial_rmse_to_expert"
     (rad, the un-adapted trajectory against :attr:`E4Setup.expert_b`), "initial_error",
-    "final_error" (m), "curve": [[iteration, error of the mean], ...]}``."""
+    "final_error" (m), "curve": [[iteration, error of the mean], ...]}``; with ``first_attempt``
+    also ``"first_attempt_diff"``: the largest difference (rad) between the first attempt it gives
+    and the one the adaptation starts from (0: the same trajectory), None where it gives none."""
     if condition == "no_transfer":
         model = copy.deepcopy(pairs["plain"].model_b)
         params = list(model.decoder.parameters())
@@ -164,6 +174,14 @@ def run_condition(pairs: dict[str, TransferPair], setup: E4Setup, condition: str
         pair = copy.deepcopy(pairs["aligned" if condition == "transfer" else "plain"])
         model = TransferredSkill(pair)
         params = model.decoder_parameters()
+    target = setup.target(condition, cfg.n_obs)
+    diff = None
+    if first_attempt is not None:
+        given = first_attempt(condition, target)
+        if given is not None:
+            own = model.predict_query(model.make_query(target.obs_times, target.obs_values, None,
+                                                       target.query_times)).mean
+            diff = float(np.max(np.abs(np.asarray(given) - own)))
     first_trajectory: dict[str, np.ndarray] = {}
 
     def record(log, trajs, batch):
@@ -171,14 +189,14 @@ def run_condition(pairs: dict[str, TransferPair], setup: E4Setup, condition: str
         if on_iteration is not None:
             on_iteration(log, trajs, batch)
 
-    res = adapt(model, setup.demos_b, setup.target(condition, cfg.n_obs), evaluator, cfg.adapt, seed=seed,
-                on_iteration=record, params=params)
+    res = adapt(model, setup.demos_b, target, evaluator, cfg.adapt, seed=seed, on_iteration=record, params=params)
     first = next((h.iteration for h in res.history if h.mean_success), None)
     initial = first_trajectory["traj"]
     return {"success": bool(res.success), "iterations": first, "rollouts": int(res.rollouts),
             "initial_rmse_to_expert": float(np.sqrt(np.mean((initial - setup.expert_b) ** 2))),
             "initial_error": float(res.history[0].mean_error), "final_error": float(res.history[-1].mean_error),
-            "curve": [[h.iteration, float(h.mean_error)] for h in res.history]}
+            "curve": [[h.iteration, float(h.mean_error)] for h in res.history],
+            **({} if first_attempt is None else {"first_attempt_diff": diff})}
 
 
 def summarise(runs: list[dict], checkpoints=CHECKPOINTS) -> dict:
@@ -240,6 +258,9 @@ def run_transfer(
     on_iteration: Callable[[str, int], Callable] | None = None,
     log: Callable[[str], None] | None = None,
     time_budget_s: float | None = None,
+    pair_trainer: PairTrainer | None = None,
+    first_attempt: Callable[[int], FirstAttempt] | None = None,
+    setup: E4Setup | None = None,
 ) -> dict:
     """Run E4 over several seeds; returns the JSON-ready result.
 
@@ -257,6 +278,12 @@ def run_transfer(
     log : called with one line per finished condition.
     time_budget_s : start no new run once this much wall time has passed (the result then says
         ``runs`` < ``runs_requested``); None: run them all.
+    pair_trainer : trains the pairs of a pair seed (default :func:`train_pairs`, in this process;
+        a deployment's learner with the same seeds gives the same pairs).
+    first_attempt : ``(pair seed) -> FirstAttempt``: robot B's first attempt from another source
+        (a model service's transfer query), compared per run with the one the RL starts from
+        (``first_attempt_diff`` in ``per_run``).
+    setup : the demonstrations (default :func:`make_setup`; a caller that needs them too passes its own).
 
     Returns
     -------
@@ -275,7 +302,7 @@ def run_transfer(
         raise ValueError(f"conditions: expected a non-empty subset of {CONDITIONS}, got {list(conditions)}")
     cfg = cfg or TransferExperimentConfig()
     t0 = time.perf_counter()
-    setup = make_setup()
+    setup = setup or make_setup()
     shared = None
     if evaluator_factory is None:
         from ..tasks.transfer_scene import CubeGapTask
@@ -292,7 +319,7 @@ def run_transfer(
             done.append(seed)
             key = seed % cfg.pair_seeds
             if key not in trained:
-                trained[key] = train_pairs(setup, cfg, key)
+                trained[key] = (pair_trainer or train_pairs)(setup, cfg, key)
                 for name, pair in trained[key].items():
                     alignment[name].append(paired_latent_distance(pair, setup))
             pairs = trained[key]
@@ -301,7 +328,8 @@ def run_transfer(
                 ev = shared if shared is not None else evaluator_factory(cond)
                 cb = on_iteration(cond, seed) if on_iteration else None
                 r = {"seed": seed, "pair_seed": key, "condition": cond,
-                     **run_condition(pairs, setup, cond, ev, cfg, seed, cb),
+                     **run_condition(pairs, setup, cond, ev, cfg, seed, cb,
+                                     None if first_attempt is None else first_attempt(key)),
                      "time_s": round(time.perf_counter() - t1, 2)}
                 per_run.append(r)
                 if log:

@@ -1,4 +1,4 @@
-"""``acnmp query predict|info|skills``: ask a running deployment's model service from the shell."""
+"""``acnmp query predict|transfer|info|skills|cancel``: ask a running deployment from the shell."""
 from __future__ import annotations
 
 import argparse
@@ -19,6 +19,7 @@ examples:
   acnmp query predict --skill reach --obs 0:0.0,0.0 --obs 1:1.0,0.2 --steps 200
   acnmp query predict --skill push --obs 0:0.1,0.2,_ --task-params 0.4,0.3 --times 0,0.5,1 --json
   acnmp query predict --skill reach --obs-json '[[0.0, [0.0, 0.0]]]' --samples 5 --seed 1
+  acnmp query transfer --skill e4 --obs 0:0.1,0.5,0.2 --obs 1:0.3,0.4,0.1 --steps 300   # robot A in, B out
 
 An observation is TIME:V1,V2,... with one value per output dimension; write _ for a dimension the
 observation does not carry (it is masked out). Without --connect or --config the command finds
@@ -29,7 +30,7 @@ router) skips that.
 
 
 def register(subparsers) -> None:
-    """Add ``query`` with the ``predict``, ``info`` and ``skills`` sub-commands."""
+    """Add ``query`` with the ``predict``, ``transfer``, ``info``, ``skills`` and ``cancel`` sub-commands."""
     parser = subparsers.add_parser(
         "query", help="query a running model service (predict, info, skills)",
         description="Query a running deployment's model service over zenoh.",
@@ -40,20 +41,16 @@ def register(subparsers) -> None:
                              description="Condition a skill on observations (and task parameters) and print the "
                                          "predicted mean and std per step.",
                              epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
-    _common(predict)
-    predict.add_argument("--obs", action="append", default=[], metavar="T:V1,V2,...",
-                         help="one observation: time, then a value per output dimension (_ = not observed). Repeatable")
-    predict.add_argument("--obs-json", metavar="JSON",
-                         help='observations as JSON: [[t, [v1, v2, ...]], ...] (null = not observed), or @FILE')
-    predict.add_argument("--task-params", metavar="P1,P2,...", help="task parameters, comma-separated")
-    when = predict.add_mutually_exclusive_group()
-    when.add_argument("--steps", type=int_at_least(2), default=None, metavar="N",
-                      help="predict at N >= 2 times spread over the trained time range (default: 100)")
-    when.add_argument("--times", metavar="T1,T2,...", help="predict at these times")
-    predict.add_argument("--samples", type=int_at_least(0), default=None, metavar="S",
-                         help="also draw S sampled trajectories")
-    predict.add_argument("--seed", type=int_at_least(0), default=None, help="seed of the samples")
+    _prediction_arguments(predict, task_params=True)
     predict.set_defaults(func=_run_predict)
+
+    transfer = sub.add_parser("transfer", help="robot B's trajectory for robot A's observations (a paired skill)",
+                              description="Encode robot A's observations with a paired skill's encoder A and "
+                                          "decode robot B's trajectory with its decoder B (skill transfer); print "
+                                          "B's mean and std per step and the latent.",
+                              epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    _prediction_arguments(transfer, task_params=False)
+    transfer.set_defaults(func=_run_transfer)
 
     info = sub.add_parser("info", help="describe a served skill (dimensions, names, ranges, version)",
                           description="Describe the model serving a skill.")
@@ -71,6 +68,24 @@ def register(subparsers) -> None:
     _common(cancel, skill=False)
     cancel.add_argument("job", metavar="JOB", help="job id (as the adapt reply gave it)")
     cancel.set_defaults(func=_run_cancel)
+
+
+def _prediction_arguments(parser: argparse.ArgumentParser, task_params: bool) -> None:
+    """The options of ``predict`` and ``transfer``: observations, query times, samples."""
+    _common(parser)
+    parser.add_argument("--obs", action="append", default=[], metavar="T:V1,V2,...",
+                        help="one observation: time, then a value per output dimension (_ = not observed). Repeatable")
+    parser.add_argument("--obs-json", metavar="JSON",
+                        help='observations as JSON: [[t, [v1, v2, ...]], ...] (null = not observed), or @FILE')
+    if task_params:
+        parser.add_argument("--task-params", metavar="P1,P2,...", help="task parameters, comma-separated")
+    when = parser.add_mutually_exclusive_group()
+    when.add_argument("--steps", type=int_at_least(2), default=None, metavar="N",
+                      help="predict at N >= 2 times spread over the trained time range (default: 100)")
+    when.add_argument("--times", metavar="T1,T2,...", help="predict at these times")
+    parser.add_argument("--samples", type=int_at_least(0), default=None, metavar="S",
+                        help="also draw S sampled trajectories")
+    parser.add_argument("--seed", type=int_at_least(0), default=None, help="seed of the samples")
 
 
 def _common(parser: argparse.ArgumentParser, skill: bool = True) -> None:
@@ -193,6 +208,18 @@ def _fail(exc) -> int:
 
 
 def _run_predict(args) -> int:
+    return _run_prediction(args, lambda client, skill, **kw: client.predict(
+        skill, task_params=_floats(args.task_params, "--task-params"), **kw))
+
+
+def _run_transfer(args) -> int:
+    return _run_prediction(args, lambda client, skill, **kw: client.transfer(skill, **kw))
+
+
+def _run_prediction(args, ask) -> int:
+    """Parse the observations and query times of ``args``, ``ask(client, skill, obs_times=,
+    obs_values=, query_times=, n_steps=, obs_dims_mask=, n_samples=, seed=)`` for a
+    :class:`~clients.client.PredictResult`, print it (a table, or ``--json``)."""
     from clients.client import ClientError
 
     if args.obs_json:
@@ -200,13 +227,12 @@ def _run_predict(args) -> int:
     else:
         times, values, mask = parse_obs(args.obs)
     query_times = _floats(args.times, "--times")
-    task_params = _floats(args.task_params, "--task-params")
     n_steps = None if query_times is not None else (100 if args.steps is None else args.steps)
     with _client(args) as client:
         try:
-            p = client.predict(_skill(args, client), times, values, task_params,
-                               query_times, n_steps=n_steps, obs_dims_mask=None if mask.all() else mask,
-                               n_samples=args.samples, seed=args.seed)
+            p = ask(client, _skill(args, client), obs_times=times, obs_values=values, query_times=query_times,
+                    n_steps=n_steps, obs_dims_mask=None if mask.all() else mask, n_samples=args.samples,
+                    seed=args.seed)
         except ClientError as exc:
             return _fail(exc)
     if args.json:
@@ -272,6 +298,10 @@ def _run_info(args) -> int:
         print(f"    {name}: [{a:g}, {b:g}]")
     print(f"  time range: [{info['time_range'][0]:g}, {info['time_range'][1]:g}]; latent dim {info['latent_dim']}")
     print(f"  trained on {info['n_demos']} demos, data hash {info['data_hash'][:16] or '-'}")
+    partner = info.get("partner")
+    if partner:
+        print(f"  paired skill: `acnmp query transfer` answers robot B's {partner['n_outputs']} outputs "
+              f"({', '.join(partner['output_names'])}) for these {info['n_outputs']} of robot A")
     return 0
 
 

@@ -25,7 +25,8 @@ def register(subparsers) -> None:
     p.add_argument("--no-authors-data", action="store_true",
                    help="skip the check on the authors' published arrays (../shared/data/acnmp-paper)")
     add_output_arguments(p, "write success vs RL iteration per condition, the paper's beside (PNG)")
-    add_deployment_arguments(p, "the 4-DoF arm's roll-outs on planar4 PyBullet workers")
+    add_deployment_arguments(p, "the pairs trained by the learner, the 4-DoF arm's first attempt from the model "
+                                "service's transfer query, its roll-outs on planar4 PyBullet workers")
     p.add_argument("--quiet", action="store_true", help="no per-run lines")
     p.set_defaults(func=run)
 
@@ -36,7 +37,7 @@ def run(args) -> int:
 
     from dataclasses import replace
 
-    from acnmp_core.experiments.transfer import TransferExperimentConfig, run_transfer, task_config
+    from acnmp_core.experiments.transfer import TransferExperimentConfig, run_transfer
 
     torch.set_num_threads(1)  # the CNMPs are small; threads only contend with the simulator
     for name in ("runs", "pair_steps", "budget"):
@@ -52,12 +53,14 @@ def run(args) -> int:
     kwargs = dict(cfg=cfg, authors_data=not args.no_authors_data,
                   log=None if args.quiet else (lambda s: print(s, flush=True)))
     if args.distributed:
-        from clients.distributed import remote_rollouts
+        from clients.transfer_service import run_transfer_distributed
 
-        with remote_rollouts("planar4", "cube_gap", workers=args.workers, record=args.record, prefix="e4",
-                             progress=not args.quiet) as make:
-            result = run_transfer(args.runs, evaluator_factory=lambda cond: make(f"transfer-{cond}", task_config()),
-                                  **kwargs)
+        result = run_transfer_distributed(args.runs, workers=args.workers, record=args.record,
+                                          progress=not args.quiet, **kwargs)
+        diffs = [r["first_attempt_diff"] for r in result["per_run"] if r.get("first_attempt_diff") is not None]
+        print(f"pairs trained by the learner ({len(result['pair_jobs'])} train_pair jobs); robot B's first "
+              f"attempt from the model service's transfer query, largest difference from the RL's start "
+              f"{max(diffs) if diffs else 0.0:.3g} rad")
     else:
         result = run_transfer(args.runs, **kwargs)
     print(f"E4 transfer 3-DoF -> 4-DoF, {result['runs']} run(s), {result['wall_time_s']:.1f} s")

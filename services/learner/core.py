@@ -1,4 +1,5 @@
-"""The learner without zenoh: skills (CNMP + demonstrations + version), training, adaptation jobs.
+"""The learner without zenoh: skills (CNMP + demonstrations + version), training, adaptation and
+paired-skill jobs.
 
 :class:`LearnerCore` owns the durable state (services/learner/store.py) and runs one job at a time
 on a background thread: :func:`acnmp_core.adaptation.adapt` on a copy of the skill's model, with the
@@ -8,6 +9,11 @@ task). With ``commit`` a successful solution is assimilated: added to the demons
 trains on (``fit_normalization=False``) and a new version is committed. Everything the outside
 sees goes through two callables: ``publish(event)`` for events (services/recording/events.py) and
 ``on_version(state)`` when a skill version is committed (the service puts the weights).
+
+A ``train_pair`` job (:class:`~acnmp_core.transfer_job.PairTrainJob`) runs on the same queue:
+:func:`acnmp_core.transfer.train_pair` on a fresh pair, progress every 5 % of its steps, and the
+pair committed as the skill's next version (robot A's CNMP as its model, robot B's as its
+``partner``), with the latents of both robots' demonstrations published.
 
 Restart: skills reload with their demonstrations (hash-checked); a job that was running restarts
 **from its beginning with the same seed** under a new ``attempt`` number (adapt() cannot be resumed
@@ -44,6 +50,8 @@ from acnmp_core.cnmp import CNMP, CNMPConfig
 from acnmp_core.data import DemoSet, Demonstration
 from acnmp_core.rollout import RolloutBatch, RolloutEvaluator
 from acnmp_core.training import TrainConfig, train
+from acnmp_core.transfer import PairTrainResult, TransferPair, latent_plane, train_pair
+from acnmp_core.transfer_job import PairJobResult, PairTrainJob
 from services.recording.events import (batch_rollout_events, job_progress_event, latent_event,
                                        model_version_event, robot_drawing)
 
@@ -73,6 +81,22 @@ class TrainSpec:
     model_cfg: CNMPConfig
     train_cfg: TrainConfig
     seed: int = 0
+
+
+def pair_latent_events(state: SkillState, robots: tuple[str | None, str | None]) -> list[dict]:
+    """``latent`` events of a paired skill's version: robot A's demonstration i through A's
+    encoder (label ``a-demo<i>``) and robot B's through B's (``b-demo<i>``), ``robot`` the kinds
+    when known, each with ``map_xy``, its place on the principal plane of all 2 N latents."""
+    latents, labels, kinds = [], [], []
+    for side, model, demos, kind in (("a", state.model, state.demos, robots[0]),
+                                     ("b", state.partner, state.partner_demos, robots[1])):
+        for i, demo in enumerate(demos):
+            latents.append(model.encode_demo(demo.times, demo.values))
+            labels.append(f"{side}-demo{i}")
+            kinds.append(kind or f"robot_{side}")
+    plane = latent_plane(np.stack(latents))
+    return [latent_event(state.name, state.version, z, label=label, robot=kind, map_xy=xy)
+            for z, label, kind, xy in zip(latents, labels, kinds, plane)]
 
 
 class LearnerCore:
@@ -154,17 +178,23 @@ class LearnerCore:
             self._commit_skill(state, loss=res.best_val, note="trained")
         return state
 
-    def _commit_skill(self, state: SkillState, **extra) -> None:
+    def _commit_skill(self, state: SkillState, robots: tuple[str | None, str | None] = (None, None),
+                      **extra) -> None:
         # checkpoint first (a published version must survive a crash), then announce it
         self.skill_store.save(state)
         self.skills[state.name] = state
         self.on_version(state)
         self.publish(model_version_event(state.name, state.version, n_demos=len(state.demos),
                                          **{k: v for k, v in extra.items() if v is not None}))
-        # The latent of every demonstration under this version, for the recording's latent view.
-        for i, demo in enumerate(state.demos):
-            latent = state.model.encode_demo(demo.times, demo.values, demo.task_params)
-            self.publish(latent_event(state.name, state.version, latent, label=f"demo{i}"))
+        # The latent of every demonstration under this version, for the recording's latent view;
+        # a paired skill's both robots', labelled a-/b-demo<i>, so paired latents sit side by side.
+        if state.partner is None:
+            for i, demo in enumerate(state.demos):
+                latent = state.model.encode_demo(demo.times, demo.values, demo.task_params)
+                self.publish(latent_event(state.name, state.version, latent, label=f"demo{i}"))
+        else:
+            for ev in pair_latent_events(state, robots):
+                self.publish(ev)
         log.info("skill %s: version %d (%d demos)", state.name, state.version, len(state.demos))
 
     # ----- jobs ------------------------------------------------------------------------------
@@ -176,6 +206,15 @@ class LearnerCore:
         """
         model = self.skill(skill).model
         request.target.query(model)  # the target must fit this skill's model
+        return self._enqueue(skill, request)
+
+    def submit_pair(self, skill: str, request: PairTrainJob) -> JobRecord:
+        """Queue the training of paired skill ``skill`` (a new skill, or the next version of one);
+        returns the new job's record. On success the pair is committed as the skill's next version."""
+        return self._enqueue(skill, request)
+
+    def _enqueue(self, skill: str, request: AdaptJob | PairTrainJob) -> JobRecord:
+        """Record a new queued job of ``request`` on ``skill`` (saved first) and queue it."""
         job = JobRecord.new(skill, request)
         with self._lock:
             self.jobs[job.job] = job
@@ -281,11 +320,15 @@ class LearnerCore:
                 return
             if job.cancel_requested:
                 raise JobCancelled(job_id)
-            skill = self.skills[job.skill]
-            model, demos, start_version = copy.deepcopy(skill.model), skill.demos, skill.version
             job.state = "running"
             job.attempt_start_index = job.next_index
+            if not isinstance(job.request, PairTrainJob):  # an adaptation, on a copy of its skill's model
+                skill = self.skills[job.skill]
+                model, demos, start_version = copy.deepcopy(skill.model), skill.demos, skill.version
             self.job_store.save(job)
+        if isinstance(job.request, PairTrainJob):
+            self._run_pair(job)
+            return
         req = job.request
         if job.result is None:
             on_iteration = self._recording(job)
@@ -303,6 +346,49 @@ class LearnerCore:
             job.state = "done"
             self.job_store.save(job)
         self.publish(self._progress_event(job, "done"))
+
+    def _run_pair(self, job: JobRecord) -> None:
+        """Train ``job``'s transfer pair (from its beginning, with its seed: a restarted attempt
+        gives the same pair), commit it as the skill's next version, mark the job done."""
+        req: PairTrainJob = job.request
+        if job.result is None:
+            pair = TransferPair(req.n_a, req.n_b, req.config, seed=req.seed)
+            with self._train_lock:
+                losses = train_pair(pair, req.demos_a, req.demos_b, req.config, seed=req.seed,
+                                    on_step=self._pair_progress(job))
+            with self._lock:
+                old = self.skills.get(job.skill)
+                state = SkillState(job.skill, pair.model_a, req.demos_a, 0 if old is None else old.version + 1,
+                                   partner=pair.model_b, partner_demos=req.demos_b)
+                self._commit_skill(state, (req.robot_a, req.robot_b), loss=losses.nll_b[-1] if losses.nll_b else None,
+                                   note=f"paired skill trained by {job.job}")
+                job.result = PairJobResult.from_losses(state.version, losses)
+                job.committed_version = state.version
+                job.state = "done"
+                self.job_store.save(job)
+        self.publish(self._progress_event(job, "done"))
+
+    def _pair_progress(self, job: JobRecord) -> Callable[[int, PairTrainResult], None]:
+        """``on_step`` of a pair training: every ~5 % of the steps the job's ``iteration`` (steps
+        done) is saved and a progress event published; stops the training (InterruptedError,
+        :class:`JobCancelled`) when the learner closes or the job is cancelled."""
+        every = max(1, job.request.config.steps // 20)
+
+        def on_step(done: int, losses: PairTrainResult) -> None:
+            if self._stop.is_set():
+                raise InterruptedError("learner is shutting down")
+            if job.cancel_requested:
+                raise JobCancelled(job.job)
+            if done % every and done != job.request.config.steps:
+                return
+            with self._lock:
+                job.iteration = done
+                self.job_store.save(job)
+            ev = self._progress_event(job, "running")
+            ev["loss"] = float(losses.nll_a[-1] + losses.nll_b[-1])
+            self.publish(ev)
+
+        return on_step
 
     def _recording(self, job: JobRecord) -> Callable[[IterationLog, np.ndarray, RolloutBatch], None]:
         """The ``on_iteration`` callback of ``job``'s adaptation: bookkeeping, then one rollout event

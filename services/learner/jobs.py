@@ -1,11 +1,14 @@
-"""An adaptation job as the learner keeps it: the request, where it stands, and its result.
+"""A job as the learner keeps it: the request, where it stands, and its result.
+
+A job is an adaptation (request :class:`~acnmp_core.adapt_job.AdaptJob`, result
+:class:`~acnmp_core.adaptation.AdaptResult`) or a paired skill's training (``kind``
+``train_pair``: :class:`~acnmp_core.transfer_job.PairTrainJob`, :class:`~acnmp_core.transfer_job.PairJobResult`);
+a record without ``kind`` is an adaptation, so the records of earlier versions load.
 
 One :class:`JobRecord` per job lives in the learner's memory and, as JSON, in
-``<state_dir>/jobs/<job>.json`` (services/learner/store.py). The request is the typed
-:class:`~acnmp_core.adapt_job.AdaptJob` and the result the typed
-:class:`~acnmp_core.adaptation.AdaptResult`; only :meth:`JobRecord.to_dict` and
-:meth:`JobRecord.from_dict` turn them into plain values and back. The JSON layout is the one the
-learner has always written, so job records of earlier versions load.
+``<state_dir>/jobs/<job>.json`` (services/learner/store.py). Request and result are typed; only
+:meth:`JobRecord.to_dict` and :meth:`JobRecord.from_dict` turn them into plain values and back.
+The JSON layout is the one the learner has always written, plus ``kind``.
 """
 from __future__ import annotations
 
@@ -16,6 +19,7 @@ from typing import Any
 
 from acnmp_core.adapt_job import AdaptJob, result_from_dict, result_to_dict
 from acnmp_core.adaptation import AdaptResult
+from acnmp_core.transfer_job import PairJobResult, PairTrainJob
 from services.transport.wire import jsonable
 
 #: Job states: queued -> running -> done | failed | cancelled. ``interrupted``: the learner stopped
@@ -45,7 +49,7 @@ class JobRecord:
 
     job: str
     skill: str
-    request: AdaptJob
+    request: AdaptJob | PairTrainJob
     state: str = "queued"
     attempt: int = 0
     next_index: int = 0
@@ -53,7 +57,7 @@ class JobRecord:
     iteration: int = 0
     rollouts: int = 0
     best_return: float | None = None
-    result: AdaptResult | None = None
+    result: AdaptResult | PairJobResult | None = None
     error: str | None = None
     committed_version: int | None = None
     cancel_requested: bool = False
@@ -61,31 +65,50 @@ class JobRecord:
     updated: float = 0.0
 
     @classmethod
-    def new(cls, skill: str, request: AdaptJob) -> "JobRecord":
+    def new(cls, skill: str, request: AdaptJob | PairTrainJob) -> "JobRecord":
         """A fresh, queued job for ``request`` on ``skill`` with a new id."""
         return cls(f"{skill}-{uuid.uuid4().hex[:10]}", skill, request)
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON-ready map written to the job's file."""
         out = {k: getattr(self, k) for k in self.__dataclass_fields__}
+        out["kind"] = self.kind
         out["request"] = self.request.to_dict()
-        out["result"] = None if self.result is None else result_to_dict(self.result)
+        out["result"] = self._result_dict()
         return jsonable(out)
+
+    @property
+    def kind(self) -> str:
+        """``adapt`` (an adaptation) or ``train_pair`` (a paired skill's training), from the request's type."""
+        return "train_pair" if isinstance(self.request, PairTrainJob) else "adapt"
+
+    def _result_dict(self) -> dict[str, Any] | None:
+        if self.result is None:
+            return None
+        return self.result.to_dict() if isinstance(self.result, PairJobResult) else result_to_dict(self.result)
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> "JobRecord":
         """Inverse of :meth:`to_dict`."""
         values = {k: d[k] for k in cls.__dataclass_fields__ if k in d}
-        values["request"] = AdaptJob.from_dict(d["request"])
-        values["result"] = None if d.get("result") is None else result_from_dict(d["result"])
+        if d.get("kind", "adapt") == "train_pair":  # records written before kinds existed are adapt jobs
+            values["request"] = PairTrainJob.from_dict(d["request"])
+            values["result"] = None if d.get("result") is None else PairJobResult.from_dict(d["result"])
+        else:
+            values["request"] = AdaptJob.from_dict(d["request"])
+            values["result"] = None if d.get("result") is None else result_from_dict(d["result"])
         return cls(**values)
 
     def status(self) -> dict[str, Any]:
         """The job status reply (docs/PROTOCOL.md, ``job/<job>/status``)."""
         req = self.request
-        return {"v": 1, "job": self.job, "skill": self.skill, "state": self.state, "attempt": self.attempt,
-                "iteration": self.iteration, "rollouts": self.rollouts, "rollouts_executed": self.next_index,
-                "best_return": self.best_return, "error": self.error, "committed_version": self.committed_version,
-                "cancel_requested": self.cancel_requested,
-                "task": req.task, "robot": req.robot, "commit": req.commit,
-                "result": None if self.result is None else result_to_dict(self.result)}
+        status = {"v": 1, "job": self.job, "kind": self.kind, "skill": self.skill, "state": self.state,
+                  "attempt": self.attempt, "iteration": self.iteration, "rollouts": self.rollouts,
+                  "rollouts_executed": self.next_index, "best_return": self.best_return, "error": self.error,
+                  "committed_version": self.committed_version, "cancel_requested": self.cancel_requested,
+                  "result": self._result_dict()}
+        if isinstance(req, PairTrainJob):  # iteration counts training steps, of steps
+            status.update(task="train_pair", robot=req.robot_b, commit=True, steps=req.config.steps)
+        else:
+            status.update(task=req.task, robot=req.robot, commit=req.commit)
+        return status

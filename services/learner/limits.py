@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from acnmp_core.adapt_job import AdaptJob
 from acnmp_core.cnmp import CNMPConfig
 from acnmp_core.training import TrainConfig
+from acnmp_core.transfer_job import PairTrainJob
 from services.model.weights import MAX_PARAMETERS
 from services.transport.wire import WireError
 from services.worker.core import MAX_BATCH as WORKER_MAX_BATCH
@@ -81,3 +82,19 @@ def check_job(job: AdaptJob, limits: LearnerLimits) -> None:
     updates = iterations * (cfg.sl_steps + (cfg.max_reuse + 1) * (cfg.sl_steps_reuse + 1))
     _refuse("config: updates, ceil(max_rollouts / (noisy_per_iter + 1)) * "
             "(sl_steps + (max_reuse + 1) * (sl_steps_reuse + 1))", updates, limits.max_adapt_updates)
+
+
+def check_pair(job: PairTrainJob, limits: LearnerLimits) -> None:
+    """Refuse a paired skill's training whose models or cost are over ``limits`` (WireError
+    ``too_large``): each robot's CNMP as a train request's model, and the training counted for
+    both robots (every step draws an episode of each)."""
+    cfg = job.config
+    for side, n in (("a", job.n_a), ("b", job.n_b)):
+        model = CNMPConfig(n, 0, cfg.widths, cfg.widths)
+        _refuse(f"config.widths: parameters of robot {side.upper()}'s model", model.n_parameters, MAX_PARAMETERS)
+    check_steps("config.steps", cfg.steps, limits)
+    _refuse("config.batch_size", cfg.batch_size, limits.max_batch_size)
+    per_step = 2 * cfg.batch_size * (cfg.max_obs + cfg.n_targets)
+    _refuse("config: points per step, 2 * batch_size * (max_obs + n_targets)", per_step, limits.max_step_points)
+    _refuse("config: points in all, steps * 2 * batch_size * (max_obs + n_targets)", cfg.steps * per_step,
+            limits.max_train_points)

@@ -3,6 +3,7 @@
 Declared entities (``<ns>`` namespace; docs/PROTOCOL.md has every field):
 
 - queryables ``acnmp/<ns>/skill/*/train`` (train a skill from demonstrations -> new version),
+  ``acnmp/<ns>/skill/*/train_pair`` (queue a paired skill's training -> job id),
   ``acnmp/<ns>/skill/*/adapt`` (queue an adaptation job -> job id), ``acnmp/<ns>/job/*/status``,
   ``acnmp/<ns>/job/*/cancel`` (cancel a job -> its status) and ``acnmp/<ns>/skill/*/weights/latest`` (a wildcard query gets one reply per skill);
 - puts: weights messages on ``acnmp/<ns>/skill/<skill>/weights`` (services/model/weights.py), and
@@ -31,6 +32,7 @@ from acnmp_core.cnmp import CNMPConfig
 from acnmp_core.data import DemoSet
 from acnmp_core.demo_io import load_demos
 from acnmp_core.training import TrainConfig
+from acnmp_core.transfer_job import PairTrainJob
 from services.model.weights import encode_weights
 from services.recording.publisher import EventPublisher
 from services.transport import Keyspace, Ready, Service, WireError, declare_rpc, option, wait_until_stopped
@@ -40,7 +42,7 @@ from services.transport.wire import array_field, error_payload, field, require_p
 from services.worker.remote import RemoteEvaluator
 
 from .core import LearnerCore, TrainSpec, UnknownJobError, UnknownSkillError
-from .limits import LearnerLimits, check_job, check_train
+from .limits import LearnerLimits, check_job, check_pair, check_train
 from .store import SkillState
 
 log = logging.getLogger(__name__)
@@ -102,6 +104,20 @@ def parse_train_request(msg: dict | None, limits: LearnerLimits = LearnerLimits(
     return TrainSpec(demos, cnmp_cfg, train_cfg, field(msg, "seed", int, default=0))
 
 
+def parse_pair_request(msg: dict | None, limits: LearnerLimits = LearnerLimits()) -> PairTrainJob:
+    """Validate a ``train_pair`` request (docs/PROTOCOL.md; the layout of
+    :class:`~acnmp_core.transfer_job.PairTrainJob`); returns the job. Raises WireError: the code of
+    the library's typed error (``bad_shape``, ``non_finite``, ``too_large``, else ``bad_request``),
+    or ``too_large`` over a limit of the learner."""
+    msg = require_payload(msg, "a train_pair request")
+    try:
+        job = PairTrainJob.from_dict(msg)
+    except ValueError as exc:
+        raise wire_error(exc, default="bad_request") from None
+    check_pair(job, limits)
+    return job
+
+
 class LearnerService:
     """The learner's queryables, token and weights puts on an open session, around a :class:`LearnerCore`.
 
@@ -130,6 +146,7 @@ class LearnerService:
         self._rpcs = [
             declare_rpc(session, keys.train("*"), self._handle_train, workers=1),
             declare_rpc(session, keys.adapt("*"), self._handle_adapt, workers=1),
+            declare_rpc(session, keys.train_pair("*"), self._handle_train_pair, workers=1),
             declare_rpc(session, keys.job_status("*"), self._handle_status, workers=1),
             declare_rpc(session, keys.job_cancel("*"), self._handle_cancel, workers=1),
         ]
@@ -189,6 +206,11 @@ class LearnerService:
             raise wire_error(exc, default="bad_request") from None
         return {"v": 1, "job": job.job, "skill": skill, "state": job.state}
 
+    def _handle_train_pair(self, msg: dict | None, query: zenoh.Query) -> dict:
+        skill = self._skill_of(query, msg)
+        job = self.core.submit_pair(skill, parse_pair_request(msg, self.limits))
+        return {"v": 1, "job": job.job, "skill": skill, "state": job.state}
+
     def _handle_status(self, _msg, query: zenoh.Query) -> dict:
         return self._job_reply(self.core.status, query)
 
@@ -240,9 +262,9 @@ class LearnerService:
 
 
 def _weights(state: SkillState) -> bytes:
-    """The encoded weights message of a skill version."""
+    """The encoded weights message of a skill version (a paired skill's with robot B's model)."""
     return encode_weights(state.name, state.version, state.model, data_hash=state.demos.content_hash(),
-                          n_demos=len(state.demos))
+                          n_demos=len(state.demos), partner=state.partner)
 
 
 def bootstrap(core: LearnerCore, specs: Sequence[str], steps: int) -> None:

@@ -4,6 +4,8 @@ Layout of ``<state_dir>``::
 
     skills/<skill>/demos-v<version>.npz   the DemoSet (acnmp_core.demo_io format, padded + lengths)
     skills/<skill>/model.pt               acnmp_core.checkpoint; meta: version, demos file, n_demos
+    skills/<skill>/partner-v<version>.pt  a paired skill's robot B model (meta of model.pt names it)
+    skills/<skill>/partner-demos-v<version>.npz   and robot B's demonstrations
     jobs/<job>.json                       one job record (JSON)
 
 Every file is written atomically (temp file in the same directory + ``os.replace``), so a
@@ -123,12 +125,19 @@ def demo_set_to_arrays(demos: DemoSet, value_names=None, task_param_names=None) 
 
 @dataclass
 class SkillState:
-    """A skill as the learner holds it: the model, its demonstrations and its version."""
+    """A skill as the learner holds it: the model, its demonstrations and its version.
+
+    A **paired skill** (a :class:`~acnmp_core.transfer.TransferPair` trained by a ``train_pair``
+    job) holds robot A's CNMP and demonstrations as ``model`` and ``demos`` and robot B's as
+    ``partner`` and ``partner_demos``; an ordinary skill has neither.
+    """
 
     name: str
     model: CNMP
     demos: DemoSet
     version: int
+    partner: CNMP | None = None
+    partner_demos: DemoSet | None = None
 
 
 class SkillStore:
@@ -144,12 +153,19 @@ class SkillStore:
         demo_file = f"demos-v{skill.version}.npz"
         save_demos(d / demo_file, demo_set_to_arrays(skill.demos, skill.model.config.output_names,
                                                      skill.model.config.task_param_names))
-        save_checkpoint(skill.model, d / "model.pt", data_hash=skill.demos.content_hash(),
-                        meta={"skill": skill.name, "version": int(skill.version), "demos": demo_file,
-                              "n_demos": len(skill.demos)})
-        for old in d.glob("demos-v*.npz"):
-            if old.name != demo_file:
-                old.unlink(missing_ok=True)
+        meta = {"skill": skill.name, "version": int(skill.version), "demos": demo_file, "n_demos": len(skill.demos)}
+        keep = {demo_file}
+        if skill.partner is not None:  # files of this version only: the old checkpoint still names the old ones
+            partner_file, partner_demos = f"partner-v{skill.version}.pt", f"partner-demos-v{skill.version}.npz"
+            save_demos(d / partner_demos, demo_set_to_arrays(skill.partner_demos, skill.partner.config.output_names))
+            save_checkpoint(skill.partner, d / partner_file, data_hash=skill.partner_demos.content_hash())
+            meta.update(partner=partner_file, partner_demos=partner_demos)
+            keep |= {partner_file, partner_demos}
+        save_checkpoint(skill.model, d / "model.pt", data_hash=skill.demos.content_hash(), meta=meta)
+        for pattern in ("demos-v*.npz", "partner-v*.pt", "partner-demos-v*.npz"):
+            for old in d.glob(pattern):
+                if old.name not in keep:
+                    old.unlink(missing_ok=True)
 
     def load_all(self) -> dict[str, SkillState]:
         """Every saved skill, by name. Raises ValueError if a skill's demos do not match its hash."""
@@ -160,7 +176,13 @@ class SkillStore:
             demos = load_demos(d / meta["demos"]).to_demo_set()
             if demos.content_hash() != info["data_hash"]:
                 raise ValueError(f"skill {d.name}: demonstrations do not match the checkpoint's data hash")
-            out[d.name] = SkillState(d.name, model, demos, int(meta["version"]))
+            state = SkillState(d.name, model, demos, int(meta["version"]))
+            if meta.get("partner"):
+                state.partner, partner_info = load_checkpoint(d / meta["partner"])
+                state.partner_demos = load_demos(d / meta["partner_demos"]).to_demo_set()
+                if state.partner_demos.content_hash() != partner_info["data_hash"]:
+                    raise ValueError(f"skill {d.name}: robot B's demonstrations do not match their checkpoint's hash")
+            out[d.name] = state
         return out
 
 

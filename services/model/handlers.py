@@ -1,5 +1,6 @@
 """The model service's logic without zenoh: a registry of hot-swappable skill models and the
-predict/info request handlers (decoded request map in, reply map out, :class:`WireError` on bad input).
+predict/info/transfer request handlers (decoded request map in, reply map out, :class:`WireError`
+on bad input).
 
 services/model/service.py wires these to zenoh queryables; tests and benchmarks call them in-process.
 """
@@ -8,13 +9,14 @@ from __future__ import annotations
 import threading
 import time
 from concurrent.futures import Future
-from dataclasses import dataclass, field as dc_field
+from dataclasses import dataclass, field as dc_field, replace
 from typing import TYPE_CHECKING, Iterable
 
 import numpy as np
 import torch
 
 from acnmp_core.cnmp import CNMP, Prediction, Query
+from acnmp_core.transfer import TransferPair, TransferredSkill
 from services.transport.errors import wire_error
 from services.transport.wire import DEFAULT_MAX_BYTES, WireError, array_field, field, require_payload
 
@@ -34,7 +36,11 @@ REPLY_OVERHEAD = 512      # bytes per reply item besides its arrays' data (keys,
 
 @dataclass
 class SkillModel:
-    """One served model: the CNMP (eval mode, never mutated once served) and its provenance."""
+    """One served model: the CNMP (eval mode, never mutated once served) and its provenance.
+
+    A paired skill's ``model`` is robot A's CNMP (predict answers with it) and ``partner`` robot
+    B's (transfer answers with A's encoder and B's decoder).
+    """
 
     skill: str
     version: int
@@ -43,6 +49,7 @@ class SkillModel:
     n_demos: int = 0
     source: str = "learner"
     loaded_at: float = dc_field(default_factory=time.time)
+    partner: CNMP | None = None
 
 
 class ModelRegistry:
@@ -302,6 +309,43 @@ def handle_predict(registry: ModelRegistry, skill: str, request, batcher: Predic
 
 
 # --------------------------------------------------------------------------------------------
+# transfer
+
+
+def transfer_view(entry: SkillModel) -> SkillModel:
+    """``entry`` with its model replaced by A's encoder -> B's decoder
+    (:class:`~acnmp_core.transfer.TransferredSkill`, which has the CNMP's ``config`` of robot B,
+    ``make_query`` and ``predict_query``), so the predict path's cost check and computation run on
+    it unchanged. WireError ``bad_request`` for a skill that is not a paired skill."""
+    if entry.partner is None:
+        raise WireError("bad_request", f"skill {entry.skill!r} is not a paired skill (train it with train_pair); "
+                                       "use predict")
+    return replace(entry, model=TransferredSkill(TransferPair.from_models(entry.model, entry.partner)))
+
+
+def handle_transfer(registry: ModelRegistry, skill: str, request) -> dict:
+    """Answer a transfer query for paired skill ``skill``: robot A's observations in, robot B's
+    trajectory out.
+
+    The request is a single predict request (docs/PROTOCOL.md) whose ``obs_values`` are robot A's,
+    (N, D_A), without ``task_params``; it is checked by :func:`parse_predict` against robot A's
+    model and its cost by :func:`check_cost` against robot B's outputs. The reply is a predict
+    reply: ``times`` (T,), ``mean``/``std`` (T, D_B) robot B's raw units, ``latent`` (L,) the
+    latent A's encoder gave, ``samples`` when asked. Equals
+    :meth:`acnmp_core.transfer.TransferPair.transfer` on the same weights. Raises WireError.
+    """
+    request = require_payload(request, "a transfer request (obs_times, obs_values of robot A, ...)")
+    if "batch" in request:
+        raise WireError("bad_request", "field 'batch': a transfer query takes one request")
+    entry = registry.get(skill)
+    view = transfer_view(entry)
+    pin_threads()
+    item = parse_predict(entry, request)  # robot A's observations
+    check_cost(view, [item])              # robot B's reply
+    return run_predict(view, item)
+
+
+# --------------------------------------------------------------------------------------------
 # info
 
 
@@ -322,7 +366,15 @@ def info_reply(entry: SkillModel) -> dict:
         "data_hash": entry.data_hash, "n_demos": entry.n_demos,
         "source": entry.source, "loaded_at": float(entry.loaded_at),
         "config": cfg.to_dict(),
+        "partner": None if entry.partner is None else _partner_info(entry.partner),
     }
+
+
+def _partner_info(model: CNMP) -> dict:
+    """What a transfer query answers with: robot B's ``n_outputs``, ``output_names``, value range."""
+    v_lo, v_hi = model.value_norm.range_np()
+    return {"n_outputs": model.config.n_outputs, "output_names": list(model.config.output_names),
+            "value_low": v_lo.astype(np.float64), "value_high": v_hi.astype(np.float64)}
 
 
 def handle_info(registry: ModelRegistry, skill: str, _request=None) -> dict:

@@ -2,7 +2,8 @@
 
 Declared entities (``<ns>`` the namespace, ``<skill>`` a skill name):
 
-- queryables ``acnmp/<ns>/skill/*/predict`` and ``acnmp/<ns>/skill/*/info`` (``complete=False``),
+- queryables ``acnmp/<ns>/skill/*/predict``, ``acnmp/<ns>/skill/*/transfer`` (paired skills) and
+  ``acnmp/<ns>/skill/*/info`` (``complete=False``),
   dispatching on the skill chunk of the query's key: a query for a skill with no model gets
   ``unknown_skill`` instead of silence. One wildcard queryable per operation rather than one per
   skill, because zenoh hands a query to *every* matching queryable of a session: a per-skill
@@ -35,7 +36,7 @@ from services.transport.keys import check_name, skill_from_key
 from services.transport.wire import WireError
 
 from .batching import DEFAULT_BATCH_MAX, DEFAULT_BATCH_WINDOW, PredictBatcher
-from .handlers import ModelRegistry, SkillModel, handle_info, handle_predict
+from .handlers import ModelRegistry, SkillModel, handle_info, handle_predict, handle_transfer
 from .weights import decode_weights
 
 log = logging.getLogger(__name__)
@@ -105,6 +106,10 @@ class ModelService:
                                                                 self.batcher, deadline),
                         workers=workers, complete=False, max_queue=max_queue,
                         default_timeout=DEFAULT_QUERY_TIMEOUT, pass_deadline=True),
+            # a transfer is a predict through two models: the same queue bound and deadline, no batching
+            declare_rpc(session, self.keys.transfer("*"),
+                        lambda req, q: handle_transfer(self.registry, _skill_of(q), req),
+                        workers=1, complete=False, max_queue=max_queue, default_timeout=DEFAULT_QUERY_TIMEOUT),
             declare_rpc(session, self.keys.info("*"),
                         lambda req, q: handle_info(self.registry, _skill_of(q), req),
                         workers=1, complete=False),
@@ -133,7 +138,8 @@ class ModelService:
                 return
             try:
                 w = decode_weights(payload)
-                self.load(SkillModel(w.skill, w.version, w.model, w.data_hash, w.n_demos, source=self.weights_source))
+                self.load(SkillModel(w.skill, w.version, w.model, w.data_hash, w.n_demos, source=self.weights_source,
+                                     partner=w.partner))
             except WireError as exc:
                 self.rejected += 1
                 log.warning("rejected weights from %s: %s", origin, exc)

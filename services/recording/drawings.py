@@ -21,6 +21,9 @@ ARM_Z = 0.03
 #: ``rollout_step`` = rollout_index * STEP_STRIDE + step (more than any roll-out's step count).
 STEP_STRIDE = 100_000
 
+#: Colour of a reference arm drawn beside the roll-out's (``reference_joint_angles``).
+REFERENCE_COLOR = (150, 150, 150)
+
 #: ``draw(rec, job, rollout_index, event, color)``; ``job`` is already an escaped entity path part.
 Drawer = Callable[[rr.RecordingStream, str, int, dict, tuple], None]
 
@@ -29,28 +32,27 @@ def draw_planar_chain(rec: rr.RecordingStream, job: str, idx: int, msg: dict, co
     """A planar arm: ``joint_angles`` (T, N) rad and ``link_lengths`` (N,) m, drawn in 3D (forward
     kinematics of acnmp_core/robots/kinematics.py, links at ``ARM_Z`` above the table); with
     ``object_xy`` (T, 2) m, ``object_radius`` and ``object_height`` (m) the pushed object as a
-    cylinder; with ``task_params`` (x, y) the target as a point."""
-    from acnmp_core.robots.kinematics import planar_fk
+    cylinder; with ``task_params`` (x, y) the target as a point; with ``reference_joint_angles``
+    (T, N') rad and ``reference_link_lengths`` (N',) m another arm's pose at the same steps, in grey
+    under ``/arm/<job>/reference`` (E4: robot A's demonstration beside robot B's roll-out)."""
 
     q = np.asarray(msg["joint_angles"], dtype=np.float64)
     lengths = np.asarray(msg["link_lengths"], dtype=np.float64).reshape(-1)
     if q.ndim != 2 or q.shape[1] != lengths.shape[0] or not 1 <= q.shape[0] < STEP_STRIDE:
         raise ValueError(f"joint_angles: expected (T, {lengths.shape[0]}) with 1 <= T < {STEP_STRIDE}, "
                          f"got {q.shape}")
-    steps, n = q.shape
-    # Base, then the end of every link: the FK of each prefix of the chain.
-    pts = np.zeros((steps, n + 1, 3))
-    for i in range(1, n + 1):
-        pts[:, i, :2] = planar_fk(q[:, :i], lengths[:i])[:, :2]
-    pts[:, :, 2] = ARM_Z
-    ones = np.ones(steps, dtype=np.int64)
+    steps = q.shape[0]
     # Columns, not one log call per step: one chunk per roll-out and entity, cheap for T = 300.
     # Every component is a column (one value per step) so each frame is complete on every timeline.
     indexes = _indexes(idx, np.arange(steps, dtype=np.int64), msg)
-    rec.send_columns(
-        f"arm/{job}/links", indexes=indexes,
-        columns=rr.LineStrips3D.columns(strips=list(pts.astype(np.float32)), colors=[color] * steps,
-                                        radii=np.full(steps, 0.006, np.float32)).partition(ones))
+    _send_chain(rec, f"arm/{job}/links", q, lengths, indexes, color, 0.006)
+    if msg.get("reference_joint_angles") is not None:
+        # another robot's pose at the same steps (E4: robot A's demonstration beside robot B's roll-out)
+        ref = np.asarray(msg["reference_joint_angles"], dtype=np.float64)
+        ref_lengths = np.asarray(msg["reference_link_lengths"], dtype=np.float64).reshape(-1)
+        if ref.ndim != 2 or ref.shape != (steps, ref_lengths.shape[0]):
+            raise ValueError(f"reference_joint_angles: expected ({steps}, {ref_lengths.shape[0]}), got {ref.shape}")
+        _send_chain(rec, f"arm/{job}/reference", ref, ref_lengths, indexes, REFERENCE_COLOR, 0.004)
     _at_first_step(rec, idx)
     obj = msg.get("object_xy")
     if obj is not None:
@@ -64,13 +66,30 @@ def draw_planar_chain(rec: rr.RecordingStream, job: str, idx: int, msg: dict, co
             f"arm/{job}/object", indexes=indexes,
             columns=rr.Cylinders3D.columns(centers=centers, lengths=np.full(steps, height, np.float32),
                                            radii=np.full(steps, radius, np.float32),
-                                           colors=[(200, 40, 40)] * steps).partition(ones))
+                                           colors=[(200, 40, 40)] * steps).partition(np.ones(steps, np.int64)))
         rec.log(f"arm/{job}/object_path", rr.LineStrips3D(
             [np.concatenate([obj, np.zeros((steps, 1))], axis=1)], colors=[color], labels=[f"#{idx}"]))
     tp = msg.get("task_params")
     if tp is not None and np.asarray(tp).shape == (2,):
         rec.log(f"arm/{job}/target", rr.Points3D([[*np.asarray(tp, dtype=np.float64), 0.0]], radii=[0.01],
                                                       colors=[(40, 120, 220)], labels=["target"]))
+
+
+def _send_chain(rec: rr.RecordingStream, entity: str, q: np.ndarray, lengths: np.ndarray, indexes: list,
+                color, radius: float) -> None:
+    """A planar chain's links, base to tip, one strip per step: q (T, N) rad, lengths (N,) m."""
+    from acnmp_core.robots.kinematics import planar_fk
+
+    steps, n = q.shape
+    # Base, then the end of every link: the FK of each prefix of the chain.
+    pts = np.zeros((steps, n + 1, 3))
+    for i in range(1, n + 1):
+        pts[:, i, :2] = planar_fk(q[:, :i], lengths[:i])[:, :2]
+    pts[:, :, 2] = ARM_Z
+    rec.send_columns(
+        entity, indexes=indexes,
+        columns=rr.LineStrips3D.columns(strips=list(pts.astype(np.float32)), colors=[color] * steps,
+                                        radii=np.full(steps, radius, np.float32)).partition(np.ones(steps, np.int64)))
 
 
 def _indexes(idx: int, steps: np.ndarray, msg: dict) -> list:

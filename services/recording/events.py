@@ -10,7 +10,8 @@ rollout       job str, rollout_index int>=0, trajectory (T,D) float, times (T,) 
               condition? {times (K,) float, values (K,D) float}, task_params? (P,) float,
               iteration? int, skill? str, space? "cartesian"|"joint",
               drawing? str (a robot drawing kind) with that drawing's fields
-latent        skill str, version int, latent (L,) float, label? str, robot? str
+latent        skill str, version int, latent (L,) float, label? str, robot? str,
+              map_xy? (2,) float (the latent's place in a 2-D map of a version's latents)
 model_version skill str, version int, loss? float, n_demos? int, note? str
 job_progress  job str, iteration int, rollouts int, best_return float|None,
               success_rate? float, state? "running"|"done"|"failed"|"cancelled"|"interrupted", skill? str
@@ -122,14 +123,18 @@ def batch_rollout_events(job: str, first_index: int, trajectories, times, batch,
 
 
 def latent_event(skill: str, version: int, latent, *, label: str | None = None,
-                 robot: str | None = None, t: float | None = None) -> dict:
-    """Build and validate a ``latent`` event (one latent vector ``(L,)`` of a skill's encoder)."""
+                 robot: str | None = None, map_xy=None, t: float | None = None) -> dict:
+    """Build and validate a ``latent`` event (one latent vector ``(L,)`` of a skill's encoder);
+    ``map_xy`` (2,) places it in a 2-D map of the version's latents (e.g. their first two
+    principal components), which the recorder draws as a point."""
     msg = _base("latent", t)
     msg.update(skill=skill, version=int(version), latent=np.asarray(latent, dtype=np.float64).reshape(-1))
     if label is not None:
         msg["label"] = str(label)
     if robot is not None:
         msg["robot"] = str(robot)
+    if map_xy is not None:
+        msg["map_xy"] = np.asarray(map_xy, dtype=np.float64).reshape(-1)
     return validate_event(msg)
 
 
@@ -181,6 +186,8 @@ def validate_event(msg: dict) -> dict:
         _nonneg(msg, "version")
         array_field(msg, "latent", ndim=1, max_elements=MAX_LATENT)
         field(msg, "label", str, default=None)
+        field(msg, "robot", str, default=None)
+        array_field(msg, "map_xy", shape=(2,), default=None)
     elif kind == "model_version":
         _nonneg(msg, "version")
     elif kind == "job_progress":

@@ -7,9 +7,12 @@ drawn when its registry entry has a drawing (see :func:`services.recording.event
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
+from typing import Any
+
 from acnmp_core.rollout import RolloutBatch
 
-from .events import batch_rollout_events, robot_drawing
+from .events import batch_rollout_events, robot_drawing, validate_event
 from .publisher import EventPublisher
 
 
@@ -23,11 +26,16 @@ class RecordedEvaluator:
     publisher : where the events go. job : the events' job name (one per adaptation run).
     robot : the robot kind; robots with a drawing are recorded in joint space and drawn.
 
+    extra : fields added to every event (flat arrays or scalars), e.g. ``reference_joint_angles``
+        (T, N') and ``reference_link_lengths`` (N',) to draw another arm beside a planar arm's.
+
     ``rollouts`` counts what has been executed and published; indices are 0, 1, ... per instance.
     """
 
-    def __init__(self, inner, publisher: EventPublisher, job: str, robot: str):
+    def __init__(self, inner, publisher: EventPublisher, job: str, robot: str,
+                 extra: Mapping[str, Any] | None = None):
         self.inner, self.publisher, self.job = inner, publisher, job
+        self.extra = dict(extra or {})
         self.credit = getattr(inner, "credit", "step")  # adapt() reads the inner task's credit
         self.drawing = robot_drawing(robot)
         self.rollouts = 0
@@ -38,6 +46,7 @@ class RecordedEvaluator:
         batch = self.inner.evaluate(trajectories, times, task_params)
         for ev in batch_rollout_events(self.job, self.rollouts, trajectories, times, batch,
                                        task_params=task_params, drawing=self.drawing):
-            self.publisher.publish(ev)
+            ev.update(self.extra)
+            self.publisher.publish(validate_event(ev))
         self.rollouts += len(batch)
         return batch

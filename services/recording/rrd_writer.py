@@ -24,6 +24,7 @@ entity                             archetype                       from event
 /best_return/<job>                 Scalars                         job_progress
 /progress/<job>                    AnyValues                       job_progress
 /latent/<skill>/<label>            BarChart                        latent
+/latent_map/<skill>/<label>        Points2D (coloured by robot)    latent.map_xy
 /models/<skill>                    AnyValues (version, ...)        model_version
 /model_version/<skill>             Scalars                         model_version
 /log/jobs, /log/models             TextLog                         job_progress, model_version
@@ -47,6 +48,7 @@ from __future__ import annotations
 
 import threading
 import uuid
+import zlib
 from collections import Counter
 from pathlib import Path
 
@@ -76,6 +78,7 @@ def default_blueprint() -> rrb.Blueprint:
                 rrb.Spatial2DView(name="Trajectories over time", origin="/trajectory/time", time_ranges=trail),
                 rrb.Spatial3DView(name="Trajectories (x, y, z)", origin="/trajectory/xyz", time_ranges=trail),
                 rrb.Spatial3DView(name="Arm and object", origin="/arm"),
+                rrb.Spatial2DView(name="Latent map", origin="/latent_map"),
             ),
             rrb.Vertical(
                 rrb.TimeSeriesView(name="Return per roll-out", origin="/",
@@ -88,6 +91,14 @@ def default_blueprint() -> rrb.Blueprint:
         ),
         collapse_panels=False,
     )
+
+
+#: Colours of the latent map's points, one per robot kind (picked by a stable hash of its name).
+_ROBOT_COLORS = ((60, 120, 220), (235, 140, 40), (120, 180, 60), (170, 90, 200))
+
+
+def _robot_color(robot: str) -> tuple[int, int, int]:
+    return _ROBOT_COLORS[zlib.crc32(robot.encode()) % len(_ROBOT_COLORS)]
 
 
 def _part(name: str) -> str:
@@ -190,6 +201,11 @@ class RrdWriter:
         label = _part(msg.get("label") or "default")
         self.rec.log(f"latent/{_part(msg['skill'])}/{label}",
                      rr.BarChart(np.asarray(msg["latent"], dtype=np.float32)))
+        if msg.get("map_xy") is not None:  # one point per latent; colour by robot, so paired latents show as pairs
+            robot = str(msg.get("robot") or "")
+            self.rec.log(f"latent_map/{_part(msg['skill'])}/{label}",
+                         rr.Points2D([np.asarray(msg["map_xy"], dtype=np.float32)], radii=0.02,
+                                     colors=[_robot_color(robot)], labels=[f"{msg.get('label') or ''} {robot}".strip()]))
 
     def _model_version(self, msg: dict) -> None:
         skill = _part(msg["skill"])

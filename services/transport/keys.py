@@ -82,6 +82,10 @@ class Keyspace:
         """``.../skill/<skill>/info``: the model service's info queryable."""
         return self.skill(skill, "info")
 
+    def transfer(self, skill: str) -> str:
+        """``.../skill/<skill>/transfer``: the model service's transfer queryable (paired skills)."""
+        return self.skill(skill, "transfer")
+
     def weights(self, skill: str) -> str:
         """``.../skill/<skill>/weights``: where the learner puts each new weights version."""
         return self.skill(skill, "weights")
@@ -93,6 +97,10 @@ class Keyspace:
     def train(self, skill: str) -> str:
         """``.../skill/<skill>/train``: the learner's queryable that trains a skill from demos."""
         return self.skill(skill, "train")
+
+    def train_pair(self, skill: str) -> str:
+        """``.../skill/<skill>/train_pair``: the learner's queryable that queues a paired skill's training."""
+        return self.skill(skill, "train_pair")
 
     def adapt(self, skill: str) -> str:
         """``.../skill/<skill>/adapt``: the learner's queryable that queues an adaptation job."""
