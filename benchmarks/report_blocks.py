@@ -91,6 +91,45 @@ def e2_row() -> list[str]:
             + ("" if ratio is None else f": {ratio:.1f}x")]
 
 
+BASELINE_LABELS = {"acnmp": "ACNMP", "promp_scratch": "ProMP + REPS, from scratch",
+                   "promp_similar": "ProMP + REPS, most similar effect",
+                   "promp_mixture": "ProMP + REPS, similarity-weighted mixture",
+                   "promp_tuned": "ProMP + REPS, tuned (nearest task, CMA-style covariance)"}
+
+
+def _median_ratio(s: dict, a: dict) -> str:
+    """Method / ACNMP extrapolation roll-outs (ratio of medians), '-' unless both succeed in more
+    than half of the seeds."""
+    if s["success_rate"] <= 0.5 or a["success_rate"] <= 0.5:
+        return "-"
+    return f"{s['rollouts_median'] / a['rollouts_median']:.2f}x"
+
+
+@renderer("e2-baselines")
+def e2_baselines() -> str:
+    r = load("e2_baselines")
+    rows = [["Akbulut et al. 2020 (paper)", "ACNMP", "no adaptation", "-", "~130", "-", "-", "1x"],
+            ["Akbulut et al. 2020 (paper)", "adaptive ProMP (Stark et al. 2019, quoted)", "-", "-", "~1200",
+             "-", "-", "~9x"]]
+    for name, res in r["settings"].items():
+        n = res["seeds"]
+        a = res["methods"]["acnmp"]["extrapolation"]
+        for m, label in BASELINE_LABELS.items():
+            i, e = res["methods"][m]["interpolation"], res["methods"][m]["extrapolation"]
+            rows.append([f"ours, {name} setting ({n} seeds)", label, fmt(i["rollouts_median"]),
+                         frac(i["success_rate"], n), fmt(e["rollouts_median"]), frac(e["success_rate"], n),
+                         fmt(e["final_error_median"]), _median_ratio(e, a)])
+    lines = [
+        table(["run", "method", "interpolation roll-outs (median)", "success", "extrapolation roll-outs (median)",
+               "success", "final error (median, m)", "extrapolation / ACNMP"], rows),
+        "",
+        f"* Budget {r['budget']} roll-outs per target for every method; every executed trajectory counts.",
+        "",
+        source(r, "e2_baselines"),
+    ]
+    return "\n".join(lines)
+
+
 # --------------------------------------------------------------------------------------------------
 # E3
 # --------------------------------------------------------------------------------------------------

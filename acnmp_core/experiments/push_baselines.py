@@ -56,12 +56,15 @@ def run_push_baselines(
     methods: tuple[str, ...] = METHODS,
     cases: tuple[str, ...] = CASES,
     log: Callable[[str], None] | None = None,
+    on_seed: Callable[[dict], None] | None = None,
 ) -> dict:
     """Run every method of ``methods`` on ``cases`` over ``seeds`` in ``setting``.
 
     seeds : a count N (seeds 0..N-1) or a list; each seeds CNMP training, exploration and sampling.
     budget : roll-outs per target for every method (ACNMP's ``max_rollouts`` too).
     train_steps : CNMP training steps. log : called with one line per finished run.
+    on_seed : called after each seed with the result over the seeds finished so far (a run that is
+        stopped keeps what it measured).
 
     Returns the JSON-ready ``{"setting", "seeds", "seed_list", "budget", "tolerance", "targets"
     {case: [x, y]}, "wall_time_s", "methods" {method: {case: {rollouts_median, rollouts,
@@ -81,6 +84,25 @@ def run_push_baselines(
     acfg = AdaptConfig(max_rollouts=budget)
     tasks = {}
     runs: list[dict] = []
+
+    def result(done: list[int]) -> dict:
+        summary = {m: {c: _summarise([r for r in runs if r["method"] == m and r["case"] == c]) for c in cases}
+                   for m in methods}
+        return {
+            "setting": setting.name,
+            "seeds": len(done),
+            "seed_list": done,
+            "budget": budget,
+            "tolerance": setup.tolerance,
+            "targets": {c: setup.targets[c].tolist() for c in CASES},
+            "wall_time_s": round(time.perf_counter() - t0, 2),
+            "methods": summary,
+            "config": {"train_steps": train_steps, "acnmp": _plain(vars(acfg)), "setting": _plain(vars(setting)),
+                       **{m: _plain(vars(replace(BASELINES[m], max_rollouts=budget))) for m in methods
+                          if m != "acnmp"}},
+            "runs": list(runs),
+        }
+
     try:
         for seed in seed_list:
             model = train_push_cnmp(setup.demos, seed, train_steps) if "acnmp" in methods else None
@@ -96,22 +118,9 @@ def run_push_baselines(
                         cfg = replace(BASELINES[method], max_rollouts=budget, seed=seed)
                         r = run_promp_case(setup, case, ev, cfg, effects=effects)
                     record_run(runs, r, seed, method, case, t1, log, prefix=f"{setting.name} ", width=13)
+            if on_seed:
+                on_seed(result(seed_list[:seed_list.index(seed) + 1]))
     finally:
         for task in tasks.values():
             task.close()
-    summary = {m: {c: _summarise([r for r in runs if r["method"] == m and r["case"] == c]) for c in cases}
-               for m in methods}
-    return {
-        "setting": setting.name,
-        "seeds": len(seed_list),
-        "seed_list": seed_list,
-        "budget": budget,
-        "tolerance": setup.tolerance,
-        "targets": {c: setup.targets[c].tolist() for c in CASES},
-        "wall_time_s": round(time.perf_counter() - t0, 2),
-        "methods": summary,
-        "config": {"train_steps": train_steps, "acnmp": _plain(vars(acfg)),
-                   "setting": _plain(vars(setting)),
-                   **{m: _plain(vars(replace(BASELINES[m], max_rollouts=budget))) for m in methods if m != "acnmp"}},
-        "runs": runs,
-    }
+    return result(seed_list)
