@@ -85,3 +85,11 @@ def test_baselines_run_every_method_on_one_budget(tmp_path, monkeypatch):
     start_dist = float(np.linalg.norm(AUTHORS.targets()[9] - np.asarray(AUTHORS.start_xy)))
     assert first["promp_scratch"] == pytest.approx(start_dist, abs=2e-3)
     assert first["promp_similar"] < start_dist and first["promp_mixture"] < start_dist
+
+
+def test_cli_refuses_workers_in_the_authors_setting_in_one_line(capsys):
+    from clients.cli import main
+
+    assert main(["experiment", "push", "--setting", "authors", "--distributed", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "paper setting only" in err and len(err.strip().splitlines()) == 1
