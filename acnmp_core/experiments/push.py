@@ -261,7 +261,7 @@ def run_push(
 
     Returns
     -------
-    dict with ``experiment`` "push", ``seeds`` N, ``seed_list``, ``wall_time_s``, ``tolerance`` (m),
+    dict with ``experiment`` "push", ``setting`` (its name), ``seeds`` N, ``seed_list``, ``wall_time_s``, ``tolerance`` (m),
     ``targets`` {case: [x, y]}, ``methods`` {method: {case: {rollouts_median, rollouts, success_rate,
     final_error_median, lfd_error_median, lfd_success_rate}}}, ``rollout_ratio_promp_over_acnmp``
     {case: ratio of medians, None unless both methods succeed in more than half of the seeds}, ``config`` (settings used) and ``runs`` (per seed, method and
