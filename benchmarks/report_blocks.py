@@ -119,11 +119,23 @@ def e2_baselines() -> str:
             rows.append([f"ours, {name} setting ({n} seeds)", label, fmt(i["rollouts_median"]),
                          frac(i["success_rate"], n), fmt(e["rollouts_median"]), frac(e["success_rate"], n),
                          fmt(e["final_error_median"]), _median_ratio(e, a)])
+    notes = []
+    for name, res in r["settings"].items():
+        ms = {m: res["methods"][m]["extrapolation"] for m in BASELINE_LABELS}
+        scratch = ms["promp_scratch"]["rollouts_median"]
+        vs = ", ".join(f"{BASELINE_LABELS[m].split(', ')[1]} {ms[m]['rollouts_median'] / scratch:.2f}x"
+                       for m in ("promp_similar", "promp_mixture"))
+        per_seed = ", ".join(map(str, ms["acnmp"]["rollouts"]))
+        notes.append(f"* {name} setting, extrapolation, transfer / from scratch (ratio of the median roll-outs; "
+                     f"Stark et al. report under 0.4x the iterations): {vs}. ACNMP per seed: {per_seed}.")
     lines = [
         table(["run", "method", "interpolation roll-outs (median)", "success", "extrapolation roll-outs (median)",
                "success", "final error (median, m)", "extrapolation / ACNMP"], rows),
         "",
-        f"* Budget {r['budget']} roll-outs per target for every method; every executed trajectory counts.",
+        f"* Budget {r['budget']} roll-outs per target for every method; every executed trajectory counts; "
+        "a failed run counts its whole budget in the median; ratios only where both succeed in more than "
+        "half of the seeds.",
+        *notes,
         "",
         source(r, "e2_baselines"),
     ]
