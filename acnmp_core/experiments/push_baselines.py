@@ -57,6 +57,7 @@ def run_push_baselines(
     cases: tuple[str, ...] = CASES,
     log: Callable[[str], None] | None = None,
     on_seed: Callable[[dict], None] | None = None,
+    demo_path: str | None = None,
 ) -> dict:
     """Run every method of ``methods`` on ``cases`` over ``seeds`` in ``setting``.
 
@@ -65,6 +66,7 @@ def run_push_baselines(
     train_steps : CNMP training steps. log : called with one line per finished run.
     on_seed : called after each seed with the result over the seeds finished so far (a run that is
         stopped keeps what it measured).
+    demo_path : the setting's demonstration file (default: its generated cache).
 
     Returns the JSON-ready ``{"setting", "seeds", "seed_list", "budget", "tolerance", "targets"
     {case: [x, y]}, "wall_time_s", "methods" {method: {case: {rollouts_median, rollouts,
@@ -79,7 +81,7 @@ def run_push_baselines(
     if budget < 3:
         raise ValueError(f"budget: expected at least 3 roll-outs, got {budget}")
     t0 = time.perf_counter()
-    setup = make_setup(setting=setting)
+    setup = make_setup(demo_path, setting=setting)
     effects = demo_effects(setup)
     acfg = AdaptConfig(max_rollouts=budget)
     tasks = {}

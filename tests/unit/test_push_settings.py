@@ -7,8 +7,13 @@ from acnmp_core.tasks.push_settings import AUTHORS, PAPER, SETTING_NAMES, push_s
 
 
 @pytest.fixture(scope="module")
-def authors(tmp_path_factory):
-    return make_setup(str(tmp_path_factory.mktemp("demos") / "authors.npz"), setting=AUTHORS)
+def authors_demo_path(tmp_path_factory):
+    return str(tmp_path_factory.mktemp("demos") / "authors.npz")
+
+
+@pytest.fixture(scope="module")
+def authors(authors_demo_path):
+    return make_setup(authors_demo_path, setting=AUTHORS)
 
 
 def test_setting_is_chosen_by_name():
@@ -66,12 +71,12 @@ def test_tracking_needs_its_reference_and_workers_run_the_paper_setting_only(aut
         task_config(authors, "acnmp")
 
 
-def test_baselines_run_every_method_on_one_budget(tmp_path, monkeypatch):
+def test_baselines_run_every_method_on_one_budget(authors, authors_demo_path):
     from acnmp_core.experiments.push_baselines import METHODS, run_push_baselines
 
     assert METHODS == ("acnmp", "promp_scratch", "promp_similar", "promp_mixture", "promp_tuned")
-    monkeypatch.setenv("ACNMP_CACHE", str(tmp_path))
-    r = run_push_baselines([0], setting=AUTHORS, budget=8, train_steps=50, cases=("extrapolation",))
+    r = run_push_baselines([0], setting=AUTHORS, budget=8, train_steps=50, cases=("extrapolation",),
+                           demo_path=authors_demo_path)
     assert r["setting"] == "authors" and r["budget"] == 8
     for m in METHODS:
         s = r["methods"][m]["extrapolation"]
