@@ -8,7 +8,19 @@ for a new task starts from the closest learnt skill,
   demos); covariance = the demonstrations' weight covariance times ``init_cov_scale``, plus
   ``min_std**2`` on the diagonal;
 * ``init="conditional"``: a joint Gaussian over (weights, task parameters) fitted to the demos and
-  conditioned on the new task parameters, i.e. linear regression from task to weights.
+  conditioned on the new task parameters, i.e. linear regression from task to weights;
+* ``init="similar"`` (Stark et al.'s first transfer): mean = the weights of the demonstration whose
+  *effect* (e.g. the pushed object's final position, ``effects``) is nearest the desired effect (the
+  new task parameters, in the same units); covariance as for "nearest";
+* ``init="mixture"`` (Stark et al.'s second transfer): a similarity-weighted mixture of the
+  demonstrated skills, moment-matched to one Gaussian: similarities ``s_i = exp(-d_i^2 / (2 h^2))``
+  of the effect distances ``d_i``, bandwidth ``h`` the nearest effect's distance (a guess: the
+  paper's kernel is not given); mean ``sum s_i w_i / sum s_i``; covariance the skills' spread about
+  it, ``sum s_i (w_i - mean)(w_i - mean)^T / sum s_i``, plus each skill's own covariance (as for
+  "nearest");
+* ``init="scratch"`` (no experience): mean = the weights that hold the demonstrations' common start
+  posture (the robot's current state, not a skill), covariance ``scratch_std**2 * I`` (rad^2 for
+  joint trajectories), a broad isotropic prior.
 
 The RL is episodic: every iteration draws ``n_samples`` weight vectors from the search
 distribution N(mu, Sigma), executes their trajectories, and re-weights them by return.
@@ -18,10 +30,14 @@ distribution N(mu, Sigma), executes their trajectories, and re-weights them by r
   from REPS's dual, so the new sample distribution stays within KL ``epsilon`` of the old one.
 * ``method="rwr"``: reward-weighted regression with ``exp(beta * (R - max R) / (max R - min R))``.
 
-The mean moves to the weighted mean of the samples. The covariance moves towards their weighted
-covariance about the old mean with rate ``cov_rate`` (a CMA-ES-style rank-mu update), plus a
-``min_std**2`` floor: with fewer samples per iteration than weights, the plain weighted maximum-
-likelihood covariance would be singular and exploration would collapse after one iteration.
+The mean moves to the weighted mean of the samples. The covariance (``cov_update``):
+
+* "cma" (default, the project's tuned variant): moves towards the samples' weighted covariance about
+  the old mean with rate ``cov_rate`` (a CMA-ES-style rank-mu update), plus a ``min_std**2`` floor:
+  with fewer samples per iteration than weights, the plain weighted maximum-likelihood covariance
+  would be singular and exploration would collapse after one iteration;
+* "wml": plain weighted maximum likelihood, the samples' weighted covariance about the new mean
+  (REPS's closed-form M-step, as in Stark et al. 2019), plus the ``min_std**2`` floor as regulariser.
 
 Roll-outs go only through :class:`~acnmp_core.rollout.RolloutEvaluator`. Each iteration first
 evaluates the current mean trajectory (one roll-out) and stops if it succeeds; the stopping criterion
@@ -39,6 +55,10 @@ from .rollout import RolloutEvaluator
 from .validation import check_array, check_positive_int
 
 
+#: Initialisations of the search distribution (module docstring).
+INITS = ("nearest", "conditional", "similar", "mixture", "scratch")
+
+
 @dataclass
 class PrompRLConfig:
     """Settings of :func:`promp_rl` (see the module docstring for the algorithms).
@@ -52,8 +72,10 @@ class PrompRLConfig:
     beta : RWR's inverse temperature on returns normalised to [0, 1].
     cov_rate : step size of the covariance update in [0, 1] (0 keeps the initial covariance).
     min_std : floor of the exploration standard deviation per weight (units of the trajectory).
-    init : "nearest" or "conditional".
+    init : "nearest", "conditional", "similar", "mixture" or "scratch".
     init_cov_scale : multiplies the demonstrations' weight covariance at initialisation.
+    cov_update : "cma" or "wml" (module docstring).
+    scratch_std : std per weight of the "scratch" prior (units of the trajectory).
     seed : seeds the sampling.
     """
 
@@ -66,13 +88,19 @@ class PrompRLConfig:
     min_std: float = 0.01
     init: str = "nearest"
     init_cov_scale: float = 0.1
+    cov_update: str = "cma"
+    scratch_std: float = 0.3
     seed: int = 0
 
     def __post_init__(self) -> None:
         if self.method not in ("reps", "rwr"):
             raise ValueError(f"method: expected 'reps' or 'rwr', got {self.method!r}")
-        if self.init not in ("nearest", "conditional"):
-            raise ValueError(f"init: expected 'nearest' or 'conditional', got {self.init!r}")
+        if self.init not in INITS:
+            raise ValueError(f"init: expected one of {', '.join(INITS)}, got {self.init!r}")
+        if self.cov_update not in ("cma", "wml"):
+            raise ValueError(f"cov_update: expected 'cma' or 'wml', got {self.cov_update!r}")
+        if not self.scratch_std > 0:
+            raise ValueError(f"scratch_std: expected a positive number, got {self.scratch_std}")
         check_positive_int("n_samples", self.n_samples, minimum=2)
         check_positive_int("max_rollouts", self.max_rollouts)
         for name in ("epsilon", "beta"):
@@ -128,15 +156,18 @@ class AdaptiveProMP:
     ----------
     times : N arrays (T_i,) or (N, T); values : N arrays (T_i, D) or (N, T, D).
     task_params : (N, P) task parameters of the demos.
+    effects : (N, P) what each demo achieved, in the units of the task parameters (E2: the cylinder's
+        final position, m), for the "similar" and "mixture" initialisations; None if unknown.
     n_basis, ridge, kwargs : passed to :meth:`ProMP.from_demos`.
     """
 
-    def __init__(self, times, values, task_params, *, n_basis: int = 20, **kwargs) -> None:
+    def __init__(self, times, values, task_params, *, effects=None, n_basis: int = 20, **kwargs) -> None:
         ts, ys = _demo_lists(times, values)
         self.task_params = check_array("task_params", task_params, ndim=2)
         if self.task_params.shape[0] != len(ys):
             raise ValueError(f"task_params: expected {len(ys)} rows (one per demonstration), "
                              f"got {self.task_params.shape[0]}")
+        self.effects = None if effects is None else check_array("effects", effects, shape=self.task_params.shape)
         ridge = kwargs.get("ridge", 1e-6)
         self.promp = ProMP.from_demos(ts, ys, n_basis=n_basis, **kwargs)
         if kwargs.get("normalize_duration"):
@@ -144,21 +175,46 @@ class AdaptiveProMP:
         self.demo_weights = np.stack([self.promp.weights_from_trajectory(t, y, ridge=ridge) for t, y in zip(ts, ys)])
         spread = self.task_params.std(axis=0)
         self._scale = np.where(spread > 0, spread, 1.0)
+        # "scratch" holds the posture every demo starts from: the robot's state, not a skill.
+        self.start_weights = self.promp.weights_from_trajectory(ts[0], np.tile(ys[0][0], (len(ts[0]), 1)), ridge=ridge)
 
     def nearest(self, task_params) -> int:
         """Index of the demonstration whose task parameters are closest (per-parameter scaled)."""
         c = check_array("task_params", task_params, shape=(self.task_params.shape[1],))
         return int(np.argmin(np.linalg.norm((self.task_params - c) / self._scale, axis=1)))
 
+    def effect_similarities(self, task_params) -> np.ndarray:
+        """(N,) similarity in (0, 1) of each demo's effect to the desired effect ``task_params`` (P,):
+        ``exp(-d_i^2 / (2 h^2))``, d_i the Euclidean distances, h the smallest of them (floored at
+        1e-9), so the most similar skill has exp(-1/2). ValueError when the library has no effects."""
+        if self.effects is None:
+            raise ValueError("effects: the 'similar' and 'mixture' initialisations need the demos' effects")
+        c = check_array("task_params", task_params, shape=(self.task_params.shape[1],))
+        d = np.linalg.norm(self.effects - c, axis=1)
+        h = max(float(d.min()), 1e-9)
+        return np.exp(-0.5 * (d / h) ** 2)
+
     def initial_promp(self, task_params, *, init: str = "nearest", cov_scale: float = 0.1,
-                      min_std: float = 0.01) -> ProMP:
-        """The search distribution for a new task as a ProMP (see the module docstring)."""
+                      min_std: float = 0.01, scratch_std: float = 0.3) -> ProMP:
+        """The search distribution for a new task ``task_params`` (P,) as a ProMP (see the module
+        docstring for ``init``); ``cov_scale`` multiplies the demos' weight covariance, ``min_std``
+        and ``scratch_std`` are stds per weight (units of the trajectory)."""
         c = check_array("task_params", task_params, shape=(self.task_params.shape[1],))
         nw = self.promp.n_weights
         floor = min_std**2 * np.eye(nw)
+        skill_cov = cov_scale * self.promp.weight_cov + floor
         if init == "nearest":
-            mean = self.demo_weights[self.nearest(c)]
-            cov = cov_scale * self.promp.weight_cov + floor
+            mean, cov = self.demo_weights[self.nearest(c)], skill_cov
+        elif init == "similar":
+            mean, cov = self.demo_weights[int(np.argmax(self.effect_similarities(c)))], skill_cov
+        elif init == "mixture":
+            s = self.effect_similarities(c)
+            s = s / s.sum()
+            mean = s @ self.demo_weights
+            diff = self.demo_weights - mean
+            cov = (s[:, None] * diff).T @ diff + skill_cov
+        elif init == "scratch":
+            mean, cov = self.start_weights.copy(), scratch_std**2 * np.eye(nw)
         elif init == "conditional":
             # Joint Gaussian over z = [w, c]; condition on c (regularised so few demos still work).
             z = np.hstack([self.demo_weights, self.task_params])
@@ -170,7 +226,7 @@ class AdaptiveProMP:
             mean = mu[:nw] + gain @ (c - mu[nw:])
             cov = cov_scale * (sww - gain @ swc.T) + floor
         else:
-            raise ValueError(f"init: expected 'nearest' or 'conditional', got {init!r}")
+            raise ValueError(f"init: expected one of {', '.join(INITS)}, got {init!r}")
         return self.promp.with_distribution(mean, (cov + cov.T) / 2)
 
 
@@ -259,11 +315,17 @@ def promp_rl(
         returns = samples.returns
         sample_returns.append(float(returns.mean()))
         d = _reps_weights(returns, cfg.epsilon) if cfg.method == "reps" else _rwr_weights(returns, cfg.beta)
-        diff = w - mean  # about the old mean: the step that produced the good samples is learnt too
-        cov_ml = (d[:, None] * diff).T @ diff
-        mean = d @ w
-        cov = (1 - cfg.cov_rate) * cov + cfg.cov_rate * cov_ml
-        cov = (cov + cov.T) / 2 + floor * cfg.cov_rate  # keeps exploration from collapsing
+        if cfg.cov_update == "cma":
+            diff = w - mean  # about the old mean: the step that produced the good samples is learnt too
+            cov_ml = (d[:, None] * diff).T @ diff
+            mean = d @ w
+            cov = (1 - cfg.cov_rate) * cov + cfg.cov_rate * cov_ml
+            cov = (cov + cov.T) / 2 + floor * cfg.cov_rate  # keeps exploration from collapsing
+        else:
+            mean = d @ w
+            diff = w - mean  # weighted maximum likelihood: about the new mean
+            cov_ml = (d[:, None] * diff).T @ diff
+            cov = (cov_ml + cov_ml.T) / 2 + floor  # regularised: fewer samples than weights
         iterations += 1
     return PrompRLResult(
         success=success,
@@ -291,10 +353,13 @@ def adapt_promp(
     config: PrompRLConfig | None = None,
     *,
     n_basis: int = 20,
+    demo_effects=None,
 ) -> PrompRLResult:
-    """Adaptive ProMP + RL in one call: build the skill library from the demos, initialise from the
-    closest skill for ``task_params`` (P,), and run :func:`promp_rl` on ``evaluator``."""
+    """Adaptive ProMP + RL in one call: build the skill library from the demos (``demo_effects``
+    (N, P) for the effect-based initialisations), initialise the search distribution for
+    ``task_params`` (P,) as ``config.init`` says, and run :func:`promp_rl` on ``evaluator``."""
     cfg = config if config is not None else PrompRLConfig()
-    lib = AdaptiveProMP(demo_times, demo_values, demo_task_params, n_basis=n_basis)
-    init = lib.initial_promp(task_params, init=cfg.init, cov_scale=cfg.init_cov_scale, min_std=cfg.min_std)
+    lib = AdaptiveProMP(demo_times, demo_values, demo_task_params, effects=demo_effects, n_basis=n_basis)
+    init = lib.initial_promp(task_params, init=cfg.init, cov_scale=cfg.init_cov_scale, min_std=cfg.min_std,
+                             scratch_std=cfg.scratch_std)
     return promp_rl(init, evaluator, times, task_params, cfg)

@@ -19,6 +19,10 @@ distance, exactly the objective it was tuned on (with the dense reward its retur
 approach phase into the search and it needs ~3x more roll-outs). Success, for both: the final
 distance is at most ``tolerance`` (0.03 m, the cylinder's radius).
 
+The task setting (:mod:`~acnmp_core.tasks.push_settings`: "paper", the default, or "authors")
+fixes the cylinder's start, the targets and ACNMP's reward ("tracking" in the authors' setting: the
+squared distance to the cylinder's path in the held-out demonstration, :func:`reference_path`).
+
 Everything here is plain library code; ``acnmp experiment push`` is a thin adapter around
 :func:`run_push`, whose result is a JSON-ready dict.
 """
@@ -36,6 +40,7 @@ from ..data import DemoSet
 from ..demo_io import DemoArrays
 from ..promp_rl import PrompRLConfig, adapt_promp
 from ..rollout import RolloutEvaluator
+from ..tasks.push_settings import PAPER, PushSetting
 from ..training import TrainConfig, train
 
 METHODS = ("acnmp", "promp_rl")
@@ -45,7 +50,8 @@ TOLERANCE = 0.03
 
 #: ACNMP's roll-out budget per target (the adaptation settings are the library defaults).
 ACNMP_BUDGET = 300
-#: The push task's reward per method (PlanarPushTask ``reward``), see the module docstring.
+#: The push task's reward per method in the paper setting (PlanarPushTask ``reward``), see the
+#: module docstring; :func:`reward_for` gives it for any setting and method.
 REWARDS = {"acnmp": "distance", "promp_rl": "final"}
 #: The ProMP + RL settings the baseline uses (Stark et al. 2019 style: nearest skill, REPS).
 PROMP_DEFAULTS = dict(method="reps", n_samples=10, max_rollouts=1500)
@@ -60,6 +66,9 @@ class PushSetup:
     times : (300,) query times (phase in [0, 1]).
     q0 : (3,) start configuration (rad), shared by every demonstration.
     n_joints : arm DoF. tolerance : success tolerance (m).
+    setting : the task setting (cylinder start, targets, ACNMP's reward).
+    demo_arrays : all 11 demonstrations (training and the two held-out ones), for effects and
+        reference paths.
     """
 
     demos: DemoSet
@@ -68,22 +77,40 @@ class PushSetup:
     q0: np.ndarray
     n_joints: int = 3
     tolerance: float = TOLERANCE
+    setting: PushSetting = PAPER
+    demo_arrays: DemoArrays | None = None
 
 
-def make_setup(demo_path: str | None = None, n_joints: int = 3) -> PushSetup:
-    """Load (or generate and cache, ~2 s) the E2 demonstrations and split them by role.
+def make_setup(demo_path: str | None = None, n_joints: int = 3, setting: PushSetting = PAPER) -> PushSetup:
+    """Load (or generate and cache, ~2 s) the E2 demonstrations of ``setting`` and split them by role.
 
     ``demo_path`` : .npz in the project's demo format (default: the cache of
     :func:`~acnmp_core.tasks.push_demos.push_demos`).
     """
     from ..tasks.push_demos import push_demos
 
-    arrays: DemoArrays = push_demos(n_joints, path=demo_path)
+    arrays: DemoArrays = push_demos(n_joints, path=demo_path, setting=setting)
     train_arr = arrays.with_role("train")
     targets = {case: arrays.with_role(case).task_params[0].copy() for case in CASES}
     times = train_arr.times[0].copy()
     return PushSetup(demos=train_arr.to_demo_set(), targets=targets, times=times,
-                     q0=train_arr.values[0, 0].copy(), n_joints=n_joints)
+                     q0=train_arr.values[0, 0].copy(), n_joints=n_joints, setting=setting, demo_arrays=arrays)
+
+
+def demo_effects(setup: PushSetup) -> np.ndarray:
+    """(9, 2) m: each training demonstration's effect, the cylinder's final position when it is
+    executed (Stark et al.'s effect description; prior experience, not counted as roll-outs)."""
+    from ..tasks.push_demos import object_paths
+
+    return object_paths(setup.demo_arrays.with_role("train").values, setup.setting)[:, -1]
+
+
+def reference_path(setup: PushSetup, case: str) -> np.ndarray:
+    """(T, 2) m: the cylinder's path in the expert's demonstration for ``case``'s target, the
+    reference of the authors' tracking reward (the held-out demonstration, never trained on)."""
+    from ..tasks.push_demos import object_paths
+
+    return object_paths(setup.demo_arrays.with_role(case).values, setup.setting)[0]
 
 
 def make_target(setup: PushSetup, case: str) -> AdaptTarget:
@@ -131,19 +158,33 @@ def run_acnmp_case(model: CNMP, setup: PushSetup, case: str, evaluator: RolloutE
 
 
 def run_promp_case(setup: PushSetup, case: str, evaluator: RolloutEvaluator, cfg: PrompRLConfig,
-                   n_basis: int = 20) -> dict:
+                   n_basis: int = 20, effects: np.ndarray | None = None) -> dict:
     """Adaptive ProMP + RL on one test target. Returns the same keys as :func:`run_acnmp_case`
-    (``lfd_*`` is the initial nearest-skill trajectory)."""
+    (``lfd_*`` is the initial search distribution's mean trajectory). ``effects`` (9, 2) m: the
+    demos' effects (:func:`demo_effects`), needed by the "similar" and "mixture" initialisations."""
     times = setup.times
     tv = np.stack([d.times for d in setup.demos])
     vals = np.stack([d.values for d in setup.demos])
     tps = np.stack([d.task_params for d in setup.demos])
-    res = adapt_promp(tv, vals, tps, evaluator, times, setup.targets[case], cfg, n_basis=n_basis)
+    res = adapt_promp(tv, vals, tps, evaluator, times, setup.targets[case], cfg, n_basis=n_basis,
+                      demo_effects=effects)
     errs = res.error_curve
     return {"rollouts": int(res.n_rollouts), "success": bool(res.success), "final_error": float(errs[-1]),
             "lfd_error": float(errs[0]), "lfd_success": bool(errs[0] <= setup.tolerance),
             "adapted": res.n_iterations > 0,
             "curve": [[int(r), float(e)] for r, e in zip(res.rollouts_at, errs)]}
+
+
+def record_run(runs: list[dict], r: dict, seed: int, method: str, case: str, t_start: float,
+               log: Callable[[str], None] | None, prefix: str = "", width: int = 8) -> None:
+    """Append run ``r`` (a ``run_*_case`` result) to ``runs`` with its seed, method, case and time
+    since ``t_start`` (perf_counter s), and log one line (``prefix`` first, method padded to ``width``)."""
+    r = {"seed": seed, "method": method, "case": case, **r, "time_s": round(time.perf_counter() - t_start, 2)}
+    runs.append(r)
+    if log:
+        log(f"{prefix}seed {seed} {method:<{width}} {case:<13} roll-outs {r['rollouts']:>5} "
+            f"success {str(r['success']):<5} error {r['final_error']:.4f} m "
+            f"(initial {r['lfd_error']:.4f} m) {r['time_s']:.1f} s")
 
 
 def _summarise(runs: list[dict]) -> dict:
@@ -158,10 +199,30 @@ def _summarise(runs: list[dict]) -> dict:
     }
 
 
+def reward_for(setting: PushSetting, method: str) -> str:
+    """PlanarPushTask reward of ``method`` in ``setting``: ACNMP's is the setting's, every ProMP
+    method (episodic) gets the final distance."""
+    return setting.acnmp_reward if method == "acnmp" else "final"
+
+
 def task_config(setup: "PushSetup", method: str) -> dict:
     """The push task's parameters for ``method`` (see :data:`REWARDS`): ``{"n_joints", "tolerance",
-    "reward"}``, as PlanarPushTask's keyword arguments and as a worker's task config."""
+    "reward"}``, as PlanarPushTask's keyword arguments and as a worker's task config (paper setting
+    only: the workers' push task has the default cylinder start and no tracking reference)."""
+    if setup.setting.name != PAPER.name:
+        raise ValueError(f"setting: remote workers run the paper setting only, got {setup.setting.name!r}")
     return {"n_joints": setup.n_joints, "tolerance": setup.tolerance, "reward": REWARDS[method]}
+
+
+def make_task(setup: PushSetup, method: str, case: str):
+    """An in-process PlanarPushTask for ``method`` on ``case`` in ``setup.setting`` (its cylinder
+    start, ``method``'s reward and, for "tracking", the case's :func:`reference_path`)."""
+    from ..robots.planar_arm import PlanarPushTask, PushObject
+
+    reward = reward_for(setup.setting, method)
+    ref = reference_path(setup, case) if reward == "tracking" else None
+    return PlanarPushTask(setup.n_joints, obj=PushObject(start_xy=setup.setting.start_xy),
+                          tolerance=setup.tolerance, reward=reward, reference_path=ref)
 
 
 def run_push(
@@ -177,6 +238,7 @@ def run_push(
     on_iteration: Callable[[str, str, int], Callable] | None = None,
     progress: bool = False,
     log: Callable[[str], None] | None = None,
+    setting: PushSetting = PAPER,
 ) -> dict:
     """Run E2 over several seeds and return the JSON-ready result.
 
@@ -195,10 +257,11 @@ def run_push(
         PlanarPushTask per method shared by all runs (closed at the end).
     on_iteration : ``(method, case, seed) -> callback`` for adapt() (ACNMP only), e.g. to record.
     progress : training progress bars. log : called with one line per finished run.
+    setting : the task setting (default :data:`~acnmp_core.tasks.push_settings.PAPER`).
 
     Returns
     -------
-    dict with ``experiment`` "push", ``seeds`` N, ``seed_list``, ``wall_time_s``, ``tolerance`` (m),
+    dict with ``experiment`` "push", ``setting`` (its name), ``seeds`` N, ``seed_list``, ``wall_time_s``, ``tolerance`` (m),
     ``targets`` {case: [x, y]}, ``methods`` {method: {case: {rollouts_median, rollouts, success_rate,
     final_error_median, lfd_error_median, lfd_success_rate}}}, ``rollout_ratio_promp_over_acnmp``
     {case: ratio of medians, None unless both methods succeed in more than half of the seeds}, ``config`` (settings used) and ``runs`` (per seed, method and
@@ -216,15 +279,17 @@ def run_push(
     acfg = adapt_config or AdaptConfig(max_rollouts=ACNMP_BUDGET)
     pcfg = promp_config or PrompRLConfig(**PROMP_DEFAULTS)
     t0 = time.perf_counter()
-    setup = make_setup(demo_path)
-    shared: dict[str, RolloutEvaluator] = {}
-    if evaluator_factory is None:
-        from ..robots.planar_arm import PlanarPushTask
-
-        shared = {m: PlanarPushTask(**task_config(setup, m)) for m in methods}
+    setup = make_setup(demo_path, setting=setting)
+    shared: dict[tuple[str, str], RolloutEvaluator] = {}
 
     def evaluator(method: str, case: str) -> RolloutEvaluator:
-        return shared[method] if shared else evaluator_factory(setup, method, case)
+        if evaluator_factory is not None:
+            return evaluator_factory(setup, method, case)
+        # One task per method (per case too when the reward's reference path depends on it).
+        key = (method, case if reward_for(setting, method) == "tracking" else "")
+        if key not in shared:
+            shared[key] = make_task(setup, method, case)
+        return shared[key]
 
     runs: list[dict] = []
     try:
@@ -241,13 +306,7 @@ def run_push(
                         r = run_acnmp_case(copy.deepcopy(model), setup, case, ev, acfg, seed, cb)
                     else:
                         r = run_promp_case(setup, case, ev, replace(pcfg, seed=seed))
-                    r = {"seed": seed, "method": method, "case": case, **r,
-                         "time_s": round(time.perf_counter() - t1, 2)}
-                    runs.append(r)
-                    if log:
-                        log(f"seed {seed} {method:<8} {case:<13} roll-outs {r['rollouts']:>5} "
-                            f"success {str(r['success']):<5} error {r['final_error']:.4f} m "
-                            f"(initial {r['lfd_error']:.4f} m) {r['time_s']:.1f} s")
+                    record_run(runs, r, seed, method, case, t1, log)
     finally:
         for task in shared.values():
             task.close()
@@ -263,6 +322,7 @@ def run_push(
             ratio[c] = round(p["rollouts_median"] / a["rollouts_median"], 3) if both else None
     return {
         "experiment": "push",
+        "setting": setting.name,
         "seeds": len(seed_list),
         "seed_list": seed_list,
         "wall_time_s": round(time.perf_counter() - t0, 2),
@@ -270,7 +330,7 @@ def run_push(
         "targets": {c: setup.targets[c].tolist() for c in CASES},
         "methods": summary,
         "rollout_ratio_promp_over_acnmp": ratio,
-        "config": {"train_steps": train_steps, "rewards": {m: REWARDS[m] for m in methods},
+        "config": {"train_steps": train_steps, "rewards": {m: reward_for(setting, m) for m in methods},
                    "acnmp": _plain(vars(acfg)), "promp_rl": _plain(vars(pcfg))},
         "runs": runs,
     }

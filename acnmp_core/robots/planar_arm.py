@@ -234,7 +234,9 @@ class PlanarPushTask:
     the target at that step, divided by T, so the return is minus the time-averaged distance and a
     per-step advantage says at which steps a push moved the cylinder nearer; "final" gives zero at
     every step but the last, which gets minus the final distance (the return is then minus the
-    final error). Either way ``errors`` is the final distance (m) and success is that distance being
+    final error); "tracking" (the authors' code, E2 ``authors`` setting) gives every step minus the
+    squared distance (m^2) between the cylinder and ``reference_path`` (T, 2) m at that step, the
+    cylinder's path in a demonstration of the same target. Either way ``errors`` is the final distance (m) and success is that distance being
     at most ``tolerance`` (default 0.03 m, one cylinder radius: the object then still overlaps the
     target point).
 
@@ -245,14 +247,18 @@ class PlanarPushTask:
     """
 
     task_param_names = ("target_x", "target_y")
-    REWARDS = ("distance", "final")
+    REWARDS = ("distance", "final", "tracking")
     #: The cylinder moves by contact: an action is credited with every reward after it.
     credit = "future"
 
     def __init__(self, n_joints: int = 3, *, geometry: ArmGeometry | None = None, obj: PushObject | None = None,
-                 tolerance: float = 0.03, reward: str = "distance", **sim_kwargs) -> None:
+                 tolerance: float = 0.03, reward: str = "distance", reference_path=None, **sim_kwargs) -> None:
         if reward not in self.REWARDS:
             raise ValueError(f"reward: expected one of {self.REWARDS}, got {reward!r}")
+        if (reward == "tracking") != (reference_path is not None):
+            raise ValueError("reference_path: expected a (T, 2) path with reward 'tracking' and only then")
+        self.reference_path = None if reference_path is None else check_array("reference_path", reference_path,
+                                                                             ndim=2)
         geometry = geometry if geometry is not None else default_geometry(n_joints)
         self.sim = PlanarArmSim(geometry, obj, **sim_kwargs)
         self.tolerance = float(tolerance)
@@ -283,6 +289,11 @@ class PlanarPushTask:
             errors[i] = dist[-1]
             if self.reward == "distance":
                 rewards[i] = -dist / t_len
+            elif self.reward == "tracking":
+                if self.reference_path.shape != out["object_xy"].shape:
+                    raise ValueError(f"reference_path: expected shape {out['object_xy'].shape}, "
+                                     f"got {self.reference_path.shape}")
+                rewards[i] = -np.sum((out["object_xy"] - self.reference_path) ** 2, axis=1)
             else:
                 rewards[i, -1] = -dist[-1]
             for k in keys:

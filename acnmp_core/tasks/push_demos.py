@@ -36,6 +36,7 @@ from ..robots.kinematics import planar_fk, planar_ik, wrap_angle
 from ..robots.planar_arm import PlanarArmSim, PushObject, default_geometry
 from ..robots.urdf import ArmGeometry
 from ..validation import check_array
+from .push_settings import PAPER, PushSetting
 
 #: Cylinder start (m): the simulator's default, so a default PlanarPushTask matches the demos.
 START_XY = PushObject().start_xy
@@ -46,17 +47,8 @@ N_STEPS = 300
 #: Phase boundaries (row indices) of hold / circle / approach / push / hold.
 PHASES = (20, 120, 150, 280, 300)
 
-# Training targets: angle (deg) and distance (m) from the start; distances alternate so the targets
-# span an area, not a single arc.
-_TRAIN = [(-60, 0.15), (-40, 0.20), (-20, 0.15), (0, 0.20), (20, 0.15), (40, 0.20), (60, 0.15), (80, 0.20),
-          (100, 0.15)]
-_EXTRAPOLATION = (140, 0.18)
-_INTERPOLATION = (30, 0.17)
-
-
-def _target(angle_deg: float, dist: float, start=START_XY) -> np.ndarray:
-    a = np.deg2rad(angle_deg)
-    return np.asarray(start, dtype=np.float64) + dist * np.array([np.cos(a), np.sin(a)])
+# The targets (angle and distance from the start) are those of a PushSetting (push_settings.py);
+# the paper setting's distances alternate so the targets span an area, not a single arc.
 
 
 @dataclass(frozen=True)
@@ -77,10 +69,9 @@ class PushTargets:
         return roles
 
 
-def push_targets() -> PushTargets:
-    """The 11 targets: rows 0-8 train, row 9 extrapolation, row 10 interpolation."""
-    rows = [_target(a, d) for a, d in _TRAIN] + [_target(*_EXTRAPOLATION), _target(*_INTERPOLATION)]
-    return PushTargets(np.stack(rows), tuple(range(9)), 9, 10)
+def push_targets(setting: PushSetting = PAPER) -> PushTargets:
+    """The 11 targets of ``setting``: rows 0-8 train, row 9 extrapolation, row 10 interpolation."""
+    return PushTargets(setting.targets(), tuple(range(9)), 9, 10)
 
 
 def _min_jerk(n: int) -> np.ndarray:
@@ -212,8 +203,9 @@ def expert_push(target_xy, *, sim: PlanarArmSim, trials: int = 4) -> tuple[np.nd
 
 
 def make_push_demos(n_joints: int = 3, *, trials: int = 4, geometry: ArmGeometry | None = None,
-                    **sim_kwargs) -> tuple[DemoArrays, np.ndarray]:
-    """Run the expert on all 11 targets of :func:`push_targets`.
+                    setting: PushSetting = PAPER, **sim_kwargs) -> tuple[DemoArrays, np.ndarray]:
+    """Run the expert on all 11 targets of :func:`push_targets` ``(setting)``, the cylinder at the
+    setting's start.
 
     Returns
     -------
@@ -222,9 +214,9 @@ def make_push_demos(n_joints: int = 3, *, trials: int = 4, geometry: ArmGeometry
     final_errors : (11,) distance (m) between the cylinder's final position and its target.
     """
     geometry = geometry if geometry is not None else default_geometry(n_joints)
-    tg = push_targets()
+    tg = push_targets(setting)
     values, errors = [], []
-    with PlanarArmSim(geometry, PushObject(start_xy=START_XY), **sim_kwargs) as sim:
+    with PlanarArmSim(geometry, PushObject(start_xy=setting.start_xy), **sim_kwargs) as sim:
         for target in tg.targets:
             traj, states = expert_push(target, sim=sim, trials=trials)
             values.append(traj)
@@ -241,18 +233,31 @@ def make_push_demos(n_joints: int = 3, *, trials: int = 4, geometry: ArmGeometry
     return demos, np.asarray(errors)
 
 
-def default_demo_path(n_joints: int = 3) -> str:
-    """Where :func:`push_demos` caches the generated set: ``$ACNMP_CACHE`` or ``~/.cache/acnmp``."""
+def default_demo_path(n_joints: int = 3, setting: PushSetting = PAPER) -> str:
+    """Where :func:`push_demos` caches the generated set: ``$ACNMP_CACHE`` or ``~/.cache/acnmp``
+    (the paper setting keeps its original file name)."""
     root = os.environ.get("ACNMP_CACHE") or os.path.join(os.path.expanduser("~"), ".cache", "acnmp")
-    return os.path.join(root, f"push_demos_{n_joints}dof.npz")
+    tag = "" if setting.name == PAPER.name else f"{setting.name}_"
+    return os.path.join(root, f"push_demos_{tag}{n_joints}dof.npz")
 
 
-def push_demos(n_joints: int = 3, path: str | None = None, *, regenerate: bool = False) -> DemoArrays:
-    """The E2 demonstration set, loaded from ``path`` (default :func:`default_demo_path`) or generated
-    with :func:`make_push_demos` and saved there first (about 2 s)."""
-    path = path or default_demo_path(n_joints)
+def push_demos(n_joints: int = 3, path: str | None = None, *, regenerate: bool = False,
+               setting: PushSetting = PAPER) -> DemoArrays:
+    """The E2 demonstration set of ``setting``, loaded from ``path`` (default :func:`default_demo_path`)
+    or generated with :func:`make_push_demos` and saved there first (about 2 s)."""
+    path = path or default_demo_path(n_joints, setting)
     if not regenerate and os.path.exists(path):
         return load_demos(path)
-    demos, _ = make_push_demos(n_joints)
+    demos, _ = make_push_demos(n_joints, setting=setting)
     save_demos(path, demos)
     return demos
+
+
+def object_paths(values, setting: PushSetting = PAPER, *, geometry: ArmGeometry | None = None) -> np.ndarray:
+    """(N, T, 2) m: the cylinder's path when each joint trajectory of ``values`` (N, T, J) rad is
+    executed, the cylinder at ``setting``'s start. Gives the demonstrations' effects (their final
+    cylinder positions) and the authors' tracking reference (the path of a held-out demonstration)."""
+    vals = check_array("values", values, ndim=3, min_size=1)
+    geometry = geometry if geometry is not None else default_geometry(vals.shape[2])
+    with PlanarArmSim(geometry, PushObject(start_xy=setting.start_xy)) as sim:
+        return np.stack([sim.rollout(v)["object_xy"] for v in vals])

@@ -19,6 +19,9 @@ def register(subparsers) -> None:
         ),
     )
     p.add_argument("--seeds", type=int, default=3, help="number of seeds 0..N-1 (default 3)")
+    p.add_argument("--setting", choices=("paper", "authors"), default="paper",
+                   help="task setting: 'paper' (default) or 'authors' (the authors' targets, scaled to "
+                        "our arm, and their dense tracking reward for ACNMP)")
     p.add_argument("--train-steps", type=int, default=3000, help="CNMP training steps (default 3000)")
     p.add_argument("--acnmp-budget", type=int, default=None, help="ACNMP roll-out budget per target (default 300)")
     p.add_argument("--promp-budget", type=int, default=None,
@@ -39,6 +42,7 @@ def run(args) -> int:
     from acnmp_core.adaptation import AdaptConfig
     from acnmp_core.experiments.push import ACNMP_BUDGET, PROMP_DEFAULTS, run_push, task_config
     from acnmp_core.promp_rl import PrompRLConfig
+    from acnmp_core.tasks.push_settings import push_setting
 
     torch.set_num_threads(1)  # the CNMP is small; threads only contend with the simulator
     q = QUICK if args.quick else {}
@@ -52,8 +56,11 @@ def run(args) -> int:
         adapt_config=AdaptConfig(max_rollouts=acnmp_budget),
         promp_config=PrompRLConfig(**{**PROMP_DEFAULTS, "max_rollouts": promp_budget}),
         log=None if args.quiet else print,
+        setting=push_setting(args.setting),
     )
     check_deployment_arguments(args)
+    if args.distributed and args.setting != "paper":
+        raise ValueError("--distributed: the workers run the paper setting only; drop --setting authors")
     if args.distributed:
         from clients.distributed import remote_rollouts
 
@@ -63,7 +70,7 @@ def run(args) -> int:
                 f"push-{method}-{case}", task_config(setup, method)), **kwargs)
     else:
         result = run_push(args.seeds, **kwargs)
-    print(f"E2 push, {result['seeds']} seed(s), tolerance {result['tolerance']} m, {result['wall_time_s']:.1f} s")
+    print(f"E2 push ({result['setting']} setting), {result['seeds']} seed(s), tolerance {result['tolerance']} m, {result['wall_time_s']:.1f} s")
     print(f"{'method':<9} {'case':<14} {'roll-outs (median)':>18} {'success':>8} {'error (m)':>10} {'initial (m)':>11}")
     for m, cases in result["methods"].items():
         for c, s in cases.items():
