@@ -216,9 +216,7 @@ class LocalDeployment:
             for i in range(self.n_workers):
                 started.append(self.start_worker(f"{self.robot}-{i}", wait=False))
             self._wait_live(started)
-            if self.announcement is not None:
-                self.announcement.publish(self.anchor, str(self.state_dir),
-                                          [(c.name, c.pid, c.token) for c in self.children.values()])
+            self._announce()
             self._events = EventPublisher(self.session, self.keys)
             if self.supervise:
                 self.supervisor = Supervisor(self, self.restart_policy,
@@ -285,7 +283,15 @@ class LocalDeployment:
                 self.recordings.append(Path(argv[out]))
             child = Child(name, argv, _popen(argv, old.log), old.token, old.serves, old.log)
             self.children[name] = child
+            if self.announcement is not None and self.announcement.run is not None:
+                self._announce()  # the run file names each child's pid: `acnmp status` checks them
             return child.pid
+
+    def _announce(self) -> None:
+        """(Re)write the run file with every child's current pid (no-op when not announced)."""
+        if self.announcement is not None:
+            self.announcement.publish(self.anchor, str(self.state_dir),
+                                      [(c.name, c.pid, c.token) for c in self.children.values()])
 
     def wait_child_live(self, name: str) -> None:
         """Block until child ``name`` is live (its liveliness token); RuntimeError if it exits first,

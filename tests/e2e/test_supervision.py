@@ -17,6 +17,7 @@ from services.launcher import LocalDeployment
 from services.launcher.supervision import RestartPolicy
 from services.recording.replay import summarize
 from services.transport import call, decode
+from services.transport.runfile import RunFile
 from services.worker.remote import RemoteEvaluator
 
 WORKER = "worker-point2d-0"
@@ -44,6 +45,9 @@ def test_a_killed_child_is_restarted_and_recorded_then_given_up_after_the_limit(
         dep.kill(WORKER)  # SIGKILL, as a crash would
         (restart,) = dep.supervisor.wait_restarts(WORKER, 1, timeout=60)
         assert restart.old_pid == first and restart.exit_code == -9 and restart.pid == dep.children[WORKER].pid
+        # the run file (`acnmp status`, discovery) names the new pid, not the dead one
+        run = RunFile.read(dep.announcement.directory / "run.json")
+        assert {p.name: p.pid for p in run.processes}[WORKER] == restart.pid
         # the new worker serves roll-outs under the same id
         t = setup.target.query_times
         batch = RemoteEvaluator(dep.session, dep.keys, "point2d", "viapoint", setup.task_config, timeout=30) \
