@@ -1,0 +1,152 @@
+"""E4 sweep: a few of E4's own settings tried on short runs (the transfer condition only).
+
+Each variant is a :class:`~acnmp_core.experiments.transfer.TransferExperimentConfig` built from the
+default one; variants with the same pair settings share their trained pairs (one training per pair
+seed in this process). Writes (merges into) benchmarks/results/e4_sweep.json: per variant its
+settings, success by iteration, the initial cube error per pair seed, the authors' data check and
+the wall time, with the provenance of the run. Usage: ``python benchmarks/e4_sweep.py --runs 10
+--variant default --variant explore0.6 [--authors-seeds 3]``; ``--list`` names the variants.
+"""
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import sys
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import torch
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from acnmp_core.experiments.transfer import (TransferExperimentConfig, authors_data_check,  # noqa: E402
+                                             make_setup, run_transfer)
+from acnmp_core.transfer import TransferPair, train_pair  # noqa: E402
+from benchmarks._results import provenance  # noqa: E402
+
+OUT = ROOT / "benchmarks" / "results" / "e4_sweep.json"
+
+
+def _adapt(**kw):
+    """The default config with these AdaptConfig fields changed."""
+    base = TransferExperimentConfig()
+    return replace(base, adapt=replace(base.adapt, **kw))
+
+
+def _pair(**kw):
+    """The default config with these TransferConfig fields changed."""
+    base = TransferExperimentConfig()
+    return replace(base, pair=replace(base.pair, **kw))
+
+
+#: name -> config; the names are what the docs' sweep table cites.
+VARIANTS = {
+    "default": lambda: TransferExperimentConfig(),
+    "explore0.5": lambda: _adapt(explore_scale=0.5),
+    "explore0.8": lambda: _adapt(explore_scale=0.8),
+    "explore0.5_min0.5": lambda: _adapt(explore_scale=0.5, explore_min=0.5),
+    "authors_explore": lambda: _adapt(explore_error_gain=3.0, explore_cap=0.08),
+    "authors_explore_reinforce": lambda: _adapt(explore_error_gain=3.0, explore_cap=0.08,
+                                                advantage="reinforce", lr=1e-5),
+    "authors_explore_cap0.12": lambda: _adapt(explore_error_gain=3.0, explore_cap=0.12),
+    "reinforce_lr1e-5": lambda: _adapt(advantage="reinforce", lr=1e-5),
+    "knots10": lambda: _adapt(n_knots=10),
+    "steps6000": lambda: _pair(steps=6000),
+    "w1e4": lambda: _pair(latent_weight=1e4),
+    "w1e2": lambda: _pair(latent_weight=1e2),
+    "lr3e-4": lambda: _pair(lr=3e-4),
+    "widths128": lambda: _pair(widths=(128, 128, 128)),
+}
+
+
+def _memo_trainer(cache_dir: Path | None):
+    """A pair trainer that trains only the aligned pair and remembers it by (pair settings, seed),
+    in memory and, with ``cache_dir``, as state dicts on disk (another sweep process reuses them)."""
+    cache: dict[tuple, dict[str, TransferPair]] = {}
+
+    def trainer(setup, cfg, seed):
+        text = json.dumps(cfg.pair.to_dict(), sort_keys=True)
+        key = (text, seed)
+        if key not in cache:
+            pair = TransferPair(3, 4, cfg.pair, seed=seed)
+            path = None
+            if cache_dir is not None:
+                path = cache_dir / f"{hashlib.sha256(text.encode()).hexdigest()[:12]}-{seed}.pt"
+            if path is not None and path.exists():
+                state = torch.load(path, weights_only=True)
+                pair.model_a.load_state_dict(state["a"])
+                pair.model_b.load_state_dict(state["b"])
+                pair.model_a.eval()
+                pair.model_b.eval()
+            else:
+                train_pair(pair, setup.demos_a, setup.demos_b, cfg.pair, seed=seed)
+                if path is not None:
+                    path.parent.mkdir(parents=True, exist_ok=True)
+                    torch.save({"a": pair.model_a.state_dict(), "b": pair.model_b.state_dict()}, path)
+            cache[key] = {"aligned": pair}
+        return cache[key]
+
+    return trainer
+
+
+def run_variant(name: str, runs: int, setup, trainer, authors_seeds: int) -> dict:
+    """One variant's short run: success by iteration of the transfer condition and the authors' data
+    check over seeds 0..authors_seeds-1 (RMSE, rad)."""
+    cfg = VARIANTS[name]()
+    t0 = time.perf_counter()
+    res = run_transfer(runs, cfg=cfg, conditions=("transfer",), authors_data=False, setup=setup,
+                       pair_trainer=trainer, log=lambda s: print(name, s, flush=True))
+    per_pair: dict[str, list] = {}
+    for r in res["per_run"]:
+        per_pair.setdefault(str(r["pair_seed"]), []).append(
+            {"seed": r["seed"], "iterations": r["iterations"], "initial_error": r["initial_error"]})
+    authors = [authors_data_check(cfg.pair, s, n_obs=cfg.n_obs) for s in range(authors_seeds)]
+    authors = [a for a in authors if a is not None]
+    return {"config": cfg.to_dict(), "runs": res["runs"],
+            "success_by_iteration": res["success_by_iteration"],
+            "success_rate": res["conditions"]["transfer"]["success_rate"],
+            "initial_error_median": res["conditions"]["transfer"]["initial_error_median"],
+            "per_pair_seed": per_pair,
+            "authors_data": {"transfer_rmse": [a["transfer_rmse"] for a in authors],
+                             "mean_demo_rmse": authors[0]["mean_demo_rmse"] if authors else None,
+                             "nearest_partner_rmse": authors[0]["nearest_partner_rmse"] if authors else None},
+            "wall_time_s": round(time.perf_counter() - t0, 1)}
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the named variants; merge each into the sweep JSON as it finishes."""
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--runs", type=int, default=10)
+    ap.add_argument("--variant", action="append", default=[])
+    ap.add_argument("--authors-seeds", type=int, default=1)
+    ap.add_argument("--list", action="store_true")
+    ap.add_argument("--out", default=str(OUT))
+    ap.add_argument("--cache", default=None, help="directory for trained pairs, shared by sweep processes")
+    args = ap.parse_args(argv)
+    if args.list or not args.variant:
+        print("\n".join(VARIANTS))
+        return 0
+    bad = [v for v in args.variant if v not in VARIANTS]
+    if bad:
+        print(f"e4_sweep: unknown variant(s) {bad}; --list names them", file=sys.stderr)
+        return 2
+    torch.set_num_threads(1)
+    meta = provenance()
+    setup, trainer, out = make_setup(), _memo_trainer(None if args.cache is None else Path(args.cache)), Path(args.out)
+    for name in args.variant:
+        entry = {"provenance": meta, **run_variant(name, args.runs, setup, trainer, args.authors_seeds)}
+        data = json.loads(out.read_text()) if out.exists() else {"experiment": "transfer_sweep", "variants": {}}
+        data["variants"][f"{name}@{args.runs}"] = entry
+        out.write_text(json.dumps(data, indent=2) + "\n")
+        a = entry["authors_data"]
+        print(f"{name}: success {entry['success_by_iteration']} authors {np.round(a['transfer_rmse'], 3).tolist()} "
+              f"{entry['wall_time_s']} s", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
