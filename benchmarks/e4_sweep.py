@@ -46,6 +46,10 @@ def _pair(**kw):
 #: name -> config; the names are what the docs' sweep table cites.
 VARIANTS = {
     "default": lambda: TransferExperimentConfig(),
+    "explore0.2": lambda: _adapt(explore_scale=0.2),
+    "explore0.2_min0.6": lambda: _adapt(explore_scale=0.2, explore_min=0.6),
+    "rl_lr3e-4": lambda: _adapt(lr=3e-4),
+    "temperature0.3": lambda: _adapt(temperature=0.3),
     "explore0.5": lambda: _adapt(explore_scale=0.5),
     "explore0.8": lambda: _adapt(explore_scale=0.8),
     "explore0.5_min0.5": lambda: _adapt(explore_scale=0.5, explore_min=0.5),
@@ -117,6 +121,49 @@ def run_variant(name: str, runs: int, setup, trainer, authors_seeds: int) -> dic
             "wall_time_s": round(time.perf_counter() - t0, 1)}
 
 
+def _affine_weights(pool: np.ndarray, target: np.ndarray, ridge: float) -> np.ndarray:
+    """Weights w (n,) summing to (nearly) 1 with pool (n, T, D) . w ~ target (T, D), ridge-regularised."""
+    m = np.vstack([pool.reshape(len(pool), -1).T, 100.0 * np.ones((1, len(pool)))])
+    y = np.concatenate([target.ravel(), [100.0]])
+    return np.linalg.solve(m.T @ m + ridge * np.eye(len(pool)), m.T @ y)
+
+
+def authors_data_diagnosis(ridges=(0.01, 0.1, 1.0)) -> dict | None:
+    """How much the authors' 12 proxy pairs say about robot B's trajectory for a new robot-A one,
+    with no network: (1) the button press written as an affine combination of the 3-DoF demos (fit
+    RMSE on A) and the same combination of their 4-DoF partners (RMSE on B against the truth);
+    (2) leave-one-out over the proxy demos: each 4-DoF demo predicted from its 3-DoF partner by
+    the same affine combination, by the nearest 3-DoF demo's partner and by the mean of the other
+    4-DoF demos (median RMSE over the 12, rad). None when the arrays are absent."""
+    from acnmp_core.experiments.transfer import AUTHORS_DATA
+
+    files = ["3doftraining_joint_trajectories.npy", "4doftraining_joint_trajectories.npy",
+             "3dofbuttontotransfer.npy", "4dofbuttongroundtruth.npy"]
+    if not all((AUTHORS_DATA / f).exists() for f in files):
+        return None
+    a, b, new_a, truth = (np.load(AUTHORS_DATA / f) for f in files)
+    new_a, truth = new_a[0], truth[0]
+
+    def rmse(x, y):
+        return float(np.sqrt(np.mean((x - y) ** 2)))
+
+    button = {}
+    for lam in ridges:
+        w = _affine_weights(a, new_a, lam)
+        button[str(lam)] = {"fit_a": rmse(np.tensordot(w, a, 1), new_a), "b_vs_truth": rmse(np.tensordot(w, b, 1), truth)}
+    loo = {f"affine_{lam}": [] for lam in ridges}
+    loo.update(nearest_partner=[], mean_of_others=[])
+    for i in range(len(a)):
+        rest = [j for j in range(len(a)) if j != i]
+        for lam in ridges:
+            loo[f"affine_{lam}"].append(rmse(np.tensordot(_affine_weights(a[rest], a[i], lam), b[rest], 1), b[i]))
+        k = rest[int(np.argmin([rmse(a[j], a[i]) for j in rest]))]
+        loo["nearest_partner"].append(rmse(b[k], b[i]))
+        loo["mean_of_others"].append(rmse(b[rest].mean(axis=0), b[i]))
+    return {"button_affine": button, "button_mean_demo_rmse": rmse(b.mean(axis=0), truth),
+            "loo_median": {k: float(np.median(v)) for k, v in loo.items()}}
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the named variants; merge each into the sweep JSON as it finishes."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -124,9 +171,17 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--variant", action="append", default=[])
     ap.add_argument("--authors-seeds", type=int, default=1)
     ap.add_argument("--list", action="store_true")
+    ap.add_argument("--diagnosis", action="store_true", help="write the authors' data diagnosis (no training)")
     ap.add_argument("--out", default=str(OUT))
     ap.add_argument("--cache", default=None, help="directory for trained pairs, shared by sweep processes")
     args = ap.parse_args(argv)
+    if args.diagnosis:
+        out = Path(args.out)
+        data = json.loads(out.read_text()) if out.exists() else {"experiment": "transfer_sweep", "variants": {}}
+        data["authors_data_diagnosis"] = {"provenance": provenance(), **authors_data_diagnosis()}
+        out.write_text(json.dumps(data, indent=2) + "\n")
+        print(json.dumps(data["authors_data_diagnosis"]["loo_median"]), data["authors_data_diagnosis"]["button_affine"])
+        return 0
     if args.list or not args.variant:
         print("\n".join(VARIANTS))
         return 0
