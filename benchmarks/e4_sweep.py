@@ -24,7 +24,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from acnmp_core.experiments.transfer import (TransferExperimentConfig, authors_data_check,  # noqa: E402
-                                             make_setup, run_transfer)
+                                             load_authors_data, make_setup, run_transfer)
 from acnmp_core.transfer import TransferPair, train_pair  # noqa: E402
 from benchmarks._results import provenance  # noqa: E402
 
@@ -46,6 +46,8 @@ def _pair(**kw):
 #: name -> config; the names are what the docs' sweep table cites.
 VARIANTS = {
     "default": lambda: TransferExperimentConfig(),
+    "explore0.1": lambda: _adapt(explore_scale=0.1),
+    "explore0.15": lambda: _adapt(explore_scale=0.15),
     "explore0.2": lambda: _adapt(explore_scale=0.2),
     "explore0.2_min0.6": lambda: _adapt(explore_scale=0.2, explore_min=0.6),
     "rl_lr3e-4": lambda: _adapt(lr=3e-4),
@@ -62,6 +64,9 @@ VARIANTS = {
     "steps6000": lambda: _pair(steps=6000),
     "w1e4": lambda: _pair(latent_weight=1e4),
     "w1e2": lambda: _pair(latent_weight=1e2),
+    "w5e6": lambda: _pair(latent_weight=5e6),
+    "w5e6_steps10000": lambda: _pair(latent_weight=5e6, steps=10000),
+    "w1e5": lambda: _pair(latent_weight=1e5),
     "lr3e-4": lambda: _pair(lr=3e-4),
     "widths128": lambda: _pair(widths=(128, 128, 128)),
 }
@@ -102,19 +107,21 @@ def run_variant(name: str, runs: int, setup, trainer, authors_seeds: int) -> dic
     check over seeds 0..authors_seeds-1 (RMSE, rad)."""
     cfg = VARIANTS[name]()
     t0 = time.perf_counter()
-    res = run_transfer(runs, cfg=cfg, conditions=("transfer",), authors_data=False, setup=setup,
-                       pair_trainer=trainer, log=lambda s: print(name, s, flush=True))
-    per_pair: dict[str, list] = {}
-    for r in res["per_run"]:
-        per_pair.setdefault(str(r["pair_seed"]), []).append(
-            {"seed": r["seed"], "iterations": r["iterations"], "initial_error": r["initial_error"]})
+    out: dict = {"config": cfg.to_dict(), "runs": runs}
+    if runs:  # --runs 0: the authors' data check only
+        res = run_transfer(runs, cfg=cfg, conditions=("transfer",), authors_data=False, setup=setup,
+                           pair_trainer=trainer, log=lambda s: print(name, s, flush=True))
+        per_pair: dict[str, list] = {}
+        for r in res["per_run"]:
+            per_pair.setdefault(str(r["pair_seed"]), []).append(
+                {"seed": r["seed"], "iterations": r["iterations"], "initial_error": r["initial_error"]})
+        out.update(success_by_iteration=res["success_by_iteration"],
+                   success_rate=res["conditions"]["transfer"]["success_rate"],
+                   initial_error_median=res["conditions"]["transfer"]["initial_error_median"],
+                   per_pair_seed=per_pair)
     authors = [authors_data_check(cfg.pair, s, n_obs=cfg.n_obs) for s in range(authors_seeds)]
     authors = [a for a in authors if a is not None]
-    return {"config": cfg.to_dict(), "runs": res["runs"],
-            "success_by_iteration": res["success_by_iteration"],
-            "success_rate": res["conditions"]["transfer"]["success_rate"],
-            "initial_error_median": res["conditions"]["transfer"]["initial_error_median"],
-            "per_pair_seed": per_pair,
+    return {**out,
             "authors_data": {"transfer_rmse": [a["transfer_rmse"] for a in authors],
                              "mean_demo_rmse": authors[0]["mean_demo_rmse"] if authors else None,
                              "nearest_partner_rmse": authors[0]["nearest_partner_rmse"] if authors else None},
@@ -135,14 +142,10 @@ def authors_data_diagnosis(ridges=(0.01, 0.1, 1.0)) -> dict | None:
     (2) leave-one-out over the proxy demos: each 4-DoF demo predicted from its 3-DoF partner by
     the same affine combination, by the nearest 3-DoF demo's partner and by the mean of the other
     4-DoF demos (median RMSE over the 12, rad). None when the arrays are absent."""
-    from acnmp_core.experiments.transfer import AUTHORS_DATA
-
-    files = ["3doftraining_joint_trajectories.npy", "4doftraining_joint_trajectories.npy",
-             "3dofbuttontotransfer.npy", "4dofbuttongroundtruth.npy"]
-    if not all((AUTHORS_DATA / f).exists() for f in files):
+    arrays = load_authors_data()
+    if arrays is None:
         return None
-    a, b, new_a, truth = (np.load(AUTHORS_DATA / f) for f in files)
-    new_a, truth = new_a[0], truth[0]
+    a, b, new_a, truth = arrays
 
     def rmse(x, y):
         return float(np.sqrt(np.mean((x - y) ** 2)))
@@ -160,7 +163,8 @@ def authors_data_diagnosis(ridges=(0.01, 0.1, 1.0)) -> dict | None:
         k = rest[int(np.argmin([rmse(a[j], a[i]) for j in rest]))]
         loo["nearest_partner"].append(rmse(b[k], b[i]))
         loo["mean_of_others"].append(rmse(b[rest].mean(axis=0), b[i]))
-    return {"button_affine": button, "button_mean_demo_rmse": rmse(b.mean(axis=0), truth),
+    per_demo = {"a_to_button": [rmse(x, new_a) for x in a], "b_partner_to_truth": [rmse(x, truth) for x in b]}
+    return {"button_affine": button, "button_mean_demo_rmse": rmse(b.mean(axis=0), truth), "per_demo": per_demo,
             "loo_median": {k: float(np.median(v)) for k, v in loo.items()}}
 
 
@@ -198,7 +202,7 @@ def main(argv: list[str] | None = None) -> int:
         data["variants"][f"{name}@{args.runs}"] = entry
         out.write_text(json.dumps(data, indent=2) + "\n")
         a = entry["authors_data"]
-        print(f"{name}: success {entry['success_by_iteration']} authors {np.round(a['transfer_rmse'], 3).tolist()} "
+        print(f"{name}: success {entry.get('success_by_iteration')} authors {np.round(a['transfer_rmse'], 3).tolist()} "
               f"{entry['wall_time_s']} s", flush=True)
     return 0
 

@@ -216,19 +216,28 @@ def summarise(runs: list[dict], checkpoints=CHECKPOINTS) -> dict:
             "initial_rmse_to_expert_median": float(np.median([r["initial_rmse_to_expert"] for r in runs]))}
 
 
-def authors_data_check(cfg: TransferConfig, seed: int = 0, data_dir: Path | str = AUTHORS_DATA,
-                       n_obs: int = 11) -> dict | None:
-    """Train a pair on the authors' proxy arrays, map their 3-DoF button press through encoder A ->
-    decoder B; RMSE (rad, all steps and joints) against their 4-DoF ground truth, beside the mean
-    4-DoF demonstration and the 4-DoF partner of the nearest 3-DoF demonstration. None when the
-    arrays are absent."""
+def load_authors_data(data_dir: Path | str = AUTHORS_DATA) -> tuple[np.ndarray, ...] | None:
+    """The authors' E4 arrays: 3-DoF proxy demos (12, T, 3), their 4-DoF partners (12, T, 4), the
+    3-DoF button press (T, 3) and the 4-DoF truth (T, 4), rad; None when a file is absent."""
     data_dir = Path(data_dir)
     files = ["3doftraining_joint_trajectories.npy", "4doftraining_joint_trajectories.npy",
              "3dofbuttontotransfer.npy", "4dofbuttongroundtruth.npy"]
     if not all((data_dir / f).exists() for f in files):
         return None
     a, b, new_a, truth = (np.load(data_dir / f) for f in files)
-    new_a, truth = new_a[0], truth[0]
+    return a, b, new_a[0], truth[0]
+
+
+def authors_data_check(cfg: TransferConfig, seed: int = 0, data_dir: Path | str = AUTHORS_DATA,
+                       n_obs: int = 11) -> dict | None:
+    """Train a pair on the authors' proxy arrays, map their 3-DoF button press through encoder A ->
+    decoder B; RMSE (rad, all steps and joints) against their 4-DoF ground truth, beside the mean
+    4-DoF demonstration and the 4-DoF partner of the nearest 3-DoF demonstration. None when the
+    arrays are absent."""
+    arrays = load_authors_data(data_dir)
+    if arrays is None:
+        return None
+    a, b, new_a, truth = arrays
     times = np.linspace(0.0, 1.0, a.shape[1])
     tt = np.tile(times, (len(a), 1))
     pair = TransferPair(a.shape[2], b.shape[2], cfg, seed=seed)
