@@ -62,6 +62,8 @@ VARIANTS = {
     "reinforce_lr1e-5": lambda: _adapt(advantage="reinforce", lr=1e-5),
     "knots10": lambda: _adapt(n_knots=10),
     "steps6000": lambda: _pair(steps=6000),
+    "steps6000_explore0.1": lambda: replace(_pair(steps=6000), adapt=replace(_adapt().adapt, explore_scale=0.1)),
+    "steps6000_explore0.15": lambda: replace(_pair(steps=6000), adapt=replace(_adapt().adapt, explore_scale=0.15)),
     "w1e4": lambda: _pair(latent_weight=1e4),
     "w1e2": lambda: _pair(latent_weight=1e2),
     "w5e6": lambda: _pair(latent_weight=5e6),
