@@ -31,7 +31,9 @@ exploration std. Each iteration executes the mean and ``noisy_per_iter`` noisy t
   each output and follows the remaining error, ``std = std0 * clip(err / err0, explore_min, 1)``,
   ``err`` the mean roll-out's error (``RolloutBatch.errors``, else minus its return) and ``err0``
   the first one: the authors tie the std to the remaining error in every experiment, each with
-  its own constants; a ratio needs none.
+  its own constants; a ratio needs none. ``explore_error_gain`` and ``explore_cap`` give the
+  authors' absolute form instead, ``min(gain * err, cap)`` in raw units (their E4: 3 x error, at most
+  0.08 rad); off by default.
 
 Ablations: ``mode="rl_only"`` turns the supervised steps off; ``mode="lfd_only"`` executes the
 conditioned mean once and does not adapt. The settings were chosen on E1, E2 and E3 together
