@@ -114,14 +114,14 @@ def _memo_trainer(cache_dir: Path | None):
     return trainer
 
 
-def run_variant(name: str, runs: int, setup, trainer, authors_seeds: int) -> dict:
+def run_variant(name: str, runs: int, setup, trainer, authors_seeds: int, first_seed: int = 0) -> dict:
     """One variant's short run: success by iteration of the transfer condition and the authors' data
-    check over seeds 0..authors_seeds-1 (RMSE, rad)."""
+    check over seeds 0..authors_seeds-1 (RMSE, rad); RL seeds first_seed..first_seed+runs-1."""
     cfg = VARIANTS[name]()
     t0 = time.perf_counter()
     out: dict = {"config": cfg.to_dict(), "runs": runs}
     if runs:  # --runs 0: the authors' data check only
-        res = run_transfer(runs, cfg=cfg, conditions=("transfer",), authors_data=False, setup=setup,
+        res = run_transfer(list(range(first_seed, first_seed + runs)), cfg=cfg, conditions=("transfer",), authors_data=False, setup=setup,
                            pair_trainer=trainer, log=lambda s: print(name, s, flush=True))
         per_pair: dict[str, list] = {}
         for r in res["per_run"]:
@@ -186,6 +186,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--runs", type=int, default=10)
     ap.add_argument("--variant", action="append", default=[])
     ap.add_argument("--authors-seeds", type=int, default=1)
+    ap.add_argument("--first-seed", type=int, default=0, help="RL seeds from this one (fresh seeds, the same pairs)")
     ap.add_argument("--list", action="store_true")
     ap.add_argument("--diagnosis", action="store_true", help="write the authors' data diagnosis (no training)")
     ap.add_argument("--out", default=str(OUT))
@@ -209,9 +210,11 @@ def main(argv: list[str] | None = None) -> int:
     meta = provenance()
     setup, trainer, out = make_setup(), _memo_trainer(None if args.cache is None else Path(args.cache)), Path(args.out)
     for name in args.variant:
-        entry = {"provenance": meta, **run_variant(name, args.runs, setup, trainer, args.authors_seeds)}
+        entry = {"provenance": meta, **run_variant(name, args.runs, setup, trainer, args.authors_seeds,
+                                                             args.first_seed)}
         data = json.loads(out.read_text()) if out.exists() else {"experiment": "transfer_sweep", "variants": {}}
-        data["variants"][f"{name}@{args.runs}"] = entry
+        suffix = "" if not args.first_seed else f"+seed{args.first_seed}"
+        data["variants"][f"{name}@{args.runs}{suffix}"] = entry
         out.write_text(json.dumps(data, indent=2) + "\n")
         a = entry["authors_data"]
         print(f"{name}: success {entry.get('success_by_iteration')} authors {np.round(a['transfer_rmse'], 3).tolist()} "
