@@ -258,10 +258,12 @@ def _config_changes(config: dict, base: dict) -> str:
     out = []
     for part, values in config.items():
         if isinstance(values, dict):
-            out += [f"{part}.{k}={v}" for k, v in values.items() if base.get(part, {}).get(k) != v]
+            # before authors_pair existed, the authors' data check trained with the pair settings
+            ref = base.get(part, base.get("pair", {}) if part == "authors_pair" else {})
+            out += [f"{part}.{k}={v}" for k, v in values.items() if ref.get(k) != v]
         elif base.get(part) != values:
             out.append(f"{part}={values}")
-    return ", ".join(out) or "(the default)"
+    return ", ".join(out) or "(the settings before the sweep)"
 
 
 @renderer("e4-sweep")
