@@ -31,7 +31,9 @@ exploration std. Each iteration executes the mean and ``noisy_per_iter`` noisy t
   each output and follows the remaining error, ``std = std0 * clip(err / err0, explore_min, 1)``,
   ``err`` the mean roll-out's error (``RolloutBatch.errors``, else minus its return) and ``err0``
   the first one: the authors tie the std to the remaining error in every experiment, each with
-  its own constants; a ratio needs none.
+  its own constants; a ratio needs none. ``explore_error_gain`` and ``explore_cap`` give the
+  authors' absolute form instead, ``min(gain * err, cap)`` in raw units (their E4: 3 x error, at most
+  0.08 rad); off by default.
 
 Ablations: ``mode="rl_only"`` turns the supervised steps off; ``mode="lfd_only"`` executes the
 conditioned mean once and does not adapt. The settings were chosen on E1, E2 and E3 together
@@ -68,6 +70,11 @@ class AdaptConfig:
     noisy_per_iter : noisy roll-outs per iteration (one noise-free mean roll-out is added to each).
     explore_scale : initial exploration std, as a fraction of the demonstrations' std per output.
     explore_min : the std never falls below this fraction of the initial std.
+    explore_error_gain, explore_cap : None (the default): the rule above. Both set: the std of every
+        output is ``min(explore_error_gain * err, explore_cap)`` in the outputs' raw units (``err``
+        the last mean roll-out's error, in the task's units; ``explore_cap`` before the first), the
+        rule the authors' E4 uses (3 x error, at most 0.08 rad); ``explore_scale`` and
+        ``explore_min`` are then unused.
     n_knots : knots of the time-correlated exploration noise (fewer: smoother).
     advantage : "awr" or "reinforce" (the authors'); see the module docstring.
     temperature : of the "awr" weights, relative to the rewards' spread at each step.
@@ -87,6 +94,8 @@ class AdaptConfig:
     noisy_per_iter: int = 4
     explore_scale: float = 0.3
     explore_min: float = 0.3
+    explore_error_gain: float | None = None
+    explore_cap: float | None = None
     n_knots: int = 12
     advantage: str = "awr"
     temperature: float = 0.1
@@ -116,6 +125,13 @@ class AdaptConfig:
         if isinstance(self.explore_min, bool) or not isinstance(self.explore_min, (int, float)) \
                 or not 0 < self.explore_min <= 1:
             raise ValueError(f"explore_min: expected 0 < explore_min <= 1, got {self.explore_min!r}")
+        absolute = (self.explore_error_gain, self.explore_cap)
+        if (absolute[0] is None) != (absolute[1] is None):
+            raise ValueError("explore_error_gain, explore_cap: expected both set or both None")
+        for name, value in zip(("explore_error_gain", "explore_cap"), absolute):
+            if value is not None and (isinstance(value, bool) or not isinstance(value, (int, float))
+                                      or not value > 0):
+                raise ValueError(f"{name}: expected a number > 0 or None, got {value!r}")
         if not isinstance(self.stop_on_success, bool):
             raise ValueError(f"stop_on_success: expected true or false, got {self.stop_on_success!r}")
 
@@ -315,6 +331,18 @@ def _evaluate(evaluator: RolloutEvaluator, trajs: np.ndarray, times: np.ndarray,
     return batch
 
 
+def _explore_std(cfg: AdaptConfig, std0: np.ndarray, scale: np.ndarray, err: float | None,
+                 err0: float | None) -> np.ndarray:
+    """Exploration std (D,) in normalised units for the next iteration. std0 (D,) the initial std
+    (normalised), scale (D,) the outputs' normalisation scale (raw = normalised x scale), err the
+    last mean roll-out's error and err0 the first (None before the first roll-out)."""
+    if cfg.explore_error_gain is not None:
+        raw = cfg.explore_cap if err is None else min(cfg.explore_error_gain * err, cfg.explore_cap)
+        return raw / scale
+    ratio = err / err0 if err is not None and err0 > 0 else 1.0
+    return std0 * float(np.clip(ratio, cfg.explore_min, 1.0))
+
+
 def adapt(
     model: CNMP,
     demos: DemoSet,
@@ -369,8 +397,7 @@ def adapt(
         mu_t = updater.mean()
         mu = mu_t.double().numpy()  # (T, D)
         k = 0 if cfg.mode == "lfd_only" else min(cfg.noisy_per_iter, cfg.max_rollouts - rollouts - 1)
-        ratio = history[-1].mean_error / err0 if history and err0 > 0 else 1.0
-        std = std0 * float(np.clip(ratio, cfg.explore_min, 1.0))
+        std = _explore_std(cfg, std0, scale, history[-1].mean_error if history else None, err0)
         eps = noise.sample(k, d, rng, std) if k else np.zeros((0, len(times), d))
         trajs_n = np.concatenate([mu[None], mu[None] + eps])
         trajs = denorm(trajs_n)

@@ -302,3 +302,64 @@ def e4_results() -> str:
                      f"4-DoF partner of the nearest 3-DoF demonstration {fmt(a['nearest_partner_rmse'])} rad.")
     lines += ["", source(r, "e4_transfer")]
     return "\n".join(lines)
+
+
+def _config_changes(config: dict, base: dict) -> str:
+    """The settings of ``config`` that differ from ``base`` (nested dicts), as 'pair.steps=6000'."""
+    out = []
+    for part, values in config.items():
+        if isinstance(values, dict):
+            # before authors_pair existed, the authors' data check trained with the pair settings
+            ref = base.get(part, base.get("pair", {}) if part == "authors_pair" else {})
+            out += [f"{part}.{k}={v}" for k, v in values.items() if ref.get(k) != v]
+        elif base.get(part) != values:
+            out.append(f"{part}={values}")
+    return ", ".join(out) or "(the settings before the sweep)"
+
+
+@renderer("e4-sweep")
+def e4_sweep() -> str:
+    r = load("e4_sweep")
+    variants = r["variants"]
+    base = next(v["config"] for k, v in variants.items() if k.startswith("default@"))
+    rl_rows, authors_rows = [], []
+    for name, v in variants.items():
+        changes = _config_changes(v["config"], base)
+        if v.get("success_by_iteration"):
+            rl_rows.append([name, changes, v["runs"], *(pct(x) for x in v["success_by_iteration"].values()),
+                            fmt(v["initial_error_median"])])
+        rmse = v["authors_data"]["transfer_rmse"]
+        if rmse:
+            authors_rows.append([name, changes, ", ".join(fmt(x) for x in rmse)])
+    lines = [table(["variant@runs", "settings changed", "runs", "success after 3 it.", "7 it.", "11 it.", "19 it.",
+                    "first cube error (median, m)"], rl_rows)]
+    if authors_rows:
+        first = next(v for v in variants.values() if v["authors_data"]["transfer_rmse"])["authors_data"]
+        lines += ["", table(["variant", "settings changed", "authors' data: transfer RMSE per pair seed 0, 1, ... (rad)"],
+                            authors_rows),
+                  "", f"* Naive answers on the authors' data: mean 4-DoF demonstration {fmt(first['mean_demo_rmse'])} "
+                      f"rad, nearest demonstration's partner {fmt(first['nearest_partner_rmse'])} rad."]
+    d = r.get("authors_data_diagnosis")
+    if d:
+        b = d["button_affine"]
+        loo = d["loo_median"]
+        lines += [
+            "* No network, the authors' arrays only: the button press written as an affine combination of the "
+            "twelve 3-DoF demonstrations (ridge " + ", ".join(b) + ") fits robot A within "
+            + ", ".join(fmt(x["fit_a"]) for x in b.values()) + " rad; the same combination of their 4-DoF "
+            "partners is " + ", ".join(fmt(x["b_vs_truth"]) for x in b.values()) + " rad from the 4-DoF truth "
+            f"(the mean demonstration: {fmt(d['button_mean_demo_rmse'])} rad).",
+            "* Leave-one-out over the twelve proxy pairs (median RMSE on robot B, rad): affine combination "
+            + ", ".join(f"{fmt(v)} (ridge {k.split('_')[1]})" for k, v in loo.items() if k.startswith("affine_"))
+            + f"; nearest 3-DoF demonstration's partner {fmt(loo['nearest_partner'])}; mean of the other 4-DoF "
+            f"demonstrations {fmt(loo['mean_of_others'])}.",
+        ]
+        near = sorted(zip(d["per_demo"]["a_to_button"], d["per_demo"]["b_partner_to_truth"]))[:2]
+        lines.append("* The two 3-DoF demonstrations nearest to the button press (" + ", ".join(fmt(x) for x, _ in near)
+                     + " rad RMSE) have 4-DoF partners " + ", ".join(fmt(y) for _, y in near)
+                     + " rad from the 4-DoF truth.")
+    commits = sorted({(v.get("provenance") or {}).get("commit", "unknown")[:10] for v in variants.values()})
+    lines += ["", f"*From `benchmarks/results/e4_sweep.json`: `benchmarks/e4_sweep.py` (transfer condition only; "
+                  f"pairs of the pair seeds shared by the variants with the same pair settings), commits "
+                  f"{', '.join(commits)}.*"]
+    return "\n".join(lines)

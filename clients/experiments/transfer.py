@@ -19,7 +19,7 @@ def register(subparsers) -> None:
     )
     p.add_argument("--runs", type=int, default=30, help="runs (seeds 0..N-1, default 30)")
     p.add_argument("--pair-steps", type=int, default=None,
-                   help="training steps of each transfer pair (default 3000)")
+                   help="training steps of each transfer pair on our task (default 6000)")
     p.add_argument("--budget", type=int, default=None,
                    help="roll-outs per RL run in robot B, 2 per iteration (default 40)")
     p.add_argument("--no-authors-data", action="store_true",

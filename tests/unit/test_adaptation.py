@@ -146,7 +146,8 @@ def test_evaluator_returning_the_wrong_count_is_an_error(e1_model, setup):
 
 @pytest.mark.parametrize("field, value", [("mode", "magic"), ("advantage", "nope"), ("max_rollouts", 0),
                                           ("lr", -1.0), ("explore_min", 1.5), ("sl_steps", -1),
-                                          ("noisy_per_iter", True), ("stop_on_success", "yes")])
+                                          ("noisy_per_iter", True), ("stop_on_success", "yes"),
+                                          ("explore_error_gain", 3.0), ("explore_cap", -0.1)])
 def test_config_validation_names_the_field(field, value):
     with pytest.raises(ValueError, match=field):
         AdaptConfig(**{field: value})
@@ -157,6 +158,18 @@ def test_config_round_trips_and_refuses_unknown_fields():
     assert AdaptConfig.from_dict(cfg.to_dict()) == cfg
     with pytest.raises(ValueError, match="explore_from_return"):
         AdaptConfig.from_dict({"explore_from_return": 1.0})
+
+
+def test_error_tied_exploration_is_min_of_gain_times_error_and_cap(e1_model, setup):
+    """The authors' E4 rule: every output's std (raw units) is min(gain x last mean error, cap)."""
+    cfg = AdaptConfig(max_rollouts=12, noisy_per_iter=1, explore_error_gain=1.0, explore_cap=0.1)
+    res = adapt(copy.deepcopy(e1_model), setup.demos, setup.target, setup.task, cfg, seed=0)
+    assert len(res.history) >= 3
+    assert res.history[0].explore_std == pytest.approx([0.1] * len(res.history[0].explore_std))
+    for before, log in zip(res.history, res.history[1:]):
+        want = min(1.0 * before.mean_error, 0.1)
+        assert log.explore_std == pytest.approx([want] * len(log.explore_std))
+    assert any(h.mean_error < 0.1 for h in res.history[:-1])  # the error, not only the cap, set it
 
 
 def test_smooth_noise_is_smooth_with_the_requested_std():
