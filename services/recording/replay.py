@@ -34,6 +34,26 @@ def has_footer(path: str | Path) -> bool | None:
         return None
 
 
+def recorded_event_ids(path: str | Path) -> set[str]:
+    """The event ids (``/event_ids/<kind>`` rows, see rrd_writer) a recording holds; the file may
+    lack its footer (a recorder killed with -9: what reached the file is read). Raises ValueError
+    if it is not a readable recording."""
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # a file without footer makes Rerun warn
+            reader = rr.chunk.RrdReader(Path(path))
+        stores = reader.recordings()
+    except Exception as exc:
+        raise ValueError(f"{path}: not a readable .rrd ({exc})") from None
+    ids: set[str] = set()
+    for store in stores:
+        for chunk in reader.stream(store=store):
+            if chunk.is_static or chunk.is_empty or not chunk.entity_path.strip("/").startswith("event_ids/"):
+                continue
+            ids.update(i for i in _column(chunk.to_record_batch(), "event_id") if i is not None)
+    return ids
+
+
 def summarize(path: str | Path) -> dict:
     """Summarise a recording written by the recorder.
 
