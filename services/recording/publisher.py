@@ -7,6 +7,7 @@ cache, the events it missed (services/recording/recorder.py, docs/PROTOCOL.md se
 from __future__ import annotations
 
 import threading
+from collections import OrderedDict
 
 import zenoh
 import zenoh.ext as zext
@@ -21,6 +22,11 @@ from .events import event_key, validate_event
 #: ``missed`` in its status reply, from zenoh's sample-miss detection).
 CACHE_SAMPLES = 1000
 
+#: Event keys with a live publisher (and cache) per EventPublisher; publishing on one more key
+#: undeclares the least recently used one, whose cache goes with it. So one process holds at most
+#: MAX_KEYS * CACHE_SAMPLES cached events (a learner's keys: one per job and per skill).
+MAX_KEYS = 64
+
 #: Seconds between the heartbeats by which a subscriber learns a publisher's last sequence number
 #: (zenoh-ext sample-miss detection), so a lost tail of events is also recovered.
 HEARTBEAT = 0.5
@@ -31,20 +37,24 @@ class EventPublisher:
 
     Puts use ``CongestionControl.BLOCK``: an event is a record of what happened (the recorder
     must count every roll-out once), so it is better to slow the sender than to drop it.
-    Each event key gets its own advanced publisher with a cache of :data:`CACHE_SAMPLES` events;
-    they live as long as this object (:meth:`close`) or the session.
+    Each event key gets its own advanced publisher with a cache of :data:`CACHE_SAMPLES` events,
+    for the :data:`MAX_KEYS` keys used last; they live until :meth:`close` or the session closes.
     """
 
     def __init__(self, session: zenoh.Session, keys: Keyspace | str):
         self.session = session
         self.keys = keys if isinstance(keys, Keyspace) else Keyspace(keys)
-        self._publishers: dict[str, zext.AdvancedPublisher] = {}
+        self._publishers: OrderedDict[str, zext.AdvancedPublisher] = OrderedDict()
         self._lock = threading.Lock()
 
     def _publisher(self, key: str) -> zext.AdvancedPublisher:
         with self._lock:
             pub = self._publishers.get(key)
-            if pub is None:
+            if pub is not None:
+                self._publishers.move_to_end(key)
+            else:
+                if len(self._publishers) >= MAX_KEYS:
+                    self._publishers.popitem(last=False)[1].undeclare()
                 pub = zext.declare_advanced_publisher(
                     self.session, key, congestion_control=zenoh.CongestionControl.BLOCK,
                     cache=zext.CacheConfig(max_samples=CACHE_SAMPLES),
@@ -61,7 +71,7 @@ class EventPublisher:
     def close(self) -> None:
         """Undeclare the publishers (their caches go with them); idempotent."""
         with self._lock:
-            pubs, self._publishers = list(self._publishers.values()), {}
+            pubs, self._publishers = list(self._publishers.values()), OrderedDict()
         for pub in pubs:
             pub.undeclare()
 
