@@ -20,9 +20,10 @@ While it runs, a :class:`~services.launcher.supervision.Supervisor` restarts a c
 (backoff, a restart limit; each restart logged and published as a ``process`` event); a
 restarted recorder writes a new file ``<name>.<n>.rrd`` beside the first (``recordings``), since
 the dead one's file cannot be reopened, under the same Rerun recording id; ``stop()`` merges
-the files back into ``record`` (``rerun rrd merge``: one recording that verifies; the events
-published while no recorder ran are not in it). ``stop()`` ends supervision before it stops
-anything.
+the files back into ``record`` (``rerun rrd merge``: one recording that verifies). The restarted
+recorder recovers the events published while no recorder ran from the publishers' caches and is
+given the earlier files (``--seen``) so it records none twice (services/recording/recorder.py).
+``stop()`` ends supervision before it stops anything.
 
 The state directory is locked (``<state_dir>/deployment.lock``) while the deployment runs, so a
 second deployment on it refuses to start; the learner locks it too (``learner.lock``).
@@ -279,6 +280,9 @@ class LocalDeployment:
             argv = list(old.argv)
             if name == "recorder":  # the dead recorder's file has no footer and cannot be appended to
                 out = argv.index("--out") + 1
+                # the new recorder recovers the missed events from the publishers' caches and skips
+                # those the earlier files already hold (--seen, one per earlier file)
+                argv += ["--seen", argv[out]]
                 argv[out] = str(self.record.with_name(f"{self.record.stem}.{len(self.recordings)}{self.record.suffix}"))
                 self.recordings.append(Path(argv[out]))
             child = Child(name, argv, _popen(argv, old.log), old.token, old.serves, old.log)

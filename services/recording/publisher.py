@@ -1,11 +1,35 @@
-"""Publishing events on a session: the sending side of the recording."""
+"""Publishing events on a session: the sending side of the recording.
+
+Events go through zenoh-ext **advanced publishers** (one per event key, declared on first use)
+with a cache: a recorder that (re)starts while this process runs recovers, from each publisher's
+cache, the events it missed (services/recording/recorder.py, docs/PROTOCOL.md section 7).
+"""
 from __future__ import annotations
 
+import threading
+from collections import OrderedDict
+
 import zenoh
+import zenoh.ext as zext
 
 from services.transport import Keyspace, encode, wait_for_liveliness
 
 from .events import event_key, validate_event
+
+#: Events each publisher (one per event key, e.g. one job's roll-outs) keeps for late or restarted
+#: recorders. Beyond it the oldest cached event of that key is dropped: a recorder down while more
+#: than this many events of one key are published misses the oldest ones (it counts them as
+#: ``missed`` in its status reply, from zenoh's sample-miss detection).
+CACHE_SAMPLES = 1000
+
+#: Event keys with a live publisher (and cache) per EventPublisher; publishing on one more key
+#: undeclares the least recently used one, whose cache goes with it. So one process holds at most
+#: MAX_KEYS * CACHE_SAMPLES cached events (a learner's keys: one per job and per skill).
+MAX_KEYS = 64
+
+#: Seconds between the heartbeats by which a subscriber learns a publisher's last sequence number
+#: (zenoh-ext sample-miss detection), so a lost tail of events is also recovered.
+HEARTBEAT = 0.5
 
 
 class EventPublisher:
@@ -13,21 +37,49 @@ class EventPublisher:
 
     Puts use ``CongestionControl.BLOCK``: an event is a record of what happened (the recorder
     must count every roll-out once), so it is better to slow the sender than to drop it.
+    Each event key gets its own advanced publisher with a cache of :data:`CACHE_SAMPLES` events,
+    for the :data:`MAX_KEYS` keys used last; they live until :meth:`close` or the session closes.
     """
 
     def __init__(self, session: zenoh.Session, keys: Keyspace | str):
         self.session = session
         self.keys = keys if isinstance(keys, Keyspace) else Keyspace(keys)
+        self._publishers: OrderedDict[str, zext.AdvancedPublisher] = OrderedDict()
+        self._lock = threading.Lock()
+
+    def _publisher(self, key: str) -> zext.AdvancedPublisher:
+        with self._lock:
+            pub = self._publishers.get(key)
+            if pub is not None:
+                self._publishers.move_to_end(key)
+            else:
+                if len(self._publishers) >= MAX_KEYS:
+                    self._publishers.popitem(last=False)[1].undeclare()
+                pub = zext.declare_advanced_publisher(
+                    self.session, key, congestion_control=zenoh.CongestionControl.BLOCK,
+                    cache=zext.CacheConfig(max_samples=CACHE_SAMPLES),
+                    sample_miss_detection=zext.MissDetectionConfig(heartbeat=HEARTBEAT),
+                    publisher_detection=True)
+                self._publishers[key] = pub
+            return pub
 
     def publish(self, msg: dict) -> None:
         """Validate, encode and put one event (any kind)."""
         validate_event(msg)
-        self.session.put(event_key(self.keys, msg), encode(msg), congestion_control=zenoh.CongestionControl.BLOCK)
+        self._publisher(event_key(self.keys, msg)).put(encode(msg))
+
+    def close(self) -> None:
+        """Undeclare the publishers (their caches go with them); idempotent."""
+        with self._lock:
+            pubs, self._publishers = list(self._publishers.values()), OrderedDict()
+        for pub in pubs:
+            pub.undeclare()
 
     def wait_for_recorder(self, timeout: float = 10.0) -> bool:
         """Block until a recorder of this namespace is live (its liveliness token); True if found.
 
-        Call it before the first event: a put made before the subscriber is known is lost.
+        Call it before the first event: an event published before any recorder ran is still
+        recovered from the cache, but waiting keeps the recording in order.
         """
         try:
             wait_for_liveliness(self.session, self.keys.tokens("recorder"), timeout=timeout)

@@ -10,10 +10,19 @@ there is exactly one writer and shutdown is ordered:
 4. the recording is flushed and its file sink closed, which writes the footer
    (``rerun rrd verify FILE`` passes); then the zenoh session closes.
 
-Declared entities: subscriber ``acnmp/<ns>/event/**``, queryable ``acnmp/<ns>/recorder/status``
-(reply: ``{"v":1,"path","events":{kind:n},"rollouts":{job:n},"rejected":n}``), then, once both
-exist, liveliness token ``acnmp/<ns>/recorder/<zid>``: a publisher that sees the token knows its
-events will be recorded.
+Declared entities: advanced subscriber ``acnmp/<ns>/event/**`` (zenoh-ext: history from the
+publishers' caches, late publisher detection, heartbeat recovery), queryable
+``acnmp/<ns>/recorder/status`` (reply: ``{"v":1,"path","events":{kind:n},"rollouts":{job:n},
+"rejected":n,"duplicates":n,"missed":n}``), then, once both exist, liveliness token
+``acnmp/<ns>/recorder/<zid>``: a publisher that sees the token knows its events will be recorded.
+
+No event lost while the recorder is down: every event publisher keeps a cache
+(services/recording/publisher.py), and a (re)started recorder gets from each live publisher the
+events it holds. So that the files of one deployment hold each event once, every event is
+identified by its publisher (zenoh entity global id) and sequence number (the sample's source
+info); a restarted recorder is given the files written before (``--seen FILE``), reads the ids
+they hold and drops an event it gets again (``duplicates``). Events that left a publisher's cache
+before a recorder got them are counted as ``missed`` (zenoh's sample-miss detection).
 """
 from __future__ import annotations
 
@@ -25,10 +34,12 @@ from dataclasses import dataclass, field
 from typing import ClassVar
 
 import zenoh
+import zenoh.ext as zext
 
 from services.transport import Keyspace, Ready, Service, WireError, declare_rpc, option
 
 from .events import decode_event
+from .replay import recorded_event_ids
 from .rrd_writer import RrdWriter
 
 log = logging.getLogger(__name__)
@@ -51,21 +62,40 @@ class RecorderConfig(Service):
     recording_id: str | None = option(None, "Rerun recording id (default: a new one); a recorder restarted by "
                                             "its launcher keeps the id, so its files merge into one recording",
                                       metavar="ID")
+    seen: list[str] = option([], "a file an earlier recorder of this deployment wrote (repeatable): its events "
+                                 "are not recorded again when the publishers' caches replay them",
+                             metavar="FILE.rrd")
     final: dict = field(default_factory=dict, init=False, repr=False)
 
     def serve(self, session: zenoh.Session, stop: threading.Event, ready: Ready) -> int:
         self.final = record(session, Keyspace(self.session.namespace), self.out, stop, ready,
-                            recording_id=self.recording_id)
+                            recording_id=self.recording_id, seen=self.seen)
         return 0
 
 
+def event_id(sample: zenoh.Sample) -> str | None:
+    """``"<zid>/<eid>/<sn>"``: the publisher's entity global id and the sample's sequence number,
+    unique per event of a deployment; None for a sample without source info (a plain put)."""
+    info = sample.source_info
+    if info is None or info.source_id is None or info.source_sn is None:
+        return None
+    return f"{info.source_id.zid}/{info.source_id.eid}/{info.source_sn}"
+
+
 def record(session: zenoh.Session, keys: Keyspace, path: str, stop: threading.Event, ready: Ready, *,
-           recording_id: str | None = None) -> dict:
+           recording_id: str | None = None, seen: list[str] | tuple[str, ...] = ()) -> dict:
     """Record the events of ``keys``' namespace into ``path`` until ``stop`` is set; returns the
     final counts. ``ready`` gets one line once the recorder is live (its token is declared).
-    ``recording_id``: the Rerun recording id (None: a new one)."""
+    ``recording_id``: the Rerun recording id (None: a new one). ``seen``: files earlier recorders
+    of this deployment wrote; events they hold are not written again."""
     events: queue.Queue = queue.Queue(maxsize=QUEUE_SIZE)
-    rejected = [0]
+    rejected, duplicates, missed = [0], [0], [0]
+    ids: set[str] = set()
+    for earlier in seen:
+        try:
+            ids |= recorded_event_ids(earlier)
+        except (OSError, ValueError) as exc:  # a missing first file: nothing to skip from it
+            log.warning("cannot read the ids of %s: %s", earlier, exc)
 
     overflow: list = []  # events that arrived while shutting down with a full queue
     lock = threading.Lock()
@@ -79,37 +109,57 @@ def record(session: zenoh.Session, keys: Keyspace, path: str, stop: threading.Ev
                 rejected[0] += 1
             log.warning("rejected event on %s: %s", sample.key_expr, exc)
             return
+        eid = event_id(sample)
+        if eid is not None:
+            with lock:
+                if eid in ids:  # replayed from a cache, and already in this or an earlier file
+                    duplicates[0] += 1
+                    return
+                ids.add(eid)
+        item = (msg, eid)
         while True:
             try:
-                events.put(msg, timeout=0.2)
+                events.put(item, timeout=0.2)
                 return
             except queue.Full:
                 if stop.is_set():
                     # the main thread may be inside sub.undeclare(), waiting for this very
                     # callback: never block then, keep the event aside for the final drain
-                    overflow.append(msg)
+                    overflow.append(item)
                     return
+
+    def on_miss(miss: zext.Miss) -> None:
+        # events that left a publisher's cache before this recorder could get them
+        with lock:
+            missed[0] += miss.nb
+        log.warning("missed %d event(s) of publisher %s", miss.nb, miss.source)
 
     writer = RrdWriter(path, recording_id=recording_id)
     try:
-        sub = session.declare_subscriber(keys.events(), on_sample)
+        sub = zext.declare_advanced_subscriber(
+            session, keys.events(), on_sample,
+            history=zext.HistoryConfig(detect_late_publishers=True),
+            recovery=zext.RecoveryConfig(heartbeat=True), subscriber_detection=True)
+        misses = sub.sample_miss_listener(on_miss)
         status = declare_rpc(session, keys.recorder_status(),
-                             lambda _req, _q: {"v": 1, "path": str(path), "rejected": rejected[0], **writer.stats()})
+                             lambda _req, _q: {"v": 1, "path": str(path), "rejected": rejected[0],
+                                               "duplicates": duplicates[0], "missed": missed[0], **writer.stats()})
         token_key = keys.recorder_token(str(session.zid()))
         token = session.liveliness().declare_token(token_key)
         log.info("recording %s into %s", keys.events(), path)
         ready(f"recorder live as {token_key}, writing {path}")
         while not stop.is_set():
             _drain(events, writer, timeout=0.2)
+        misses.undeclare()
         sub.undeclare()
         _drain(events, writer, timeout=0.0, until_empty=True)
-        for msg in overflow:
-            writer.log_event(msg)
+        for msg, eid in overflow:
+            writer.log_event(msg, eid)
         token.undeclare()
         status.close()
     finally:
         writer.close()
-    final = {**writer.stats(), "rejected": rejected[0]}
+    final = {**writer.stats(), "rejected": rejected[0], "duplicates": duplicates[0], "missed": missed[0]}
     log.info("recording closed: %s", final)
     return final
 
@@ -117,18 +167,18 @@ def record(session: zenoh.Session, keys: Keyspace, path: str, stop: threading.Ev
 def _drain(events: queue.Queue, writer: RrdWriter, *, timeout: float, until_empty: bool = False) -> None:
     """Log queued events: wait up to ``timeout`` for the first, then take what is there."""
     try:
-        msg = events.get(timeout=timeout) if timeout > 0 else events.get_nowait()
+        msg, eid = events.get(timeout=timeout) if timeout > 0 else events.get_nowait()
     except queue.Empty:
         return
     deadline = time.monotonic() + 0.5  # come back to check the stop flag at least twice a second
     while True:
         try:
-            writer.log_event(msg)
+            writer.log_event(msg, eid)
         except Exception:  # one unloggable event must not stop the recording
             log.exception("could not log %s event", msg.get("kind"))
         if not until_empty and time.monotonic() > deadline:
             return
         try:
-            msg = events.get_nowait()
+            msg, eid = events.get_nowait()
         except queue.Empty:
             return

@@ -34,6 +34,32 @@ def has_footer(path: str | Path) -> bool | None:
         return None
 
 
+def _open(path: Path):
+    """(reader, recordings) of an .rrd, with or without footer; ValueError if it is not readable."""
+    try:
+        with warnings.catch_warnings():
+            # a file without footer makes Rerun warn; the callers report it themselves
+            warnings.simplefilter("ignore")
+            reader = rr.chunk.RrdReader(path)
+        return reader, reader.recordings()
+    except Exception as exc:
+        raise ValueError(f"{path}: not a readable .rrd ({exc})") from None
+
+
+def recorded_event_ids(path: str | Path) -> set[str]:
+    """The event ids (``/event_ids/<kind>`` rows, see rrd_writer) a recording holds; the file may
+    lack its footer (a recorder killed with -9: what reached the file is read). Raises ValueError
+    if it is not a readable recording."""
+    reader, stores = _open(Path(path))
+    ids: set[str] = set()
+    for store in stores:
+        for chunk in reader.stream(store=store):
+            if chunk.is_static or chunk.is_empty or not chunk.entity_path.strip("/").startswith("event_ids/"):
+                continue
+            ids.update(i for i in _column(chunk.to_record_batch(), "event_id") if i is not None)
+    return ids
+
+
 def summarize(path: str | Path) -> dict:
     """Summarise a recording written by the recorder.
 
@@ -51,14 +77,7 @@ def summarize(path: str | Path) -> dict:
         raise IsADirectoryError(f"{path}: is a directory, not a recording (give the .rrd file in it)")
     if not path.is_file():
         raise FileNotFoundError(f"{path}: no such file")
-    try:
-        with warnings.catch_warnings():
-            # a file without footer makes Rerun warn; the summary reports it itself
-            warnings.simplefilter("ignore")
-            reader = rr.chunk.RrdReader(path)
-        stores = reader.recordings()
-    except Exception as exc:
-        raise ValueError(f"{path}: not a readable .rrd ({exc})") from None
+    reader, stores = _open(path)
     if not stores:
         raise ValueError(f"{path}: contains no recording")
     store = stores[0]

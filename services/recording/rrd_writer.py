@@ -30,6 +30,8 @@ entity                             archetype                       from event
 /log/jobs, /log/models             TextLog                         job_progress, model_version
 /processes/<name>                  AnyValues (action, pid, ...)    process (a child restarted)
 /log/processes                     TextLog                         process
+/event_ids/<kind>                  AnyValues (event_id)            every event the recorder got
+                                                                   from an advanced publisher
 =================================  ==============================  ===========================
 
 Timelines: ``rollout`` (sequence: the roll-out index of a rollout event, the roll-out count of a
@@ -131,8 +133,12 @@ class RrdWriter:
 
     # -- dispatch ---------------------------------------------------------------------------
 
-    def log_event(self, msg: dict) -> None:
-        """Log one validated event map (see services/events.py); unknown kinds raise ValueError."""
+    def log_event(self, msg: dict, event_id: str | None = None) -> None:
+        """Log one validated event map (see services/events.py); unknown kinds raise ValueError.
+
+        ``event_id`` (the publisher's id and sequence number, see the recorder) is logged too, under
+        ``/event_ids/<kind>``, so a restarted recorder knows which events this file already holds
+        (:func:`services.recording.replay.recorded_event_ids`)."""
         kind = msg.get("kind")
         fn = {"rollout": self._rollout, "latent": self._latent, "model_version": self._model_version,
               "job_progress": self._job_progress, "process": self._process}.get(kind)
@@ -144,6 +150,8 @@ class RrdWriter:
             self.rec.reset_time()  # no timeline value leaks from the previous event
             self.rec.set_time("wall_time", timestamp=float(msg["t"]))
             fn(msg)
+            if event_id is not None:
+                self.rec.log(f"/event_ids/{kind}", rr.AnyValues(event_id=event_id))
             self.counts[kind] += 1
 
     def stats(self) -> dict:

@@ -84,6 +84,9 @@ def client_config(anchor: str, cred: Credentials) -> dict:
 #: (rule id, messages, key expressions, roles allowed). Every other role is denied these messages
 #: on these keys (``ingress`` at the router). A reply is checked on its own key, so a queryable
 #: declared on a wider key (``acnmp/**``) still cannot answer on a protected key.
+#: The roles that publish events (the launcher publishes too, as the router itself: no ACL on it).
+_EVENT_PUBLISHERS = ("learner", "worker", "operator")
+
 _PROTECTED: tuple[tuple[str, tuple[str, ...], tuple[str, ...], tuple[str, ...]], ...] = (
     ("weights", ("put", "delete"), ("acnmp/*/skill/*/weights",), ("learner",)),
     ("weights-latest", ("declare_queryable", "reply"), ("acnmp/*/skill/*/weights/latest",), ("learner",)),
@@ -98,7 +101,16 @@ _PROTECTED: tuple[tuple[str, tuple[str, ...], tuple[str, ...], tuple[str, ...]],
       "acnmp/*/job/*/cancel"),
      ("learner",)),
     ("learner-tokens", ("liveliness_token",), ("acnmp/*/learner/*",), ("learner",)),
-    ("events", ("put", "delete"), ("acnmp/*/event/**",), ("learner", "worker", "operator")),
+    ("events", ("put", "delete"), ("acnmp/*/event/**",), _EVENT_PUBLISHERS),
+    # zenoh-ext advanced pub/sub (docs/PROTOCOL.md section 7): an event publisher's token, cache
+    # queryable and heartbeats live under <event key>/@adv/pub/..., its cache replies on the event
+    # keys; the recorder's subscriber token is under acnmp/<ns>/event/**/@adv/sub/..., and only it
+    # queries the caches. ("@adv" is a verbatim chunk: ``**`` never matches it, hence own rules.)
+    ("event-caches", ("declare_queryable", "reply", "liveliness_token", "put", "delete"),
+     ("acnmp/*/event/**/@adv/pub/**",), _EVENT_PUBLISHERS),
+    ("event-replies", ("reply",), ("acnmp/*/event/**",), _EVENT_PUBLISHERS),
+    ("event-history", ("query",), ("acnmp/*/event/**/@adv/**",), ("recorder",)),
+    ("event-subscribers", ("liveliness_token",), ("acnmp/*/event/**/@adv/sub/**",), ("recorder",)),
     ("workers", ("declare_queryable", "reply", "liveliness_token"), ("acnmp/*/worker/*/*", "acnmp/*/worker/*/*/rollout"),
      ("worker",)),
     ("recorder", ("declare_queryable", "reply", "liveliness_token"),

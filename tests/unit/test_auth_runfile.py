@@ -43,6 +43,11 @@ def test_only_the_learner_may_put_weights_and_only_operator_or_learner_start_job
     assert [r for r in auth.ROLES if auth.may(r, "reply", "model-answers")] == ["model"]
     assert sorted(r for r in auth.ROLES if auth.may(r, "query", "start-jobs")) == ["learner", "operator"]
     assert not auth.may("client", "put", "events") and auth.may("worker", "put", "events")
+    # the events' advanced pub/sub: caches only from event publishers, history queries only by the recorder
+    assert sorted(r for r in auth.ROLES if auth.may(r, "declare_queryable", "event-caches")) == \
+        ["learner", "operator", "worker"]
+    assert [r for r in auth.ROLES if auth.may(r, "query", "event-history")] == ["recorder"]
+    assert [r for r in auth.ROLES if auth.may(r, "liveliness_token", "event-subscribers")] == ["recorder"]
     acl = auth.acl_config()
     rules = {r["id"]: r for r in acl["rules"]}
     denied = {rid: set(s) for p in acl["policies"] for rid in p["rules"] for s in [p["subjects"]]}

@@ -1,0 +1,73 @@
+"""No event lost while the recorder is down: events published while a SIGKILLed recorder is being
+restarted are recovered by the new recorder from the publishers' caches (zenoh-ext advanced
+pub/sub), and the deployment's recording files together hold every event exactly once. Secure
+deployment (router, ACL), the events published by the operator role as a client of the router."""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from services.launcher import LocalDeployment
+from services.launcher.supervision import RestartPolicy
+from services.recording.events import rollout_event
+from services.recording.publisher import EventPublisher
+from services.recording.replay import recorded_event_ids, summarize
+from services.transport import call, open_session
+from services.transport.runfile import RunFile
+
+JOB = "durable-1"
+TIMES = np.linspace(0.0, 1.0, 20)
+
+
+def _publish(pub: EventPublisher, first: int, n: int) -> None:
+    rng = np.random.default_rng(first)
+    for i in range(first, first + n):
+        pub.publish(rollout_event(JOB, i, rng.normal(size=(len(TIMES), 2)), TIMES, -np.ones(len(TIMES)),
+                                  worker="test"))
+
+
+def _wait_status(dep, done, timeout: float = 60.0) -> dict:
+    """Query the recorder's status until ``done(status)``; returns the last status."""
+    deadline = time.monotonic() + timeout
+    while True:
+        status = call(dep.session, dep.keys.recorder_status(), timeout=10)
+        if done(status) or time.monotonic() > deadline:
+            return status
+        time.sleep(0.1)
+
+
+def test_events_published_while_the_recorder_is_down_are_recorded_once(tmp_path, verify_rrd):
+    rrd = tmp_path / "durable.rrd"
+    with LocalDeployment("durable", workers=1, model=False, learner=False, record=rrd, state_dir=tmp_path / "state",
+                         secure=True, restart_policy=RestartPolicy(max_restarts=2, window=60.0)) as dep:
+        run = RunFile.read(dep.announcement.directory / "run.json")
+        with open_session(None, config_file=run.operator_credentials) as operator:
+            pub = EventPublisher(operator, dep.keys)
+            _publish(pub, 0, 10)
+            before = _wait_status(dep, lambda s: s["rollouts"].get(JOB, 0) >= 10)
+            assert before["rollouts"][JOB] == 10, before
+            dep.kill("recorder")  # SIGKILL: its file keeps what reached it, no footer
+            _publish(pub, 10, 10)  # no recorder runs: only the publisher's cache holds these
+            assert not list(operator.liveliness().get(dep.keys.tokens("recorder"), timeout=1.0))
+            dep.supervisor.wait_restarts("recorder", 1, timeout=60)
+            _publish(pub, 20, 10)
+            # the new recorder writes what the first file lacks and skips (duplicates) what it has
+            after = _wait_status(dep, lambda s: s["rollouts"].get(JOB, 0) + s["duplicates"] >= 30)
+            assert after["rollouts"].get(JOB, 0) + after["duplicates"] == 30 and after["missed"] == 0, after
+            # the client role may not publish events: the ACL denies its advanced publisher's puts
+            with open_session(None, config_file=run.credentials) as client:
+                intruder = EventPublisher(client, dep.keys)
+                intruder.publish(rollout_event("intruder", 0, np.zeros((len(TIMES), 2)), TIMES, np.zeros(len(TIMES))))
+                intruder.close()
+            first, second = dep.recordings
+            ids = [recorded_event_ids(first), recorded_event_ids(second)]
+            pub.close()
+        dep.stop()
+    assert not ids[0] & ids[1]  # no event in both files
+    summary = summarize(rrd)  # the merged recording: both files
+    job = summary["jobs"][JOB]
+    assert job["rollouts"] == job["unique_rollouts"] == 30 and job["duplicates"] == [], job
+    assert "intruder" not in summary["jobs"]
+    assert [p["action"] for p in summary["processes"]] == ["restarted"]
+    verify_rrd(rrd)
