@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
@@ -38,11 +39,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "e3_assimilate_from.json"))
     args = ap.parse_args(argv)
     meta = provenance()
+    t0 = time.perf_counter()
     with ProcessPoolExecutor(max_workers=len(ASSIMILATE_FROM)) as pool:
         futures = {v: pool.submit(_one, args.envs, args.seed, args.eval_every, v) for v in ASSIMILATE_FROM}
         variants = {v: f.result() for v, f in futures.items()}
     result = {"provenance": meta, "experiment": "e3_assimilate_from", "envs": args.envs, "seed": args.seed,
-              "variants": variants}
+              "variants": variants, "wall_time_s": round(time.perf_counter() - t0, 2)}
     for v, r in variants.items():
         s = r["summary"]
         print(f"{v:<8} test success {100 * s['test_success_rate']:.1f} %  error {s['test_error_mean']:.3f}  "
