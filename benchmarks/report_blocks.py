@@ -195,6 +195,23 @@ def adaptation_sweep() -> str:
     return "\n".join(lines)
 
 
+@renderer("e3-fit-precision")
+def e3_fit_precision() -> str:
+    r = load("e3_fit_precision")
+    rows = [[x["demos"], x["steps"], x["batch_size"], x["n_targets"], pct(x["test_success_rate"]),
+             fmt(x["test_error_mean"]), fmt(x["test_goal_error_mean"]), pct(x["test_through_hole_rate"]),
+             f"{x['time_s']:.0f}"] for x in r["runs"]]
+    return "\n".join([
+        table(["expert demos", "steps", "batch", "targets per episode", "test success", "mean test error",
+               "mean goal error", "through the hole", "time (s)"], rows),
+        "",
+        f"* The first training of E3 only (seed {r['seed']}), no RL: one expert demonstration per random "
+        "environment, scored on the 1000 test environments.",
+        "",
+        source(r, "e3_fit_precision"),
+    ])
+
+
 @renderer("e3-assimilate-from")
 def e3_assimilate_from() -> str:
     r = load("e3_assimilate_from")
