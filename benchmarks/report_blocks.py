@@ -236,6 +236,32 @@ def e3_assimilate_from() -> str:
     ])
 
 
+@renderer("e3-assimilate-from-full")
+def e3_assimilate_from_full() -> str:
+    runs = {"skill": load("e3_wall_assimilate_skill"), "adapted": load("e3_wall_assimilate_adapted")}
+    rows = []
+    for v, r in runs.items():
+        s = r["methods"]["acnmp"]
+        rows.append([v, f"{pct(s['test_success_rate_initial'])} → {pct(s['test_success_rate'])}",
+                     f"{fmt(s['test_error_mean_initial'])} → {fmt(s['test_error_mean'])}",
+                     fmt(s["test_goal_error_mean"]), s["trajectories_total"], s["trajectories_per_env_max"],
+                     f"{s['adaptations']} ({s['adaptations_failed']} failed)", f"{s['time_s']:.0f}"])
+    p = runs["adapted"]["methods"]["promp_rl"]
+    return "\n".join([
+        table(["ACNMP, assimilation from", "test success", "mean test error", "mean goal error", "trajectories",
+               "max per env", "adaptations", "time (s)"], rows),
+        "",
+        f"* {runs['skill']['envs']} new environments, the full `benchmarks/e3_wall.py` run for each variant, on one "
+        f"machine ({runs['skill']['provenance']['machine']['cpu']}); ProMP + RL in the same runs: "
+        f"{pct(p['test_success_rate'])} test success, mean test error {fmt(p['test_error_mean'])}, "
+        f"{p['trajectories_total']} trajectories.",
+        "",
+        source(runs["skill"], "e3_wall_assimilate_skill"),
+        "",
+        source(runs["adapted"], "e3_wall_assimilate_adapted"),
+    ])
+
+
 @renderer("e3-profile")
 def e3_profile() -> str:
     r = load("e3_profile")
