@@ -39,17 +39,20 @@ class AssimilationConfig:
     steps : supervised steps (0 adds the demonstration without training).
     lr : Adam learning rate (below the first training's, see the module docstring).
     batch_size : random episodes per step (from all demonstrations, the solution included).
+    n_targets : target points per episode.
     anchor_weight : weight of the anchor NLL (the solution given the adaptation's conditions).
     """
 
     steps: int = 1000
     lr: float = 1e-4
     batch_size: int = 32
+    n_targets: int = 10
     anchor_weight: float = 1.0
 
     def __post_init__(self) -> None:
         check_positive_int("steps", self.steps, minimum=0)
         check_positive_int("batch_size", self.batch_size)
+        check_positive_int("n_targets", self.n_targets)
         if isinstance(self.lr, bool) or not isinstance(self.lr, (int, float)) or not self.lr > 0:
             raise ValueError(f"lr: expected a number > 0, got {self.lr!r}")
         if isinstance(self.anchor_weight, bool) or not isinstance(self.anchor_weight, (int, float)) \
@@ -78,7 +81,7 @@ def assimilate(model: CNMP, demos: DemoSet, solution: Demonstration, cfg: Assimi
                                     np.asarray(solution.task_params)))
     if cfg.steps == 0:
         return new, []
-    train_cfg = TrainConfig(batch_size=cfg.batch_size)
+    train_cfg = TrainConfig(batch_size=cfg.batch_size, n_targets=cfg.n_targets)
     sampler = make_sampler(model, new, train_cfg)
     gen = torch.Generator().manual_seed(seed)
     anchor = None

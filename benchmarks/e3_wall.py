@@ -16,7 +16,7 @@ import torch
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from acnmp_core.experiments.wall import run_wall  # noqa: E402
+from acnmp_core.experiments.wall import ASSIMILATE_FROM, TRAIN_DEFAULTS, run_wall  # noqa: E402
 from acnmp_core.plots import plot_wall  # noqa: E402
 from benchmarks._results import provenance, save_result  # noqa: E402
 
@@ -27,12 +27,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--envs", type=int, default=1500)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--eval-every", type=int, default=50)
+    ap.add_argument("--assimilate-from", choices=ASSIMILATE_FROM, default=TRAIN_DEFAULTS["assimilate_from"],
+                    help="the network ACNMP's assimilation continues from (see run_wall)")
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "e3_wall.json"))
     args = ap.parse_args(argv)
     torch.set_num_threads(1)
     meta = provenance()
     result = {"provenance": meta, **run_wall(args.envs, args.seed, eval_every=args.eval_every,
-                                               log=lambda s: print(s, flush=True))}
+                                               assimilate_from=args.assimilate_from, log=lambda s: print(s, flush=True))}
     save_result(result, args.out, plot_wall, ("methods", "trajectory_ratio_promp_over_acnmp", "wall_time_s"))
     return 0
 

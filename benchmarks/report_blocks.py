@@ -246,6 +246,73 @@ def adaptation_sweep() -> str:
     return "\n".join(lines)
 
 
+@renderer("e3-fit-precision")
+def e3_fit_precision() -> str:
+    r = load("e3_fit_precision")
+    rows = [[x["demos"], x["steps"], x["batch_size"], x["n_targets"], pct(x["test_success_rate"]),
+             fmt(x["test_error_mean"]), fmt(x["test_goal_error_mean"]), pct(x["test_through_hole_rate"]),
+             f"{x['time_s']:.0f}"] for x in r["runs"]]
+    return "\n".join([
+        table(["expert demos", "steps", "batch", "targets per episode", "test success", "mean test error",
+               "mean goal error", "through the hole", "time (s)"], rows),
+        "",
+        f"* The first training of E3 only (seed {r['seed']}), no RL: one expert demonstration per random "
+        "environment, scored on the 1000 test environments.",
+        "",
+        source(r, "e3_fit_precision"),
+    ])
+
+
+@renderer("e3-assimilate-from")
+def e3_assimilate_from() -> str:
+    r = load("e3_assimilate_from")
+    labels = {"skill": "the skill before the adaptation", "adapted": "the adapted copy (today's default)"}
+    rows = []
+    for v, label in labels.items():
+        s, w = r["variants"][v]["summary"], r["variants"][v]
+        rows.append([label, f"{pct(s['test_success_rate_initial'])} → {pct(s['test_success_rate'])}",
+                     f"{fmt(s['test_error_mean_initial'])} → {fmt(s['test_error_mean'])}",
+                     fmt(s["test_goal_error_mean"]), s["trajectories_total"], s["trajectories_per_env_max"],
+                     f"{s['adaptations']} ({s['adaptations_failed']} failed)", f"{w['wall_time_s']:.0f}"])
+    return "\n".join([
+        table(["assimilation continues from", "test success", "mean test error", "mean goal error",
+               "trajectories", "max per env", "adaptations", "time (s)"], rows),
+        "",
+        f"* ACNMP only, seed {r['seed']}, {r['envs']} new environments after 30 demonstrated ones, 1000 test "
+        "environments; both variants side by side in one run (two processes), otherwise the defaults.",
+        "",
+        # The variants ran side by side: the run took as long as the slower one.
+        source({**r, "wall_time_s": r.get("wall_time_s", max(w["wall_time_s"] for w in r["variants"].values()))},
+               "e3_assimilate_from"),
+    ])
+
+
+@renderer("e3-assimilate-from-full")
+def e3_assimilate_from_full() -> str:
+    runs = {"skill": load("e3_wall_assimilate_skill"), "adapted": load("e3_wall_assimilate_adapted")}
+    rows = []
+    for v, r in runs.items():
+        s = r["methods"]["acnmp"]
+        rows.append([v, f"{pct(s['test_success_rate_initial'])} → {pct(s['test_success_rate'])}",
+                     f"{fmt(s['test_error_mean_initial'])} → {fmt(s['test_error_mean'])}",
+                     fmt(s["test_goal_error_mean"]), s["trajectories_total"], s["trajectories_per_env_max"],
+                     f"{s['adaptations']} ({s['adaptations_failed']} failed)", f"{s['time_s']:.0f}"])
+    p = runs["adapted"]["methods"]["promp_rl"]
+    return "\n".join([
+        table(["ACNMP, assimilation from", "test success", "mean test error", "mean goal error", "trajectories",
+               "max per env", "adaptations", "time (s)"], rows),
+        "",
+        f"* {runs['skill']['envs']} new environments, the full `benchmarks/e3_wall.py` run for each variant, on one "
+        f"machine ({runs['skill']['provenance']['machine']['cpu']}); ProMP + RL in the same runs: "
+        f"{pct(p['test_success_rate'])} test success, mean test error {fmt(p['test_error_mean'])}, "
+        f"{p['trajectories_total']} trajectories.",
+        "",
+        source(runs["skill"], "e3_wall_assimilate_skill"),
+        "",
+        source(runs["adapted"], "e3_wall_assimilate_adapted"),
+    ])
+
+
 @renderer("e3-profile")
 def e3_profile() -> str:
     r = load("e3_profile")

@@ -77,3 +77,31 @@ def test_promp_baseline_loop_runs_same_accounting():
     a = E.promp_trajectories(lib, setup.test, setup.times)
     b = np.stack([lib.initial_promp(c, init="conditional").mean_trajectory(setup.times) for c in setup.test])
     np.testing.assert_allclose(a, b, atol=1e-9)
+
+
+@pytest.mark.parametrize("source", ["skill", "adapted"])
+def test_assimilation_continues_from_the_chosen_network(source):
+    """"skill": a solved environment adds its solution but none of the adaptation's RL steps to the
+    skill (with 0 assimilation steps the network is unchanged); "adapted": the skill is the adapted copy."""
+    from acnmp_core.adaptation import AdaptConfig
+    from acnmp_core.assimilation import AssimilationConfig
+
+    setup = E.make_setup(40, seed=2, n_initial=15, n_test=5)
+    learner = E._AcnmpLearner(setup, 2, AdaptConfig(max_rollouts=200), TrainConfig(steps=300),
+                              AssimilationConfig(steps=0), source, progress=False)
+    task = W.WallTask()
+    before = {k: v.clone() for k, v in learner.model.state_dict().items()}
+    failing = [c for c in setup.stream if not task.evaluate(learner.generate(c[None]), setup.times, c).success[0]]
+    solved = False
+    for k, c in enumerate(failing[:5]):
+        solved, used = learner.improve(c, task, seed=k)
+        if solved:
+            break
+    assert solved and len(learner.demos) == 16
+    same = all(torch.equal(before[k], v) for k, v in learner.model.state_dict().items())
+    assert same == (source == "skill")
+
+
+def test_assimilate_from_is_checked():
+    with pytest.raises(ValueError, match="assimilate_from"):
+        E.run_wall(envs=1, n_test=5, methods=("acnmp",), assimilate_from="new")

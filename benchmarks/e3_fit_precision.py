@@ -1,0 +1,58 @@
+"""E3 diagnosis: how well does the CNMP fit the wall task from many clean demonstrations, by training budget?
+
+No RL and no self-improvement: the first training of ``run_wall`` on ``n_initial`` expert
+demonstrations (one per random environment), then the test success and errors on the 1000 test
+environments, for a few supervised budgets (steps x batch x targets per episode). It separates the
+skill's fitting precision from what adaptation and assimilation add. Writes
+``benchmarks/results/e3_fit_precision.json``. Usage:
+``python benchmarks/e3_fit_precision.py [--demos 30 300] [--seed 0] [--out FILE]``.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import torch
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from acnmp_core.experiments import wall as E  # noqa: E402
+from acnmp_core.training import TrainConfig, train  # noqa: E402
+from benchmarks._results import provenance, save_result  # noqa: E402
+
+#: (steps, batch size, targets per episode): E3's default first training, then larger budgets.
+BUDGETS = ((3000, 32, 10), (10000, 32, 10), (3000, 128, 30))
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Train once per (demonstrations, budget) and score on the test environments."""
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--demos", type=int, nargs="+", default=[30, 300])
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "e3_fit_precision.json"))
+    args = ap.parse_args(argv)
+    torch.set_num_threads(1)
+    meta = provenance()
+    t0 = time.perf_counter()
+    runs = []
+    for n in args.demos:
+        setup = E.make_setup(1, args.seed, n_initial=n)
+        for steps, batch, targets in BUDGETS:
+            t1 = time.perf_counter()
+            model = E._make_cnmp(args.seed)
+            train(model, setup.initial, TrainConfig(steps=steps, batch_size=batch, n_targets=targets),
+                  seed=args.seed, progress=False)
+            scores = E.evaluate_test(lambda c: E.cnmp_trajectories(model, c, setup.times), setup.test)
+            runs.append({"demos": n, "steps": steps, "batch_size": batch, "n_targets": targets, **scores,
+                         "time_s": round(time.perf_counter() - t1, 2)})
+            print(runs[-1], flush=True)
+    save_result({"provenance": meta, "experiment": "e3_fit_precision", "seed": args.seed, "runs": runs,
+                 "wall_time_s": round(time.perf_counter() - t0, 2)}, args.out)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
