@@ -145,16 +145,22 @@ def e2_baselines() -> str:
 # --------------------------------------------------------------------------------------------------
 # E3
 # --------------------------------------------------------------------------------------------------
+def _e3_row(label: str, s: dict, time_s: float) -> list:
+    """One E3 table row from a method's summary (run_wall's ``methods[m]``): success and error from
+    the first to the last test evaluation, goal error, trajectories, adaptations, time."""
+    return [label, f"{pct(s['test_success_rate_initial'])} → {pct(s['test_success_rate'])}",
+            f"{fmt(s['test_error_mean_initial'])} → {fmt(s['test_error_mean'])}",
+            fmt(s["test_goal_error_mean"]), s["trajectories_total"], s["trajectories_per_env_max"],
+            f"{s['adaptations']} ({s['adaptations_failed']} failed)", f"{time_s:.0f}"]
+
+
 @renderer("e3-results")
 def e3_results() -> str:
     r = load("e3_wall")
     rows = []
     for m, label in TWO_LABELS.items():
         s = r["methods"][m]
-        rows.append([label, f"{pct(s['test_success_rate_initial'])} → {pct(s['test_success_rate'])}",
-                     f"{fmt(s['test_error_mean_initial'])} → {fmt(s['test_error_mean'])}",
-                     fmt(s["test_goal_error_mean"]), s["trajectories_total"], s["trajectories_per_env_max"],
-                     f"{s['adaptations']} ({s['adaptations_failed']} failed)", f"{s['time_s']:.0f}"])
+        rows.append(_e3_row(label, s, s["time_s"]))
     ratio = r["trajectory_ratio_promp_over_acnmp"]
     lines = [
         table(["method", "test success", "mean test error", "mean goal error", "trajectories", "max per env",
@@ -270,10 +276,7 @@ def e3_assimilate_from() -> str:
     rows = []
     for v, label in labels.items():
         s, w = r["variants"][v]["summary"], r["variants"][v]
-        rows.append([label, f"{pct(s['test_success_rate_initial'])} → {pct(s['test_success_rate'])}",
-                     f"{fmt(s['test_error_mean_initial'])} → {fmt(s['test_error_mean'])}",
-                     fmt(s["test_goal_error_mean"]), s["trajectories_total"], s["trajectories_per_env_max"],
-                     f"{s['adaptations']} ({s['adaptations_failed']} failed)", f"{w['wall_time_s']:.0f}"])
+        rows.append(_e3_row(label, s, w["wall_time_s"]))
     return "\n".join([
         table(["assimilation continues from", "test success", "mean test error", "mean goal error",
                "trajectories", "max per env", "adaptations", "time (s)"], rows),
@@ -293,10 +296,7 @@ def e3_assimilate_from_full() -> str:
     rows = []
     for v, r in runs.items():
         s = r["methods"]["acnmp"]
-        rows.append([v, f"{pct(s['test_success_rate_initial'])} → {pct(s['test_success_rate'])}",
-                     f"{fmt(s['test_error_mean_initial'])} → {fmt(s['test_error_mean'])}",
-                     fmt(s["test_goal_error_mean"]), s["trajectories_total"], s["trajectories_per_env_max"],
-                     f"{s['adaptations']} ({s['adaptations_failed']} failed)", f"{s['time_s']:.0f}"])
+        rows.append(_e3_row(v, s, s["time_s"]))
     p = runs["adapted"]["methods"]["promp_rl"]
     return "\n".join([
         table(["ACNMP, assimilation from", "test success", "mean test error", "mean goal error", "trajectories",

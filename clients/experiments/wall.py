@@ -21,9 +21,9 @@ def register(subparsers) -> None:
     p.add_argument("--initial", type=int, default=30, help="demonstrated environments (default 30)")
     p.add_argument("--test", type=int, default=1000, help="test environments (default 1000)")
     p.add_argument("--eval-every", type=int, default=10, help="new environments between test evaluations (default 10)")
-    p.add_argument("--assimilate-from", choices=("skill", "adapted"), default="adapted",
+    p.add_argument("--assimilate-from", choices=("skill", "adapted"), default=None,
                    help="ACNMP's assimilation continues from the skill before the adaptation, or from the "
-                        "adapted copy (default adapted)")
+                        "adapted copy (default: run_wall's, the adapted copy)")
     add_output_arguments(p, "write test error / success vs environments and trajectories (PNG)")
     add_deployment_arguments(p, "the roll-outs on point2d workers")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
@@ -41,7 +41,7 @@ def run(args) -> int:
         if getattr(args, name) < 1:
             raise ValueError(f"--{name.replace('_', '-')}: expected a positive integer, got {getattr(args, name)}")
     kwargs = dict(n_initial=args.initial, n_test=args.test, eval_every=args.eval_every,
-                  assimilate_from=args.assimilate_from,
+                  **({} if args.assimilate_from is None else {"assimilate_from": args.assimilate_from}),
                   log=None if args.quiet else (lambda s: print(s, flush=True)))
     check_deployment_arguments(args)
     if args.distributed:
