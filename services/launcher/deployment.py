@@ -20,9 +20,10 @@ While it runs, a :class:`~services.launcher.supervision.Supervisor` restarts a c
 (backoff, a restart limit; each restart logged and published as a ``process`` event); a
 restarted recorder writes a new file ``<name>.<n>.rrd`` beside the first (``recordings``), since
 the dead one's file cannot be reopened, under the same Rerun recording id; ``stop()`` merges
-the files back into ``record`` (``rerun rrd merge``: one recording that verifies). The restarted
-recorder recovers the events published while no recorder ran from the publishers' caches and is
-given the earlier files (``--seen``) so it records none twice (services/recording/recorder.py).
+the files back into ``record`` (``rerun rrd merge``: one recording that verifies) and removes the
+recorders' marks files (``<file>.seen.json``). The restarted recorder recovers the events
+published while no recorder ran from the publishers' caches and is given the earlier files
+(``--seen``) so it records none twice (services/recording/recorder.py).
 ``stop()`` ends supervision before it stops anything.
 
 The state directory is locked (``<state_dir>/deployment.lock``) while the deployment runs, so a
@@ -50,6 +51,7 @@ import zenoh
 
 from acnmp_core.robots.registry import robot as robot_spec
 from services.learner.store import DirectoryLock
+from services.recording.event_ids import marks_path
 from services.recording.publisher import EventPublisher
 from services.transport import Keyspace, free_port, loopback_endpoint, open_session, wait_for_liveliness
 from services.transport.lifetime import PARENT_PID_ENV
@@ -338,7 +340,10 @@ class LocalDeployment:
         self._reap(recorder, time.monotonic() + self.stop_timeout)
         self._stack.close()
         self.session = None
+        recordings = list(self.recordings)
         self._merge_recordings()
+        for rec in recordings:  # the recorders' marks files: only a restarted recorder needs them
+            marks_path(rec).unlink(missing_ok=True)
         if self.announcement is not None:
             self.announcement.withdraw()
         self._dir_lock.release()
