@@ -149,7 +149,6 @@ def record(session: zenoh.Session, keys: Keyspace, path: str, stop: threading.Ev
     events: queue.Queue = queue.Queue(maxsize=QUEUE_SIZE)
     rejected, duplicates = [0], [0]
     ids = earlier_events(seen)
-    write_marks(path, ids)  # before any event: the next recorder starts from these plus this file's ids
 
     overflow: list = []  # events that arrived while shutting down with a full queue
     lock = threading.Lock()
@@ -190,8 +189,9 @@ def record(session: zenoh.Session, keys: Keyspace, path: str, stop: threading.Ev
         # restarted one would miss the events lost while it was down; the count comes from ids
         log.warning("missed %d event(s) of publisher %s", miss.nb, miss.source)
 
-    writer = RrdWriter(path, recording_id=recording_id)
+    writer = RrdWriter(path, recording_id=recording_id)  # creates the file's directory
     try:
+        write_marks(path, ids)  # before any event: the next recorder starts from these plus this file's ids
         sub = zext.declare_advanced_subscriber(
             session, keys.events(), on_sample,
             history=zext.HistoryConfig(detect_late_publishers=True),
