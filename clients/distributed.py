@@ -64,17 +64,28 @@ def patiently(send: Callable[[], T], what: str, patience: float = PATIENCE, *, p
             time.sleep(0.5)
 
 
+def experiment_deployment(prefix: str, *, secure: bool = True, **kwargs) -> LocalDeployment:
+    """The (not yet started) deployment of one experiment run: namespace ``<prefix>-<pid>``,
+    ``kwargs`` for :class:`~services.launcher.LocalDeployment` (workers, robot, record, model,
+    learner). ``secure`` (default): authenticated as ``acnmp up`` is (zenoh user/password on
+    every link, the router's ACL), its generated secrets in its state directory, no run file
+    (it is private to this run); ``secure=False`` is ``--insecure``, the open peer mesh.
+    The experiment talks to it through the launcher's own session (``dep.session``)."""
+    return LocalDeployment(f"{prefix}-{os.getpid()}", secure=secure, announce=False, **kwargs)
+
+
 @contextmanager
 def remote_rollouts(robot: str, task: str, *, workers: int = 2, record: str | None = None,
-                    prefix: str = "exp", progress: bool = True) -> Iterator[Callable[..., object]]:
+                    prefix: str = "exp", progress: bool = True, secure: bool = True) -> Iterator[Callable[..., object]]:
     """Start ``workers`` workers of ``robot`` (and a recorder writing ``record`` when given) on a
-    fresh local deployment; yield ``make(job, task_config=None, extra=None)``, which returns an
+    fresh local deployment (authenticated unless ``secure`` is False, :func:`experiment_deployment`);
+    yield ``make(job, task_config=None, extra=None)``, which returns an
     evaluator that executes roll-outs of ``task`` on those workers (with fail-over) and, when
     recording, publishes every roll-out under the job name ``<job>-<n>`` (n counts the evaluators
     made, so repeated runs of one method never share roll-out indices), with the fields ``extra``
     added to each event. Everything stops when the block exits."""
-    ns = f"{prefix}-{os.getpid()}"
-    with LocalDeployment(ns, workers=workers, robot=robot, record=record, model=False, learner=False) as dep:
+    with experiment_deployment(prefix, secure=secure, workers=workers, robot=robot, record=record,
+                               model=False, learner=False) as dep:
         if progress:
             print(dep.describe(), flush=True)
         yield evaluator_maker(dep, robot, task, record=bool(record))
@@ -148,25 +159,31 @@ class DeployedSkill:
 
 def run_viapoint_distributed(seed: int = 0, variant: str = "2d", *, budget: int = 100, train_steps: int = 3000,
                              workers: int = 2, record: str | None = None, progress: bool = True,
-                             adapt_overrides: dict | None = None, client: ACNMPClient | None = None) -> ViaPointRun:
+                             adapt_overrides: dict | None = None, client: ACNMPClient | None = None,
+                             secure: bool = True) -> ViaPointRun:
     """Run E1 on a fresh local deployment (``workers`` point-mass workers, a recorder writing
-    ``record`` when given), or with ``client`` on the running deployment it is connected to
+    ``record`` when given; authenticated unless ``secure`` is False, :func:`experiment_deployment`),
+    or with ``client`` on the running deployment it is connected to
     (``acnmp up``: its learner, model service and point2d workers; ``workers`` and ``record`` are
     then the deployment's). Returns a :class:`ViaPointRun` like the in-process run, its summary
-    marked ``distributed`` with the workers, the recording and each method's job id."""
+    marked ``distributed`` with the workers, the recording, each method's job id and
+    ``authenticated`` (whether the fresh deployment was; None when attached)."""
     attached = None if client is None else client.namespace
+    authenticated = None
     with contextlib.ExitStack() as stack:
         if client is None:
-            ns = f"e1-{os.getpid()}"
-            dep = stack.enter_context(LocalDeployment(ns, workers=workers, robot="point2d", record=record))
-            client = stack.enter_context(ACNMPClient(ns, session=dep.session, timeout=30))
+            dep = stack.enter_context(experiment_deployment("e1", secure=secure, workers=workers, robot="point2d",
+                                                            record=record))
+            client = stack.enter_context(ACNMPClient(dep.namespace, session=dep.session, timeout=30))
+            authenticated = dep.secure
             if progress:
                 print(dep.describe(), flush=True)
         skill = DeployedSkill(client, progress=False)
         run = run_viapoint(seed, variant, budget=budget, train_steps=train_steps, backend=skill,
                            progress=progress, adapt_overrides=adapt_overrides)
     run.summary.update(distributed=True, workers=int(workers) if attached is None else None,
-                       recording=str(record) if record else None, attached_to=attached)
+                       recording=str(record) if record else None, attached_to=attached,
+                       authenticated=authenticated)
     for method, job in skill.jobs.items():
         run.summary["methods"][method]["job"] = job
     return run

@@ -18,7 +18,6 @@ the same seeds: the numbers are those of the in-process run (tests/e2e/test_tran
 """
 from __future__ import annotations
 
-import os
 from contextlib import contextmanager
 from dataclasses import replace
 from typing import Iterator
@@ -31,8 +30,7 @@ from acnmp_core.robots.registry import robot
 from acnmp_core.transfer import TransferPair
 from acnmp_core.transfer_job import PairTrainJob
 from clients.client import ACNMPClient
-from clients.distributed import evaluator_maker, patiently
-from services.launcher import LocalDeployment
+from clients.distributed import evaluator_maker, experiment_deployment, patiently
 
 ROBOT_A, ROBOT_B = "planar3", "planar4"
 #: Seconds a pair job may take (3000 steps: about a minute on a loaded core).
@@ -86,23 +84,23 @@ class DeployedPairs:
 
 
 @contextmanager
-def transfer_deployment(workers: int = 2, record: str | None = None,
-                        progress: bool = True) -> Iterator[tuple[DeployedPairs, object]]:
+def transfer_deployment(workers: int = 2, record: str | None = None, progress: bool = True,
+                        secure: bool = True) -> Iterator[tuple[DeployedPairs, object]]:
     """A fresh local deployment for E4 (learner, model service, ``workers`` planar4 workers, a
-    recorder writing ``record`` when given); yields (:class:`DeployedPairs`, ``make(job, task_config,
+    recorder writing ``record`` when given; authenticated unless ``secure`` is False,
+    :func:`clients.distributed.experiment_deployment`); yields (:class:`DeployedPairs`, ``make(job, task_config,
     extra)``, the evaluator maker of :func:`clients.distributed.evaluator_maker`)."""
-    ns = f"e4-{os.getpid()}"
-    with LocalDeployment(ns, workers=workers, robot=ROBOT_B, record=record) as dep, \
-            ACNMPClient(ns, session=dep.session, timeout=30) as client:
+    with experiment_deployment("e4", secure=secure, workers=workers, robot=ROBOT_B, record=record) as dep, \
+            ACNMPClient(dep.namespace, session=dep.session, timeout=30) as client:
         if progress:
             print(dep.describe(), flush=True)
         yield DeployedPairs(client), evaluator_maker(dep, ROBOT_B, "cube_gap", record=bool(record))
 
 
 def run_transfer_distributed(runs, *, workers: int = 2, record: str | None = None, progress: bool = True,
-                             **kwargs) -> dict:
+                             secure: bool = True, **kwargs) -> dict:
     """:func:`~acnmp_core.experiments.transfer.run_transfer` on a fresh deployment (see the module
-    docstring); ``kwargs`` go to it (``cfg``, ``authors_data``, ``log``, ...). Every roll-out of
+    docstring; authenticated unless ``secure`` is False); ``kwargs`` go to it (``cfg``, ``authors_data``, ``log``, ...). Every roll-out of
     robot B is recorded with robot A's demonstration of the new skill drawn beside it. Returns its
     result, marked ``distributed`` with the workers, the recording and the pair jobs."""
     from acnmp_core.experiments.transfer import make_setup
@@ -110,9 +108,9 @@ def run_transfer_distributed(runs, *, workers: int = 2, record: str | None = Non
     setup = make_setup()
     reference = {"reference_joint_angles": setup.new_a,
                  "reference_link_lengths": np.asarray(robot(ROBOT_A).drawing.event_fields()["link_lengths"])}
-    with transfer_deployment(workers, record, progress) as (pairs, make):
+    with transfer_deployment(workers, record, progress, secure) as (pairs, make):
         result = run_transfer(runs, evaluator_factory=lambda cond: make(f"transfer-{cond}", task_config(), reference),
                               pair_trainer=pairs.train, first_attempt=pairs.first_attempt, setup=setup, **kwargs)
     result.update(distributed=True, workers=int(workers), recording=str(record) if record else None,
-                  pair_jobs=dict(pairs.jobs))
+                  pair_jobs=dict(pairs.jobs), authenticated=bool(secure))
     return result

@@ -36,11 +36,15 @@ def sizes(args, train_steps: int, budget: int) -> tuple[int, int]:
 
 
 def add_deployment_arguments(p, what: str) -> None:
-    """Add ``--distributed`` (help: ``what`` runs where), ``--workers N`` and ``--record FILE.rrd``."""
+    """Add ``--distributed`` (help: ``what`` runs where), ``--workers N``, ``--record FILE.rrd``
+    and ``--insecure`` (as ``acnmp up --insecure``: the fresh deployment without authentication)."""
     p.add_argument("--distributed", action="store_true", help=f"run {what} on a local zenoh deployment")
     p.add_argument("--workers", type=int, default=2, help="workers of the --distributed deployment (default 2)")
     p.add_argument("--record", metavar="FILE.rrd",
                    help="with --distributed: the recorder writes every roll-out to this Rerun file")
+    p.add_argument("--insecure", action="store_true",
+                   help="with --distributed: start the deployment without authentication, a zenoh peer mesh any "
+                        "local process can join (as `acnmp up --insecure`; debugging only)")
 
 
 def check_deployment_arguments(args) -> None:
@@ -49,6 +53,8 @@ def check_deployment_arguments(args) -> None:
         raise ValueError(f"--workers: expected at least 1, got {args.workers}")
     if args.record and not args.distributed:
         raise ValueError("--record: only with --distributed (the recorder is a process of the deployment)")
+    if args.insecure and not args.distributed:
+        raise ValueError("--insecure: only with --distributed (it is about the deployment's authentication)")
 
 
 def check_output_path(path: str | None, option: str) -> None:

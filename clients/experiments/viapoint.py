@@ -54,7 +54,8 @@ def run(args) -> int:
         from clients.distributed import run_viapoint_distributed
 
         with _running_deployment(args) as client:
-            result = run_viapoint_distributed(workers=args.workers, record=args.record, client=client, **kwargs)
+            result = run_viapoint_distributed(workers=args.workers, record=args.record, client=client,
+                                              secure=not args.insecure, **kwargs)
     else:
         result = run_viapoint(**kwargs)
     s = result.summary
@@ -104,6 +105,9 @@ def _running_deployment(args):
     if args.record:
         raise ValueError(f"--record: deployment {run.namespace!r} is running; its recorder (acnmp up --record) "
                          "records, or use --fresh")
+    if args.insecure:
+        raise ValueError(f"--insecure: deployment {run.namespace!r} is running and keeps its own authentication; "
+                         "use --fresh to start an unauthenticated one")
     print(f"running E1 on deployment {run.namespace!r} (anchor {run.anchor}); --fresh starts a new one", flush=True)
     with ACNMPClient(run.namespace, role="operator", timeout=30) as client:
         yield client

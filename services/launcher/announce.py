@@ -1,14 +1,19 @@
 """A local deployment's run file and, when secured, its secrets: what :class:`LocalDeployment`
-does with ``secure=True`` or ``announce=True`` (``acnmp up``), kept out of deployment.py.
+does with ``secure=True`` or ``announce=True``, kept out of deployment.py.
 
 :class:`Announcement` claims ``<runtime dir>/<namespace>/`` (refusing when a live deployment of
 that namespace holds it), writes the secrets there (services/transport/auth.py), gives the
 anchor's router config and each child's ``--config``, writes the run file once every child is
 live (services/transport/runfile.py) and removes all of it when the deployment stops.
+
+A secured deployment that is not announced (``acnmp experiment ... --distributed``: a private
+deployment of one run, no run file, so ``acnmp query`` never picks it) keeps its secrets in a
+directory of its own instead (``directory=``, the launcher uses ``<state dir>/secrets``).
 """
 from __future__ import annotations
 
 import os
+from pathlib import Path
 from typing import Iterable
 
 import zenoh
@@ -27,12 +32,17 @@ def role_of(child_name: str) -> str:
 
 
 class Announcement:
-    """The run file of one deployment of ``namespace`` and, when ``secure``, its secrets."""
+    """The run file of one deployment of ``namespace`` and, when ``secure``, its secrets.
 
-    def __init__(self, namespace: str, secure: bool = True) -> None:
+    ``directory`` None: announced, in ``<runtime dir>/<namespace>/`` with a run file. A directory:
+    not announced (no run file, no namespace claim), the secrets written there (mode 0700).
+    """
+
+    def __init__(self, namespace: str, secure: bool = True, directory: str | os.PathLike | None = None) -> None:
         self.namespace = namespace
         self.secure = secure
-        self.directory = deployment_dir(namespace)
+        self.announced = directory is None
+        self.directory = deployment_dir(namespace) if directory is None else Path(directory)
         self.secrets = DeploymentSecrets(self.directory)
         self.run: RunFile | None = None
         self._claimed = False
@@ -41,7 +51,7 @@ class Announcement:
         """Refuse (:class:`NamespaceInUse`) if a live deployment announced this namespace; else,
         when secure, write fresh secrets for ``anchor`` and return the anchor's router config
         (None when not secure: the anchor is a peer of the mesh)."""
-        other = RunFile.read(self.directory / "run.json")
+        other = RunFile.read(self.directory / "run.json") if self.announced else None
         if other is not None and other.alive() and other.pid != os.getpid():
             raise NamespaceInUse(f"a deployment of namespace {self.namespace!r} is already running "
                                  f"(launcher pid {other.pid}, anchor {other.anchor}); stop it or use --namespace")
@@ -57,8 +67,11 @@ class Announcement:
         not secure)."""
         return ["--config", str(self.secrets.config_path(role_of(child_name)))] if self.secure else []
 
-    def publish(self, anchor: str, state_dir: str, processes: Iterable[tuple[str, int, str]]) -> RunFile:
-        """Write the run file: ``processes`` is (name, pid, liveliness token) per child."""
+    def publish(self, anchor: str, state_dir: str, processes: Iterable[tuple[str, int, str]]) -> RunFile | None:
+        """Write the run file: ``processes`` is (name, pid, liveliness token) per child; returns it
+        (None, writing nothing, when not announced)."""
+        if not self.announced:
+            return None
         creds = {r: str(self.secrets.config_path(r)) if self.secure else "" for r in ("client", "operator")}
         self.run = RunFile(self.namespace, anchor, os.getpid(),
                            credentials=creds["client"], operator_credentials=creds["operator"],

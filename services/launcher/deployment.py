@@ -20,9 +20,10 @@ While it runs, a :class:`~services.launcher.supervision.Supervisor` restarts a c
 (backoff, a restart limit; each restart logged and published as a ``process`` event); a
 restarted recorder writes a new file ``<name>.<n>.rrd`` beside the first (``recordings``), since
 the dead one's file cannot be reopened, under the same Rerun recording id; ``stop()`` merges
-the files back into ``record`` (``rerun rrd merge``: one recording that verifies). The restarted
-recorder recovers the events published while no recorder ran from the publishers' caches and is
-given the earlier files (``--seen``) so it records none twice (services/recording/recorder.py).
+the files back into ``record`` (``rerun rrd merge``: one recording that verifies) and removes the
+recorders' marks files (``<file>.seen.json``). The restarted recorder recovers the events
+published while no recorder ran from the publishers' caches and is given the earlier files
+(``--seen``) so it records none twice (services/recording/recorder.py).
 ``stop()`` ends supervision before it stops anything.
 
 The state directory is locked (``<state_dir>/deployment.lock``) while the deployment runs, so a
@@ -50,6 +51,7 @@ import zenoh
 
 from acnmp_core.robots.registry import robot as robot_spec
 from services.learner.store import DirectoryLock
+from services.recording.event_ids import marks_path
 from services.recording.publisher import EventPublisher
 from services.transport import Keyspace, free_port, loopback_endpoint, open_session, wait_for_liveliness
 from services.transport.lifetime import PARENT_PID_ENV
@@ -91,10 +93,13 @@ class LocalDeployment:
     worker_delay : seconds per roll-out each worker sleeps (simulates a slow robot; tests).
     chunk_timeout : the learner's per-chunk worker timeout. start_timeout, stop_timeout : seconds.
     log_dir : children's logs (default: ``<state_dir>/logs``).
-    secure : authenticated deployment (``acnmp up``): the anchor is a zenoh router requiring a
-        per-deployment password per role and applying the ACL of services/transport/auth.py, every
-        child is its client; it writes a run file so clients find it (services/launcher/announce.py).
-    announce : write that run file for an unauthenticated deployment too.
+    secure : authenticated deployment (``acnmp up``, ``acnmp experiment ... --distributed``): the
+        anchor is a zenoh router requiring a per-deployment password per role and applying the ACL
+        of services/transport/auth.py, every child is its client (services/launcher/announce.py).
+    announce : write a run file so clients find the deployment (``acnmp up``), its secrets beside
+        it in the runtime directory; None (default): when ``secure``. A secured deployment not
+        announced (``announce=False``: an experiment's private deployment) keeps its secrets in
+        ``<state_dir>/secrets`` (mode 0700, removed at stop) and writes no run file.
     supervise : restart children that die (``restart_policy``, default :class:`RestartPolicy`);
         ``report(line)`` gets a line per restart (default: the log).
 
@@ -107,7 +112,7 @@ class LocalDeployment:
                  record: str | os.PathLike | None = None, state_dir: str | os.PathLike | None = None, *,
                  model: bool = True, learner: bool = True, worker_delay: float = 0.0, chunk_timeout: float = 60.0,
                  start_timeout: float = 60.0, stop_timeout: float = 8.0, log_dir: str | os.PathLike | None = None,
-                 learner_args: Sequence[str] = (), secure: bool = False, announce: bool = False,
+                 learner_args: Sequence[str] = (), secure: bool = False, announce: bool | None = None,
                  supervise: bool = True, restart_policy: RestartPolicy | None = None,
                  report: Callable[[str], None] | None = None):
         self.robot = robot_spec(robot).kind  # UnknownRobotError (a ValueError) for a kind not registered
@@ -141,7 +146,9 @@ class LocalDeployment:
         self.anchor = ""
         self._stack = contextlib.ExitStack()
         self.secure = bool(secure)
-        self.announcement = Announcement(namespace, self.secure) if secure or announce else None
+        announce = self.secure if announce is None else bool(announce)
+        self.announcement = (Announcement(namespace, self.secure, None if announce else self.state_dir / "secrets")
+                             if self.secure or announce else None)
 
     # ----- starting --------------------------------------------------------------------------
     def _spawn(self, name: str, module: str, args: Sequence[str], token: str, serves: Sequence[str] = ()) -> Child:
@@ -333,7 +340,10 @@ class LocalDeployment:
         self._reap(recorder, time.monotonic() + self.stop_timeout)
         self._stack.close()
         self.session = None
+        recordings = list(self.recordings)
         self._merge_recordings()
+        for rec in recordings:  # the recorders' marks files: only a restarted recorder needs them
+            marks_path(rec).unlink(missing_ok=True)
         if self.announcement is not None:
             self.announcement.withdraw()
         self._dir_lock.release()

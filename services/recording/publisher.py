@@ -37,13 +37,17 @@ class EventPublisher:
 
     Puts use ``CongestionControl.BLOCK``: an event is a record of what happened (the recorder
     must count every roll-out once), so it is better to slow the sender than to drop it.
-    Each event key gets its own advanced publisher with a cache of :data:`CACHE_SAMPLES` events,
-    for the :data:`MAX_KEYS` keys used last; they live until :meth:`close` or the session closes.
+    Each event key gets its own advanced publisher with a cache of ``cache_samples`` (default
+    :data:`CACHE_SAMPLES`) events, for the :data:`MAX_KEYS` keys used last; they live until
+    :meth:`close` or the session closes.
     """
 
-    def __init__(self, session: zenoh.Session, keys: Keyspace | str):
+    def __init__(self, session: zenoh.Session, keys: Keyspace | str, cache_samples: int = CACHE_SAMPLES):
+        if cache_samples < 1:
+            raise ValueError(f"cache_samples: expected >= 1, got {cache_samples}")
         self.session = session
         self.keys = keys if isinstance(keys, Keyspace) else Keyspace(keys)
+        self.cache_samples = int(cache_samples)
         self._publishers: OrderedDict[str, zext.AdvancedPublisher] = OrderedDict()
         self._lock = threading.Lock()
 
@@ -57,7 +61,7 @@ class EventPublisher:
                     self._publishers.popitem(last=False)[1].undeclare()
                 pub = zext.declare_advanced_publisher(
                     self.session, key, congestion_control=zenoh.CongestionControl.BLOCK,
-                    cache=zext.CacheConfig(max_samples=CACHE_SAMPLES),
+                    cache=zext.CacheConfig(max_samples=self.cache_samples),
                     sample_miss_detection=zext.MissDetectionConfig(heartbeat=HEARTBEAT),
                     publisher_detection=True)
                 self._publishers[key] = pub

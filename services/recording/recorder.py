@@ -20,24 +20,35 @@ No event lost while the recorder is down: every event publisher keeps a cache
 (services/recording/publisher.py), and a (re)started recorder gets from each live publisher the
 events it holds. So that the files of one deployment hold each event once, every event is
 identified by its publisher (zenoh entity global id) and sequence number (the sample's source
-info); a restarted recorder is given the files written before (``--seen FILE``), reads the ids
-they hold and drops an event it gets again (``duplicates``). Events that left a publisher's cache
-before a recorder got them are counted as ``missed`` (zenoh's sample-miss detection).
+info), kept in a :class:`~services.recording.event_ids.SeenEvents` (per publisher a mark and a
+few runs above it: memory O(publishers), not O(events)); an event already held is dropped
+(``duplicates``). Events that no file holds although a later event of their publisher arrived
+(they left its cache before any recorder got them) are counted as ``missed``.
+
+A restarted recorder is given the files written before it (``--seen FILE``, oldest first). Each
+recorder, before it subscribes, writes the state it starts from, atomically, into a **marks
+file** beside its recording (``<file>.seen.json``, :func:`marks_path`): so the next one reads the
+marks file of the newest earlier file and the event ids of that file only (what reached it
+before its recorder died), not every earlier file: restarts cost O(one file), not O(all files).
 """
 from __future__ import annotations
 
+import json
 import logging
 import queue
 import threading
 import time
 from dataclasses import dataclass, field
-from typing import ClassVar
+from pathlib import Path
+from typing import ClassVar, Sequence
 
 import zenoh
 import zenoh.ext as zext
 
 from services.transport import Keyspace, Ready, Service, WireError, declare_rpc, option
+from services.transport.auth import write_private
 
+from .event_ids import SeenEvents, marks_path
 from .events import decode_event
 from .replay import recorded_event_ids
 from .rrd_writer import RrdWriter
@@ -62,8 +73,8 @@ class RecorderConfig(Service):
     recording_id: str | None = option(None, "Rerun recording id (default: a new one); a recorder restarted by "
                                             "its launcher keeps the id, so its files merge into one recording",
                                       metavar="ID")
-    seen: list[str] = option([], "a file an earlier recorder of this deployment wrote (repeatable): its events "
-                                 "are not recorded again when the publishers' caches replay them",
+    seen: list[str] = option([], "a file an earlier recorder of this deployment wrote (repeatable, oldest first): "
+                                 "its events are not recorded again when the publishers' caches replay them",
                              metavar="FILE.rrd")
     final: dict = field(default_factory=dict, init=False, repr=False)
 
@@ -82,20 +93,62 @@ def event_id(sample: zenoh.Sample) -> str | None:
     return f"{info.source_id.zid}/{info.source_id.eid}/{info.source_sn}"
 
 
+#: Schema version of the marks file.
+MARKS_VERSION = 1
+
+
+def write_marks(recording: str | Path, seen: SeenEvents) -> Path:
+    """Write ``seen`` (the events held before ``recording`` was started) into its marks file,
+    atomically (a reader sees the old file or the new one, never half of one); returns its path."""
+    text = json.dumps({"v": MARKS_VERSION, "recording": Path(recording).name, "publishers": seen.to_json()})
+    return write_private(marks_path(recording), text + "\n")
+
+
+def read_marks(recording: str | Path) -> SeenEvents | None:
+    """The state a recording's marks file holds, or None without a (readable) marks file."""
+    try:
+        data = json.loads(marks_path(recording).read_text())
+        if data.get("v") != MARKS_VERSION:
+            raise ValueError(f"marks file version {data.get('v')!r}")
+        return SeenEvents.from_json(data["publishers"])
+    except FileNotFoundError:
+        return None
+    except (OSError, ValueError, KeyError, AttributeError) as exc:
+        log.warning("ignoring the marks file of %s: %s", recording, exc)
+        return None
+
+
+def earlier_events(seen: Sequence[str | Path]) -> SeenEvents:
+    """The events the earlier files ``seen`` (oldest first) of this deployment hold: from the
+    newest file back to the first one with a marks file, that marks file plus the event ids of
+    those files (normally one: the previous recorder's). A file that cannot be read is skipped
+    with a warning (a recorder that died before writing anything leaves none)."""
+    ids: list[set[str]] = []
+    state = None
+    for earlier in reversed(list(seen)):
+        try:
+            ids.append(recorded_event_ids(earlier))
+        except (OSError, ValueError) as exc:
+            log.warning("cannot read the ids of %s: %s", earlier, exc)
+        state = read_marks(earlier)
+        if state is not None:
+            break
+    state = state or SeenEvents()
+    for chunk in ids:
+        state.update(chunk)
+    return state
+
+
 def record(session: zenoh.Session, keys: Keyspace, path: str, stop: threading.Event, ready: Ready, *,
            recording_id: str | None = None, seen: list[str] | tuple[str, ...] = ()) -> dict:
     """Record the events of ``keys``' namespace into ``path`` until ``stop`` is set; returns the
     final counts. ``ready`` gets one line once the recorder is live (its token is declared).
     ``recording_id``: the Rerun recording id (None: a new one). ``seen``: files earlier recorders
-    of this deployment wrote; events they hold are not written again."""
+    of this deployment wrote (oldest first); events they hold are not written again. Writes the
+    marks file of ``path`` before subscribing (:func:`write_marks`)."""
     events: queue.Queue = queue.Queue(maxsize=QUEUE_SIZE)
-    rejected, duplicates, missed = [0], [0], [0]
-    ids: set[str] = set()
-    for earlier in seen:
-        try:
-            ids |= recorded_event_ids(earlier)
-        except (OSError, ValueError) as exc:  # a missing first file: nothing to skip from it
-            log.warning("cannot read the ids of %s: %s", earlier, exc)
+    rejected, duplicates = [0], [0]
+    ids = earlier_events(seen)
 
     overflow: list = []  # events that arrived while shutting down with a full queue
     lock = threading.Lock()
@@ -112,10 +165,9 @@ def record(session: zenoh.Session, keys: Keyspace, path: str, stop: threading.Ev
         eid = event_id(sample)
         if eid is not None:
             with lock:
-                if eid in ids:  # replayed from a cache, and already in this or an earlier file
+                if not ids.add(eid):  # replayed from a cache, and already in this or an earlier file
                     duplicates[0] += 1
                     return
-                ids.add(eid)
         item = (msg, eid)
         while True:
             try:
@@ -128,14 +180,18 @@ def record(session: zenoh.Session, keys: Keyspace, path: str, stop: threading.Ev
                     overflow.append(item)
                     return
 
-    def on_miss(miss: zext.Miss) -> None:
-        # events that left a publisher's cache before this recorder could get them
+    def missed() -> int:
         with lock:
-            missed[0] += miss.nb
+            return ids.missed()
+
+    def on_miss(miss: zext.Miss) -> None:
+        # zenoh-ext's view of a gap: only for a publisher this recorder already heard from, so a
+        # restarted one would miss the events lost while it was down; the count comes from ids
         log.warning("missed %d event(s) of publisher %s", miss.nb, miss.source)
 
-    writer = RrdWriter(path, recording_id=recording_id)
+    writer = RrdWriter(path, recording_id=recording_id)  # creates the file's directory
     try:
+        write_marks(path, ids)  # before any event: the next recorder starts from these plus this file's ids
         sub = zext.declare_advanced_subscriber(
             session, keys.events(), on_sample,
             history=zext.HistoryConfig(detect_late_publishers=True),
@@ -143,7 +199,7 @@ def record(session: zenoh.Session, keys: Keyspace, path: str, stop: threading.Ev
         misses = sub.sample_miss_listener(on_miss)
         status = declare_rpc(session, keys.recorder_status(),
                              lambda _req, _q: {"v": 1, "path": str(path), "rejected": rejected[0],
-                                               "duplicates": duplicates[0], "missed": missed[0], **writer.stats()})
+                                               "duplicates": duplicates[0], "missed": missed(), **writer.stats()})
         token_key = keys.recorder_token(str(session.zid()))
         token = session.liveliness().declare_token(token_key)
         log.info("recording %s into %s", keys.events(), path)
@@ -159,7 +215,7 @@ def record(session: zenoh.Session, keys: Keyspace, path: str, stop: threading.Ev
         status.close()
     finally:
         writer.close()
-    final = {**writer.stats(), "rejected": rejected[0], "duplicates": duplicates[0], "missed": missed[0]}
+    final = {**writer.stats(), "rejected": rejected[0], "duplicates": duplicates[0], "missed": missed()}
     log.info("recording closed: %s", final)
     return final
 

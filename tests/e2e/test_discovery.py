@@ -76,6 +76,10 @@ def test_acnmp_up_then_query_with_no_arguments_20_of_20_and_ctrl_c(tmp_path, cap
         # ... which records with its own recorder, and --namespace must name a running deployment
         assert main(["experiment", "viapoint", *E1_ARGS, "--distributed", "--record", str(tmp_path / "x.rrd")]) == 2
         assert main(["experiment", "viapoint", *E1_ARGS, "--distributed", "--namespace", "nope"]) == 2
+        # --insecure is about a deployment the experiment starts: refused for a running one, and alone
+        assert main(["experiment", "viapoint", *E1_ARGS, "--distributed", "--insecure"]) == 2
+        assert main(["experiment", "viapoint", *E1_ARGS, "--insecure"]) == 2
+        assert "--insecure: only with --distributed" in capsys.readouterr().err
 
         proc.send_signal(signal.SIGINT)  # what Ctrl-C in its terminal sends
         rest, _ = proc.communicate(timeout=30)

@@ -13,6 +13,7 @@ def test_distributed_e1_matches_in_process_and_records_every_rollout(tmp_path, v
     assert main(["experiment", "viapoint", *ARGS, "--distributed", "--workers", "2",
                  "--record", str(rrd), "--json", str(dist)]) == 0
     a, b = json.loads(local.read_text()), json.loads(dist.read_text())
+    assert b["authenticated"] is True  # the deployment it started is authenticated, as `acnmp up` is
     for m in ("lfd_only", "rl_only", "acnmp"):
         for k in ("rollouts", "success", "error", "shape_error"):
             assert a["methods"][m][k] == b["methods"][m][k], (m, k)

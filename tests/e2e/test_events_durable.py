@@ -1,7 +1,8 @@
 """No event lost while the recorder is down: events published while a SIGKILLed recorder is being
 restarted are recovered by the new recorder from the publishers' caches (zenoh-ext advanced
-pub/sub), and the deployment's recording files together hold every event exactly once. Secure
-deployment (router, ACL), the events published by the operator role as a client of the router."""
+pub/sub), and the deployment's recording files together hold every event exactly once; those
+that left a (small) cache meanwhile are counted as ``missed``. Secure deployment (router, ACL),
+the events published by the operator role as a client of the router."""
 from __future__ import annotations
 
 import time
@@ -17,13 +18,15 @@ from services.transport import call, open_session
 from services.transport.runfile import RunFile
 
 JOB = "durable-1"
+#: A job published with a cache of SMALL_CACHE events: more are published while no recorder runs.
+SHORT, SMALL_CACHE = "short-1", 3
 TIMES = np.linspace(0.0, 1.0, 20)
 
 
-def _publish(pub: EventPublisher, first: int, n: int) -> None:
+def _publish(pub: EventPublisher, first: int, n: int, job: str = JOB) -> None:
     rng = np.random.default_rng(first)
     for i in range(first, first + n):
-        pub.publish(rollout_event(JOB, i, rng.normal(size=(len(TIMES), 2)), TIMES, -np.ones(len(TIMES)),
+        pub.publish(rollout_event(job, i, rng.normal(size=(len(TIMES), 2)), TIMES, -np.ones(len(TIMES)),
                                   worker="test"))
 
 
@@ -44,17 +47,25 @@ def test_events_published_while_the_recorder_is_down_are_recorded_once(tmp_path,
         run = RunFile.read(dep.announcement.directory / "run.json")
         with open_session(None, config_file=run.operator_credentials) as operator:
             pub = EventPublisher(operator, dep.keys)
+            small = EventPublisher(operator, dep.keys, cache_samples=SMALL_CACHE)
+            _publish(small, 0, 5, SHORT)
             _publish(pub, 0, 10)
-            before = _wait_status(dep, lambda s: s["rollouts"].get(JOB, 0) >= 10)
-            assert before["rollouts"][JOB] == 10, before
+            before = _wait_status(dep, lambda s: s["rollouts"].get(JOB, 0) >= 10 and s["rollouts"].get(SHORT, 0) >= 5)
+            assert before["rollouts"][JOB] == 10 and before["missed"] == 0, before
             dep.kill("recorder")  # SIGKILL: its file keeps what reached it, no footer
             _publish(pub, 10, 10)  # no recorder runs: only the publisher's cache holds these
+            _publish(small, 5, 8, SHORT)  # ... of these only the last 3 (10..12): 5..9 are gone
             assert not list(operator.liveliness().get(dep.keys.tokens("recorder"), timeout=1.0))
             dep.supervisor.wait_restarts("recorder", 1, timeout=60)
             _publish(pub, 20, 10)
             # the new recorder writes what the first file lacks and skips (duplicates) what it has
-            after = _wait_status(dep, lambda s: s["rollouts"].get(JOB, 0) + s["duplicates"] >= 30)
-            assert after["rollouts"].get(JOB, 0) + after["duplicates"] == 30 and after["missed"] == 0, after
+            after = _wait_status(dep, lambda s: s["rollouts"].get(JOB, 0) + s["duplicates"] >= 30
+                                 and s["rollouts"].get(SHORT, 0) >= SMALL_CACHE)
+            assert after["rollouts"].get(JOB, 0) + after["duplicates"] == 30, after
+            # the short job's 10..12 came from its cache, 5..9 never will: counted missed (plus any of
+            # 0..4 the killed recorder had not yet flushed to its file, gone from the cache too)
+            assert after["rollouts"][SHORT] == SMALL_CACHE and after["missed"] >= 5, after
+            missed = after["missed"]
             # the client role may not publish events: the ACL denies its advanced publisher's puts
             with open_session(None, config_file=run.credentials) as client:
                 intruder = EventPublisher(client, dep.keys)
@@ -63,11 +74,16 @@ def test_events_published_while_the_recorder_is_down_are_recorded_once(tmp_path,
             first, second = dep.recordings
             ids = [recorded_event_ids(first), recorded_event_ids(second)]
             pub.close()
+            small.close()
         dep.stop()
     assert not ids[0] & ids[1]  # no event in both files
     summary = summarize(rrd)  # the merged recording: both files
     job = summary["jobs"][JOB]
     assert job["rollouts"] == job["unique_rollouts"] == 30 and job["duplicates"] == [], job
+    # every event of the short job is in the recording or counted missed, none twice
+    short = summary["jobs"][SHORT]
+    assert short["rollouts"] == short["unique_rollouts"] == 13 - missed and short["duplicates"] == [], short
+    assert not list(tmp_path.glob("*.seen.json"))  # the recorders' marks files went with the deployment
     assert "intruder" not in summary["jobs"]
     assert [p["action"] for p in summary["processes"]] == ["restarted"]
     verify_rrd(rrd)

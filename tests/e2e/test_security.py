@@ -1,6 +1,9 @@
-"""An authenticated deployment (``LocalDeployment(secure=True)``, what ``acnmp up`` starts):
-zenoh user/password on every link and the router's ACL (services/transport/auth.py)."""
+"""An authenticated deployment (``LocalDeployment(secure=True)``, what ``acnmp up`` starts, and
+what ``acnmp experiment ... --distributed`` starts by default): zenoh user/password on every link
+and the router's ACL (services/transport/auth.py)."""
 from __future__ import annotations
+
+import stat
 
 import numpy as np
 import pytest
@@ -8,22 +11,28 @@ import zenoh
 
 from acnmp_core import CNMP, CNMPConfig, TrainConfig, train
 from clients.client import ACNMPClient, ClientError
+from clients.distributed import experiment_deployment
 from services.launcher import LocalDeployment
 from services.model.weights import encode_weights
 from services.transport import WireError, call, decode, open_session
-from services.transport.runfile import find
+from services.transport.runfile import DeploymentNotFound, find
 
 NS = "sec"
 SMALL = {"encoder_widths": [32, 32], "decoder_widths": [32, 32]}
 FORGED_VERSION = 2**62
 
 
+def _weights(demos, version: int, data_hash: str, seed: int) -> bytes:
+    """A valid weights message for skill ``s`` (a small CNMP trained one step)."""
+    model = CNMP(CNMPConfig(n_outputs=2, **SMALL), seed=seed)
+    train(model, demos, TrainConfig(steps=1), seed=seed)
+    return encode_weights("s", version, model, data_hash=data_hash, n_demos=1)
+
+
 @pytest.fixture(scope="module")
 def forged_weights(e1_demos) -> bytes:
-    """A valid weights message for skill ``s`` at version 2^62 (shifted outputs), as an attacker sends it."""
-    model = CNMP(CNMPConfig(n_outputs=2, **SMALL), seed=3)
-    train(model, e1_demos, TrainConfig(steps=1), seed=3)
-    return encode_weights("s", FORGED_VERSION, model, data_hash="forged", n_demos=1)
+    """A valid weights message for skill ``s`` at version 2^62, as an attacker sends it."""
+    return _weights(e1_demos, FORGED_VERSION, "forged", seed=3)
 
 
 def _train(client: ACNMPClient, demos, seed: int) -> int:
@@ -49,6 +58,42 @@ def _wait_served(client: ACNMPClient, version: int, timeout: float = 30.0) -> di
         time.sleep(0.1)
 
 
+def _outsider_is_shut_out(dep: LocalDeployment, forged_weights: bytes) -> None:
+    """A process without the deployment's secret: as a peer it opens (and keeps retrying) but the
+    router refuses its link, so its put of forged weights goes nowhere and its query finds no
+    queryable (``unavailable``); as a client it cannot even open."""
+    with open_session("peer", connect=[dep.anchor], open_timeout=3) as outsider:
+        outsider.put(dep.keys.weights("s"), forged_weights)
+        with pytest.raises(WireError) as err:
+            call(outsider, dep.keys.info("s"), None, 2.0)
+        assert err.value.code == "unavailable"
+    with pytest.raises(ConnectionError):
+        with open_session("client", connect=[dep.anchor], open_timeout=1):
+            pass
+
+
+def test_an_experiment_deployment_is_authenticated_by_default(tmp_path, e1_demos, forged_weights):
+    """``acnmp experiment ... --distributed`` starts its deployment through experiment_deployment:
+    authenticated with the secrets in its state directory, not announced; an outsider can neither
+    query it nor put weights into it."""
+    state = tmp_path / "state"
+    with experiment_deployment("sec-exp", workers=0, learner=False, state_dir=state, start_timeout=90) as dep:
+        assert dep.secure
+        secrets = state / "secrets"
+        assert stat.S_IMODE(secrets.stat().st_mode) == 0o700
+        assert {stat.S_IMODE(f.stat().st_mode) for f in secrets.iterdir()} == {0o600}
+        with pytest.raises(DeploymentNotFound):  # private to the run: `acnmp query` never finds it
+            find(dep.namespace)
+        _outsider_is_shut_out(dep, forged_weights)
+        # the experiment's own session (the router) is heard: weights it puts at version 0 are
+        # served, which they would not be had the forged version 2^62 arrived first
+        dep.session.put(dep.keys.weights("s"), _weights(e1_demos, 0, "genuine", seed=4))
+        with ACNMPClient(dep.namespace, session=dep.session, timeout=30) as client:
+            info = _wait_served(client, 0)
+        assert info["version"] == 0 and info["data_hash"] == "genuine" and info["source"] == "learner"
+    assert not secrets.exists()  # the passwords went with the deployment
+
+
 def test_without_the_secret_nothing_and_with_client_credentials_no_weights(e1_demos, forged_weights):
     with LocalDeployment(NS, workers=0, secure=True, start_timeout=90) as dep:
         run = find(NS)
@@ -57,16 +102,8 @@ def test_without_the_secret_nothing_and_with_client_credentials_no_weights(e1_de
             assert operator.namespace == NS
             assert _wait_served(operator, _train(operator, e1_demos, seed=1))["version"] == 0
 
-            # 1. no secret: a peer opens (and keeps retrying) but the router refuses its link
-            with open_session("peer", connect=[dep.anchor], open_timeout=3) as outsider:
-                outsider.put(dep.keys.weights("s"), forged_weights)
-                with pytest.raises(WireError) as err:
-                    call(outsider, dep.keys.info("s"), None, 2.0)
-                assert err.value.code == "unavailable"
-            # ... a client without it cannot even open
-            with pytest.raises(ConnectionError):
-                with open_session("client", connect=[dep.anchor], open_timeout=1):
-                    pass
+            # 1. no secret: no link, so no query and no put
+            _outsider_is_shut_out(dep, forged_weights)
             # ... nor with a wrong password
             cfg = zenoh.Config.from_file(run.credentials)
             cfg.insert_json5("transport/auth/usrpwd/password", '"guessed"')

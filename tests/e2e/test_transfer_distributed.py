@@ -19,6 +19,7 @@ def test_transfer_cli_distributed_records_every_rollout(tmp_path, verify_rrd):
                  "--distributed", "--workers", "1", "--record", str(rrd), "--json", str(out), "--quiet"]) == 0
     verify_rrd(rrd)
     r = json.loads(out.read_text())
+    assert r["authenticated"] is True  # the deployment it started is authenticated, as `acnmp up` is
     summary = summarize(rrd)
     jobs = summary["jobs"]
     assert [x["condition"] for x in r["per_run"]] == ["transfer", "no_alignment", "no_transfer"]
