@@ -15,10 +15,16 @@ numbers, so identity across machines is not cheap. The pin is therefore kept **p
 must be identical; on one that has none, only what held on every machine measured so far (each
 run's success, the failed adaptations) is compared, and ``--write`` adds that machine's pin.
 
+A deliberate change of the pinned runs (a new default) is re-pinned with ``--write --supersede``:
+this machine's pin is replaced and every other machine's pin is dropped, since it describes the old
+behaviour; the file records which pins were superseded, at which commit. Until a superseded machine
+writes its pin again, it is compared as an unpinned one (successes only), against the new pin.
+
 Usage::
 
     python benchmarks/regression.py           # measure and compare with the pin (exit 1 on a difference)
     python benchmarks/regression.py --write   # measure and write (add or replace) this machine's pin
+    python benchmarks/regression.py --write --supersede   # after a deliberate change: drop the others
 """
 from __future__ import annotations
 
@@ -80,6 +86,23 @@ def machine_key(machine: dict) -> str:
     return f"{machine['cpu']}, {cap}" if cap else str(machine["cpu"])
 
 
+def written_pins(pins: dict[str, dict], key: str, pin: dict, *, supersede: bool,
+                 superseded: dict[str, dict], commit: str) -> tuple[dict[str, dict], dict[str, dict]]:
+    """The pins and the superseded record after writing ``pin`` for machine ``key``.
+
+    Without ``supersede`` the other machines' pins are kept. With it they are dropped and each
+    dropped key is recorded in the returned superseded record as ``{"by_commit": commit,
+    "pinned_at": <its pin's commit>}`` (earlier records are kept unless that machine is pinned again).
+    """
+    superseded = {k: v for k, v in superseded.items() if k != key}
+    if supersede:
+        for k, old in pins.items():
+            if k != key:
+                superseded[k] = {"by_commit": commit, "pinned_at": old["provenance"]["commit"]}
+        pins = {}
+    return {**pins, key: pin}, superseded
+
+
 def load_pins(path: Path = PIN) -> dict[str, dict]:
     """The pins in ``path``: machine key -> ``{"provenance": ..., "runs": {...}}``."""
     return json.loads(Path(path).read_text())["machines"]
@@ -124,17 +147,25 @@ def compare(pins: dict[str, dict], measured: dict, key: str) -> tuple[bool, list
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--write", action="store_true", help="write (add or replace) this machine's pin")
+    ap.add_argument("--supersede", action="store_true",
+                    help="with --write: drop every other machine's pin (after a deliberate change of the runs)")
     args = ap.parse_args(argv)
+    if args.supersede and not args.write:
+        ap.error("--supersede: only with --write")
     from clients.provenance import provenance
 
     meta = provenance()
     key = machine_key(meta["machine"])
     measured = measure()
-    pins = load_pins() if PIN.exists() else {}
+    stored = json.loads(PIN.read_text()) if PIN.exists() else {}
+    pins = stored.get("machines", {})
     if args.write:
-        pins[key] = {"provenance": meta, "runs": measured}
-        PIN.write_text(json.dumps({"provenance": meta, "machines": pins}, indent=2) + "\n")
-        print(f"wrote the pin of {key!r} to {PIN}")
+        pins, superseded = written_pins(pins, key, {"provenance": meta, "runs": measured}, supersede=args.supersede,
+                                        superseded=stored.get("superseded", {}), commit=meta["commit"])
+        out = {"provenance": meta, "machines": pins, **({"superseded": superseded} if superseded else {})}
+        PIN.write_text(json.dumps(out, indent=2) + "\n")
+        dropped = f"; superseded {sorted(superseded)}" if args.supersede and superseded else ""
+        print(f"wrote the pin of {key!r} to {PIN}{dropped}")
         return 0
     exact, diff = compare(pins, measured, key)
     for line in diff:

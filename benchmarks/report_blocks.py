@@ -272,7 +272,7 @@ def e3_fit_precision() -> str:
 @renderer("e3-assimilate-from")
 def e3_assimilate_from() -> str:
     r = load("e3_assimilate_from")
-    labels = {"skill": "the skill before the adaptation", "adapted": "the adapted copy (today's default)"}
+    labels = {"skill": "the skill before the adaptation (the default)", "adapted": "the adapted copy"}
     rows = []
     for v, label in labels.items():
         s, w = r["variants"][v]["summary"], r["variants"][v]

@@ -75,3 +75,24 @@ def test_a_pin_compares_every_count_on_its_machine_and_successes_elsewhere():
     exact, diff = regression.compare(pins, broken, "Intel(R) Xeon(R) Processor, AVX512")
     assert not exact and diff == ["[AMD EPYC] e1_seed0/rl_only/success: True -> False",
                                   "[AMD EPYC] e3_envs20/acnmp/adaptations_failed: 0 -> 2"]
+
+
+def test_superseding_a_pin_drops_the_other_machines_and_records_them():
+    old = {"AMD EPYC": {"provenance": {"commit": "a" * 40}, "runs": {"e1_seed0": {}}},
+           "Intel, AVX512": {"provenance": {"commit": "b" * 40}, "runs": {"e1_seed0": {}}}}
+    new = {"provenance": {"commit": "c" * 40}, "runs": {"e1_seed0": {"acnmp": {"rollouts": 3, "success": True}}}}
+    # a plain write keeps the others
+    pins, superseded = regression.written_pins(old, "Intel, AVX512", new, supersede=False, superseded={},
+                                               commit="c" * 40)
+    assert set(pins) == {"AMD EPYC", "Intel, AVX512"} and pins["Intel, AVX512"] is new and superseded == {}
+    # a superseding write keeps only this machine's and says which pin was dropped, from when
+    pins, superseded = regression.written_pins(old, "Intel, AVX512", new, supersede=True, superseded={},
+                                               commit="c" * 40)
+    assert pins == {"Intel, AVX512": new}
+    assert superseded == {"AMD EPYC": {"by_commit": "c" * 40, "pinned_at": "a" * 40}}
+    # the dropped machine now compares successes only, against the new pin
+    assert regression.compare(pins, new["runs"], "AMD EPYC")[0] is False
+    # and writing its pin again clears its superseded record
+    again, superseded = regression.written_pins(pins, "AMD EPYC", new, supersede=False, superseded=superseded,
+                                                commit="d" * 40)
+    assert set(again) == {"AMD EPYC", "Intel, AVX512"} and superseded == {}
