@@ -4,7 +4,7 @@ For each seed a CNMP is trained as in E6 (:func:`~acnmp_core.experiments.pour.tr
 then each candidate adapts a copy of it at the test (1400 g, 1322 g) with a budget of 25 roll-outs,
 no assimilation. It writes, per candidate and seed, whether and after how many roll-outs the mean
 succeeded, and every iteration's mean error, noisy errors, exploration std (rad) and reuses;
-``within_20`` counts the seeds solved within 20 roll-outs. ``e6_adapt_config`` is candidate "E".
+``within_20`` counts the seeds solved within 20 roll-outs. ``e6_adapt_config`` is candidate "F".
 
 Usage: ``python benchmarks/e6_settings.py [--seeds 100,101,102,103] [--only A,B] [--out FILE]``
 (about 2-3 minutes per candidate and seed on a loaded 2-core machine).
@@ -35,6 +35,7 @@ CANDIDATES = {
     "C": dict(explore_error_gain=1e-3, explore_cap=0.35, lr=1e-3, explore_widen=2.0),
     "D": dict(explore_error_gain=1e-3, explore_cap=0.35, lr=1e-3, explore_widen=2.0, temperature=0.05),
     "E": dict(explore_error_gain=1.5e-3, explore_cap=0.5, lr=1e-3, explore_widen=2.0),
+    "F": dict(explore_error_gain=1.5e-3, explore_cap=0.5, lr=1e-3, explore_widen=2.0, temperature=0.05),
 }
 
 
