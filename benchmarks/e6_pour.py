@@ -2,8 +2,10 @@
 
 Writes benchmarks/results/e6_pour.json (with its provenance; the CPU time per roll-out is measured
 on the in-process roll-outs of the run) and e6_pour.png (the error of every roll-out per seed).
-Usage: ``python benchmarks/e6_pour.py [--seeds N] [--out FILE]``. The settings are the library's
-defaults, the same as ``acnmp experiment pour``, so the CLI's first N seeds give the benchmark's first N.
+Usage: ``python benchmarks/e6_pour.py [--seeds N] [--jobs J] [--out FILE]``. The settings are the
+experiment's defaults (:func:`~acnmp_core.experiments.pour.e6_adapt_config`), the same as ``acnmp
+experiment pour``, so the CLI's first N seeds give the benchmark's first N; ``--jobs`` (default 2)
+runs that many seeds at once in separate processes, with the serial run's result.
 """
 from __future__ import annotations
 
@@ -24,11 +26,12 @@ def main(argv: list[str] | None = None) -> int:
     """Run E6 with the default settings; print one line per seed and the summary."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=5)
+    ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "e6_pour.json"))
     args = ap.parse_args(argv)
     torch.set_num_threads(1)
     meta = provenance()
-    result = {"provenance": meta, **run_pour(args.seeds, log=lambda s: print(s, flush=True))}
+    result = {"provenance": meta, **run_pour(args.seeds, jobs=args.jobs, log=lambda s: print(s, flush=True))}
     save_result(result, args.out, plot_pour,
                 ("lfd_only", "assimilation", "rollout_cpu_s_median", "wall_time_s"))
     return 0

@@ -22,6 +22,8 @@ def register(subparsers) -> None:
     p.add_argument("--no-assimilation", action="store_true", help="skip the assimilation and its checks")
     add_output_arguments(p, "write the error of every roll-out per seed (PNG)")
     add_deployment_arguments(p, "the roll-outs on pour PyBullet workers")
+    p.add_argument("--jobs", type=int, default=1,
+                   help="seeds run in this many processes at once, same result (not with --distributed; default 1)")
     p.add_argument("--quiet", action="store_true", help="no per-seed lines")
     p.set_defaults(func=run)
 
@@ -30,13 +32,14 @@ def run(args) -> int:
     """Run E6 as asked by ``args`` and print a summary; returns the exit code."""
     import torch
 
-    from acnmp_core.adaptation import AdaptConfig
-    from acnmp_core.experiments.pour import BUDGET, TOLERANCE_G, TRAIN_STEPS, plot_pour, run_pour
+    from acnmp_core.experiments.pour import BUDGET, TOLERANCE_G, TRAIN_STEPS, e6_adapt_config, plot_pour, run_pour
 
     train_steps, budget = sizes(args, TRAIN_STEPS, BUDGET)
     check_deployment_arguments(args)
+    if args.jobs < 1 or (args.jobs > 1 and args.distributed):
+        raise ValueError("--jobs: expected a positive integer, and 1 with --distributed")
     torch.set_num_threads(1)  # the CNMP is small; threads only contend with the simulator
-    kwargs = dict(train_steps=train_steps, adapt_config=AdaptConfig(max_rollouts=budget),
+    kwargs = dict(train_steps=train_steps, adapt_config=e6_adapt_config(budget),
                   assimilate_solution=not args.no_assimilation, log=None if args.quiet else print)
     if args.distributed:
         from clients.distributed import remote_rollouts
@@ -46,7 +49,7 @@ def run(args) -> int:
             result = run_pour(args.seeds, evaluator_factory=lambda: make("pour", {"tolerance_g": TOLERANCE_G}),
                               **kwargs)
     else:
-        result = run_pour(args.seeds, **kwargs)
+        result = run_pour(args.seeds, jobs=args.jobs, **kwargs)
     a, s = result["acnmp"], result["assimilation"]
     print(f"E6 pour {result['test']['target_g']:.0f} g from {result['test']['weight_g']:.0f} g, "
           f"{result['seeds']} seed(s), {result['wall_time_s']:.1f} s")

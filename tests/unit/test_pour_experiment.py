@@ -8,7 +8,7 @@ import numpy as np
 
 from acnmp_core.adaptation import AdaptConfig
 from acnmp_core.assimilation import AssimilationConfig
-from acnmp_core.experiments.pour import TimedEvaluator, make_setup, make_target, run_pour
+from acnmp_core.experiments.pour import TimedEvaluator, e6_adapt_config, make_setup, make_target, run_pour
 from acnmp_core.rollout import RolloutBatch
 from clients.cli import main
 
@@ -107,3 +107,32 @@ def test_bad_cli_input_is_a_clear_error(capsys):
     assert main(["experiment", "pour", "--seeds", "0"]) == 2
     err = capsys.readouterr().err
     assert "--seeds" in err and len(err.strip().splitlines()) == 1
+
+
+def _without_timings(result):
+    """A run_pour result without what differs between two identical runs (wall and CPU times, jobs)."""
+    r = {k: v for k, v in result.items() if k not in ("wall_time_s", "rollout_cpu_s_median", "config")}
+    r["runs"] = [{k: v for k, v in run.items() if k != "time_s"} for run in result["runs"]]
+    return r
+
+
+def test_seeds_in_parallel_processes_give_the_serial_result(pour_demo_file):
+    """jobs=2: two seeds in two spawned processes, each on its own rig, same result as one after the other."""
+    kw = dict(train_steps=20, adapt_config=e6_adapt_config(3), assimilate_solution=False,
+              demo_path=str(pour_demo_file))
+    serial, parallel = run_pour([1, 0], **kw), run_pour([1, 0], jobs=2, **kw)
+    assert [r["seed"] for r in parallel["runs"]] == [1, 0]
+    per_rollout = serial["acnmp"]["errors_g_per_rollout"]  # the LfD roll-out and two noisy ones per seed
+    assert [len(e) for e in per_rollout] == [3, 3] and per_rollout[0] != per_rollout[1]  # the seeds differ ...
+    assert _without_timings(parallel) == _without_timings(serial)  # ... and each is the serial one
+    assert parallel["config"]["jobs"] == 2 and parallel["rollout_cpu_s_median"] > 0
+
+
+def test_parallel_seeds_refuse_a_remote_evaluator_and_distributed(capsys):
+    import pytest
+
+    with pytest.raises(ValueError, match="jobs"):
+        run_pour([0, 1], jobs=2, evaluator_factory=_PoursExactly)
+    assert main(["experiment", "pour", "--jobs", "2", "--distributed"]) == 2
+    err = capsys.readouterr().err
+    assert "--jobs" in err and len(err.strip().splitlines()) == 1
