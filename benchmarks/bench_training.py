@@ -171,6 +171,14 @@ def ratios(before: dict, after: dict) -> dict:
     return out
 
 
+def _add_ratios(result: dict, before_path: str) -> None:
+    """Add to ``result`` the commit of the JSON at ``before_path`` and :func:`ratios` against it."""
+    before = json.loads(Path(before_path).read_text())
+    result["before"] = {"file": Path(before_path).name, "commit": before["provenance"]["commit"],
+                        "load_average_start_end": before.get("load_average_start_end")}
+    result["ratios_before_over_after"] = ratios(before, result)
+
+
 def main(argv: list[str] | None = None) -> int:
     from acnmp_core.cnmp import CNMP, CNMPConfig
     from acnmp_core.experiments.wall import _make_cnmp, make_setup
@@ -183,8 +191,17 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--e3-envs", type=int, default=5)
     ap.add_argument("--e3-test", type=int, default=200)
     ap.add_argument("--before", help="a JSON this script wrote at another commit: add the ratios")
+    ap.add_argument("--measured", help="with --before: take the figures from this JSON (written by this script) "
+                                       "instead of measuring, e.g. when both runs went concurrently")
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "bench_training.json"))
     args = ap.parse_args(argv)
+    if args.measured:
+        if not args.before:
+            ap.error("--measured needs --before")
+        result = json.loads(Path(args.measured).read_text())
+        _add_ratios(result, args.before)
+        save_result(result, args.out, headline=("load_average_start_end", "ratios_before_over_after"))
+        return 0
     torch.set_num_threads(1)
     meta = provenance()
     load0 = os.getloadavg()
@@ -200,9 +217,7 @@ def main(argv: list[str] | None = None) -> int:
               "workloads": workloads,
               "note": "cpu = process CPU time with 1 torch thread; wall includes waiting for the shared cores"}
     if args.before:
-        before = json.loads(Path(args.before).read_text())
-        result["before"] = {"file": str(Path(args.before).name), "commit": before["provenance"]["commit"]}
-        result["ratios_before_over_after"] = ratios(before, result)
+        _add_ratios(result, args.before)
     save_result(result, args.out, headline=("load_average_start_end", "ratios_before_over_after"))
     return 0
 
