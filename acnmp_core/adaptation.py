@@ -53,6 +53,7 @@ import torch
 from .cnmp import CNMP, Query
 from .data import DemoSet
 from .exploration import SmoothNoise
+from .optim_step import Stepper
 from .rollout import RolloutBatch, RolloutEvaluator
 from .training import TrainConfig, make_sampler, nll_loss
 from .validation import check_positive_int
@@ -267,8 +268,8 @@ class _Updater:
         params = list(model.parameters()) if params is None else params
         # Separate Adam moments for the RL and the SL steps: their gradients differ in scale by
         # orders of magnitude, and a shared second moment lets the larger one silence the other.
-        self.opt_rl = torch.optim.Adam(params, lr=cfg.lr, fused=True)
-        self.opt_sl = torch.optim.Adam(params, lr=cfg.sl_lr, fused=True)
+        self.opt_rl = Stepper(torch.optim.Adam(params, lr=cfg.lr, fused=True))
+        self.opt_sl = Stepper(torch.optim.Adam(params, lr=cfg.sl_lr, fused=True))
 
     def mean(self) -> torch.Tensor:
         """Current mean (T, D), normalised units, no gradient."""
@@ -281,7 +282,7 @@ class _Updater:
             return
         for _ in range(steps):
             loss = nll_loss(self.model, self.sampler.sample(self.cfg.sl_batch_size, self.gen), 0.0)
-            self.opt_sl.zero_grad(set_to_none=True)
+            self.opt_sl.zero_grad()
             loss.backward()
             self.opt_sl.step()
 
@@ -298,7 +299,7 @@ class _Updater:
                     w = torch.exp(torch.clamp(old - sq, max=0.0))
                 sq = w * sq
             loss = loss + (r.adv[:, None] * sq).sum(-1).mean()
-        self.opt_rl.zero_grad(set_to_none=True)
+        self.opt_rl.zero_grad()
         loss.backward()
         self.opt_rl.step()
 

@@ -28,6 +28,7 @@ import torch
 from .adaptation import AdaptTarget
 from .cnmp import CNMP
 from .data import DemoSet, Demonstration, Episode
+from .optim_step import Stepper
 from .training import TrainConfig, make_sampler, nll_loss
 from .validation import check_positive_int
 
@@ -91,14 +92,14 @@ def assimilate(model: CNMP, demos: DemoSet, solution: Demonstration, cfg: Assimi
         with torch.no_grad():
             y = model.value_norm.normalize(torch.as_tensor(new[-1].values)).float()[None]
         anchor = Episode(q.obs_x, q.obs_mask, q.tgt_x, y)
-    opt = torch.optim.Adam(model.parameters(), lr=cfg.lr, fused=True)
+    opt = Stepper(torch.optim.Adam(model.parameters(), lr=cfg.lr, fused=True))
     losses = []
     model.train()
     for _ in range(cfg.steps):
         loss = nll_loss(model, sampler.sample(cfg.batch_size, gen), train_cfg.beta)
         if anchor is not None:
             loss = loss + cfg.anchor_weight * nll_loss(model, anchor, train_cfg.beta)
-        opt.zero_grad(set_to_none=True)
+        opt.zero_grad()
         loss.backward()
         opt.step()
         losses.append(loss.item())

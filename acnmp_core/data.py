@@ -157,6 +157,9 @@ class EpisodeSampler:
     Targets are never among the sample's observations. With probability ``partial_obs_prob`` an
     observation carries only a random non-empty subset of the output dimensions, which teaches the
     model to condition on partial observations.
+
+    ``packed`` is read once, at construction: the sampler keeps its own float32 table of it (one
+    row per demonstration point), so a sampler over demonstrations that changed must be rebuilt.
     """
 
     def __init__(
@@ -177,39 +180,58 @@ class EpisodeSampler:
         self.min_obs, self.max_obs = min_obs, max_obs
         self.n_targets = max(1, min(n_targets, shortest - max_obs))
         self.partial_obs_prob = partial_obs_prob
+        n, tmax, d = packed.values.shape
+        self._n, self._tmax, self._d = n, tmax, d
+        # Every value of an episode is a packed value (times a 0/1 mask, which is exact), so rounding
+        # to float32 once here gives the same bits as rounding each episode after the gather; one
+        # (N * Tmax, 1 + D) table of [t, values] lets one gather fetch times and values together.
+        self._table = torch.cat([packed.times, packed.values], dim=-1).float().reshape(n * tmax, 1 + d)
+        self._task_params = packed.task_params.float()
+        self._lengths = packed.lengths
+        self._padded = bool((packed.lengths < tmax).any())  # all full: the padding mask is a no-op
+        self._slots = torch.arange(tmax)[None, :]
+        self._obs_slots = torch.arange(max_obs)[None, :]
+
+    def _first_points(self, keys: torch.Tensor, k: int) -> torch.Tensor:
+        """Indices (B, k) of the k smallest ``keys`` (B, Tmax) per row, in increasing key order:
+        exactly ``argsort(keys)[:, :k]``. A partial sort (top-k) is several times cheaper than a
+        full sort; it can only disagree with argsort when keys tie within the first k + 1, which
+        random float64 keys almost never do, and then the full sort decides."""
+        if k + 1 > keys.shape[1]:
+            return torch.argsort(keys, dim=1)[:, :k]
+        vals, idx = torch.topk(keys, k + 1, dim=1, largest=False, sorted=True)
+        if bool((vals[:, 1:] == vals[:, :-1]).any()):
+            return torch.argsort(keys, dim=1)[:, :k]
+        return idx[:, :k]
 
     def sample(self, batch_size: int, gen: torch.Generator, demo_idx: torch.Tensor | None = None) -> Episode:
-        """Draw ``batch_size`` episodes using ``gen``; ``demo_idx`` (B,) picks demos (default uniform)."""
-        p = self.packed
-        n, tmax, d = p.values.shape
+        """Draw ``batch_size`` episodes using ``gen``; ``demo_idx`` (B,) picks demos (default uniform).
+
+        Returns an :class:`Episode` (float32, normalised units): obs_x (B, max_obs, 1+P+2D),
+        obs_mask (B, max_obs), tgt_x (B, n_targets, 1+P), tgt_y (B, n_targets, D).
+        """
+        n, tmax, d = self._n, self._tmax, self._d
         if demo_idx is None:
             demo_idx = torch.randint(0, n, (batch_size,), generator=gen)
         b = demo_idx.shape[0]
-        lengths = p.lengths[demo_idx]
         # A random permutation of each demo's valid indices: invalid (padded) slots sort last.
         keys = torch.rand(b, tmax, generator=gen, dtype=torch.float64)
-        keys = torch.where(torch.arange(tmax)[None, :] < lengths[:, None], keys, 2.0)
-        order = torch.argsort(keys, dim=1)
-        obs_idx = order[:, : self.max_obs]
-        tgt_idx = order[:, self.max_obs : self.max_obs + self.n_targets]
+        if self._padded:
+            keys = torch.where(self._slots < self._lengths[demo_idx][:, None], keys, 2.0)
+        m, k = self.max_obs, self.max_obs + self.n_targets
+        points = self._table[self._first_points(keys, k) + demo_idx[:, None] * tmax]  # (B, k, 1 + D)
         n_obs = torch.randint(self.min_obs, self.max_obs + 1, (b,), generator=gen)
-        obs_mask = torch.arange(self.max_obs)[None, :] < n_obs[:, None]
-
-        def take(arr: torch.Tensor, idx: torch.Tensor) -> torch.Tensor:
-            return torch.gather(arr[demo_idx], 1, idx[..., None].expand(-1, -1, arr.shape[-1]))
-
-        tp = p.task_params[demo_idx]
-        ot, ov = take(p.times, obs_idx), take(p.values, obs_idx)
-        dim_mask = torch.ones_like(ov)
+        obs_mask = self._obs_slots < n_obs[:, None]
+        tp = self._task_params[demo_idx]
+        ot, ov = points[:, :m, :1], points[:, :m, 1:]
+        dim_mask = torch.ones(b, m, d)
         if self.partial_obs_prob > 0 and d > 1:
             partial = torch.rand(b, self.max_obs, 1, generator=gen) < self.partial_obs_prob
-            rand_mask = (torch.rand(b, self.max_obs, d, generator=gen) < 0.5).to(ov.dtype)
+            rand_mask = (torch.rand(b, self.max_obs, d, generator=gen) < 0.5).to(dim_mask.dtype)
             # Guarantee at least one observed dimension per observation.
             first = torch.randint(0, d, (b, self.max_obs), generator=gen)
             rand_mask.scatter_(2, first[..., None], 1.0)
             dim_mask = torch.where(partial, rand_mask, dim_mask)
-        tp_o = tp[:, None, :].expand(-1, self.max_obs, -1)
-        obs_x = torch.cat([ot, tp_o, ov * dim_mask, dim_mask], dim=-1)
-        tt, ty = take(p.times, tgt_idx), take(p.values, tgt_idx)
-        tgt_x = torch.cat([tt, tp[:, None, :].expand(-1, tt.shape[1], -1)], dim=-1)
-        return Episode(obs_x.float(), obs_mask, tgt_x.float(), ty.float())
+        obs_x = torch.cat([ot, tp[:, None, :].expand(-1, m, -1), ov * dim_mask, dim_mask], dim=-1)
+        tgt_x = torch.cat([points[:, m:, :1], tp[:, None, :].expand(-1, k - m, -1)], dim=-1)
+        return Episode(obs_x, obs_mask, tgt_x, points[:, m:, 1:].contiguous())

@@ -11,6 +11,7 @@ from tqdm.auto import tqdm
 
 from .cnmp import CNMP
 from .data import DemoSet, Episode, EpisodeSampler
+from .optim_step import Stepper
 from .validation import check_positive_int
 
 
@@ -132,7 +133,7 @@ def train(
         val_ep = val_sampler.sample(cfg.val_episodes, val_gen)
     else:
         val_ep = sampler.sample(cfg.val_episodes, val_gen)
-    opt = optimizer or torch.optim.Adam(model.parameters(), lr=cfg.lr, fused=True)
+    opt = Stepper(optimizer or torch.optim.Adam(model.parameters(), lr=cfg.lr, fused=True))
     result = TrainResult()
     best_state = copy.deepcopy(model.state_dict())
     model.train()
@@ -151,7 +152,7 @@ def train(
     bar = tqdm(range(1, cfg.steps + 1), desc="train", disable=not progress, leave=False)
     for step in bar:
         loss = nll_loss(model, sampler.sample(cfg.batch_size, gen), cfg.beta)
-        opt.zero_grad(set_to_none=True)
+        opt.zero_grad()
         loss.backward()
         opt.step()
         result.train_loss.append(loss.item())

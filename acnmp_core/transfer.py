@@ -28,6 +28,7 @@ from .cnmp import CNMP, CNMPConfig, Prediction, Query
 from .data import DemoSet, Episode
 from .training import TrainConfig, make_sampler, nll_loss
 from .errors import InputError
+from .optim_step import Stepper
 from .validation import check_array, check_positive_int, check_type
 
 
@@ -175,7 +176,7 @@ def train_pair(pair: TransferPair, demos_a: DemoSet, demos_b: DemoSet, cfg: Tran
     scfg = cfg.sampling()
     samplers = (make_sampler(a, demos_a, scfg), make_sampler(b, demos_b, scfg))
     gen = torch.Generator().manual_seed(seed)
-    opt = torch.optim.Adam([*a.parameters(), *b.parameters()], lr=cfg.lr)
+    opt = Stepper(torch.optim.Adam([*a.parameters(), *b.parameters()], lr=cfg.lr))
     result = PairTrainResult()
     a.train()
     b.train()
@@ -184,7 +185,7 @@ def train_pair(pair: TransferPair, demos_a: DemoSet, demos_b: DemoSet, cfg: Tran
         la, lb = nll_loss(a, ep_a), nll_loss(b, ep_b)
         align = ((a.encode(ep_a.obs_x, ep_a.obs_mask) - b.encode(ep_b.obs_x, ep_b.obs_mask)) ** 2).mean()
         loss = la + lb + cfg.latent_weight * align if cfg.latent_weight > 0 else la + lb
-        opt.zero_grad(set_to_none=True)
+        opt.zero_grad()
         loss.backward()
         opt.step()
         result.nll_a.append(la.item())

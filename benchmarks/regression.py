@@ -154,6 +154,7 @@ def main(argv: list[str] | None = None) -> int:
         ap.error("--supersede: only with --write")
     from clients.provenance import provenance
 
+    torch.set_num_threads(1)  # before provenance(), so the record names the threads measure() runs with
     meta = provenance()
     key = machine_key(meta["machine"])
     measured = measure()
