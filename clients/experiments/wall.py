@@ -40,12 +40,9 @@ def register(subparsers) -> None:
 
 def run(args) -> int:
     """Run E3 as asked by ``args``, print the curve and a summary; returns the exit code."""
-    import torch
-
-    from acnmp_core.experiments.wall import ALL_METHODS, run_wall
     from acnmp_core.tasks.wall_settings import wall_setting
 
-    torch.set_num_threads(1)  # the CNMP is small; more threads only contend
+    # The arguments are checked before torch is imported, so a mistake is reported at once.
     for name in ("envs", "initial", "test", "eval_every"):
         if getattr(args, name) < 1:
             raise ValueError(f"--{name.replace('_', '-')}: expected a positive integer, got {getattr(args, name)}")
@@ -54,11 +51,18 @@ def run(args) -> int:
     except ValueError as exc:
         raise ValueError(f"--{exc}") from None
     methods = tuple(m.strip() for m in args.methods.split(",") if m.strip())
+    from acnmp_core.experiments.wall import ALL_METHODS
+
     bad = [m for m in methods if m not in ALL_METHODS]
     if bad or not methods:
         raise ValueError(f"--methods: expected a comma-separated subset of {', '.join(ALL_METHODS)}, got {args.methods!r}")
     if args.distributed and setting.name != "paper":
         raise ValueError("--setting authors: runs in-process only (the point2d workers score the paper's wall)")
+    import torch
+
+    from acnmp_core.experiments.wall import run_wall
+
+    torch.set_num_threads(1)  # the CNMP is small; more threads only contend
     kwargs = dict(n_initial=args.initial, n_test=args.test, eval_every=args.eval_every, setting=setting,
                   methods=methods,
                   **({} if args.assimilate_from is None else {"assimilate_from": args.assimilate_from}),

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from acnmp_core.experiments import wall as E
+from acnmp_core.promp_rl import PrompRLConfig
 from acnmp_core.tasks import wall as W
 from acnmp_core.tasks.wall_settings import AUTHORS, PAPER, SETTING_NAMES, wall_setting
 from clients.cli import main
@@ -77,7 +78,8 @@ def test_cli_bad_setting_is_one_line(capsys):
 
 
 def test_trigger_decides_adaptation_in_the_loop():
-    r = E.run_wall(3, 0, n_initial=12, n_test=10, eval_every=3, methods=("promp_rl",), setting=AUTHORS)
+    r = E.run_wall(3, 0, n_initial=12, n_test=10, eval_every=3, methods=("promp_rl",), setting=AUTHORS,
+                   promp_config=PrompRLConfig(**{**E.PROMP_DEFAULTS, "max_rollouts": 60}))
     s = r["methods"]["promp_rl"]
     assert r["setting"] == "authors" and "test_success_rate_strict" in s
     assert s["test_success_rate_strict"] <= s["test_success_rate"]
