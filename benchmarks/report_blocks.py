@@ -192,7 +192,9 @@ def e3_compare() -> str:
             s = c["methods"][m]
             ratio = "1x" if m == "acnmp" else f"{c['trajectory_ratios'][f'{m}_over_acnmp']:.2f}x"
             strict = pct(s["test_success_rate_strict"]) if "test_success_rate_strict" in s else "="
-            rows.append([f"ours, {name} setting ({r['envs']} envs)", label, pct(s["test_success_rate"]), strict,
+            first = pct(r["methods"][m]["test_success_rate_initial"])
+            rows.append([f"ours, {name} setting ({r['envs']} envs)", label, f"{first} → {pct(s['test_success_rate'])}",
+                         strict,
                          fmt(s["test_error_mean"]), s["trajectories_total"], s["trajectories_per_env_max"],
                          s["trajectories_paper_style"], ratio, f"{s['time_s']:.0f}"])
         notes.append(f"* {name} setting: {r['envs']} new environments after {r['n_initial']} demonstrated, "
@@ -201,7 +203,7 @@ def e3_compare() -> str:
                                  f"({c['methods'][m]['adaptations_failed']})" for m in E3_COMPARE_LABELS)
                      + f"; {r['wall_time_s']:.0f} s in all.")
     lines = [
-        table(["run", "method", "test success", "test success, stopping criterion", "mean test error",
+        table(["run", "method", "test success (first → last)", "test success, stopping criterion", "mean test error",
                "trajectories (measured total)", "max per env", "paper-style total (envs x max per env)",
                "measured total / ACNMP", "time (s)"], rows),
         "",
