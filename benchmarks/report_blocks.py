@@ -201,6 +201,10 @@ def e3_compare() -> str:
                      f"{r['n_test']} test; adaptations (failed): "
                      + ", ".join(f"{E3_COMPARE_LABELS[m].split(' (')[0]} {c['methods'][m]['adaptations']} "
                                  f"({c['methods'][m]['adaptations_failed']})" for m in E3_COMPARE_LABELS)
+                     + f"; paper-style total / ACNMP's: "
+                     + ", ".join(f"{E3_COMPARE_LABELS[m].split(' (')[0]} "
+                                 f"{c['methods'][m]['trajectories_paper_style'] / c['methods']['acnmp']['trajectories_paper_style']:.2f}x"
+                                 for m in E3_COMPARE_LABELS if m != "acnmp")
                      + f"; {r['wall_time_s']:.0f} s in all.")
     lines = [
         table(["run", "method", "test success (first → last)", "test success, stopping criterion", "mean test error",
