@@ -47,11 +47,12 @@ mean, counts in ``n_rollouts``. Deterministic for a given ``seed`` and a determi
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Callable
 
 import numpy as np
 
 from .promp import ProMP, _demo_lists
-from .rollout import RolloutEvaluator
+from .rollout import RolloutBatch, RolloutEvaluator
 from .validation import check_array, check_positive_int
 
 
@@ -265,6 +266,64 @@ def _rwr_weights(returns: np.ndarray, beta: float) -> np.ndarray:
     return w / w.sum()
 
 
+#: An update of the search distribution: (mean (W,), cov (W, W), sampled weights (N, W), their
+#: executed RolloutBatch) -> (new mean, new cov).
+SearchUpdate = Callable[[np.ndarray, np.ndarray, np.ndarray, RolloutBatch], tuple[np.ndarray, np.ndarray]]
+
+
+def episodic_search(init: ProMP, evaluator: RolloutEvaluator, times, task_params, *, n_samples: int,
+                    max_rollouts: int, seed: int, update: SearchUpdate) -> PrompRLResult:
+    """The episodic loop shared by the ProMP baselines, with the update of the distribution left to
+    ``update``.
+
+    Each iteration evaluates the mean trajectory (one roll-out) and stops on its success; otherwise
+    it draws ``n_samples`` weight vectors from N(mean, cov) (a ``default_rng(seed)`` generator),
+    executes them and calls ``update``. The run stops before the roll-outs would exceed
+    ``max_rollouts`` (room is kept for the last mean). init : the initial search distribution;
+    times : (T,); task_params : (P,) or None, passed to the evaluator. Returns a :class:`PrompRLResult`.
+    """
+    t = check_array("times", times, ndim=1, min_size=1)
+    rng = np.random.default_rng(seed)
+    mean, cov = init.weight_mean.copy(), init.weight_cov.copy()
+    curve, errors, at, sample_returns = [], [], [], []
+    n_rollouts = 0
+    iterations = 0
+    promp = init
+    while True:
+        promp = init.with_distribution(mean, cov)
+        traj = promp.mean_trajectory(t)
+        batch = evaluator.evaluate(traj[None], t, task_params)
+        n_rollouts += 1
+        ret = float(batch.returns[0])
+        curve.append(ret)
+        errors.append(float(batch.remaining_errors()[0]))
+        at.append(n_rollouts)
+        success = bool(batch.success[0])
+        n = min(n_samples, max_rollouts - n_rollouts - 1)  # leave room to evaluate the new mean
+        if success or n < 2:
+            break
+        w = promp.sample_weights(n, rng)
+        samples = evaluator.evaluate(promp.trajectories_from_weights(w, t), t, task_params)
+        n_rollouts += n
+        sample_returns.append(float(samples.returns.mean()))
+        mean, cov = update(mean, cov, w, samples)
+        iterations += 1
+    return PrompRLResult(
+        success=success,
+        n_rollouts=n_rollouts,
+        n_iterations=iterations,
+        trajectory=traj,
+        times=t,
+        final_return=ret,
+        learning_curve=np.asarray(curve),
+        error_curve=np.asarray(errors),
+        rollouts_at=np.asarray(at, dtype=np.int64),
+        sample_returns=np.asarray(sample_returns),
+        promp=promp,
+        final_states={k: v[0] for k, v in batch.states.items()},
+    )
+
+
 def promp_rl(
     init: ProMP,
     evaluator: RolloutEvaluator,
@@ -287,33 +346,10 @@ def promp_rl(
     :class:`PrompRLResult`.
     """
     cfg = config if config is not None else PrompRLConfig()
-    t = check_array("times", times, ndim=1, min_size=1)
-    rng = np.random.default_rng(cfg.seed)
-    mean, cov = init.weight_mean.copy(), init.weight_cov.copy()
-    nw = init.n_weights
-    floor = cfg.min_std**2 * np.eye(nw)
-    curve, errors, at, sample_returns = [], [], [], []
-    n_rollouts = 0
-    iterations = 0
-    promp = init
-    while True:
-        promp = init.with_distribution(mean, cov)
-        traj = promp.mean_trajectory(t)
-        batch = evaluator.evaluate(traj[None], t, task_params)
-        n_rollouts += 1
-        ret = float(batch.returns[0])
-        curve.append(ret)
-        errors.append(float(batch.remaining_errors()[0]))
-        at.append(n_rollouts)
-        success = bool(batch.success[0])
-        n = min(cfg.n_samples, cfg.max_rollouts - n_rollouts - 1)  # leave room to evaluate the new mean
-        if success or n < 2:
-            break
-        w = promp.sample_weights(n, rng)
-        samples = evaluator.evaluate(promp.trajectories_from_weights(w, t), t, task_params)
-        n_rollouts += n
+    floor = cfg.min_std**2 * np.eye(init.n_weights)
+
+    def update(mean, cov, w, samples):
         returns = samples.returns
-        sample_returns.append(float(returns.mean()))
         d = _reps_weights(returns, cfg.epsilon) if cfg.method == "reps" else _rwr_weights(returns, cfg.beta)
         if cfg.cov_update == "cma":
             diff = w - mean  # about the old mean: the step that produced the good samples is learnt too
@@ -326,21 +362,10 @@ def promp_rl(
             diff = w - mean  # weighted maximum likelihood: about the new mean
             cov_ml = (d[:, None] * diff).T @ diff
             cov = (cov_ml + cov_ml.T) / 2 + floor  # regularised: fewer samples than weights
-        iterations += 1
-    return PrompRLResult(
-        success=success,
-        n_rollouts=n_rollouts,
-        n_iterations=iterations,
-        trajectory=traj,
-        times=t,
-        final_return=ret,
-        learning_curve=np.asarray(curve),
-        error_curve=np.asarray(errors),
-        rollouts_at=np.asarray(at, dtype=np.int64),
-        sample_returns=np.asarray(sample_returns),
-        promp=promp,
-        final_states={k: v[0] for k, v in batch.states.items()},
-    )
+        return mean, cov
+
+    return episodic_search(init, evaluator, times, task_params, n_samples=cfg.n_samples,
+                           max_rollouts=cfg.max_rollouts, seed=cfg.seed, update=update)
 
 
 def adapt_promp(

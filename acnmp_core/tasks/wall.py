@@ -262,22 +262,25 @@ def wall_rewards(
     return _rewards_from_scores(s, traj.shape[0], traj.shape[1])
 
 
-def _rewards_from_scores(s: WallScores, b: int, t: int) -> np.ndarray:
+def _rewards_from_scores(s: WallScores, b: int, t: int, squared_clearance: bool = False) -> np.ndarray:
     rewards = np.zeros((b, t))
     rewards[:, 0] -= s.start_error
     rows = np.flatnonzero(s.reaches_wall)
-    rewards[rows, s.margin_step[rows]] += s.min_margin[rows]
+    m = s.min_margin[rows]
+    # The authors' notebook scores the signed *squared* clearance (sign kept: negative inside the wall).
+    rewards[rows, s.margin_step[rows]] += m * np.abs(m) if squared_clearance else m
     rewards[:, -1] -= GOAL_WEIGHT * s.goal_error
     return rewards
 
 
-def _success_from_scores(s: WallScores, start_tolerance: float, goal_tolerance: float) -> np.ndarray:
-    # Strictly positive margin: touching an edge counts as touching the wall.
+def _success_from_scores(s: WallScores, start_tolerance: float, goal_tolerance: float,
+                         min_clearance: float = 0.0) -> np.ndarray:
+    # Strictly more than the clearance asked for: with 0, touching an edge counts as touching the wall.
     return (
         (s.start_error <= start_tolerance)
         & (s.goal_error <= goal_tolerance)
         & s.reaches_wall
-        & (s.min_margin > 0.0)
+        & (s.min_margin > min_clearance)
     )
 
 
@@ -354,7 +357,8 @@ def _demo_height(x: np.ndarray, knots: tuple[float, ...], blends: tuple[float, f
 
 
 def demonstrate(
-    task_params, n_steps: int = 200, rng: np.random.Generator | None = None, *, n_dense: int = 4000
+    task_params, n_steps: int = 200, rng: np.random.Generator | None = None, *, n_dense: int = 4000,
+    wall_thickness: float = WALL_THICKNESS, hole_width: float = HOLE_WIDTH,
 ) -> tuple[np.ndarray, np.ndarray]:
     """A smooth demonstration from ``START`` through the hole to the goal, at uniform speed.
 
@@ -372,6 +376,11 @@ def demonstrate(
         the half-length ``a ~ U(0.3, 0.8)`` of the flat stretch and the shapes of the two ease
         curves. Without it, the path crosses at the hole's centre with ``a = 0.5``.
     n_dense : points of the dense polyline used to measure arc length.
+    wall_thickness, hole_width : the geometry (world units). The crossing offset scales with the
+        hole's width. A wall thicker than the default one (the authors' 2.0) gets a flat stretch that
+        covers it: half-length ``wall_thickness / 2 + 0.05 + 0.4 u`` (u in [0, 1] from the same draw
+        as ``a``; the authors' demonstrations use ``x_c +- 1.45``), at most 0.02 short of the start
+        and of the goal's x, so the last piece may be steep, as theirs.
 
     Returns
     -------
@@ -388,12 +397,16 @@ def demonstrate(
         a, offset, blends = 0.5, 0.0, (0.0, 0.0)
     else:
         a = rng.uniform(0.3, 0.8)
-        offset = rng.uniform(-0.15, 0.15) * HOLE_WIDTH
+        offset = rng.uniform(-0.15, 0.15) * hole_width
         blends = (rng.uniform(), rng.uniform())
-    # Keep the flat stretch inside (0, x_g) for environments outside the training ranges, and at
-    # least as long as the wall is thick.
-    room = 0.45 * min(x_c, x_g - x_c)
-    a = max(min(a, room), min(WALL_THICKNESS, room))
+    if wall_thickness > WALL_THICKNESS:
+        # A thick wall: the flat stretch must span it (an ease curve inside the band would clip it).
+        a = min(wall_thickness / 2 + 0.05 + 0.4 * (a - 0.3) / 0.5, x_c - 0.02, x_g - x_c - 0.02)
+    else:
+        # Keep the flat stretch inside (0, x_g) for environments outside the training ranges, and at
+        # least as long as the wall is thick.
+        room = 0.45 * min(x_c, x_g - x_c)
+        a = max(min(a, room), min(WALL_THICKNESS, room))
     knots = (x_c - a, x_c + a, START[1], y_c + offset, x_g, y_g)
 
     # Arc length on a dense polyline; x increases strictly along the path, so x(s) is invertible
@@ -408,7 +421,8 @@ def demonstrate(
 
 
 def make_demo_set(
-    n_envs: int, rng: np.random.Generator, *, n_steps: int = 200, task_params=None
+    n_envs: int, rng: np.random.Generator, *, n_steps: int = 200, task_params=None,
+    wall_thickness: float = WALL_THICKNESS, hole_width: float = HOLE_WIDTH,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Demonstrations for ``n_envs`` random environments (one each, with random variation).
 
@@ -418,6 +432,7 @@ def make_demo_set(
     rng : numpy Generator, used for the environments and the variation.
     n_steps : samples per demonstration T.
     task_params : optional (N, 4) environments to demonstrate instead of sampling new ones.
+    wall_thickness, hole_width : the geometry the demonstrations avoid (see :func:`demonstrate`).
 
     Returns
     -------
@@ -429,7 +444,8 @@ def make_demo_set(
         params = sample_environments(n_envs, rng)
     else:
         params = check_array("task_params", task_params, shape=(n_envs, N_TASK_PARAMS))
-    demos = [demonstrate(params[i], n_steps, rng) for i in range(n_envs)]
+    demos = [demonstrate(params[i], n_steps, rng, wall_thickness=wall_thickness, hole_width=hole_width)
+             for i in range(n_envs)]
     times = np.stack([d[0] for d in demos])
     values = np.stack([d[1] for d in demos])
     return times, values, params
@@ -445,13 +461,18 @@ class WallTask:
     """The wall task as a :class:`~acnmp_core.rollout.RolloutEvaluator` (analytic, no simulation).
 
     Executing a trajectory is the identity: the executed path is the commanded one. Geometry and
-    tolerances are in world units and default to the module constants.
+    tolerances are in world units and default to the module constants. ``min_clearance`` (world
+    units): success needs the tightest in-wall clearance strictly above it (default 0: not touching).
+    ``squared_clearance``: the reward's clearance term is ``m |m|`` instead of the margin ``m`` (the
+    authors' notebook). The defaults are the task as it always was.
     """
 
     hole_width: float = HOLE_WIDTH
     wall_thickness: float = WALL_THICKNESS
     start_tolerance: float = START_TOLERANCE
     goal_tolerance: float = GOAL_TOLERANCE
+    min_clearance: float = 0.0
+    squared_clearance: bool = False
 
     #: Task parameters per environment and position dimensions per step.
     n_task_params: ClassVar[int] = N_TASK_PARAMS
@@ -482,11 +503,20 @@ class WallTask:
         check_array("times", times, shape=(traj.shape[1],))
         s = wall_scores(traj, params, hole_width=self.hole_width, wall_thickness=self.wall_thickness)
         return RolloutBatch(
-            rewards=_rewards_from_scores(s, traj.shape[0], traj.shape[1]),
-            success=_success_from_scores(s, self.start_tolerance, self.goal_tolerance),
+            rewards=_rewards_from_scores(s, traj.shape[0], traj.shape[1], self.squared_clearance),
+            success=_success_from_scores(s, self.start_tolerance, self.goal_tolerance, self.min_clearance),
             states={"path": traj},
             errors=_errors_from_scores(s),
         )
+
+    def scores(self, trajectories, task_params) -> WallScores:
+        """:func:`wall_scores` in this task's geometry: trajectories (B, T, 2), task_params (4,) or (B, 4)."""
+        return wall_scores(trajectories, task_params, hole_width=self.hole_width, wall_thickness=self.wall_thickness)
+
+    def success(self, trajectories, task_params) -> np.ndarray:
+        """(B,) bool: this task's success criterion, trajectories (B, T, 2), task_params (4,) or (B, 4)."""
+        return _success_from_scores(self.scores(trajectories, task_params), self.start_tolerance,
+                                    self.goal_tolerance, self.min_clearance)
 
     def errors(self, trajectories, task_params) -> np.ndarray:
         """(B,) test-metric error, see :func:`wall_errors`."""

@@ -1,4 +1,5 @@
-"""``acnmp experiment wall``: E3, self-improvement over wall-with-a-hole environments, ACNMP vs ProMP + RL."""
+"""``acnmp experiment wall``: E3, self-improvement over wall-with-a-hole environments, ACNMP vs ProMP + RL
+(and the baseline after Ewerton et al. 2019), in the paper's or the authors' task setting."""
 from __future__ import annotations
 
 from .common import add_deployment_arguments, add_output_arguments, check_deployment_arguments, write_json
@@ -24,6 +25,13 @@ def register(subparsers) -> None:
     p.add_argument("--assimilate-from", choices=("skill", "adapted"), default=None,
                    help="ACNMP's assimilation continues from the skill before the adaptation, or from the "
                         "adapted copy (default: run_wall's, the adapted copy)")
+    p.add_argument("--setting", default="paper",
+                   help="task setting: 'paper' (default; wall 0.2 x hole 1.0, tolerance 0.25) or 'authors' "
+                        "(their notebook: wall 2 x hole 2, RL when an error > 0.15 or the squared clearance "
+                        "< 0.2, until errors < 0.05 and squared clearance > 0.4)")
+    p.add_argument("--methods", default="acnmp,promp_rl",
+                   help="comma-separated methods: acnmp, promp_rl (ProMP + REPS), ewerton (ProMP + PRO + GP "
+                        "after Ewerton et al. 2019); default acnmp,promp_rl")
     add_output_arguments(p, "write test error / success vs environments and trajectories (PNG)")
     add_deployment_arguments(p, "the roll-outs on point2d workers")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
@@ -32,15 +40,31 @@ def register(subparsers) -> None:
 
 def run(args) -> int:
     """Run E3 as asked by ``args``, print the curve and a summary; returns the exit code."""
+    from acnmp_core.tasks.wall_settings import wall_setting
+
+    # The arguments are checked before torch is imported, so a mistake is reported at once.
+    for name in ("envs", "initial", "test", "eval_every"):
+        if getattr(args, name) < 1:
+            raise ValueError(f"--{name.replace('_', '-')}: expected a positive integer, got {getattr(args, name)}")
+    try:
+        setting = wall_setting(args.setting)
+    except ValueError as exc:
+        raise ValueError(f"--{exc}") from None
+    methods = tuple(m.strip() for m in args.methods.split(",") if m.strip())
+    from acnmp_core.experiments.wall import ALL_METHODS
+
+    bad = [m for m in methods if m not in ALL_METHODS]
+    if bad or not methods:
+        raise ValueError(f"--methods: expected a comma-separated subset of {', '.join(ALL_METHODS)}, got {args.methods!r}")
+    if args.distributed and setting.name != "paper":
+        raise ValueError("--setting authors: runs in-process only (the point2d workers score the paper's wall)")
     import torch
 
     from acnmp_core.experiments.wall import run_wall
 
     torch.set_num_threads(1)  # the CNMP is small; more threads only contend
-    for name in ("envs", "initial", "test", "eval_every"):
-        if getattr(args, name) < 1:
-            raise ValueError(f"--{name.replace('_', '-')}: expected a positive integer, got {getattr(args, name)}")
-    kwargs = dict(n_initial=args.initial, n_test=args.test, eval_every=args.eval_every,
+    kwargs = dict(n_initial=args.initial, n_test=args.test, eval_every=args.eval_every, setting=setting,
+                  methods=methods,
                   **({} if args.assimilate_from is None else {"assimilate_from": args.assimilate_from}),
                   log=None if args.quiet else (lambda s: print(s, flush=True)))
     check_deployment_arguments(args)
@@ -53,12 +77,15 @@ def run(args) -> int:
                               **kwargs)
     else:
         result = run_wall(args.envs, args.seed, **kwargs)
-    print(f"E3 wall, {result['n_initial']} demonstrated + {result['envs']} new environments, "
+    print(f"E3 wall ({result['setting']} setting), {result['n_initial']} demonstrated + {result['envs']} new environments, "
           f"{result['n_test']} test, {result['wall_time_s']:.1f} s")
-    print(f"{'method':<9} {'test success':>12} {'test error':>10} {'trajectories':>12} {'max/env':>8} {'median/env':>10}")
+    print(f"{'method':<9} {'test success':>12} {'test error':>10} {'trajectories':>12} {'max/env':>8} "
+          f"{'median/env':>10} {'paper-style':>11}")
     for m, s in result["methods"].items():
         print(f"{m:<9} {100 * s['test_success_rate']:>11.1f}% {s['test_error_mean']:>10.3f} "
-              f"{s['trajectories_total']:>12} {s['trajectories_per_env_max']:>8} {s['trajectories_per_env_median']:>10.0f}")
+              f"{s['trajectories_total']:>12} {s['trajectories_per_env_max']:>8} {s['trajectories_per_env_median']:>10.0f} "
+              f"{s['trajectories_paper_style']:>11}")
+    print("paper-style = environments x the per-environment maximum, as the paper counts its totals")
     ratio = result["trajectory_ratio_promp_over_acnmp"]
     if ratio is not None:
         print(f"ProMP+RL / ACNMP trajectories: {ratio:.2f}x")
