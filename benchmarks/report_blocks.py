@@ -185,6 +185,7 @@ def e3_compare() -> str:
             ["Akbulut et al. 2020 (paper)", "Ewerton et al. 2019 (quoted)", "-", "-", "-", "-", "20K", "10M", "~14x",
              "-"]]
     runs = {name: load(f"e3_compare_{name}") for name in ("paper", "authors")}
+    default_from = load("e3_wall")["config"]["assimilate_from"]
     notes = []
     for name, r in runs.items():
         c = r["comparison"]
@@ -205,6 +206,9 @@ def e3_compare() -> str:
                      + ", ".join(f"{E3_COMPARE_LABELS[m].split(' (')[0]} "
                                  f"{c['methods'][m]['trajectories_paper_style'] / c['methods']['acnmp']['trajectories_paper_style']:.2f}x"
                                  for m in E3_COMPARE_LABELS if m != "acnmp")
+                     + f"; ACNMP's assimilation continued from the {r['config']['assimilate_from']!r} network"
+                     + ("" if r["config"]["assimilate_from"] == default_from
+                        else f" (the published E3 run's, e3_wall.json: {default_from!r})")
                      + f"; {r['wall_time_s']:.0f} s in all.")
     lines = [
         table(["run", "method", "test success (first → last)", "test success, stopping criterion", "mean test error",
