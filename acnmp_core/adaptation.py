@@ -33,7 +33,10 @@ exploration std. Each iteration executes the mean and ``noisy_per_iter`` noisy t
   the first one: the authors tie the std to the remaining error in every experiment, each with
   its own constants; a ratio needs none. ``explore_error_gain`` and ``explore_cap`` give the
   authors' absolute form instead, ``min(gain * err, cap)`` in raw units (their E4: 3 x error, at most
-  0.08 rad); off by default.
+  0.08 rad); off by default. ``explore_widen`` (off by default) multiplies the std by that factor
+  after every iteration whose roll-outs all returned the same reward (no advantage, nothing to
+  learn), compounding until one differs: a reward quantised in steps coarser than the noise's
+  effect (E6's whole marbles) otherwise repeats the same blind iteration.
 
 Ablations: ``mode="rl_only"`` turns the supervised steps off; ``mode="lfd_only"`` executes the
 conditioned mean once and does not adapt. The settings were chosen on E1, E2 and E3 together
@@ -75,6 +78,9 @@ class AdaptConfig:
         the last mean roll-out's error, in the task's units; ``explore_cap`` before the first), the
         rule the authors' E4 uses (3 x error, at most 0.08 rad); ``explore_scale`` and
         ``explore_min`` are then unused.
+    explore_widen : None (the default) or a factor > 1: after an iteration whose roll-outs all
+        returned the same rewards (no signal), the next std is that many times wider, compounding
+        over consecutive such iterations; the first iteration with a signal resets it.
     n_knots : knots of the time-correlated exploration noise (fewer: smoother).
     advantage : "awr" or "reinforce" (the authors'); see the module docstring.
     temperature : of the "awr" weights, relative to the rewards' spread at each step.
@@ -96,6 +102,7 @@ class AdaptConfig:
     explore_min: float = 0.3
     explore_error_gain: float | None = None
     explore_cap: float | None = None
+    explore_widen: float | None = None
     n_knots: int = 12
     advantage: str = "awr"
     temperature: float = 0.1
@@ -132,6 +139,9 @@ class AdaptConfig:
             if value is not None and (isinstance(value, bool) or not isinstance(value, (int, float))
                                       or not value > 0):
                 raise ValueError(f"{name}: expected a number > 0 or None, got {value!r}")
+        w = self.explore_widen
+        if w is not None and (isinstance(w, bool) or not isinstance(w, (int, float)) or not w > 1):
+            raise ValueError(f"explore_widen: expected a factor > 1 or None, got {w!r}")
         if not isinstance(self.stop_on_success, bool):
             raise ValueError(f"stop_on_success: expected true or false, got {self.stop_on_success!r}")
 
@@ -388,6 +398,7 @@ def adapt(
     credit = getattr(evaluator, "credit", "step")
     history: list[IterationLog] = []
     rollouts, it, success, err0 = 0, 0, False, None
+    widen = 1.0  # explore_widen ** (iterations in a row without a signal)
     model.eval()
 
     def denorm(x: np.ndarray) -> np.ndarray:
@@ -397,7 +408,7 @@ def adapt(
         mu_t = updater.mean()
         mu = mu_t.double().numpy()  # (T, D)
         k = 0 if cfg.mode == "lfd_only" else min(cfg.noisy_per_iter, cfg.max_rollouts - rollouts - 1)
-        std = _explore_std(cfg, std0, scale, history[-1].mean_error if history else None, err0)
+        std = widen * _explore_std(cfg, std0, scale, history[-1].mean_error if history else None, err0)
         eps = noise.sample(k, d, rng, std) if k else np.zeros((0, len(times), d))
         trajs_n = np.concatenate([mu[None], mu[None] + eps])
         trajs = denorm(trajs_n)
@@ -426,7 +437,9 @@ def adapt(
             break
         found = per_step_advantages(batch.rewards, cfg.advantage, cfg.temperature, credit)
         if found is None:
+            widen *= cfg.explore_widen or 1.0
             continue
+        widen = 1.0
         rows, adv = found
         std_t = torch.as_tensor(std, dtype=torch.float32)
         fresh = [_Rollout(torch.as_tensor(trajs_n[j], dtype=torch.float32),

@@ -179,3 +179,38 @@ def test_smooth_noise_is_smooth_with_the_requested_std():
     np.testing.assert_allclose(x.std(axis=0).mean(axis=0), [0.5, 2.0], rtol=0.05)
     # neighbouring steps are strongly correlated: smooth, not white
     assert np.corrcoef(x[:, 100, 0], x[:, 101, 0])[0, 1] > 0.99
+
+
+def test_explore_widen_widens_after_iterations_without_signal_and_resets_on_one(e1_model, setup):
+    """explore_widen: an iteration whose roll-outs all return the same reward (a reward quantised
+    coarser than the noise) widens the next std by the factor, compounding; a signal resets it."""
+
+    class Quantised:
+        """The E1 task's rewards, flattened to zero for the first ``blind`` batches."""
+
+        def __init__(self, blind):
+            self.blind, self.calls = blind, 0
+
+        def evaluate(self, trajectories, times, task_params=None):
+            out = setup.task.evaluate(trajectories, times, task_params)
+            self.calls += 1
+            if self.calls <= self.blind + 1:  # the first iteration's mean runs alone: one more call
+                b = len(trajectories)  # every roll-out the same reward; an error of 1 keeps the std at the cap
+                return RolloutBatch(np.zeros_like(out.rewards), np.zeros(b, bool), out.states, np.ones(b))
+            return out
+
+    cfg = AdaptConfig(max_rollouts=25, noisy_per_iter=1, explore_error_gain=1.0, explore_cap=0.1)
+    plain = adapt(copy.deepcopy(e1_model), setup.demos, setup.target, Quantised(3), cfg, seed=0)
+    wide = adapt(copy.deepcopy(e1_model), setup.demos, setup.target, Quantised(3),
+                 AdaptConfig(**{**cfg.to_dict(), "explore_widen": 2.0}), seed=0)
+    std = [h.explore_std[0] for h in wide.history]
+    assert [h.explore_std[0] for h in plain.history[:4]] == pytest.approx([0.1] * 4)  # blind: stuck at the cap
+    assert std[:4] == pytest.approx([0.1, 0.2, 0.4, 0.8])  # three blind iterations: x2 each
+    # the fourth iteration has a signal: the next std is the rule's again (no widening left)
+    assert std[4] == pytest.approx(min(1.0 * wide.history[3].mean_error, 0.1))
+
+
+def test_explore_widen_is_validated():
+    with pytest.raises(ValueError, match="explore_widen"):
+        AdaptConfig(explore_widen=1.0)
+    assert AdaptConfig().explore_widen is None  # off by default
