@@ -36,7 +36,8 @@ exploration std. Each iteration executes the mean and ``noisy_per_iter`` noisy t
   0.08 rad); off by default. ``explore_widen`` (off by default) multiplies the std by that factor
   after every iteration whose roll-outs all returned the same reward (no advantage, nothing to
   learn), compounding until one differs: a reward quantised in steps coarser than the noise's
-  effect (E6's whole marbles) otherwise repeats the same blind iteration.
+  effect (E6's whole marbles) otherwise repeats the same blind iteration. ``explore_widen_max``
+  bounds that widening (a std many times the rule's throws the arm far from the skill).
 
 Ablations: ``mode="rl_only"`` turns the supervised steps off; ``mode="lfd_only"`` executes the
 conditioned mean once and does not adapt. The settings were chosen on E1, E2 and E3 together
@@ -81,6 +82,8 @@ class AdaptConfig:
     explore_widen : None (the default) or a factor > 1: after an iteration whose roll-outs all
         returned the same rewards (no signal), the next std is that many times wider, compounding
         over consecutive such iterations; the first iteration with a signal resets it.
+    explore_widen_max : None (the default: unbounded) or a factor > 1: the widening never makes the
+        std more than this many times the rule's (``explore_widen`` ** n is clipped to it).
     n_knots : knots of the time-correlated exploration noise (fewer: smoother).
     advantage : "awr" or "reinforce" (the authors'); see the module docstring.
     temperature : of the "awr" weights, relative to the rewards' spread at each step.
@@ -103,6 +106,7 @@ class AdaptConfig:
     explore_error_gain: float | None = None
     explore_cap: float | None = None
     explore_widen: float | None = None
+    explore_widen_max: float | None = None
     n_knots: int = 12
     advantage: str = "awr"
     temperature: float = 0.1
@@ -142,6 +146,9 @@ class AdaptConfig:
         w = self.explore_widen
         if w is not None and (isinstance(w, bool) or not isinstance(w, (int, float)) or not w > 1):
             raise ValueError(f"explore_widen: expected a factor > 1 or None, got {w!r}")
+        m = self.explore_widen_max
+        if m is not None and (isinstance(m, bool) or not isinstance(m, (int, float)) or not m > 1):
+            raise ValueError(f"explore_widen_max: expected a factor > 1 or None, got {m!r}")
         if not isinstance(self.stop_on_success, bool):
             raise ValueError(f"stop_on_success: expected true or false, got {self.stop_on_success!r}")
 
@@ -437,7 +444,7 @@ def adapt(
             break
         found = per_step_advantages(batch.rewards, cfg.advantage, cfg.temperature, credit)
         if found is None:
-            widen *= cfg.explore_widen or 1.0
+            widen = min(widen * (cfg.explore_widen or 1.0), cfg.explore_widen_max or np.inf)
             continue
         widen = 1.0
         rows, adv = found

@@ -208,9 +208,15 @@ def test_explore_widen_widens_after_iterations_without_signal_and_resets_on_one(
     assert std[:4] == pytest.approx([0.1, 0.2, 0.4, 0.8])  # three blind iterations: x2 each
     # the fourth iteration has a signal: the next std is the rule's again (no widening left)
     assert std[4] == pytest.approx(min(1.0 * wide.history[3].mean_error, 0.1))
+    capped = adapt(copy.deepcopy(e1_model), setup.demos, setup.target, Quantised(3),
+                   AdaptConfig(**{**cfg.to_dict(), "explore_widen": 2.0, "explore_widen_max": 3.0}), seed=0)
+    # explore_widen_max: x2, then x3 (not x4) and x3 again while still blind
+    assert [h.explore_std[0] for h in capped.history[:4]] == pytest.approx([0.1, 0.2, 0.3, 0.3])
 
 
 def test_explore_widen_is_validated():
     with pytest.raises(ValueError, match="explore_widen"):
         AdaptConfig(explore_widen=1.0)
+    with pytest.raises(ValueError, match="explore_widen_max"):
+        AdaptConfig(explore_widen=2.0, explore_widen_max=0.5)
     assert AdaptConfig().explore_widen is None  # off by default
