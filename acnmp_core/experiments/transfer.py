@@ -37,7 +37,7 @@ from typing import Callable
 
 import numpy as np
 
-from ..adaptation import AdaptConfig, AdaptTarget, adapt
+from ..adaptation import AdaptConfig, AdaptTarget, adapt, per_step_advantages
 from ..data import DemoSet
 from ..rollout import RolloutEvaluator
 from ..transfer import TransferConfig, TransferPair, TransferredSkill, spread_observations, train_pair
@@ -173,7 +173,9 @@ def run_condition(pairs: dict[str, TransferPair], setup: E4Setup, condition: str
     """RL in robot B for one condition (on copies of the pairs' models). Returns ``{"success",
     "iterations" (to the first successful mean, None if none), "rollouts", "initial_rmse_to_expert"
     (rad, the un-adapted trajectory against :attr:`E4Setup.expert_b`), "initial_error",
-    "final_error" (m), "curve": [[iteration, error of the mean], ...]}``; with ``first_attempt``
+    "final_error" (m), "curve": [[iteration, error of the mean], ...], "blind_iterations": how many
+    unsuccessful iterations had no signal (every roll-out the same reward at every step: no policy
+    step, the cube untouched by all of them)}``; with ``first_attempt``
     also ``"first_attempt_diff"``: the largest difference (rad) between the first attempt it gives
     and the one the adaptation starts from (0: the same trajectory), None where it gives none."""
     if condition == "no_transfer":
@@ -192,9 +194,15 @@ def run_condition(pairs: dict[str, TransferPair], setup: E4Setup, condition: str
                                                        target.query_times)).mean
             diff = float(np.max(np.abs(np.asarray(given) - own)))
     first_trajectory: dict[str, np.ndarray] = {}
+    blind = [0]
+    credit = getattr(evaluator, "credit", "step")
 
     def record(log, trajs, batch):
         first_trajectory.setdefault("traj", trajs[0])  # the first mean: the un-adapted trajectory (T, 4)
+        # the same test adapt() makes before a policy step (a success ends the run, so it never counts)
+        if not log.mean_success and per_step_advantages(batch.rewards, cfg.adapt.advantage,
+                                                        cfg.adapt.temperature, credit) is None:
+            blind[0] += 1
         if on_iteration is not None:
             on_iteration(log, trajs, batch)
 
@@ -204,13 +212,15 @@ def run_condition(pairs: dict[str, TransferPair], setup: E4Setup, condition: str
     return {"success": bool(res.success), "iterations": first, "rollouts": int(res.rollouts),
             "initial_rmse_to_expert": float(np.sqrt(np.mean((initial - setup.expert_b) ** 2))),
             "initial_error": float(res.history[0].mean_error), "final_error": float(res.history[-1].mean_error),
-            "curve": [[h.iteration, float(h.mean_error)] for h in res.history],
+            "curve": [[h.iteration, float(h.mean_error)] for h in res.history], "blind_iterations": blind[0],
             **({} if first_attempt is None else {"first_attempt_diff": diff})}
 
 
 def summarise(runs: list[dict], checkpoints=CHECKPOINTS) -> dict:
     """Success by iteration, medians of iterations and roll-outs to success (None when more than
-    half the runs never succeeded), and the median initial error (m) over ``runs`` of one condition."""
+    half the runs never succeeded), the median initial error (m) and the mean number of iterations
+    without a signal per run (``blind_iterations_mean``; None for runs recorded before it was counted)
+    over ``runs`` of one condition."""
     iters = np.array([np.inf if r["iterations"] is None else r["iterations"] for r in runs], dtype=float)
     rolls = np.array([r["rollouts"] if r["success"] else np.inf for r in runs], dtype=float)
 
@@ -222,7 +232,9 @@ def summarise(runs: list[dict], checkpoints=CHECKPOINTS) -> dict:
             "iterations_median": med(iters), "rollouts_median": med(rolls),
             "success_rate": float(np.mean(np.isfinite(iters))),
             "initial_error_median": float(np.median([r["initial_error"] for r in runs])),
-            "initial_rmse_to_expert_median": float(np.median([r["initial_rmse_to_expert"] for r in runs]))}
+            "initial_rmse_to_expert_median": float(np.median([r["initial_rmse_to_expert"] for r in runs])),
+            "blind_iterations_mean": (float(np.mean([r["blind_iterations"] for r in runs]))
+                                      if all("blind_iterations" in r for r in runs) else None)}
 
 
 def load_authors_data(data_dir: Path | str = AUTHORS_DATA) -> tuple[np.ndarray, ...] | None:
