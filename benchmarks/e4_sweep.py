@@ -52,10 +52,12 @@ def _pair(**kw):
     return replace(base, pair=pair, authors_pair=pair)
 
 
-def _widen(factor: float, most: float | None = None) -> TransferExperimentConfig:
-    """E4's default settings with ``explore_widen`` = factor and ``explore_widen_max`` = most."""
+def _widen(factor: float | None, most: float | None, tolerance: float) -> TransferExperimentConfig:
+    """E4's default settings with ``explore_widen`` = factor, ``explore_widen_max`` = most and
+    ``signal_tolerance`` = tolerance."""
     cfg = TransferExperimentConfig()
-    return replace(cfg, adapt=replace(cfg.adapt, explore_widen=factor, explore_widen_max=most))
+    return replace(cfg, adapt=replace(cfg.adapt, explore_widen=factor, explore_widen_max=most,
+                                      signal_tolerance=tolerance))
 
 
 #: name -> config; the names are what the docs' sweep table cites.
@@ -88,12 +90,14 @@ VARIANTS = {
     "lr3e-4": lambda: _pair(lr=3e-4),
     "widths128": lambda: _pair(widths=(128, 128, 128)),
     # explore_widen (issue 13): a blind iteration (cube untouched by every roll-out) widens the next std
-    "widen1.5": lambda: _widen(1.5),
-    "widen2": lambda: _widen(2.0),
-    "widen1.5_max3": lambda: _widen(1.5, 3.0),
-    "widen2_max4": lambda: _widen(2.0, 4.0),
-    "widen2_max2": lambda: _widen(2.0, 2.0),
-    "widen3_max3": lambda: _widen(3.0, 3.0),
+    # (exact equality, the default signal_tolerance, never happens here: an untouched cube jitters)
+    "tol1e-4": lambda: _widen(None, None, 1e-4),
+    "widen1.5_tol1e-4": lambda: _widen(1.5, None, 1e-4),
+    "widen2_tol1e-4": lambda: _widen(2.0, None, 1e-4),
+    "widen1.5_max3_tol1e-4": lambda: _widen(1.5, 3.0, 1e-4),
+    "widen2_max4_tol1e-4": lambda: _widen(2.0, 4.0, 1e-4),
+    "widen2_max2_tol1e-4": lambda: _widen(2.0, 2.0, 1e-4),
+    "widen3_max3_tol1e-4": lambda: _widen(3.0, 3.0, 1e-4),
 }
 
 
