@@ -92,6 +92,7 @@ VARIANTS = {
     # explore_widen (issue 13): a blind iteration (cube untouched by every roll-out) widens the next std
     # (exact equality, the default signal_tolerance, never happens here: an untouched cube jitters)
     "tol1e-4": lambda: _widen(None, None, 1e-4),
+    "exact_signal": lambda: _widen(None, None, 1e-12),  # E4's settings before signal_tolerance landed
     "widen1.5_tol1e-4": lambda: _widen(1.5, None, 1e-4),
     "widen2_tol1e-4": lambda: _widen(2.0, None, 1e-4),
     "widen1.5_max3_tol1e-4": lambda: _widen(1.5, 3.0, 1e-4),
