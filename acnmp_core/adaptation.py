@@ -36,7 +36,11 @@ exploration std. Each iteration executes the mean and ``noisy_per_iter`` noisy t
   0.08 rad); off by default. ``explore_widen`` (off by default) multiplies the std by that factor
   after every iteration whose roll-outs all returned the same reward (no advantage, nothing to
   learn), compounding until one differs: a reward quantised in steps coarser than the noise's
-  effect (E6's whole marbles) otherwise repeats the same blind iteration.
+  effect (E6's whole marbles) otherwise repeats the same blind iteration. ``explore_widen_max``
+  bounds that widening (a std many times the rule's throws the arm far from the skill).
+  ``signal_tolerance`` says when rewards count as the same: a simulator's contact solver jitters an
+  untouched object by micrometres, so rewards that should be equal differ by far less than any real
+  effect (E4: about 1e-6 against 1e-2 once the paddle touches the cube).
 
 Ablations: ``mode="rl_only"`` turns the supervised steps off; ``mode="lfd_only"`` executes the
 conditioned mean once and does not adapt. The settings were chosen on E1, E2 and E3 together
@@ -82,6 +86,11 @@ class AdaptConfig:
     explore_widen : None (the default) or a factor > 1: after an iteration whose roll-outs all
         returned the same rewards (no signal), the next std is that many times wider, compounding
         over consecutive such iterations; the first iteration with a signal resets it.
+    signal_tolerance : rewards (after credit, see :func:`per_step_advantages`) that differ from the
+        mean roll-out's by no more than this at every step are the same: no signal, no policy step
+        (and ``explore_widen`` widens). The default 1e-12 is exact equality up to rounding.
+    explore_widen_max : None (the default: unbounded) or a factor > 1: the widening never makes the
+        std more than this many times the rule's (``explore_widen`` ** n is clipped to it).
     n_knots : knots of the time-correlated exploration noise (fewer: smoother).
     advantage : "awr" or "reinforce" (the authors'); see the module docstring.
     temperature : of the "awr" weights, relative to the rewards' spread at each step.
@@ -104,6 +113,8 @@ class AdaptConfig:
     explore_error_gain: float | None = None
     explore_cap: float | None = None
     explore_widen: float | None = None
+    explore_widen_max: float | None = None
+    signal_tolerance: float = 1e-12
     n_knots: int = 12
     advantage: str = "awr"
     temperature: float = 0.1
@@ -126,7 +137,8 @@ class AdaptConfig:
             check_positive_int(name, getattr(self, name))
         for name in ("sl_steps", "sl_steps_reuse", "max_reuse"):
             check_positive_int(name, getattr(self, name), minimum=0)
-        for name in ("explore_scale", "lr", "sl_lr", "reuse_threshold", "temperature", "fit_tolerance"):
+        for name in ("explore_scale", "lr", "sl_lr", "reuse_threshold", "temperature", "fit_tolerance",
+                     "signal_tolerance"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0:
                 raise ValueError(f"{name}: expected a number > 0, got {value!r}")
@@ -143,6 +155,9 @@ class AdaptConfig:
         w = self.explore_widen
         if w is not None and (isinstance(w, bool) or not isinstance(w, (int, float)) or not w > 1):
             raise ValueError(f"explore_widen: expected a factor > 1 or None, got {w!r}")
+        m = self.explore_widen_max
+        if m is not None and (isinstance(m, bool) or not isinstance(m, (int, float)) or not m > 1):
+            raise ValueError(f"explore_widen_max: expected a factor > 1 or None, got {m!r}")
         if not isinstance(self.stop_on_success, bool):
             raise ValueError(f"stop_on_success: expected true or false, got {self.stop_on_success!r}")
 
@@ -210,11 +225,12 @@ class AdaptResult:
 
 
 def per_step_advantages(rewards: np.ndarray, kind: str = "awr", temperature: float = 0.1,
-                        credit: str = "step") -> tuple[np.ndarray, np.ndarray] | None:
+                        credit: str = "step", tolerance: float = 1e-12) -> tuple[np.ndarray, np.ndarray] | None:
     """Per-step advantages of the roll-outs of one iteration.
 
     rewards (1+K, T), row 0 the mean roll-out. Returns ``(rows, adv)``: the roll-outs that enter
-    the policy update and their advantages (len(rows), T); None when there is nothing to learn.
+    the policy update and their advantages (len(rows), T); None when there is nothing to learn:
+    every roll-out's (credited) rewards within ``tolerance`` of the mean roll-out's at every step.
 
     ``credit`` says which rewards the action at step t is credited with: "step" its own reward
     only (a kinematic task, where the reward at t depends on the state at t alone), "future" its
@@ -233,7 +249,7 @@ def per_step_advantages(rewards: np.ndarray, kind: str = "awr", temperature: flo
     elif credit != "step":
         raise ValueError(f"credit: expected one of {CREDITS}, got {credit!r}")
     diff = rewards[1:] - rewards[0:1]
-    if not np.any(np.abs(diff) > 1e-12):
+    if not np.any(np.abs(diff) > tolerance):
         return None
     if kind == "awr":
         spread = rewards.max(axis=0) - rewards.min(axis=0)
@@ -436,9 +452,9 @@ def adapt(
         it += 1
         if (success and cfg.stop_on_success) or k == 0:
             break
-        found = per_step_advantages(batch.rewards, cfg.advantage, cfg.temperature, credit)
+        found = per_step_advantages(batch.rewards, cfg.advantage, cfg.temperature, credit, cfg.signal_tolerance)
         if found is None:
-            widen *= cfg.explore_widen or 1.0
+            widen = min(widen * (cfg.explore_widen or 1.0), cfg.explore_widen_max or np.inf)
             continue
         widen = 1.0
         rows, adv = found

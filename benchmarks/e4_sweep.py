@@ -52,6 +52,14 @@ def _pair(**kw):
     return replace(base, pair=pair, authors_pair=pair)
 
 
+def _widen(factor: float | None, most: float | None, tolerance: float) -> TransferExperimentConfig:
+    """E4's default settings with ``explore_widen`` = factor, ``explore_widen_max`` = most and
+    ``signal_tolerance`` = tolerance."""
+    cfg = TransferExperimentConfig()
+    return replace(cfg, adapt=replace(cfg.adapt, explore_widen=factor, explore_widen_max=most,
+                                      signal_tolerance=tolerance))
+
+
 #: name -> config; the names are what the docs' sweep table cites.
 VARIANTS = {
     "default": _before,
@@ -81,6 +89,16 @@ VARIANTS = {
     "w1e5": lambda: _pair(latent_weight=1e5),
     "lr3e-4": lambda: _pair(lr=3e-4),
     "widths128": lambda: _pair(widths=(128, 128, 128)),
+    # explore_widen (issue 13): a blind iteration (cube untouched by every roll-out) widens the next std
+    # (exact equality, the default signal_tolerance, never happens here: an untouched cube jitters)
+    "tol1e-4": lambda: _widen(None, None, 1e-4),
+    "exact_signal": lambda: _widen(None, None, 1e-12),  # E4's settings before signal_tolerance landed
+    "widen1.5_tol1e-4": lambda: _widen(1.5, None, 1e-4),
+    "widen2_tol1e-4": lambda: _widen(2.0, None, 1e-4),
+    "widen1.5_max3_tol1e-4": lambda: _widen(1.5, 3.0, 1e-4),
+    "widen2_max4_tol1e-4": lambda: _widen(2.0, 4.0, 1e-4),
+    "widen2_max2_tol1e-4": lambda: _widen(2.0, 2.0, 1e-4),
+    "widen3_max3_tol1e-4": lambda: _widen(3.0, 3.0, 1e-4),
 }
 
 
@@ -126,10 +144,12 @@ def run_variant(name: str, runs: int, setup, trainer, authors_seeds: int, first_
         per_pair: dict[str, list] = {}
         for r in res["per_run"]:
             per_pair.setdefault(str(r["pair_seed"]), []).append(
-                {"seed": r["seed"], "iterations": r["iterations"], "initial_error": r["initial_error"]})
+                {"seed": r["seed"], "iterations": r["iterations"], "initial_error": r["initial_error"],
+                 "blind_iterations": r["blind_iterations"]})
         out.update(success_by_iteration=res["success_by_iteration"],
                    success_rate=res["conditions"]["transfer"]["success_rate"],
                    initial_error_median=res["conditions"]["transfer"]["initial_error_median"],
+                   blind_iterations_mean=res["conditions"]["transfer"]["blind_iterations_mean"],
                    per_pair_seed=per_pair)
     authors = [authors_data_check(cfg.authors_pair, s, n_obs=cfg.n_obs) for s in range(authors_seeds)]
     authors = [a for a in authors if a is not None]

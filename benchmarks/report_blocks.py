@@ -398,18 +398,20 @@ E4_LABELS = {"transfer": "transfer (A's encoder, B's decoder)", "no_alignment": 
 def e4_results() -> str:
     r = load("e4_transfer")
     paper = r["paper"]["success_by_iteration"]
-    rows = [["paper", *(pct(v) for v in paper.values()), "-", "-", "-"]]
+    rows = [["paper", *(pct(v) for v in paper.values()), "-", "-", "-", "-"]]
     for cond, label in E4_LABELS.items():
         s = r["conditions"].get(cond)
         if s is None:
             continue
         rows.append([label, *(pct(s["success_by_iteration"][k]) for k in paper), fmt(s["iterations_median"]),
-                     fmt(s["initial_error_median"]), fmt(s["initial_rmse_to_expert_median"])])
+                     fmt(s["initial_error_median"]), fmt(s["initial_rmse_to_expert_median"]),
+                     fmt(s.get("blind_iterations_mean"))])
     a = r.get("authors_data")
     la = r["latent_alignment"]
     lines = [
         table(["condition", *(f"success after {k} it." for k in paper), "iterations (median)",
-               "first cube error (median, m)", "first trajectory vs expert (median RMSE, rad)"], rows),
+               "first cube error (median, m)", "first trajectory vs expert (median RMSE, rad)",
+               "iterations without a signal (mean per run)"], rows),
         "",
         f"* Runs: {r['runs']} of {r['runs_requested']} requested, RL seeds {r['seed_list'][0]}..{r['seed_list'][-1]}, "
         f"{r['config']['pair_seeds']} pair seeds shared by the runs; 2 roll-outs per iteration "
@@ -449,12 +451,12 @@ def e4_sweep() -> str:
         changes = _config_changes(v["config"], base)
         if v.get("success_by_iteration"):
             rl_rows.append([name, changes, v["runs"], *(pct(x) for x in v["success_by_iteration"].values()),
-                            fmt(v["initial_error_median"])])
+                            fmt(v["initial_error_median"]), fmt(v.get("blind_iterations_mean"))])
         rmse = v["authors_data"]["transfer_rmse"]
         if rmse:
             authors_rows.append([name, changes, ", ".join(fmt(x) for x in rmse)])
     lines = [table(["variant@runs", "settings changed", "runs", "success after 3 it.", "7 it.", "11 it.", "19 it.",
-                    "first cube error (median, m)"], rl_rows)]
+                    "first cube error (median, m)", "iterations without a signal (mean per run)"], rl_rows)]
     if authors_rows:
         first = next(v for v in variants.values() if v["authors_data"]["transfer_rmse"])["authors_data"]
         lines += ["", table(["variant", "settings changed", "authors' data: transfer RMSE per pair seed 0, 1, ... (rad)"],

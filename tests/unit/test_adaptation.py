@@ -208,9 +208,43 @@ def test_explore_widen_widens_after_iterations_without_signal_and_resets_on_one(
     assert std[:4] == pytest.approx([0.1, 0.2, 0.4, 0.8])  # three blind iterations: x2 each
     # the fourth iteration has a signal: the next std is the rule's again (no widening left)
     assert std[4] == pytest.approx(min(1.0 * wide.history[3].mean_error, 0.1))
+    capped = adapt(copy.deepcopy(e1_model), setup.demos, setup.target, Quantised(3),
+                   AdaptConfig(**{**cfg.to_dict(), "explore_widen": 2.0, "explore_widen_max": 3.0}), seed=0)
+    # explore_widen_max: x2, then x3 (not x4) and x3 again while still blind
+    assert [h.explore_std[0] for h in capped.history[:4]] == pytest.approx([0.1, 0.2, 0.3, 0.3])
+
+
+def test_signal_tolerance_treats_jittered_equal_rewards_as_no_signal(e1_model, setup):
+    """A simulator jitters an untouched object: rewards that should be equal differ by ~1e-7. With
+    the default tolerance that is a signal (no widening); with a tolerance above it, it is none."""
+
+    class Jittered:
+        """The E1 task's rewards replaced by tiny seeded noise for the first three iterations."""
+
+        def __init__(self):
+            self.calls, self.rng = 0, np.random.default_rng(0)
+
+        def evaluate(self, trajectories, times, task_params=None):
+            out = setup.task.evaluate(trajectories, times, task_params)
+            self.calls += 1
+            if self.calls <= 4:  # the first mean runs alone: one call more
+                b = len(trajectories)
+                return RolloutBatch(1e-7 * self.rng.standard_normal(out.rewards.shape), np.zeros(b, bool),
+                                    out.states, np.ones(b))
+            return out
+
+    cfg = dict(max_rollouts=25, noisy_per_iter=1, explore_error_gain=1.0, explore_cap=0.1, explore_widen=2.0)
+    exact = adapt(copy.deepcopy(e1_model), setup.demos, setup.target, Jittered(), AdaptConfig(**cfg), seed=0)
+    tolerant = adapt(copy.deepcopy(e1_model), setup.demos, setup.target, Jittered(),
+                     AdaptConfig(**cfg, signal_tolerance=1e-5), seed=0)
+    assert [h.explore_std[0] for h in exact.history[:3]] == pytest.approx([0.1] * 3)  # noise taken for a signal
+    assert [h.explore_std[0] for h in tolerant.history[:4]] == pytest.approx([0.1, 0.2, 0.4, 0.8])
+    assert per_step_advantages(1e-7 * np.eye(2, 6), "awr", 0.1, "step", tolerance=1e-5) is None
 
 
 def test_explore_widen_is_validated():
     with pytest.raises(ValueError, match="explore_widen"):
         AdaptConfig(explore_widen=1.0)
+    with pytest.raises(ValueError, match="explore_widen_max"):
+        AdaptConfig(explore_widen=2.0, explore_widen_max=0.5)
     assert AdaptConfig().explore_widen is None  # off by default
