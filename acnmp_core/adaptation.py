@@ -226,7 +226,8 @@ class IterationLog:
 class AdaptResult:
     """Outcome: success, roll-outs used, the solution trajectory (T, D) raw (the final mean, or
     with ``solution="any"`` the noisy roll-out that succeeded), its times (T,), the per-iteration
-    log, and ``solved_by``: "mean", "noisy" or None (no success)."""
+    log, ``solved_by``: "mean", "noisy" or None (no success), and ``solution_error``: the task's
+    remaining error of the returned trajectory when it is an executed solution (else None)."""
 
     success: bool
     rollouts: int
@@ -234,6 +235,7 @@ class AdaptResult:
     times: np.ndarray
     history: list[IterationLog] = field(default_factory=list)
     solved_by: str | None = None
+    solution_error: float | None = None
 
 
 def per_step_advantages(rewards: np.ndarray, kind: str = "awr", temperature: float = 0.1,
@@ -481,7 +483,8 @@ def adapt(
 
     if solved is not None and solved > 0:
         return AdaptResult(success=True, rollouts=rollouts, trajectory=trajs[solved], times=times, history=history,
-                           solved_by="noisy")
+                           solved_by="noisy", solution_error=float(errors[solved]))
     final = updater.mean().double().numpy()
     return AdaptResult(success=success, rollouts=rollouts, trajectory=denorm(final), times=times,
-                       history=history, solved_by="mean" if success else None)
+                       history=history, solved_by="mean" if success else None,
+                       solution_error=float(errors[0]) if success else None)

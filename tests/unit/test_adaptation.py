@@ -272,7 +272,7 @@ def test_solution_any_stops_at_the_first_noisy_roll_out_that_succeeds_and_return
     cfg = dict(max_rollouts=30)
     ev = SecondNoisyOfThirdBatchSucceeds()
     res = adapt(copy.deepcopy(e1_model), setup.demos, setup.target, ev, AdaptConfig(**cfg, solution="any"), seed=0)
-    assert res.success and res.solved_by == "noisy" and ev.calls == 3
+    assert res.success and res.solved_by == "noisy" and ev.calls == 3 and res.solution_error is not None
     assert res.rollouts == 10 and not res.history[-1].mean_success
     np.testing.assert_array_equal(res.trajectory, ev.seen[2][2])
     mean_only = SecondNoisyOfThirdBatchSucceeds()
