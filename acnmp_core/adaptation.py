@@ -64,6 +64,8 @@ from .validation import check_positive_int
 
 MODES = ("acnmp", "rl_only", "lfd_only")
 ADVANTAGES = ("awr", "reinforce")
+#: Which executed roll-out can be adapt()'s solution (``AdaptConfig.solution``).
+SOLUTIONS = ("mean", "any")
 #: How a task's rewards depend on the actions (a class attribute ``credit`` of its evaluator):
 #: "step" (the reward at t depends on the state at t only) or "future" (on everything before it).
 CREDITS = ("step", "future")
@@ -102,7 +104,12 @@ class AdaptConfig:
     max_reuse : at most this many further policy steps on one iteration's roll-outs.
     fit_tolerance : "awr": stop once the mean is within this many stds of the target at every step.
     reuse_threshold : "reinforce": stop once the mean has moved more than this many stds.
-    stop_on_success : stop when the mean roll-out succeeds.
+    stop_on_success : stop when the solution is found (see ``solution``).
+    solution : which executed roll-out can be the solution: "mean" (the default; adapt() stops when
+        the mean roll-out succeeds and returns the final mean) or "any" (the first roll-out to
+        succeed, the mean or a noisy one, ends the adaptation and is returned: for an evaluator
+        that gives a trajectory the same result every time, a noisy roll-out that succeeded is as
+        much a solution as the mean; the paper's E6 stops at the roll-out that poured within 30 g).
     """
 
     mode: str = "acnmp"
@@ -127,6 +134,7 @@ class AdaptConfig:
     fit_tolerance: float = 0.1
     reuse_threshold: float = 1.0
     stop_on_success: bool = True
+    solution: str = "mean"
 
     def __post_init__(self) -> None:
         if self.mode not in MODES:
@@ -160,6 +168,8 @@ class AdaptConfig:
             raise ValueError(f"explore_widen_max: expected a factor > 1 or None, got {m!r}")
         if not isinstance(self.stop_on_success, bool):
             raise ValueError(f"stop_on_success: expected true or false, got {self.stop_on_success!r}")
+        if self.solution not in SOLUTIONS:
+            raise ValueError(f"solution: expected one of {SOLUTIONS}, got {self.solution!r}")
 
     def to_dict(self) -> dict:
         """Plain JSON-ready dict of every field."""
@@ -214,14 +224,18 @@ class IterationLog:
 
 @dataclass
 class AdaptResult:
-    """Outcome: success of the final mean, roll-outs used, the final mean trajectory (T, D) raw,
-    its times (T,), and the per-iteration log."""
+    """Outcome: success, roll-outs used, the solution trajectory (T, D) raw (the final mean, or
+    with ``solution="any"`` the noisy roll-out that succeeded), its times (T,), the per-iteration
+    log, ``solved_by``: "mean", "noisy" or None (no success), and ``solution_error``: the task's
+    remaining error of the returned trajectory when it is an executed solution (else None)."""
 
     success: bool
     rollouts: int
     trajectory: np.ndarray
     times: np.ndarray
     history: list[IterationLog] = field(default_factory=list)
+    solved_by: str | None = None
+    solution_error: float | None = None
 
 
 def per_step_advantages(rewards: np.ndarray, kind: str = "awr", temperature: float = 0.1,
@@ -415,6 +429,7 @@ def adapt(
     credit = getattr(evaluator, "credit", "step")
     history: list[IterationLog] = []
     rollouts, it, success, err0 = 0, 0, False, None
+    solved: int | None = None  # the row, in the last batch, of the roll-out that is the solution
     widen = 1.0  # explore_widen ** (iterations in a row without a signal)
     model.eval()
 
@@ -444,13 +459,16 @@ def adapt(
         if err0 is None:
             err0 = float(errors[0])
         success = bool(batch.success[0])
+        solved = 0 if success else None
+        if solved is None and cfg.solution == "any" and k and np.any(batch.success[1:]):
+            solved = 1 + int(np.argmax(batch.success[1:]))
         log = IterationLog(it, rollouts, float(batch.returns[0]), success, [float(r) for r in batch.returns[1:]],
                            list(map(float, std * scale)), float(errors[0]))
         history.append(log)
         if on_iteration is not None:
             on_iteration(log, trajs, batch)
         it += 1
-        if (success and cfg.stop_on_success) or k == 0:
+        if (solved is not None and cfg.stop_on_success) or k == 0:
             break
         found = per_step_advantages(batch.rewards, cfg.advantage, cfg.temperature, credit, cfg.signal_tolerance)
         if found is None:
@@ -463,6 +481,10 @@ def adapt(
                           torch.as_tensor(a, dtype=torch.float32), std_t, mu_t) for j, a in zip(rows, adv)]
         log.reuses = updater.update(fresh)
 
+    if solved is not None and solved > 0:
+        return AdaptResult(success=True, rollouts=rollouts, trajectory=trajs[solved], times=times, history=history,
+                           solved_by="noisy", solution_error=float(errors[solved]))
     final = updater.mean().double().numpy()
     return AdaptResult(success=success, rollouts=rollouts, trajectory=denorm(final), times=times,
-                       history=history)
+                       history=history, solved_by="mean" if success else None,
+                       solution_error=float(errors[0]) if success else None)

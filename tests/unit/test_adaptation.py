@@ -35,7 +35,7 @@ def test_lfd_alone_misses_the_extrapolated_viapoint(e1_model, setup):
 def test_acnmp_passes_every_condition_and_keeps_the_shape(solved, setup):
     _, res = solved
     m = trajectory_metrics(setup, res.trajectory)
-    assert res.success and m["success"] and res.rollouts <= 60
+    assert res.success and res.solved_by == "mean" and m["success"] and res.rollouts <= 60
     assert m["endpoint_error"] <= 0.03 and m["shape_error"] <= 0.05
     # the per-iteration log accounts for every roll-out, each iteration the mean and 4 noisy ones
     assert res.history[-1].rollouts == res.rollouts == 5 * len(res.history)
@@ -248,3 +248,35 @@ def test_explore_widen_is_validated():
     with pytest.raises(ValueError, match="explore_widen_max"):
         AdaptConfig(explore_widen=2.0, explore_widen_max=0.5)
     assert AdaptConfig().explore_widen is None  # off by default
+
+
+def test_solution_any_stops_at_the_first_noisy_roll_out_that_succeeds_and_returns_it(e1_model, setup):
+    """A noisy roll-out that succeeds ends the adaptation with solution="any" and is the returned
+    trajectory (the one executed, bit for bit); with the default "mean" the adaptation goes on."""
+
+    class SecondNoisyOfThirdBatchSucceeds:
+        """The E1 task, except that every success is dropped and row 2 of the 3rd call succeeds."""
+
+        def __init__(self):
+            self.calls, self.seen = 0, []
+
+        def evaluate(self, trajectories, times, task_params=None):
+            out = setup.task.evaluate(trajectories, times, task_params)
+            self.calls += 1
+            self.seen.append(np.array(trajectories))
+            success = np.zeros(len(trajectories), bool)
+            if self.calls == 3:  # the first mean alone, its noisy ones, then the 2nd iteration
+                success[2] = True
+            return RolloutBatch(out.rewards, success, out.states, out.errors)
+
+    cfg = dict(max_rollouts=30)
+    ev = SecondNoisyOfThirdBatchSucceeds()
+    res = adapt(copy.deepcopy(e1_model), setup.demos, setup.target, ev, AdaptConfig(**cfg, solution="any"), seed=0)
+    assert res.success and res.solved_by == "noisy" and ev.calls == 3 and res.solution_error is not None
+    assert res.rollouts == 10 and not res.history[-1].mean_success
+    np.testing.assert_array_equal(res.trajectory, ev.seen[2][2])
+    mean_only = SecondNoisyOfThirdBatchSucceeds()
+    res = adapt(copy.deepcopy(e1_model), setup.demos, setup.target, mean_only, AdaptConfig(**cfg), seed=0)
+    assert not res.success and res.solved_by is None and res.rollouts == 30
+    with pytest.raises(ValueError, match="solution"):
+        AdaptConfig(solution="best")
