@@ -24,7 +24,7 @@ def register(subparsers) -> None:
     p.add_argument("--eval-every", type=int, default=10, help="new environments between test evaluations (default 10)")
     p.add_argument("--assimilate-from", choices=("skill", "adapted"), default=None,
                    help="ACNMP's assimilation continues from the skill before the adaptation, or from the "
-                        "adapted copy (default: run_wall's, the adapted copy)")
+                        "adapted copy (default: run_wall's, the skill)")
     p.add_argument("--setting", default="paper",
                    help="task setting: 'paper' (default; wall 0.2 x hole 1.0, tolerance 0.25) or 'authors' "
                         "(their notebook: wall 2 x hole 2, RL when an error > 0.15 or the squared clearance "
