@@ -35,12 +35,12 @@ def child(threads: int, flush: bool, steps: int) -> dict:
     torch.set_num_threads(threads)
     if flush:
         torch.set_flush_denormal(True)
-    from acnmp_core.experiments.wall import _make_cnmp, make_setup
+    from acnmp_core.experiments.wall import make_wall_cnmp, make_setup
     from acnmp_core.optim_step import Stepper
     from acnmp_core.training import TrainConfig, make_sampler, nll_loss
 
     setup = make_setup(1, 0)
-    model = _make_cnmp(0)
+    model = make_wall_cnmp(0)
     model.fit_normalization(setup.initial)
     sampler = make_sampler(model, setup.initial, TrainConfig())
     gen = torch.Generator().manual_seed(0)

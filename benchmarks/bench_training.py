@@ -181,7 +181,7 @@ def _add_ratios(result: dict, before_path: str) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     from acnmp_core.cnmp import CNMP, CNMPConfig
-    from acnmp_core.experiments.wall import _make_cnmp, make_setup
+    from acnmp_core.experiments.wall import make_wall_cnmp, make_setup
     from acnmp_core.tasks.viapoint import obstacle_demos
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -208,7 +208,7 @@ def main(argv: list[str] | None = None) -> int:
     setup = make_setup(max(args.e3_envs, 50), 0, n_test=args.e3_test)
     workloads = [warm_up(), bench_train("e1_train", CNMP(CNMPConfig(n_outputs=2), seed=0), obstacle_demos(),
                              max(args.train_steps // 3, 1))[0]]
-    e3, model = bench_train("e3_train", _make_cnmp(0), setup.initial, args.train_steps)
+    e3, model = bench_train("e3_train", make_wall_cnmp(0), setup.initial, args.train_steps)
     workloads += [e3, bench_assimilation(model, setup, args.assimilate_steps),
                   bench_adaptation(model, setup, args.adapt_rollouts), bench_e3(args.e3_envs, args.e3_test)]
     result = {"benchmark": "bench_training", "provenance": meta,

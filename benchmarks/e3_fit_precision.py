@@ -42,7 +42,7 @@ def main(argv: list[str] | None = None) -> int:
         setup = E.make_setup(1, args.seed, n_initial=n)
         for steps, batch, targets in BUDGETS:
             t1 = time.perf_counter()
-            model = E._make_cnmp(args.seed)
+            model = E.make_wall_cnmp(args.seed)
             train(model, setup.initial, TrainConfig(steps=steps, batch_size=batch, n_targets=targets),
                   seed=args.seed, progress=False)
             scores = E.evaluate_test(lambda c: E.cnmp_trajectories(model, c, setup.times), setup.test)

@@ -156,7 +156,9 @@ def promp_trajectories(lib: AdaptiveProMP, task_params, times) -> np.ndarray:
     return lib.promp.trajectories_from_weights(w, t)
 
 
-def _make_cnmp(seed: int) -> CNMP:
+def make_wall_cnmp(seed: int) -> CNMP:
+    """E3's CNMP (outputs x, y; task parameters x_c, y_c, x_g, y_g), initialised from ``seed``:
+    the one the self-improvement loop trains, for scripts that train it outside the loop."""
     return CNMP(CNMPConfig(n_outputs=2, n_task_params=4, output_names=["x", "y"],
                            task_param_names=["x_c", "y_c", "x_g", "y_g"]), seed=seed)
 
@@ -178,7 +180,7 @@ class _AcnmpLearner:
                  assimilation: AssimilationConfig, assimilate_from: str, progress: bool) -> None:
         self.demos, self.times, self.seed, self.cfg = setup.initial, setup.times, seed, cfg
         self.assimilation, self.assimilate_from = assimilation, assimilate_from
-        self.model = _make_cnmp(seed)
+        self.model = make_wall_cnmp(seed)
         train(self.model, self.demos, train_cfg, seed=seed, progress=progress)
 
     def generate(self, task_params: np.ndarray) -> np.ndarray:

@@ -28,7 +28,7 @@ def test_non_aligned_demos_train():
     crossing = [_wall_crossing_fraction(d.values, d.task_params[0]) for d in demos]
     # The premise: the demonstrations reach the wall at widely different times.
     assert np.ptp(crossing) > 0.3
-    model = E._make_cnmp(seed=3)
+    model = E.make_wall_cnmp(seed=3)
     train(model, demos, TrainConfig(steps=2500), seed=3, progress=False)
     y = E.cnmp_trajectories(model, params, setup.times)
     # Batched generation is the same as CNMP.predict, one environment at a time.
