@@ -32,8 +32,11 @@ CANDIDATES = {
     "a100x128x30_lr3e-4": dict(assimilate_steps=100, assimilate_batch_size=128, assimilate_targets=30,
                                assimilate_lr=3e-4),
     # The anchor conditions on the goal at t = 1 but teaches the solution's end, which an adaptation
-    # leaves up to the 0.25 tolerance away from it: without it the skill is not taught to miss.
+    # leaves up to the 0.25 tolerance away from it: does the skill learn to miss from it?
     "anchor0": dict(assimilate_anchor_weight=0.0),
+    # The anchor is the only term shaped like a test query (start at t = 0, goal at t = 1): weight it more.
+    "anchor3": dict(assimilate_anchor_weight=3.0),
+    "anchor3_s150": dict(assimilate_anchor_weight=3.0, assimilate_steps=150),
 }
 
 
