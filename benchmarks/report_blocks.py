@@ -380,10 +380,11 @@ def _budget_label(c: dict) -> str:
 def e3_budget() -> str:
     r = load("e3_budget")
     rows = []
-    for name, w in r["variants"].items():
+    # The defaults first, then the candidates in the order they ran.
+    for name, w in sorted(r["variants"].items(), key=lambda kv: kv[0] != "baseline"):
         s = w["summary"]
         rows.append([f"{name}: {_budget_label(w['config'])}", *_e3_row("", s, s["time_s"])[1:]])
-    files = sorted({(w["provenance"]["commit"] or "unknown")[:10] for w in r["variants"].values()})
+    commits = sorted({(w["provenance"]["commit"] or "unknown")[:10] for w in r["variants"].values()})
     return "\n".join([
         table(["candidate: assimilation steps x episodes x targets, lr, anchor weight; first training",
                "test success", "mean test error", "mean goal error", "trajectories", "max per env",
@@ -392,7 +393,7 @@ def e3_budget() -> str:
         f"* ACNMP only, seed {r['seed']}, {r['envs']} new environments after 30 demonstrated ones, 1000 test "
         "environments, otherwise the defaults; two candidates at a time side by side (two processes) on the "
         "shared machine, so times compare only roughly (the load changed between pairs).",
-        f"* Variants run at commit(s) {', '.join(files)}; each variant's own provenance is in the file.",
+        f"* Variants run at commit(s) {', '.join(commits)}; each variant's own provenance is in the file.",
         "",
         source(r, "e3_budget"),
     ])
