@@ -393,7 +393,8 @@ def e3_budget() -> str:
         f"* ACNMP only, seed {r['seed']}, {r['envs']} new environments after 30 demonstrated ones, 1000 test "
         "environments, otherwise the defaults; two candidates at a time side by side (two processes) on the "
         "shared machine, so times compare only roughly (the load changed between pairs).",
-        f"* Variants run at commit(s) {', '.join(commits)}; each variant's own provenance is in the file.",
+        f"* Variants run at commit(s) {', '.join(commits)} (each variant's own provenance is in the file); "
+        "the variants of one commit ran side by side, and only their times compare.",
         "",
         source(r, "e3_budget"),
     ])
