@@ -6,7 +6,9 @@ the cube (m, the largest distance from its start: 0 = untouched up to the simula
 the mean left the cube relative to the gap (along the walls' normal, + beyond the wall line, and
 along the wall from the gap's centre, m), how close the paddle came to the cube (m), the
 exploration std (rad, per joint), how far the mean trajectory moved since the last iteration
-(rad, largest over steps and joints) and whether the iteration had a signal. Each run then gets
+(rad, largest over steps and joints), how much of the way to the last noisy roll-out it moved
+(``follow``: 1 - RMS(new mean - noisy) / RMS(old mean - noisy); 1 reached it, 0 stayed), whether
+the iteration had a signal and how many further policy steps its update took (``reuses``). Each run then gets
 a label (see :func:`classify`). Writes benchmarks/results/e4_failures.json. Usage:
 ``python benchmarks/e4_failures.py --seeds 30-59 [--variant tol1e-4] [--cache DIR]``.
 """
@@ -23,7 +25,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from acnmp_core.adaptation import per_step_advantages  # noqa: E402
-from acnmp_core.experiments.transfer import BLIND_TOLERANCE, make_setup, run_condition  # noqa: E402
+from acnmp_core.experiments.transfer import BLIND_TOLERANCE, CHECKPOINTS, make_setup, run_condition  # noqa: E402
 from acnmp_core.tasks.transfer_scene import CubeGapTask  # noqa: E402
 from benchmarks._results import provenance, save_result  # noqa: E402
 from benchmarks.e4_sweep import VARIANTS, _memo_trainer  # noqa: E402
@@ -41,10 +43,14 @@ def _seeds(text: str) -> list[int]:
     return [int(x) for x in text.split(",")]
 
 
-def iteration_record(log, trajs: np.ndarray, batch, scene, last_mean: np.ndarray | None, credit: str) -> dict:
+def _rms(x: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(x ** 2)))
+
+
+def iteration_record(log, trajs: np.ndarray, batch, scene, last: np.ndarray | None, credit: str) -> dict:
     """One iteration's facts (see the module docstring) from adapt()'s on_iteration arguments:
     trajs (1+K, T, D) rad, row 0 the mean; batch the RolloutBatch with states "object_xy" and
-    "ee_xy" (1+K, T, 2) m."""
+    "ee_xy" (1+K, T, 2) m; last the previous iteration's trajs (None for the first)."""
     cube = batch.states["object_xy"]
     start = np.asarray(scene.cube_xy)
     moved = np.linalg.norm(cube - start, axis=2).max(axis=1)  # (1+K,)
@@ -56,7 +62,8 @@ def iteration_record(log, trajs: np.ndarray, batch, scene, last_mean: np.ndarray
             "mean_moved": float(moved[0]), "noisy_moved": [float(m) for m in moved[1:]],
             "mean_cube_normal": float(final @ scene.wall_normal), "mean_cube_along": float(final @ scene.wall_direction),
             "mean_paddle_to_cube_min": float(near), "explore_std": [float(s) for s in log.explore_std],
-            "mean_shift": None if last_mean is None else float(np.abs(trajs[0] - last_mean).max()),
+            "mean_shift": None if last is None else float(np.abs(trajs[0] - last[0]).max()),
+            "follow": None if last is None or len(last) < 2 else 1.0 - _rms(trajs[0] - last[1]) / _rms(last[0] - last[1]),
             "signal": bool(signal)}
 
 
@@ -91,6 +98,35 @@ def classify(its: list[dict], tolerance: float, half_gap: float) -> str:
     return "beyond_far"
 
 
+def summary(runs: list[dict], tolerance: float) -> dict:
+    """Across runs: success by iteration of the mean (the experiment's metric) and, for comparison,
+    of any roll-out (the first iteration in which the mean or the noisy roll-out succeeded: what
+    the runs found, kept or not); how often a noisy roll-out succeeded without the next mean
+    succeeding; and the median ``follow`` after the iterations whose noisy roll-out beat the mean
+    by more than 1 mm, in the runs solved within 11 iterations and in the others."""
+    def first_any(r):
+        return next((i["iteration"] for i in r["per_iteration"]
+                     if i["mean_error"] < tolerance or any(e < tolerance for e in i["noisy_error"])), None)
+
+    def share(firsts):
+        return {str(k): float(np.mean([f is not None and f <= k for f in firsts])) for k in CHECKPOINTS}
+
+    lost, follows = 0, {"solved_by_11": [], "later_or_never": []}
+    for r in runs:
+        its = r["per_iteration"]
+        group = "solved_by_11" if r["iterations"] is not None and r["iterations"] <= 11 else "later_or_never"
+        for a, b in zip(its, its[1:]):
+            if any(e < tolerance for e in a["noisy_error"]) and b["mean_error"] >= tolerance:
+                lost += 1
+            if a["noisy_error"] and a["noisy_error"][0] < a["mean_error"] - 1e-3 and b["follow"] is not None:
+                follows[group].append(b["follow"])
+    return {"success_by_iteration": share([r["iterations"] for r in runs]),
+            "any_rollout_success_by_iteration": share([first_any(r) for r in runs]),
+            "noisy_success_not_kept": lost,
+            "follow_after_better_noisy_median": {k: float(np.median(v)) if v else None for k, v in follows.items()},
+            "follow_after_better_noisy_count": {k: len(v) for k, v in follows.items()}}
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the seeds, write the per-iteration records, the labels and their counts."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -113,12 +149,16 @@ def main(argv: list[str] | None = None) -> int:
         for seed in _seeds(args.seeds):
             its: list[dict] = []
             last: list[np.ndarray] = []
+            logs: list = []
 
-            def record(log, trajs, batch, its=its, last=last):
+            def record(log, trajs, batch, its=its, last=last, logs=logs):
                 its.append(iteration_record(log, trajs, batch, scene, last[-1] if last else None, task.credit))
-                last.append(trajs[0].copy())
+                last.append(trajs.copy())
+                logs.append(log)  # adapt() sets log.reuses after this call
 
             res = run_condition(trainer(setup, cfg, seed % cfg.pair_seeds), setup, "transfer", task, cfg, seed, record)
+            for i, log in zip(its, logs):
+                i["reuses"] = log.reuses
             label = classify(its, task.tolerance, half_gap)
             runs.append({"seed": seed, "pair_seed": seed % cfg.pair_seeds, "iterations": res["iterations"],
                          "label": label, "best_mean_error": min(i["mean_error"] for i in its),
@@ -133,11 +173,12 @@ def main(argv: list[str] | None = None) -> int:
     late = [r for r in runs if r["iterations"] is None or r["iterations"] > 11]
     result = {"provenance": meta, "experiment": "transfer_failures", "variant": args.variant,
               "config": cfg.to_dict(), "moved_threshold": MOVED, "labels": labels,
+              "summary": summary(runs, task.tolerance),
               "late_or_unsolved": [{"seed": r["seed"], "pair_seed": r["pair_seed"], "iterations": r["iterations"],
                                     "label": r["label"], "best_mean_error": r["best_mean_error"], "first_touch": r["first_touch"],
                                     "first_mean_touch": r["first_mean_touch"], "blind": r["blind"]} for r in late],
               "runs": runs}
-    save_result(result, args.out, None, ("labels", "late_or_unsolved"))
+    save_result(result, args.out, None, ("labels", "summary", "late_or_unsolved"))
     return 0
 
 
