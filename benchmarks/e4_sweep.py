@@ -111,6 +111,11 @@ VARIANTS = {
     "explore_min1_tol1e-4": lambda: _current(explore_min=1.0),
     "reuse200_tol1e-4": lambda: _current(max_reuse=200),
     "rl_lr3e-4_tol1e-4": lambda: _current(lr=3e-4),
+    "authors_explore_reinforce_tol1e-4": lambda: _current(explore_error_gain=3.0, explore_cap=0.08,
+                                                          advantage="reinforce", lr=1e-5),
+    # the supervised steps pull B's decoder towards the proxy skills, none of which goes through the gap
+    "sl_once_tol1e-4": lambda: _current(sl_steps_reuse=0),  # one SL step per iteration, not per policy step
+    "rl_only_tol1e-4": lambda: _current(mode="rl_only"),
 }
 
 
