@@ -4,8 +4,8 @@ For RL seeds of the transfer condition (E4's settings, or a named variant of ``e
 record per iteration: the mean and the noisy roll-out's final cube error (m), how far each moved
 the cube (m, the largest distance from its start: 0 = untouched up to the simulator's jitter), where
 the mean left the cube relative to the gap (along the walls' normal, + beyond the wall line, and
-along the wall from the gap's centre, m), how close the paddle came to the cube (m), the
-exploration std (rad, per joint), how far the mean trajectory moved since the last iteration
+along the wall from the gap's centre, m), how close the paddle came to the cube's start (m), how
+far the paddle's tip got past the wall line (m, each roll-out), the exploration std (rad, per joint), how far the mean trajectory moved since the last iteration
 (rad, largest over steps and joints), how much of the way to the last noisy roll-out it moved
 (``follow``: 1 - RMS(new mean - noisy) / RMS(old mean - noisy); 1 reached it, 0 stayed), whether
 the iteration had a signal and how many further policy steps its update took (``reuses``). Each run then gets
@@ -56,12 +56,15 @@ def iteration_record(log, trajs: np.ndarray, batch, scene, last: np.ndarray | No
     moved = np.linalg.norm(cube - start, axis=2).max(axis=1)  # (1+K,)
     final = cube[0, -1] - scene.gap_centre
     near = np.linalg.norm(batch.states["ee_xy"][0] - start, axis=1).min()
+    # how far the paddle's tip got past the wall line (m): a paddle stopped at the gap's edges stays near 0
+    beyond = ((batch.states["ee_xy"] - scene.gap_centre) @ scene.wall_normal).max(axis=1)  # (1+K,)
     signal = per_step_advantages(batch.rewards, "awr", 0.1, credit, BLIND_TOLERANCE) is not None
     return {"iteration": log.iteration, "mean_error": float(batch.errors[0]),
             "noisy_error": [float(e) for e in batch.errors[1:]],
             "mean_moved": float(moved[0]), "noisy_moved": [float(m) for m in moved[1:]],
             "mean_cube_normal": float(final @ scene.wall_normal), "mean_cube_along": float(final @ scene.wall_direction),
-            "mean_paddle_to_cube_min": float(near), "explore_std": [float(s) for s in log.explore_std],
+            "mean_paddle_to_cube_min": float(near), "mean_paddle_beyond": float(beyond[0]),
+            "noisy_paddle_beyond": [float(b) for b in beyond[1:]], "explore_std": [float(s) for s in log.explore_std],
             "mean_shift": None if last is None else float(np.abs(trajs[0] - last[0]).max()),
             "follow": None if last is None or len(last) < 2 else 1.0 - _rms(trajs[0] - last[1]) / _rms(last[0] - last[1]),
             "signal": bool(signal)}

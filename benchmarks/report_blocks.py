@@ -487,3 +487,54 @@ def e4_sweep() -> str:
                   f"pairs of the pair seeds shared by the variants with the same pair settings), commits "
                   f"{', '.join(commits)}.*"]
     return "\n".join(lines)
+
+
+def _e4_failure_rows(r: dict) -> list[list[str]]:
+    """One row per run of ``r`` (an e4_failures result) not solved within 11 iterations."""
+    tol = 0.015
+    rows = []
+    for run in r["runs"]:
+        if run["iterations"] is not None and run["iterations"] <= 11:
+            continue
+        its = run["per_iteration"]
+        best = min(its, key=lambda i: i["mean_error"])
+        noisy = next((i["iteration"] for i in its if any(e < tol for e in i["noisy_error"])), None)
+        std = its[-1]["explore_std"][0] / its[0]["explore_std"][0]
+        rows.append([run["seed"], run["pair_seed"], fmt(run["iterations"]), run["label"].replace("_", " "),
+                     fmt(run["first_touch"]), fmt(run["first_mean_touch"]), run["blind"],
+                     fmt(best["mean_error"]), fmt(best["mean_cube_normal"]), fmt(best["mean_cube_along"]),
+                     fmt(noisy), fmt(std, 2)])
+    return rows
+
+
+@renderer("e4-failures")
+def e4_failures() -> str:
+    files = [f for f in ("e4_failures", "e4_failures_seed0") if (RESULTS / f"{f}.json").exists()]
+    results = [load(f) for f in files]
+    rows = [row for r in results for row in _e4_failure_rows(r)]
+    lines = [table(["RL seed", "pair seed", "mean solved at iteration", "label", "first iteration a roll-out moved "
+                    "the cube", "first the mean did", "iterations without a signal", "mean's best error (m)",
+                    "there, cube beyond the wall line (m)", "and off the gap's centre line (m)",
+                    "first noisy roll-out within 1.5 cm (iteration)", "std at the end (x its start)"], rows), ""]
+    for f, r in zip(files, results):
+        s = r["summary"]
+        seeds = [run["seed"] for run in r["runs"]]
+        mean_s = " / ".join(pct(v) for v in s["success_by_iteration"].values())
+        any_s = " / ".join(pct(v) for v in s["any_rollout_success_by_iteration"].values())
+        fol = s["follow_after_better_noisy_median"]
+        cnt = s["follow_after_better_noisy_count"]
+        lines.append(
+            f"* RL seeds {seeds[0]}..{seeds[-1]} (`{f}.json`): labels "
+            + ", ".join(f"{k.replace('_', ' ')} {v}" for k, v in r["labels"].items())
+            + f"; success after 3 / 7 / 11 / 19 iterations of the mean {mean_s}, of any roll-out (the mean or the "
+            f"noisy one) {any_s}; {s['noisy_success_not_kept']} times a noisy roll-out succeeded and the next mean "
+            f"did not; after a noisy roll-out beat the mean by more than 1 mm the next mean moved a median "
+            f"{fmt(fol['solved_by_11'], 2)} of the way to it in the runs solved within 11 iterations "
+            f"({cnt['solved_by_11']} iterations), {fmt(fol['later_or_never'], 2)} in the others "
+            f"({cnt['later_or_never']}).")
+    for f, r in zip(files, results):
+        p = r.get("provenance") or {}
+        lines.append(f"*From `benchmarks/results/{f}.json`: `{p.get('command', '?')}` at commit "
+                     f"{(p.get('commit') or 'unknown')[:10]}{' (dirty tree)' if p.get('dirty') else ''}.*")
+        lines.append("")
+    return "\n".join(lines).rstrip("\n")
