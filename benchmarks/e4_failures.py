@@ -1,15 +1,16 @@
 """E4: what the runs that the RL does not solve do, iteration by iteration (issue 13, third round).
 
 For RL seeds of the transfer condition (E4's settings, or a named variant of ``e4_sweep.py``),
-record per iteration: the mean and the noisy roll-out's final cube error (m), how far each moved
-the cube (m, the largest distance from its start: 0 = untouched up to the simulator's jitter), where
-the mean left the cube relative to the gap (along the walls' normal, + beyond the wall line, and
-along the wall from the gap's centre, m), how close the paddle came to the cube's start (m), how
-far the paddle's tip got past the wall line (m, each roll-out), the exploration std (rad, per joint), how far the mean trajectory moved since the last iteration
-(rad, largest over steps and joints), how much of the way to the last noisy roll-out it moved
-(``follow``: 1 - RMS(new mean - noisy) / RMS(old mean - noisy); 1 reached it, 0 stayed), whether
-the iteration had a signal and how many further policy steps its update took (``reuses``). Each run then gets
-a label (see :func:`classify`). Writes benchmarks/results/e4_failures.json. Usage:
+record per iteration: the mean and the noisy roll-out's final cube error (m); how far each moved
+the cube (m, the largest distance from its start: 0 = untouched up to the simulator's jitter);
+where the mean left the cube relative to the gap (along the walls' normal, + beyond the wall line,
+and along the wall from the gap's centre, m); how close the paddle came to the cube's start (m);
+how far the paddle's tip got past the wall line (m, each roll-out); the exploration std (rad, per
+joint); how far the mean trajectory moved since the last iteration (rad, largest over steps and
+joints); how much of the way to the last noisy roll-out it moved (``follow``: 1 - RMS(new mean -
+noisy) / RMS(old mean - noisy); 1 reached it, 0 stayed); whether the iteration had a signal; and
+how many further policy steps its update took (``reuses``). Each run then gets a label (see
+:func:`classify`). Writes benchmarks/results/e4_failures.json. Usage:
 ``python benchmarks/e4_failures.py --seeds 30-59 [--variant tol1e-4] [--cache DIR]``.
 """
 from __future__ import annotations
