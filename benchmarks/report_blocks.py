@@ -1,6 +1,8 @@
 """The renderers of benchmarks/report.py: one function per docs block, each reading its JSON."""
 from __future__ import annotations
 
+import numpy as np
+
 from benchmarks.report import RESULTS, fmt, frac, load, pct, renderer, source, table
 
 E1_LABELS = {"lfd_only": "LfD-only", "rl_only": "RL-only", "acnmp": "ACNMP"}
@@ -503,7 +505,7 @@ def _e4_failure_rows(r: dict) -> list[list[str]]:
         rows.append([run["seed"], run["pair_seed"], fmt(run["iterations"]), run["label"].replace("_", " "),
                      fmt(run["first_touch"]), fmt(run["first_mean_touch"]), run["blind"],
                      fmt(best["mean_error"]), fmt(best["mean_cube_normal"]), fmt(best["mean_cube_along"]),
-                     fmt(noisy), fmt(std, 2)])
+                     fmt(best["mean_paddle_beyond"]), fmt(noisy), fmt(std, 2)])
     return rows
 
 
@@ -515,8 +517,11 @@ def e4_failures() -> str:
     lines = [table(["RL seed", "pair seed", "mean solved at iteration", "label", "first iteration a roll-out moved "
                     "the cube", "first the mean did", "iterations without a signal", "mean's best error (m)",
                     "there, cube beyond the wall line (m)", "and off the gap's centre line (m)",
+                    "paddle's tip beyond the wall line (m)",
                     "first noisy roll-out within 1.5 cm (iteration)", "std at the end (x its start)"], rows), ""]
     for f, r in zip(files, results):
+        solved = [next(i for i in run["per_iteration"] if i["mean_error"] < 0.015)["mean_paddle_beyond"]
+                  for run in r["runs"] if run["iterations"] is not None]
         s = r["summary"]
         seeds = [run["seed"] for run in r["runs"]]
         mean_s = " / ".join(pct(v) for v in s["success_by_iteration"].values())
@@ -531,7 +536,8 @@ def e4_failures() -> str:
             f"did not; after a noisy roll-out beat the mean by more than 1 mm the next mean moved a median "
             f"{fmt(fol['solved_by_11'], 2)} of the way to it in the runs solved within 11 iterations "
             f"({cnt['solved_by_11']} iterations), {fmt(fol['later_or_never'], 2)} in the others "
-            f"({cnt['later_or_never']}).")
+            f"({cnt['later_or_never']}); where the mean first succeeds its paddle's tip gets "
+            f"{fmt(float(np.median(solved)))} m beyond the wall line (median; {fmt(min(solved))}..{fmt(max(solved))}).")
     for f, r in zip(files, results):
         p = r.get("provenance") or {}
         lines.append(f"*From `benchmarks/results/{f}.json`: `{p.get('command', '?')}` at commit "
