@@ -501,8 +501,8 @@ def _e4_failure_rows(r: dict) -> list[list[str]]:
         its = run["per_iteration"]
         best = min(its, key=lambda i: i["mean_error"])
         noisy = next((i["iteration"] for i in its if any(e < tol for e in i["noisy_error"])), None)
-        std = its[-1]["explore_std"][0] / its[0]["explore_std"][0]
-        rows.append([run["seed"], run["pair_seed"], fmt(run["iterations"]), run["label"].replace("_", " "),
+        std = best["explore_std"][0] / its[0]["explore_std"][0]
+        rows.append([r["variant"], run["seed"], run["pair_seed"], fmt(run["iterations"]), run["label"].replace("_", " "),
                      fmt(run["first_touch"]), fmt(run["first_mean_touch"]), run["blind"],
                      fmt(best["mean_error"]), fmt(best["mean_cube_normal"]), fmt(best["mean_cube_along"]),
                      fmt(best["mean_paddle_beyond"]), fmt(noisy), fmt(std, 2)])
@@ -511,14 +511,14 @@ def _e4_failure_rows(r: dict) -> list[list[str]]:
 
 @renderer("e4-failures")
 def e4_failures() -> str:
-    files = [f for f in ("e4_failures", "e4_failures_seed0") if (RESULTS / f"{f}.json").exists()]
+    files = [f for f in ("e4_failures", "e4_failures_seed0", "e4_failures_sl_once") if (RESULTS / f"{f}.json").exists()]
     results = [load(f) for f in files]
     rows = [row for r in results for row in _e4_failure_rows(r)]
-    lines = [table(["RL seed", "pair seed", "mean solved at iteration", "label", "first iteration a roll-out moved "
+    lines = [table(["setting (e4_sweep.py variant)", "RL seed", "pair seed", "mean solved at iteration", "label", "first iteration a roll-out moved "
                     "the cube", "first the mean did", "iterations without a signal", "mean's best error (m)",
                     "there, cube beyond the wall line (m)", "and off the gap's centre line (m)",
                     "paddle's tip beyond the wall line (m)",
-                    "first noisy roll-out within 1.5 cm (iteration)", "std at the end (x its start)"], rows), ""]
+                    "first noisy roll-out within 1.5 cm (iteration)", "std there (x its start)"], rows), ""]
     for f, r in zip(files, results):
         solved = [next(i for i in run["per_iteration"] if i["mean_error"] < 0.015)["mean_paddle_beyond"]
                   for run in r["runs"] if run["iterations"] is not None]
@@ -529,7 +529,7 @@ def e4_failures() -> str:
         fol = s["follow_after_better_noisy_median"]
         cnt = s["follow_after_better_noisy_count"]
         lines.append(
-            f"* RL seeds {seeds[0]}..{seeds[-1]} (`{f}.json`): labels "
+            f"* {r['variant']}, RL seeds {seeds[0]}..{seeds[-1]} (`{f}.json`): labels "
             + ", ".join(f"{k.replace('_', ' ')} {v}" for k, v in r["labels"].items())
             + f"; success after 3 / 7 / 11 / 19 iterations of the mean {mean_s}, of any roll-out (the mean or the "
             f"noisy one) {any_s}; {s['noisy_success_not_kept']} times a noisy roll-out succeeded and the next mean "
