@@ -62,10 +62,10 @@ def e4_adapt_config() -> AdaptConfig:
     max_rollouts 40 : 20 iterations, the paper's last checkpoint being after 19.
     n_knots 20 : the authors' 20 spline knots.
     sl_steps 1, sl_steps_reuse 0 : the authors' one SL step per iteration, before the iteration's
-    first policy step and none before the further ones (with one per policy step, up to 51 per
-    iteration, the supervised pull towards B's proxy skills, none of which goes through the gap,
-    held the runs that failed 1.5-2 cm short of the goal; chosen on fresh RL seeds 30..59,
-    docs/experiments/e4_transfer.md, benchmarks/results/e4_failures.json).
+    first policy step and none before the further ones (one before each of up to 51 policy steps,
+    E4's setting before, left more runs stalled 1.5-2 cm short of the goal: on fresh RL seeds
+    30..59 100 % against 90 % after 19 iterations; docs/experiments/e4_transfer.md,
+    benchmarks/results/e4_failures.json).
     explore_scale 0.15 : half the library's exploration; wider did worse in E4's sweep
     (docs/experiments/e4_transfer.md, benchmarks/results/e4_sweep.json).
     signal_tolerance :data:`BLIND_TOLERANCE` : no policy step on the micrometre jitter of an
