@@ -139,6 +139,9 @@ class MarbleSpec:
 
     The defaults are a glass marble (density about 2.4 g/cm^3); restitution 0 keeps marbles from
     bouncing out of the receiving cup, a small rolling friction lets them come to rest.
+    ``linear_damping`` and ``angular_damping`` (PyBullet's, the fraction of velocity lost per second)
+    are left at PyBullet's own when None; setting them, even to PyBullet's nominal 0.04, changes the
+    pour (``benchmarks/pour_sensitivity.py`` tries damped variants).
     """
 
     radius: float = 0.0135
@@ -147,6 +150,8 @@ class MarbleSpec:
     rolling_friction: float = 1e-4
     spinning_friction: float = 1e-4
     restitution: float = 0.0
+    linear_damping: float | None = None
+    angular_damping: float | None = None
 
 
 @dataclass(frozen=True)
@@ -371,8 +376,10 @@ class PourSim(PhysicsClient):
         for pos in xyz:
             body = p.createMultiBody(m.mass_g / G_PER_KG, shape, basePosition=pos.tolist(),
                                      useMaximalCoordinates=True, physicsClientId=cid)
+            damping = {k: v for k, v in (("linearDamping", m.linear_damping), ("angularDamping", m.angular_damping))
+                       if v is not None}  # PyBullet's keyword arguments: only those the spec sets
             p.changeDynamics(body, -1, rollingFriction=m.rolling_friction, spinningFriction=m.spinning_friction,
-                             physicsClientId=cid)
+                             physicsClientId=cid, **damping)
             ids.append(body)
         return ids
 
