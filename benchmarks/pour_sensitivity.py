@@ -74,6 +74,13 @@ def _variants() -> dict[str, PourConfig]:
         # More solver iterations, or half the time step: less contact jitter inside the resting pile.
         "solver": replace(base, solver_iterations=30),
         "fine_dt": replace(base, sim_dt=1.0 / 480.0, substeps=8),
+        # The lip (the dam at 90 deg) lower or higher, flatter, and the pour wall's flare smaller or larger:
+        # a dam that holds back a different share of the pile.
+        "low_lip": replace(base, cup=replace(base.cup, lip=0.015)),
+        "high_lip": replace(base, cup=replace(base.cup, lip=0.045)),
+        "flat_lip": replace(base, cup=replace(base.cup, lip_angle=10.0)),
+        "less_flare": replace(base, cup=replace(base.cup, flare=10.0)),
+        "more_flare": replace(base, cup=replace(base.cup, flare=40.0)),
         # Settling twice as long before the snapshot: a pile closer to rest.
         "settled": replace(base, initial_settle_time=4.0),
     }
