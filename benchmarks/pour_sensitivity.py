@@ -81,6 +81,10 @@ def _variants() -> dict[str, PourConfig]:
         "flat_lip": replace(base, cup=replace(base.cup, lip_angle=10.0)),
         "less_flare": replace(base, cup=replace(base.cup, flare=10.0)),
         "more_flare": replace(base, cup=replace(base.cup, flare=40.0)),
+        # A steeper pour wall needs a roomier cup to hold 1400 g (more_flare spills while settling).
+        "flare35": replace(base, cup=replace(base.cup, flare=35.0)),
+        "flare40_deep": replace(base, cup=replace(base.cup, flare=40.0, inner_depth=0.14)),
+        "flare40_tall": replace(base, cup=replace(base.cup, flare=40.0, inner_height=0.12)),
         # Settling twice as long before the snapshot: a pile closer to rest.
         "settled": replace(base, initial_settle_time=4.0),
     }
