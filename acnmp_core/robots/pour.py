@@ -92,7 +92,7 @@ class CupGeometry:
     inner_depth: float = 0.12
     inner_height: float = 0.10
     wall: float = 0.01
-    flare: float = 25.0
+    flare: float = 35.0
     lip: float = 0.03
     lip_angle: float = 35.0
     lip_thickness: float = 0.01
