@@ -49,6 +49,8 @@ def _variants() -> dict[str, PourConfig]:
     m = base.marbles
     return {
         "default": base,
+        # The rig before the pour wall's flare went from 25 to 35 deg (every result before commit c04e516).
+        "flare25": replace(base, cup=replace(base.cup, flare=25.0)),
         # Fewer bounces and spins inside the pile: the flow is less of a cascade of collisions.
         "rolling": replace(base, marbles=replace(m, rolling_friction=2e-3, spinning_friction=2e-3)),
         "friction": replace(base, marbles=replace(m, lateral_friction=0.7, rolling_friction=1e-3,
