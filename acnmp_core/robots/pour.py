@@ -5,7 +5,7 @@ Scene (metres and kilograms inside PyBullet; grams at the interface)
 * The **wrist** is one revolute joint about +y at height ``axis_height`` above the floor, at x = 0.
   A positive angle turns the cup's mouth towards +x, where the receiving cup stands.
 * The **cup** is the wrist's only link, a compound of convex boxes: a base, a back wall, two side
-  walls, a pour-side wall that leans outwards by ``flare`` (like a jug's spout side) and a lip that
+  walls, a pour-side wall that leans outwards by ``flare`` (35 deg; like a jug's spout side) and a lip that
   reaches inwards from the pour-side rim, sloping up towards the mouth like a funnel. The wrist axis
   runs along the pour-side rim, so the mouth stays near the axis while the cup turns over it.
   With the cup near 90 deg the lip is a dam and the marbles pile up behind it at their angle of
@@ -43,14 +43,17 @@ Simulation
 
 Behaviour worth knowing
 -----------------------
-Poured mass comes in whole marbles (25 g). Near 90 deg granular flow is chaotic: changing a
-demonstration's held tilt by 0.01 deg, or delaying it by one row, changes its pour by 50 g
-(median) and up to 225 g, no less than half a degree does (``benchmarks/pour_sensitivity.py``:
-each replay lands within 30 g of the exact one for only 5-8 of the 16 demonstrations), so the
-demonstrations' target amounts are single draws of that spread. Damping, friction, rolling
-friction, solver iterations, a finer time step and a longer initial settling did not make it
-smooth (docs/experiments/e6_pour.md). Past ~120 deg the outcome is stable; at 1400 g, tilting 150 deg or more pours all 53 marbles
-(1325 g). A swing much faster than the expert's throws marbles past the receiving cup.
+Poured mass comes in whole marbles (25 g). Near 90 deg granular flow is partly chaotic. With the
+pour wall flared 25 deg (the rig before commit c04e516) it was chaotic enough to rule out
+reproducing the demonstrations: changing a demonstration's held tilt by 0.01 deg changed its pour
+by 50 g (median), up to 225 g, and only 5 of the 16 poured within 30 g of their exact replay
+(``benchmarks/pour_sensitivity.py``). Flared 35 deg (the floor the marbles run down at 90 deg
+is steeper), the pour is far steadier: 12-14 of the 16
+replays changed by 0.01-0.5 deg or by one row pour within 30 g, 9 of 16 under every such change,
+median spread 50 g (``pour_sensitivity_flare35.json``). Damping, friction, rolling friction,
+solver iterations, a finer time step and a longer initial settling did not help
+(docs/experiments/e6_pour.md). Past ~120 deg the outcome is stable; at 1400 g, tilting 150 deg or
+more pours all 53 marbles (1325 g). A swing much faster than the expert's throws marbles past the receiving cup.
 """
 from __future__ import annotations
 
