@@ -83,7 +83,9 @@ class CupGeometry:
     inner_height : cavity height from the base's top to the rim.
     wall : thickness of the base and the walls.
     flare : how far the pour-side wall leans outwards from vertical (deg): with the cup on its side
-        that wall is the floor, and the flare makes it slope down to the mouth.
+        that wall is the floor, and the flare makes it slope down to the mouth. 35 deg: at 25 deg
+        (the first rig) the 85-95 deg pour was chaotic, a 0.01 deg change moving it by 50 g
+        (``benchmarks/pour_sensitivity.py``).
     lip : how far the pour-side lip reaches inwards from the wall: the dam's height at 90 deg.
     lip_angle : the lip's slope (deg), rising inwards towards the mouth, so that past about
         180 - lip_angle deg it is a chute towards the mouth rather than a ledge.
