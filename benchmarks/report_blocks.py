@@ -43,6 +43,38 @@ def e1_results() -> str:
     return "\n".join(lines)
 
 
+@renderer("e1-assimilation")
+def e1_assimilation() -> str:
+    """E1's assimilation candidates side by side, on the benchmark's seeds (0-9) and on fresh ones:
+    seeds within tolerance after assimilation, the old demonstrations' worst reproduction ratio."""
+    r = load("e1_assimilation")
+    labels = {"steps_1000": "1000 steps (the library's default)", "steps_3000": "3000 steps (E1's setting)",
+              "anchor_5": "1000 steps, anchor weight 5"}
+    groups = {"seeds 0-9 (the benchmark's)": [x for x in r["runs"] if x["seed"] < 10],
+              "seeds 10-19 (fresh)": [x for x in r["runs"] if x["seed"] >= 10]}
+    rows = []
+    for name, label in labels.items():
+        row = [label]
+        for runs in groups.values():
+            got = [x["candidates"][name] for x in runs if name in x["candidates"]]
+            row += [f"{sum(g['success_after'] for g in got)}/{len(got)}",
+                    fmt(max(g["old_demos_rmse_ratio"] for g in got)) if got else "-"]
+        rows.append(row)
+    head = ["assimilation"]
+    for g in groups:
+        head += [f"{g}: within tolerance, no RL", f"{g}: old demos' RMSE / LfD's (max)"]
+    lines = [
+        table(head, rows),
+        "",
+        "* Each seed adapted once (ACNMP, budget 100), then assimilated from the same adapted network by "
+        "each candidate (lr 1e-4, 32 episodes of 10 targets per step, the anchor); seeds whose adaptation "
+        "failed are left out of the count.",
+        "",
+        source(r, "e1_assimilation"),
+    ]
+    return "\n".join(lines)
+
+
 def e1_row() -> list[str]:
     r = load("e1_viapoint")
     n = r["config"]["seeds"]
