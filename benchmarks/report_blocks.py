@@ -1,6 +1,8 @@
 """The renderers of benchmarks/report.py: one function per docs block, each reading its JSON."""
 from __future__ import annotations
 
+import numpy as np
+
 from benchmarks.report import RESULTS, fmt, frac, load, pct, renderer, source, table
 
 E1_LABELS = {"lfd_only": "LfD-only", "rl_only": "RL-only", "acnmp": "ACNMP"}
@@ -37,6 +39,38 @@ def e1_results() -> str:
         f"* Time per seed (three methods, training and assimilation): median {r['wall_time_per_seed_s_median']:.1f} s.",
         "",
         source(r, "e1_viapoint"),
+    ]
+    return "\n".join(lines)
+
+
+@renderer("e1-assimilation")
+def e1_assimilation() -> str:
+    """E1's assimilation candidates side by side, on the benchmark's seeds (0-9) and on fresh ones:
+    seeds within tolerance after assimilation, the old demonstrations' worst reproduction ratio."""
+    r = load("e1_assimilation")
+    labels = {"steps_1000": "1000 steps (the library's default)", "steps_3000": "3000 steps (E1's setting)",
+              "anchor_5": "1000 steps, anchor weight 5"}
+    groups = {"seeds 0-9 (the benchmark's)": [x for x in r["runs"] if x["seed"] < 10],
+              "seeds 10-19 (fresh)": [x for x in r["runs"] if x["seed"] >= 10]}
+    rows = []
+    for name, label in labels.items():
+        row = [label]
+        for runs in groups.values():
+            got = [x["candidates"][name] for x in runs if name in x["candidates"]]
+            row += [f"{sum(g['success_after'] for g in got)}/{len(got)}",
+                    fmt(max(g["old_demos_rmse_ratio"] for g in got)) if got else "-"]
+        rows.append(row)
+    head = ["assimilation"]
+    for g in groups:
+        head += [f"{g}: within tolerance, no RL", f"{g}: old demos' RMSE / LfD's (max)"]
+    lines = [
+        table(head, rows),
+        "",
+        "* Each seed adapted once (ACNMP, budget 100), then assimilated from the same adapted network by "
+        "each candidate (lr 1e-4, 32 episodes of 10 targets per step, the anchor); seeds whose adaptation "
+        "failed are left out of the count.",
+        "",
+        source(r, "e1_assimilation"),
     ]
     return "\n".join(lines)
 
@@ -519,3 +553,58 @@ def e4_sweep() -> str:
                   f"pairs of the pair seeds shared by the variants with the same pair settings), commits "
                   f"{', '.join(commits)}.*"]
     return "\n".join(lines)
+
+
+def _e4_failure_rows(r: dict) -> list[list[str]]:
+    """One row per run of ``r`` (an e4_failures result) not solved within 11 iterations."""
+    tol = 0.015
+    rows = []
+    for run in r["runs"]:
+        if run["iterations"] is not None and run["iterations"] <= 11:
+            continue
+        its = run["per_iteration"]
+        best = min(its, key=lambda i: i["mean_error"])
+        noisy = next((i["iteration"] for i in its if any(e < tol for e in i["noisy_error"])), None)
+        std = best["explore_std"][0] / its[0]["explore_std"][0]
+        rows.append([r["variant"], run["seed"], run["pair_seed"], fmt(run["iterations"]), run["label"].replace("_", " "),
+                     fmt(run["first_touch"]), fmt(run["first_mean_touch"]), run["blind"],
+                     fmt(best["mean_error"]), fmt(best["mean_cube_normal"]), fmt(best["mean_cube_along"]),
+                     fmt(best["mean_paddle_beyond"]), fmt(noisy), fmt(std, 2)])
+    return rows
+
+
+@renderer("e4-failures")
+def e4_failures() -> str:
+    files = [f for f in ("e4_failures", "e4_failures_seed0", "e4_failures_sl_once") if (RESULTS / f"{f}.json").exists()]
+    results = [load(f) for f in files]
+    rows = [row for r in results for row in _e4_failure_rows(r)]
+    lines = [table(["setting (e4_sweep.py variant)", "RL seed", "pair seed", "mean solved at iteration", "label", "first iteration a roll-out moved "
+                    "the cube", "first the mean did", "iterations without a signal", "mean's best error (m)",
+                    "there, cube beyond the wall line (m)", "and off the gap's centre line (m)",
+                    "paddle's tip beyond the wall line (m)",
+                    "first noisy roll-out within 1.5 cm (iteration)", "std there (x its start)"], rows), ""]
+    for f, r in zip(files, results):
+        solved = [next(i for i in run["per_iteration"] if i["mean_error"] < 0.015)["mean_paddle_beyond"]
+                  for run in r["runs"] if run["iterations"] is not None]
+        s = r["summary"]
+        seeds = [run["seed"] for run in r["runs"]]
+        mean_s = " / ".join(pct(v) for v in s["success_by_iteration"].values())
+        any_s = " / ".join(pct(v) for v in s["any_rollout_success_by_iteration"].values())
+        fol = s["follow_after_better_noisy_median"]
+        cnt = s["follow_after_better_noisy_count"]
+        lines.append(
+            f"* {r['variant']}, RL seeds {seeds[0]}..{seeds[-1]} (`{f}.json`): labels "
+            + ", ".join(f"{k.replace('_', ' ')} {v}" for k, v in r["labels"].items())
+            + f"; success after 3 / 7 / 11 / 19 iterations of the mean {mean_s}, of any roll-out (the mean or the "
+            f"noisy one) {any_s}; {s['noisy_success_not_kept']} times a noisy roll-out succeeded and the next mean "
+            f"did not; after a noisy roll-out beat the mean by more than 1 mm the next mean moved a median "
+            f"{fmt(fol['solved_by_11'], 2)} of the way to it in the runs solved within 11 iterations "
+            f"({cnt['solved_by_11']} iterations), {fmt(fol['later_or_never'], 2)} in the others "
+            f"({cnt['later_or_never']}); where the mean first succeeds its paddle's tip gets "
+            f"{fmt(float(np.median(solved)))} m beyond the wall line (median; {fmt(min(solved))}..{fmt(max(solved))}).")
+    for f, r in zip(files, results):
+        p = r.get("provenance") or {}
+        lines.append(f"*From `benchmarks/results/{f}.json`: `{p.get('command', '?')}` at commit "
+                     f"{(p.get('commit') or 'unknown')[:10]}{' (dirty tree)' if p.get('dirty') else ''}.*")
+        lines.append("")
+    return "\n".join(lines).rstrip("\n")

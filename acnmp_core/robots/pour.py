@@ -5,7 +5,7 @@ Scene (metres and kilograms inside PyBullet; grams at the interface)
 * The **wrist** is one revolute joint about +y at height ``axis_height`` above the floor, at x = 0.
   A positive angle turns the cup's mouth towards +x, where the receiving cup stands.
 * The **cup** is the wrist's only link, a compound of convex boxes: a base, a back wall, two side
-  walls, a pour-side wall that leans outwards by ``flare`` (like a jug's spout side) and a lip that
+  walls, a pour-side wall that leans outwards by ``flare`` (35 deg; like a jug's spout side) and a lip that
   reaches inwards from the pour-side rim, sloping up towards the mouth like a funnel. The wrist axis
   runs along the pour-side rim, so the mouth stays near the axis while the cup turns over it.
   With the cup near 90 deg the lip is a dam and the marbles pile up behind it at their angle of
@@ -43,10 +43,17 @@ Simulation
 
 Behaviour worth knowing
 -----------------------
-Poured mass comes in whole marbles (25 g). Near 90 deg granular flow is chaotic: changing the tilt
-by half a degree can change the pour by +-100 g, so the demonstrations' target amounts carry that
-noise. Past ~120 deg the outcome is stable; at 1400 g, tilting 150 deg or more pours all 53 marbles
-(1325 g). A swing much faster than the expert's throws marbles past the receiving cup.
+Poured mass comes in whole marbles (25 g). Near 90 deg granular flow is partly chaotic. With the
+pour wall flared 25 deg (the rig before commit c04e516) it was chaotic enough to rule out
+reproducing the demonstrations: changing a demonstration's held tilt by 0.01 deg changed its pour
+by 50 g (median), up to 225 g, and only 5 of the 16 poured within 30 g of their exact replay
+(``benchmarks/pour_sensitivity.py``). Flared 35 deg (the floor the marbles run down at 90 deg
+is steeper), the pour is far steadier: 12-14 of the 16
+replays changed by 0.01-0.5 deg or by one row pour within 30 g, 9 of 16 under every such change,
+median spread 50 g (``pour_sensitivity_flare35.json``). Damping, friction, rolling friction,
+solver iterations, a finer time step and a longer initial settling did not help
+(docs/experiments/e6_pour.md). Past ~120 deg the outcome is stable; at 1400 g, tilting 150 deg or
+more pours all 53 marbles (1325 g). A swing much faster than the expert's throws marbles past the receiving cup.
 """
 from __future__ import annotations
 
@@ -76,7 +83,9 @@ class CupGeometry:
     inner_height : cavity height from the base's top to the rim.
     wall : thickness of the base and the walls.
     flare : how far the pour-side wall leans outwards from vertical (deg): with the cup on its side
-        that wall is the floor, and the flare makes it slope down to the mouth.
+        that wall is the floor, and the flare makes it slope down to the mouth. 35 deg: at 25 deg
+        (the first rig) the 85-95 deg pour was chaotic, a 0.01 deg change moving it by 50 g
+        (``benchmarks/pour_sensitivity.py``).
     lip : how far the pour-side lip reaches inwards from the wall: the dam's height at 90 deg.
     lip_angle : the lip's slope (deg), rising inwards towards the mouth, so that past about
         180 - lip_angle deg it is a chute towards the mouth rather than a ledge.
@@ -88,7 +97,7 @@ class CupGeometry:
     inner_depth: float = 0.12
     inner_height: float = 0.10
     wall: float = 0.01
-    flare: float = 25.0
+    flare: float = 35.0
     lip: float = 0.03
     lip_angle: float = 35.0
     lip_thickness: float = 0.01
@@ -139,6 +148,9 @@ class MarbleSpec:
 
     The defaults are a glass marble (density about 2.4 g/cm^3); restitution 0 keeps marbles from
     bouncing out of the receiving cup, a small rolling friction lets them come to rest.
+    ``linear_damping`` and ``angular_damping`` (PyBullet's, the fraction of velocity lost per second)
+    are left at PyBullet's own when None; setting them, even to PyBullet's nominal 0.04, changes the
+    pour (``benchmarks/pour_sensitivity.py`` tries damped variants).
     """
 
     radius: float = 0.0135
@@ -147,6 +159,8 @@ class MarbleSpec:
     rolling_friction: float = 1e-4
     spinning_friction: float = 1e-4
     restitution: float = 0.0
+    linear_damping: float | None = None
+    angular_damping: float | None = None
 
 
 @dataclass(frozen=True)
@@ -371,8 +385,10 @@ class PourSim(PhysicsClient):
         for pos in xyz:
             body = p.createMultiBody(m.mass_g / G_PER_KG, shape, basePosition=pos.tolist(),
                                      useMaximalCoordinates=True, physicsClientId=cid)
+            damping = {k: v for k, v in (("linearDamping", m.linear_damping), ("angularDamping", m.angular_damping))
+                       if v is not None}  # PyBullet's keyword arguments: only those the spec sets
             p.changeDynamics(body, -1, rollingFriction=m.rolling_friction, spinningFriction=m.spinning_friction,
-                             physicsClientId=cid)
+                             physicsClientId=cid, **damping)
             ids.append(body)
         return ids
 

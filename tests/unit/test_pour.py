@@ -49,9 +49,10 @@ def test_no_tilt_pours_nothing(task):
     assert np.all(batch.states["poured_g_t"] == 0.0)
     assert batch.errors[0] == 100.0 and not batch.success[0]
     assert batch.rewards[0, -1] == -100.0 and np.all(batch.rewards[0, :-1] == 0.0)
-    # every marble is still in the cup, near where it settled
+    # every marble is still in the cup, near where it settled: none moves by its own radius (with the
+    # pour wall flared 35 deg the snapshot's pile still creeps, by up to about 1 cm in 4 s)
     xyz = batch.states["marble_xyz"][0]
-    assert np.abs(xyz[-1] - xyz[0]).max() < 0.01
+    assert np.abs(xyz[-1] - xyz[0]).max() < task.config.marbles.radius
 
 
 def test_a_full_tilt_empties_the_cup_a_small_tilt_pours_nothing(task):
