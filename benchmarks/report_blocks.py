@@ -402,6 +402,38 @@ def e3_assimilate_from_full() -> str:
     ])
 
 
+def _budget_label(c: dict) -> str:
+    """A budget candidate's settings from its run_wall config: the assimilation's steps x episodes x
+    targets at its learning rate (and anchor weight), then the first training's when not the default's."""
+    label = (f"{c['assimilate_steps']} x {c['assimilate_batch_size']} x {c['assimilate_targets']}, "
+             f"lr {c['assimilate_lr']:g}, anchor {c['assimilate_anchor_weight']:g}")
+    return label + f"; first {c['train_steps']} x {c['batch_size']} x {c['n_targets']}"
+
+
+@renderer("e3-budget")
+def e3_budget() -> str:
+    r = load("e3_budget")
+    rows = []
+    # The defaults first, then the candidates in the order they ran.
+    for name, w in sorted(r["variants"].items(), key=lambda kv: kv[0] != "baseline"):
+        s = w["summary"]
+        rows.append([f"{name}: {_budget_label(w['config'])}", *_e3_row("", s, s["time_s"])[1:]])
+    commits = sorted({(w["provenance"]["commit"] or "unknown")[:10] for w in r["variants"].values()})
+    return "\n".join([
+        table(["candidate: assimilation steps x episodes x targets, lr, anchor weight; first training",
+               "test success", "mean test error", "mean goal error", "trajectories", "max per env",
+               "adaptations", "ACNMP time (s)"], rows),
+        "",
+        f"* ACNMP only, seed {r['seed']}, {r['envs']} new environments after 30 demonstrated ones, 1000 test "
+        "environments, otherwise the defaults; two candidates at a time side by side (two processes) on the "
+        "shared machine, so times compare only roughly (the load changed between pairs).",
+        f"* Variants run at commit(s) {', '.join(commits)} (each variant's own provenance is in the file); "
+        "the variants of one commit ran side by side, and only their times compare.",
+        "",
+        source(r, "e3_budget"),
+    ])
+
+
 @renderer("e3-profile")
 def e3_profile() -> str:
     r = load("e3_profile")

@@ -65,8 +65,11 @@ COLORS = {"acnmp": "tab:green", "promp_rl": "tab:purple", "ewerton": "tab:orange
 ACNMP_BUDGET = 1000
 #: The ProMP + RL baseline: REPS from the task-conditional ProMP, same per-environment budget.
 PROMP_DEFAULTS = dict(method="reps", n_samples=10, max_rollouts=1000, init="conditional")
-#: Supervised steps (batch 32) of the first training and after each assimilation.
+#: Supervised steps of the first training (batch_size episodes of n_targets points) and of each
+#: assimilation (assimilate_batch_size episodes of assimilate_targets points, the anchor weighted
+#: assimilate_anchor_weight).
 TRAIN_DEFAULTS = dict(train_steps=3000, assimilate_steps=300, assimilate_lr=3e-4, batch_size=32, n_targets=10,
+                      assimilate_batch_size=32, assimilate_targets=10, assimilate_anchor_weight=1.0,
                       assimilate_from="skill")
 #: Which network the assimilation continues from: the skill as it was before the adaptation
 #: ("skill"; the solution is learnt through the anchor), or the adapted copy ("adapted").
@@ -370,6 +373,9 @@ def run_wall(
     assimilate_lr: float = TRAIN_DEFAULTS["assimilate_lr"],
     batch_size: int = TRAIN_DEFAULTS["batch_size"],
     n_targets: int = TRAIN_DEFAULTS["n_targets"],
+    assimilate_batch_size: int = TRAIN_DEFAULTS["assimilate_batch_size"],
+    assimilate_targets: int = TRAIN_DEFAULTS["assimilate_targets"],
+    assimilate_anchor_weight: float = TRAIN_DEFAULTS["assimilate_anchor_weight"],
     assimilate_from: str = TRAIN_DEFAULTS["assimilate_from"],
     adapt_config: AdaptConfig | None = None,
     promp_config: PrompRLConfig | None = None,
@@ -391,8 +397,10 @@ def run_wall(
     n_steps : samples per trajectory. eval_every : new environments between test evaluations.
     train_steps : first CNMP training. assimilate_steps, assimilate_lr : continued
         training after each assimilated solution.
-    batch_size, n_targets : episodes per supervised step and target points per episode, in the
-        first training and the assimilation.
+    batch_size, n_targets : episodes per supervised step and target points per episode in the
+        first training. assimilate_batch_size, assimilate_targets : the same in each assimilation.
+    assimilate_anchor_weight : weight of the anchor (the solution given its own conditions) in
+        each assimilation step (:class:`~acnmp_core.assimilation.AssimilationConfig`).
     assimilate_from : "skill" (the default): a successful adaptation contributes its solution
         only; the assimilation continues training the skill as it was before the adaptation (on
         the demonstrations, the solution and its anchor). "adapted": it continues from the adapted
@@ -438,8 +446,9 @@ def run_wall(
         if m == "acnmp":
             learner = _AcnmpLearner(
                 setup, seed, acfg, TrainConfig(steps=train_steps, batch_size=batch_size, n_targets=n_targets),
-                AssimilationConfig(steps=assimilate_steps, lr=assimilate_lr, batch_size=batch_size,
-                                   n_targets=n_targets), assimilate_from, progress)
+                AssimilationConfig(steps=assimilate_steps, lr=assimilate_lr, batch_size=assimilate_batch_size,
+                                   n_targets=assimilate_targets, anchor_weight=assimilate_anchor_weight),
+                assimilate_from, progress)
         elif m == "ewerton":
             learner = _EwertonLearner(setup, ecfg, n_basis)
         else:
@@ -467,7 +476,8 @@ def run_wall(
         "rollouts_per_env": per_env,
         "config": {"train_steps": train_steps, "assimilate_steps": assimilate_steps,
                    "assimilate_lr": assimilate_lr, "batch_size": batch_size, "n_targets": n_targets,
-                   "assimilate_from": assimilate_from, "eval_every": eval_every, "n_basis": n_basis,
+                   "assimilate_batch_size": assimilate_batch_size, "assimilate_targets": assimilate_targets,
+                   "assimilate_anchor_weight": assimilate_anchor_weight, "assimilate_from": assimilate_from, "eval_every": eval_every, "n_basis": n_basis,
                    "acnmp": _plain(vars(acfg)), "promp_rl": _plain(vars(pcfg)),
                    **({"ewerton": _plain(vars(ecfg))} if "ewerton" in methods else {}),
                    "setting": _plain(vars(setting))},

@@ -105,3 +105,10 @@ def test_assimilation_continues_from_the_chosen_network(source):
 def test_assimilate_from_is_checked():
     with pytest.raises(ValueError, match="assimilate_from"):
         E.run_wall(envs=1, n_test=5, methods=("acnmp",), assimilate_from="new")
+
+
+@pytest.mark.parametrize("name", ["assimilate_batch_size", "assimilate_targets"])
+def test_assimilation_budget_is_checked(name):
+    """The assimilation's own episodes per step and targets per episode are checked before any training."""
+    with pytest.raises(ValueError, match=name.removeprefix("assimilate_").replace("targets", "n_targets")):
+        E.run_wall(envs=1, n_test=5, methods=("acnmp",), **{name: 0})

@@ -1,0 +1,105 @@
+"""E3, ACNMP only: assimilation (and first-training) budgets side by side on ``run_wall``.
+
+Each candidate is a set of ``run_wall`` keyword arguments (steps, episodes per step, targets per
+episode, learning rate, anchor weight); the rest are the library's defaults. Candidates run in
+processes, at most two at once (the machine is shared), on the same environments and seed; every
+variant keeps its own provenance, so candidates may be run in several invocations and merged into
+one file (``--merge`` into ``--out`` as it runs, or ``--combine`` files of earlier invocations without
+running anything). Writes ``benchmarks/results/e3_budget.json``. Usage:
+``python benchmarks/e3_budget.py [--envs 300] [--seed 0] [--candidates NAME ...] [--merge] [--out FILE]``,
+``python benchmarks/e3_budget.py --combine A.json B.json ... [--out FILE]``.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import torch
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from acnmp_core.experiments.wall import TRAIN_DEFAULTS, run_wall  # noqa: E402
+from benchmarks._results import provenance, save_result  # noqa: E402
+
+#: name -> run_wall keyword arguments that differ from the defaults ("baseline": none).
+CANDIDATES = {
+    "baseline": {},
+    "a100x128x30_lr1e-3": dict(assimilate_steps=100, assimilate_batch_size=128, assimilate_targets=30,
+                               assimilate_lr=1e-3),
+    "a100x128x30_lr3e-4": dict(assimilate_steps=100, assimilate_batch_size=128, assimilate_targets=30,
+                               assimilate_lr=3e-4),
+    # The anchor conditions on the goal at t = 1 but teaches the solution's end, which an adaptation
+    # leaves up to the 0.25 tolerance away from it: does the skill learn to miss from it?
+    "anchor0": dict(assimilate_anchor_weight=0.0),
+    # The anchor is the only term shaped like a test query (start at t = 0, goal at t = 1): weight it more.
+    "anchor3": dict(assimilate_anchor_weight=3.0),
+    "anchor3_s150": dict(assimilate_anchor_weight=3.0, assimilate_steps=150),
+    # A more precise first skill (e3_fit_precision: 46 % instead of 38 % from the 30 demonstrations).
+    "first3000x128x30": dict(batch_size=128, n_targets=30),
+    # Less forgetting per assimilation.
+    "lr1e-4": dict(assimilate_lr=1e-4),
+}
+
+
+def _one(name: str, envs: int, seed: int, eval_every: int) -> dict:
+    """One ACNMP-only E3 run of candidate ``name``; returns its summary, curve, config, provenance."""
+    torch.set_num_threads(1)
+    meta = provenance()
+    r = run_wall(envs, seed, eval_every=eval_every, methods=("acnmp",), **CANDIDATES[name])
+    return {"provenance": meta, "overrides": CANDIDATES[name], "summary": r["methods"]["acnmp"],
+            "curve": r["curves"]["acnmp"], "config": r["config"], "wall_time_s": r["wall_time_s"]}
+
+
+def _combine(files: list[str], out: str, meta: dict) -> int:
+    """Merge the variants of earlier e3_budget results (same envs and seed; each variant keeps its
+    own provenance) into ``out``; the run time is the sum of theirs (they ran one after the other)."""
+    parts = [json.loads(Path(f).read_text()) for f in files]
+    if len({(p["envs"], p["seed"]) for p in parts}) != 1:
+        sys.exit(f"--combine: the files differ in envs or seed: {files}")
+    variants = {n: v for p in parts for n, v in p["variants"].items()}
+    save_result({"provenance": meta, "experiment": "e3_budget", "envs": parts[0]["envs"], "seed": parts[0]["seed"],
+                 "defaults": TRAIN_DEFAULTS, "variants": variants, "combined_from": [p["provenance"] for p in parts],
+                 "wall_time_s": round(sum(p["wall_time_s"] for p in parts), 2)}, out)
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the chosen candidates (two at a time) and write, or merge into, the JSON."""
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--envs", type=int, default=300)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--eval-every", type=int, default=60)
+    ap.add_argument("--candidates", nargs="+", default=list(CANDIDATES), choices=list(CANDIDATES))
+    ap.add_argument("--merge", action="store_true", help="keep the variants already in --out")
+    ap.add_argument("--combine", nargs="+", metavar="JSON", help="only merge these earlier results into --out")
+    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "e3_budget.json"))
+    args = ap.parse_args(argv)
+    meta = provenance()
+    if args.combine:
+        return _combine(args.combine, args.out, meta)
+    old = json.loads(Path(args.out).read_text()) if args.merge and Path(args.out).exists() else {}
+    if old and (old["envs"], old["seed"]) != (args.envs, args.seed):
+        ap.error(f"--merge: {args.out} holds envs {old['envs']}, seed {old['seed']}")
+    t0 = time.perf_counter()
+    with ProcessPoolExecutor(max_workers=2) as pool:
+        futures = {n: pool.submit(_one, n, args.envs, args.seed, args.eval_every) for n in args.candidates}
+        variants = {n: f.result() for n, f in futures.items()}
+    for n, r in variants.items():
+        s = r["summary"]
+        print(f"{n:<22} test success {100 * s['test_success_rate']:.1f} %  error {s['test_error_mean']:.3f}  "
+              f"goal error {s['test_goal_error_mean']:.3f}  trajectories {s['trajectories_total']}  "
+              f"max {s['trajectories_per_env_max']}  adaptations {s['adaptations']}  {s['time_s']:.0f} s")
+    result = {"provenance": meta, "experiment": "e3_budget", "envs": args.envs, "seed": args.seed,
+              "defaults": TRAIN_DEFAULTS, "variants": {**old.get("variants", {}), **variants},
+              "wall_time_s": round(time.perf_counter() - t0, 2)}
+    save_result(result, args.out)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
