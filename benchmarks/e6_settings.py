@@ -42,6 +42,11 @@ CANDIDATES = {
     # a faster policy step (and both)
     "H": dict(explore_error_gain=1.5e-3, explore_cap=0.5, lr=3e-3, temperature=0.05),
     "I": dict(explore_error_gain=2.5e-3, explore_cap=0.8, lr=3e-3, temperature=0.05),
+    # more noisy roll-outs per iteration (default 4; each iteration adds the mean): fewer, better-informed updates
+    "K": dict(explore_error_gain=1.5e-3, explore_cap=0.5, lr=1e-3, temperature=0.05, noisy_per_iter=6),
+    "L": dict(explore_error_gain=1.5e-3, explore_cap=0.5, lr=1e-3, temperature=0.05, noisy_per_iter=9),
+    # greedier AWR weights (nearer to following the best roll-out alone)
+    "M": dict(explore_error_gain=1.5e-3, explore_cap=0.5, lr=1e-3, temperature=0.02),
 }
 
 
