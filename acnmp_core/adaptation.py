@@ -33,12 +33,9 @@ exploration std. Each iteration executes the mean and ``noisy_per_iter`` noisy t
   the first one: the authors tie the std to the remaining error in every experiment, each with
   its own constants; a ratio needs none. ``explore_error_gain`` and ``explore_cap`` give the
   authors' absolute form instead, ``min(gain * err, cap)`` in raw units (their E4: 3 x error, at most
-  0.08 rad); off by default. ``explore_widen`` (off by default) multiplies the std by that factor
-  after every iteration whose roll-outs all returned the same reward (no advantage, nothing to
-  learn), compounding until one differs: a reward quantised in steps coarser than the noise's
-  effect (E6's whole marbles) otherwise repeats the same blind iteration. ``explore_widen_max``
-  bounds that widening (a std many times the rule's throws the arm far from the skill).
-  ``signal_tolerance`` says when rewards count as the same: a simulator's contact solver jitters an
+  0.08 rad); off by default. An iteration whose roll-outs all returned the same rewards (no
+  advantage, nothing to learn) takes no policy step; ``signal_tolerance`` says when rewards count
+  as the same: a simulator's contact solver jitters an
   untouched object by micrometres, so rewards that should be equal differ by far less than any real
   effect (E4: about 1e-6 against 1e-2 once the paddle touches the cube).
 
@@ -85,14 +82,9 @@ class AdaptConfig:
         the last mean roll-out's error, in the task's units; ``explore_cap`` before the first), the
         rule the authors' E4 uses (3 x error, at most 0.08 rad); ``explore_scale`` and
         ``explore_min`` are then unused.
-    explore_widen : None (the default) or a factor > 1: after an iteration whose roll-outs all
-        returned the same rewards (no signal), the next std is that many times wider, compounding
-        over consecutive such iterations; the first iteration with a signal resets it.
     signal_tolerance : rewards (after credit, see :func:`per_step_advantages`) that differ from the
-        mean roll-out's by no more than this at every step are the same: no signal, no policy step
-        (and ``explore_widen`` widens). The default 1e-12 is exact equality up to rounding.
-    explore_widen_max : None (the default: unbounded) or a factor > 1: the widening never makes the
-        std more than this many times the rule's (``explore_widen`` ** n is clipped to it).
+        mean roll-out's by no more than this at every step are the same: no signal, no policy step.
+        The default 1e-12 is exact equality up to rounding.
     n_knots : knots of the time-correlated exploration noise (fewer: smoother).
     advantage : "awr" or "reinforce" (the authors'); see the module docstring.
     temperature : of the "awr" weights, relative to the rewards' spread at each step.
@@ -119,8 +111,6 @@ class AdaptConfig:
     explore_min: float = 0.3
     explore_error_gain: float | None = None
     explore_cap: float | None = None
-    explore_widen: float | None = None
-    explore_widen_max: float | None = None
     signal_tolerance: float = 1e-12
     n_knots: int = 12
     advantage: str = "awr"
@@ -160,12 +150,6 @@ class AdaptConfig:
             if value is not None and (isinstance(value, bool) or not isinstance(value, (int, float))
                                       or not value > 0):
                 raise ValueError(f"{name}: expected a number > 0 or None, got {value!r}")
-        w = self.explore_widen
-        if w is not None and (isinstance(w, bool) or not isinstance(w, (int, float)) or not w > 1):
-            raise ValueError(f"explore_widen: expected a factor > 1 or None, got {w!r}")
-        m = self.explore_widen_max
-        if m is not None and (isinstance(m, bool) or not isinstance(m, (int, float)) or not m > 1):
-            raise ValueError(f"explore_widen_max: expected a factor > 1 or None, got {m!r}")
         if not isinstance(self.stop_on_success, bool):
             raise ValueError(f"stop_on_success: expected true or false, got {self.stop_on_success!r}")
         if self.solution not in SOLUTIONS:
@@ -430,7 +414,6 @@ def adapt(
     history: list[IterationLog] = []
     rollouts, it, success, err0 = 0, 0, False, None
     solved: int | None = None  # the row, in the last batch, of the roll-out that is the solution
-    widen = 1.0  # explore_widen ** (iterations in a row without a signal)
     model.eval()
 
     def denorm(x: np.ndarray) -> np.ndarray:
@@ -440,7 +423,7 @@ def adapt(
         mu_t = updater.mean()
         mu = mu_t.double().numpy()  # (T, D)
         k = 0 if cfg.mode == "lfd_only" else min(cfg.noisy_per_iter, cfg.max_rollouts - rollouts - 1)
-        std = widen * _explore_std(cfg, std0, scale, history[-1].mean_error if history else None, err0)
+        std = _explore_std(cfg, std0, scale, history[-1].mean_error if history else None, err0)
         eps = noise.sample(k, d, rng, std) if k else np.zeros((0, len(times), d))
         trajs_n = np.concatenate([mu[None], mu[None] + eps])
         trajs = denorm(trajs_n)
@@ -472,9 +455,7 @@ def adapt(
             break
         found = per_step_advantages(batch.rewards, cfg.advantage, cfg.temperature, credit, cfg.signal_tolerance)
         if found is None:
-            widen = min(widen * (cfg.explore_widen or 1.0), cfg.explore_widen_max or np.inf)
             continue
-        widen = 1.0
         rows, adv = found
         std_t = torch.as_tensor(std, dtype=torch.float32)
         fresh = [_Rollout(torch.as_tensor(trajs_n[j], dtype=torch.float32),

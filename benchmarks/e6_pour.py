@@ -2,7 +2,7 @@
 
 Writes benchmarks/results/e6_pour.json (with its provenance; the CPU time per roll-out is measured
 on the in-process roll-outs of the run) and e6_pour.png (the error of every roll-out per seed).
-Usage: ``python benchmarks/e6_pour.py [--seeds N] [--jobs J] [--out FILE] [--no-explore-widen]``.
+Usage: ``python benchmarks/e6_pour.py [--seeds N] [--jobs J] [--out FILE]``.
 The settings are the experiment's defaults (:func:`~acnmp_core.experiments.pour.e6_adapt_config`),
 the same as ``acnmp experiment pour``, so the CLI's first N seeds give the benchmark's first N;
 ``--jobs`` (default 2) runs that many seeds at once in separate processes, with the serial run's
@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-from dataclasses import replace
 from pathlib import Path
 
 import torch
@@ -20,7 +19,7 @@ import torch
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from acnmp_core.experiments.pour import e6_adapt_config, plot_pour, run_pour  # noqa: E402
+from acnmp_core.experiments.pour import plot_pour, run_pour  # noqa: E402
 from benchmarks._results import provenance, save_result  # noqa: E402
 
 
@@ -30,13 +29,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seeds", type=int, default=5)
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "e6_pour.json"))
-    ap.add_argument("--no-explore-widen", action="store_true",
-                    help="E6's settings with explore_widen off (does the option change anything?)")
     args = ap.parse_args(argv)
     torch.set_num_threads(1)
     meta = provenance()
-    cfg = replace(e6_adapt_config(), explore_widen=None) if args.no_explore_widen else None
-    result = {"provenance": meta, **run_pour(args.seeds, jobs=args.jobs, adapt_config=cfg,
+    result = {"provenance": meta, **run_pour(args.seeds, jobs=args.jobs,
                                              log=lambda s: print(s, flush=True))}
     save_result(result, args.out, plot_pour,
                 ("lfd_only", "assimilation", "rollout_cpu_s_median", "wall_time_s"))

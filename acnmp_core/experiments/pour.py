@@ -28,7 +28,7 @@ from typing import Callable
 
 import numpy as np
 
-from ..adaptation import AdaptConfig, AdaptTarget, adapt, per_step_advantages
+from ..adaptation import AdaptConfig, AdaptTarget, adapt
 from ..assimilation import AssimilationConfig, assimilate
 from ..cnmp import CNMP, CNMPConfig
 from ..data import DemoSet, Demonstration
@@ -70,19 +70,14 @@ def e6_adapt_config(max_rollouts: int = BUDGET) -> AdaptConfig:
     temperature 0.05 : the AWR weights' temperature (default 0.1), relative to the iteration's
         spread of returns: one wild roll-out that pours almost nothing widens the spread, and at 0.1
         the target then mixes the best roll-out with worse ones (a 50 g worse one at weight 0.6).
-    explore_widen 2 : after an iteration whose roll-outs all poured the same whole number of
-        marbles (no advantage: the reward is quantised in 25 g), the next std is twice as wide.
-        A safeguard: it did not fire on the tuning seeds, nor on the reported seeds 0-4 on either
-        rig (``run_seed``'s ``explore_widened_after``; with it off, ``e6_pour_widen_off.json`` is
-        identical to ``e6_pour_flare25.json``).
     solution "any" : the first executed roll-out that pours within 30 g, the mean or a noisy one,
         is the solution (the rig pours the same for the same trajectory; the paper's E6 ends at
         the roll-out that poured 27 g). Added after the tuning, on the reported seeds' evidence
         (their first roll-out within 30 g came at 5, 20, 15, 15 and 24 with "mean"); it changes
         nothing before the first success, so the tuning above is unaffected.
     """
-    return AdaptConfig(max_rollouts=max_rollouts, explore_error_gain=1.5e-3, explore_cap=0.5, explore_widen=2.0,
-                       lr=1e-3, temperature=0.05, solution="any")
+    return AdaptConfig(max_rollouts=max_rollouts, explore_error_gain=1.5e-3, explore_cap=0.5, lr=1e-3,
+                       temperature=0.05, solution="any")
 
 
 @dataclass
@@ -168,8 +163,7 @@ def run_seed(model: CNMP, setup: PourSetup, evaluator: RolloutEvaluator, cfg: Ad
     final mean), "solved_after_budget", "first_success_rollout" (1-based index of the first
     executed roll-out within the tolerance, mean or noisy; None if none), "errors_g_per_rollout"
     (every executed roll-out in order, the means included), "curve" [[roll-outs, error of the mean
-    g], ...], "explore_widened_after" (the iterations with no signal after which adapt() went on,
-    i.e. where ``explore_widen``, if set, widened the next std), "lfd_demo_errors_g" (16,) and
+    g], ...], "lfd_demo_errors_g" (16,) and
     "lfd_demos_within_30g" (the LfD model reproducing each demonstration before adapting, measured
     with ``assimilation`` only; None otherwise),
     "assimilation": None or {"error_g_no_rl", "demo_errors_g" (16,), "demos_within_30g"}}``.
@@ -179,15 +173,9 @@ def run_seed(model: CNMP, setup: PourSetup, evaluator: RolloutEvaluator, cfg: Ad
     demo_tp = np.stack([d.task_params for d in setup.demos])
     before = mean_errors_g(model, setup, evaluator, demo_tp) if assimilation is not None else None
     per_rollout: list[float] = []
-    no_signal: list[int] = []  # iterations whose roll-outs all earned the same rewards
-    credit = getattr(evaluator, "credit", "step")
 
     def record(log, trajs, batch):
         per_rollout.extend(float(e) for e in batch.remaining_errors())
-        # adapt()'s own test for "nothing to learn", the one that makes explore_widen widen the next std
-        if len(batch) > 1 and per_step_advantages(batch.rewards, cfg.advantage, cfg.temperature, credit,
-                                                  cfg.signal_tolerance) is None:
-            no_signal.append(log.iteration)
         if on_iteration is not None:
             on_iteration(log, trajs, batch)
 
@@ -201,8 +189,6 @@ def run_seed(model: CNMP, setup: PourSetup, evaluator: RolloutEvaluator, cfg: Ad
            "final_error_g": final, "solved_after_budget": bool(after),
            "first_success_rollout": hits[0] if hits else None, "errors_g_per_rollout": per_rollout,
            "curve": [[h.rollouts, h.mean_error] for h in res.history], "assimilation": None,
-           # the last iteration ends adapt(), so only the earlier ones widen the std
-           "explore_widened_after": [i for i in no_signal if i < len(res.history) - 1],
            "lfd_demos_within_30g": None if before is None else int(np.sum(before <= TOLERANCE_G)),
            "lfd_demo_errors_g": None if before is None else before.tolist()}
     if (res.success or after) and assimilation is not None:
@@ -280,8 +266,7 @@ def run_pour(
     {errors_g_per_rollout (per seed: every executed roll-out's error, g), rollouts_median,
     rollouts, success_rate (within the budget), success_within_20_rate, final_error_g_median,
     solved_after_budget (seeds whose final mean succeeded one roll-out after the budget),
-    first_success_rollout (per seed, see :func:`run_seed`), explore_widen_fired (iterations, all
-    seeds, after which ``explore_widen`` widened the std)},
+    first_success_rollout (per seed, see :func:`run_seed`)},
     ``assimilation`` {error_g_no_rl (median over the seeds that succeeded, None if none),
     demos_reproduced_within_30g (median count out of 16), seeds_assimilated,
     lfd_demos_reproduced_within_30g (the same count for the LfD model before adapting, all seeds)},
@@ -309,7 +294,7 @@ def run_pour(
             a = run["assimilation"]
             log(f"seed {run['seed']}: LfD error {run['lfd_error_g']:.0f} g | ACNMP success {run['success']} roll-outs "
                 f"{run['rollouts']} error {run['final_error_g']:.0f} g, first roll-out within 30 g: "
-                f"{run['first_success_rollout']}, explore_widen fired after iterations {run['explore_widened_after']}"
+                f"{run['first_success_rollout']}"
                 + ("" if a is None else f" | assimilated: no-RL error {a['error_g_no_rl']:.0f} g, demos within "
                                         f"30 g {a['demos_within_30g']}/{len(setup.demos)}")
                 + f" ({run['time_s']:.0f} s)")
@@ -355,7 +340,6 @@ def run_pour(
             "final_error_g_median": float(np.median([r["final_error_g"] for r in runs])),
             "solved_after_budget": int(sum(r["solved_after_budget"] for r in runs)),
             "first_success_rollout": [r["first_success_rollout"] for r in runs],
-            "explore_widen_fired": int(sum(len(r["explore_widened_after"]) for r in runs)),
         },
         "assimilation": {
             "error_g_no_rl": float(np.median([a["error_g_no_rl"] for a in assim])) if assim else None,

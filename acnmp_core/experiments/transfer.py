@@ -69,8 +69,8 @@ def e4_adapt_config() -> AdaptConfig:
     explore_scale 0.15 : half the library's exploration; wider did worse in E4's sweep
     (docs/experiments/e4_transfer.md, benchmarks/results/e4_sweep.json).
     signal_tolerance :data:`BLIND_TOLERANCE` : no policy step on the micrometre jitter of an
-    untouched cube (chosen on fresh RL seeds 30..59 in the sweep; ``explore_widen`` on top of it
-    did no better there, so it stays off).
+    untouched cube (chosen on fresh RL seeds 30..59 in the sweep; widening the std after such an
+    iteration did no better there).
     """
     return AdaptConfig(noisy_per_iter=1, max_rollouts=40, n_knots=20, sl_steps=1, sl_steps_reuse=0,
                        explore_scale=0.15, signal_tolerance=BLIND_TOLERANCE)

@@ -181,42 +181,10 @@ def test_smooth_noise_is_smooth_with_the_requested_std():
     assert np.corrcoef(x[:, 100, 0], x[:, 101, 0])[0, 1] > 0.99
 
 
-def test_explore_widen_widens_after_iterations_without_signal_and_resets_on_one(e1_model, setup):
-    """explore_widen: an iteration whose roll-outs all return the same reward (a reward quantised
-    coarser than the noise) widens the next std by the factor, compounding; a signal resets it."""
-
-    class Quantised:
-        """The E1 task's rewards, flattened to zero for the first ``blind`` batches."""
-
-        def __init__(self, blind):
-            self.blind, self.calls = blind, 0
-
-        def evaluate(self, trajectories, times, task_params=None):
-            out = setup.task.evaluate(trajectories, times, task_params)
-            self.calls += 1
-            if self.calls <= self.blind + 1:  # the first iteration's mean runs alone: one more call
-                b = len(trajectories)  # every roll-out the same reward; an error of 1 keeps the std at the cap
-                return RolloutBatch(np.zeros_like(out.rewards), np.zeros(b, bool), out.states, np.ones(b))
-            return out
-
-    cfg = AdaptConfig(max_rollouts=25, noisy_per_iter=1, explore_error_gain=1.0, explore_cap=0.1)
-    plain = adapt(copy.deepcopy(e1_model), setup.demos, setup.target, Quantised(3), cfg, seed=0)
-    wide = adapt(copy.deepcopy(e1_model), setup.demos, setup.target, Quantised(3),
-                 AdaptConfig(**{**cfg.to_dict(), "explore_widen": 2.0}), seed=0)
-    std = [h.explore_std[0] for h in wide.history]
-    assert [h.explore_std[0] for h in plain.history[:4]] == pytest.approx([0.1] * 4)  # blind: stuck at the cap
-    assert std[:4] == pytest.approx([0.1, 0.2, 0.4, 0.8])  # three blind iterations: x2 each
-    # the fourth iteration has a signal: the next std is the rule's again (no widening left)
-    assert std[4] == pytest.approx(min(1.0 * wide.history[3].mean_error, 0.1))
-    capped = adapt(copy.deepcopy(e1_model), setup.demos, setup.target, Quantised(3),
-                   AdaptConfig(**{**cfg.to_dict(), "explore_widen": 2.0, "explore_widen_max": 3.0}), seed=0)
-    # explore_widen_max: x2, then x3 (not x4) and x3 again while still blind
-    assert [h.explore_std[0] for h in capped.history[:4]] == pytest.approx([0.1, 0.2, 0.3, 0.3])
-
-
 def test_signal_tolerance_treats_jittered_equal_rewards_as_no_signal(e1_model, setup):
     """A simulator jitters an untouched object: rewards that should be equal differ by ~1e-7. With
-    the default tolerance that is a signal (no widening); with a tolerance above it, it is none."""
+    the default tolerance that is a signal (a policy step moves the mean); with a tolerance above
+    it, it is none (no step: the mean stays where it was)."""
 
     class Jittered:
         """The E1 task's rewards replaced by tiny seeded noise for the first three iterations."""
@@ -233,21 +201,19 @@ def test_signal_tolerance_treats_jittered_equal_rewards_as_no_signal(e1_model, s
                                     out.states, np.ones(b))
             return out
 
-    cfg = dict(max_rollouts=25, noisy_per_iter=1, explore_error_gain=1.0, explore_cap=0.1, explore_widen=2.0)
-    exact = adapt(copy.deepcopy(e1_model), setup.demos, setup.target, Jittered(), AdaptConfig(**cfg), seed=0)
-    tolerant = adapt(copy.deepcopy(e1_model), setup.demos, setup.target, Jittered(),
-                     AdaptConfig(**cfg, signal_tolerance=1e-5), seed=0)
-    assert [h.explore_std[0] for h in exact.history[:3]] == pytest.approx([0.1] * 3)  # noise taken for a signal
-    assert [h.explore_std[0] for h in tolerant.history[:4]] == pytest.approx([0.1, 0.2, 0.4, 0.8])
+    def means(**kw) -> list[np.ndarray]:
+        """The mean roll-out of every iteration."""
+        seen = []
+        adapt(copy.deepcopy(e1_model), setup.demos, setup.target, Jittered(),
+              AdaptConfig(max_rollouts=25, noisy_per_iter=1, **kw), seed=0,
+              on_iteration=lambda log, trajs, batch: seen.append(trajs[0].copy()))
+        return seen
+
+    exact, tolerant = means(), means(signal_tolerance=1e-5)
+    assert not np.array_equal(exact[0], exact[1])  # the jitter taken for a signal: a policy step
+    assert all(np.array_equal(tolerant[0], m) for m in tolerant[1:4])  # three blind iterations, no step
+    assert not np.array_equal(tolerant[3], tolerant[4])  # the fourth has the task's rewards: a step
     assert per_step_advantages(1e-7 * np.eye(2, 6), "awr", 0.1, "step", tolerance=1e-5) is None
-
-
-def test_explore_widen_is_validated():
-    with pytest.raises(ValueError, match="explore_widen"):
-        AdaptConfig(explore_widen=1.0)
-    with pytest.raises(ValueError, match="explore_widen_max"):
-        AdaptConfig(explore_widen=2.0, explore_widen_max=0.5)
-    assert AdaptConfig().explore_widen is None  # off by default
 
 
 def test_solution_any_stops_at_the_first_noisy_roll_out_that_succeeds_and_returns_it(e1_model, setup):
