@@ -6,12 +6,13 @@ no assimilation, through :func:`~acnmp_core.experiments.pour.run_seed` (E6's own
 candidate is E6's protocol (``solution="any"``: the first executed roll-out within 30 g, mean or
 noisy, ends the adaptation) with the library's defaults except the keys listed; the reward is E6's
 (minus the final error, g). It writes, per candidate and seed, the first roll-out within 30 g, every
-roll-out's error (g), the mean's curve and the iterations with no signal (all roll-outs poured the
-same); ``within_20`` counts the seeds with a roll-out within 30 g among the first 20.
+roll-out's error (g) and the mean's curve; ``within_20`` counts the seeds with a roll-out within 30 g among the first 20.
 
 Candidates "A"-"F" (tried on the rig flared 25 deg, ``results/e6_settings_flare25.json``; "F" is
-``e6_adapt_config`` there, with ``explore_widen`` 2, which never fired) are not repeated; "F" is
-re-run here without ``explore_widen`` as the baseline.
+``e6_adapt_config`` there, then with ``explore_widen`` 2, an option since removed from AdaptConfig,
+which never fired) are not repeated; "F" is re-run here as the baseline. The JSON's
+``no_signal_iterations`` (iterations whose roll-outs all poured the same: none) were logged by
+``run_seed`` until that option went.
 
 Usage: ``python benchmarks/e6_settings.py [--seeds 100,101,102,103] [--only F,G] [--jobs 2] [--out FILE]``.
 """
@@ -72,8 +73,7 @@ def seed_job(args: tuple[int, list[str]]) -> list[dict]:
             r = run_seed(copy.deepcopy(model), setup, task, candidate_config(name), seed, None)
             out.append({"candidate": name, "seed": seed, "first_success_rollout": r["first_success_rollout"],
                         "rollouts": r["rollouts"], "lfd_error_g": r["lfd_error_g"],
-                        "errors_g_per_rollout": r["errors_g_per_rollout"], "curve": r["curve"],
-                        "no_signal_iterations": r["explore_widened_after"]})
+                        "errors_g_per_rollout": r["errors_g_per_rollout"], "curve": r["curve"]})
             print(f"{name} seed {seed}: first roll-out within 30 g: {r['first_success_rollout']} "
                   f"(LfD {r['lfd_error_g']:.0f} g)", flush=True)
     return out
