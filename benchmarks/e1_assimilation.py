@@ -37,11 +37,18 @@ BUDGET, TRAIN_STEPS = 100, 3000
 
 
 def seed_range(text: str) -> list[int]:
-    """"0-9" or "3,5,8" -> the seeds."""
-    if "-" in text:
-        a, b = text.split("-")
-        return list(range(int(a), int(b) + 1))
-    return [int(s) for s in text.split(",")]
+    """"0-9" or "3,5,8" -> the seeds (argparse type: a malformed value is a one-line usage error)."""
+    try:
+        if "-" in text:
+            a, b = text.split("-")
+            seeds = list(range(int(a), int(b) + 1))
+        else:
+            seeds = [int(s) for s in text.split(",")]
+    except ValueError:
+        seeds = []
+    if not seeds or min(seeds) < 0:
+        raise argparse.ArgumentTypeError(f'expected "0-9" or "3,5,8" (seeds >= 0), got {text!r}')
+    return seeds
 
 
 def run_seed(seed: int) -> dict:
@@ -83,12 +90,12 @@ def summarise(rows: list[dict]) -> dict:
 def main(argv: list[str] | None = None) -> int:
     """Run the candidates over the seeds; write the JSON."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--seeds", default="0-9", help='"0-9" or "3,5,8"')
+    ap.add_argument("--seeds", type=seed_range, default="0-9", help='"0-9" or "3,5,8"')
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "e1_assimilation.json"))
     args = ap.parse_args(argv)
     meta, t0 = provenance(), time.perf_counter()
-    seeds = seed_range(args.seeds)
+    seeds = args.seeds
     with get_context("spawn").Pool(max(1, args.jobs)) as pool:
         rows = pool.map(run_seed, seeds)
     result = {"provenance": meta, "benchmark": "e1_assimilation", "seeds": seeds,

@@ -42,6 +42,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--lfd", default=str(ROOT / "benchmarks" / "results" / "e5_ur10.json"),
                     help="the E5 benchmark result whose LfD-only errors are set beside the spread")
     args = ap.parse_args(argv)
+    if not Path(args.lfd).is_file():
+        ap.error(f"--lfd: no such file {args.lfd} (run benchmarks/e5_ur10.py first)")
     result = {"provenance": provenance(), "benchmark": "e5_demo_spread"}
     setup = make_setup()
     demos = np.stack([d.values for d in setup.demos.demos])
