@@ -173,6 +173,10 @@ class ACNMPClient:
         """Names of the skills some model service has weights for now (liveliness tokens)."""
         return sorted({last_chunk(k) for k in alive_tokens(self.session, self.keys.model_token("*"), timeout)})
 
+    def model_services(self, timeout: float = 2.0) -> int:
+        """How many model services are live and reachable now (liveliness tokens), skills or not."""
+        return len(alive_tokens(self.session, self.keys.model_service_token("*"), timeout))
+
     # ----- learner ---------------------------------------------------------------------------
     def train(self, skill: str, times, values, task_params=None, timeout: float | None = None, **options) -> dict:
         """Ask the learner to train ``skill`` on demonstrations and wait until it has.

@@ -8,7 +8,12 @@ import sys
 
 import numpy as np
 
+from clients.argtypes import int_at_least
 from services.transport import SessionOptions, jsonable
+
+#: What ``query`` says when no model service answers its liveliness query.
+NO_MODEL_SERVICE = ("no model service is reachable: start one with `acnmp up`, or give the running "
+                    "deployment's --namespace or --connect (`acnmp status` lists them)")
 
 EPILOG = """\
 examples:
@@ -98,19 +103,6 @@ def _common(parser: argparse.ArgumentParser, skill: bool = True) -> None:
     if skill:
         parser.add_argument("--skill", "-s", default=None,
                             help="skill name (default: the deployment's skill, when it serves exactly one)")
-
-
-def int_at_least(lo: int):
-    """An argparse type: an int >= ``lo`` (argparse names the option in its error)."""
-    def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"expected an integer >= {lo}, got {text!r}") from None
-        if value < lo:
-            raise argparse.ArgumentTypeError(f"expected an integer >= {lo}, got {value}")
-        return value
-    return parse
 
 
 def positive_float(text: str) -> float:
@@ -264,6 +256,8 @@ def _skill(args, client) -> str:
     names = client.skills()
     if len(names) == 1:
         return names[0]
+    if not names and not client.model_services():
+        raise ClientError("unavailable", NO_MODEL_SERVICE)
     found = ", ".join(names) if names else "none yet"
     raise ClientError("unknown_skill", f"--skill: choose the skill to ask (served: {found})")
 
@@ -308,10 +302,15 @@ def _run_info(args) -> int:
 def _run_skills(args) -> int:
     with _client(args) as client:
         names = client.skills()
+        reachable = bool(names) or client.model_services() > 0
     if args.json:
         print(json.dumps(names))
+    elif names:
+        print("\n".join(names))
+    elif reachable:
+        print("no skill is served yet (the model service is live, with no weights)")
     else:
-        print("\n".join(names) if names else "no skill is served (no model liveliness token found)")
+        print(f"no skill is served: {NO_MODEL_SERVICE}")
     return 0
 
 

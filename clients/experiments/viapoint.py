@@ -6,6 +6,8 @@ import sys
 
 import numpy as np
 
+from clients.argtypes import int_at_least
+
 from .common import add_deployment_arguments, add_output_arguments, check_deployment_arguments, write_json
 
 
@@ -20,7 +22,7 @@ def register(subparsers) -> None:
             "assimilate the ACNMP solution. Prints a table; --json and --plot save the results."
         ),
     )
-    p.add_argument("--seed", type=int, default=0, help="seed of training and exploration (default 0)")
+    p.add_argument("--seed", type=int_at_least(0), default=0, help="seed of training and exploration (default 0)")
     p.add_argument("--variant", choices=("2d", "1d"), default="2d",
                    help="2d paths around obstacles (default) or the authors' 1-D two-bump function")
     p.add_argument("--budget", type=int, default=100, help="roll-out budget per method (default 100)")

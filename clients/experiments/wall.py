@@ -2,6 +2,8 @@
 (and the baseline after Ewerton et al. 2019), in the paper's or the authors' task setting."""
 from __future__ import annotations
 
+from clients.argtypes import int_at_least
+
 from .common import add_deployment_arguments, add_output_arguments, check_deployment_arguments, write_json
 
 
@@ -18,7 +20,7 @@ def register(subparsers) -> None:
         ),
     )
     p.add_argument("--envs", type=int, default=100, help="new environments in the loop (default 100)")
-    p.add_argument("--seed", type=int, default=0, help="seed of environments, training, exploration (default 0)")
+    p.add_argument("--seed", type=int_at_least(0), default=0, help="seed of environments, training, exploration (default 0)")
     p.add_argument("--initial", type=int, default=30, help="demonstrated environments (default 30)")
     p.add_argument("--test", type=int, default=1000, help="test environments (default 1000)")
     p.add_argument("--eval-every", type=int, default=10, help="new environments between test evaluations (default 10)")

@@ -70,3 +70,15 @@ def test_query_errors_are_reported_with_their_code(live_service, capsys):
     assert code == 1 and "unknown_skill" in err
     code, _, err = cli(capsys, "query", "predict", "-s", "reach", "-n", NS, "--connect", ep, "--obs", "zero")
     assert code == 2 and "TIME:V1" in err
+
+
+def test_no_reachable_model_service_is_told_apart_from_no_skill(live_service, capsys):
+    ep, _ = live_service
+    dead = loopback_endpoint(free_port())  # nothing listens there
+    code, _, err = cli(capsys, "query", "info", "-n", NS, "--connect", dead)
+    assert code == 1 and "unavailable: no model service is reachable" in err
+    code, out, _ = cli(capsys, "query", "skills", "-n", NS, "--connect", dead)
+    assert code == 0 and "no model service is reachable" in out
+    # the live service is found, and its one skill is the default
+    code, out, _ = cli(capsys, "query", "info", "-n", NS, "--connect", ep)
+    assert code == 0 and "skill reach version 3" in out

@@ -1,6 +1,8 @@
 """`acnmp experiment viapoint`: the CLI runs E1 and writes the documented JSON and figures."""
 import json
 
+import pytest
+
 from clients.cli import main
 
 
@@ -43,3 +45,13 @@ def test_viapoint_cli_writes_json_and_plots(tmp_path, saved_figures):
 def test_bad_cli_input_is_a_clear_error(capsys):
     assert main(["experiment", "viapoint", "--budget", "0"]) == 2
     assert "--budget" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("experiment", ["viapoint", "wall"])
+def test_a_negative_seed_is_refused_before_any_training(experiment, capsys):
+    # numpy refuses a negative seed only when the run first draws from it, after the training.
+    with pytest.raises(SystemExit) as exit_:
+        main(["experiment", experiment, "--seed", "-1"])
+    assert exit_.value.code == 2
+    err = capsys.readouterr().err
+    assert "--seed: expected an integer >= 0, got -1" in err and "Traceback" not in err
