@@ -74,6 +74,12 @@ def _current(**kw) -> TransferExperimentConfig:
     return replace(cfg, adapt=replace(cfg.adapt, **kw))
 
 
+def _third(**kw) -> TransferExperimentConfig:
+    """The settings E4 had when the fourth round began (the third round's: :func:`_current` with one
+    SL step per iteration, ``sl_steps_reuse`` 0) with these AdaptConfig fields changed."""
+    return _current(sl_steps_reuse=0, **kw)
+
+
 #: name -> config; the names are what the docs' sweep table cites.
 VARIANTS = {
     "default": _before,
@@ -120,6 +126,11 @@ VARIANTS = {
     # the supervised steps pull B's decoder towards the proxy skills, none of which goes through the gap
     "sl_once_tol1e-4": lambda: _current(sl_steps_reuse=0),  # one SL step per iteration: E4's default now
     "rl_only_tol1e-4": lambda: _current(mode="rl_only"),
+    # issue 13, fourth round: the authors' noise is one cubic per joint (20 samples through
+    # UnivariateSpline(k=3, s=0.1)), not 20 knots; "authors_explore*" above used our 20-knot noise
+    "authors_noise_explore": lambda: _third(noise="cubic", explore_error_gain=3.0, explore_cap=0.08),
+    # the same shape at about the current std per step (0.15 / 0.42, CubicNoise's mean std per step)
+    "cubic_noise": lambda: _third(noise="cubic", explore_scale=0.35),
 }
 
 
