@@ -12,8 +12,23 @@ import numpy as np
 from .validation import check_array, check_positive_int
 
 
-class SmoothNoise:
-    """Smooth Gaussian noise over ``n_steps`` time steps.
+class _KnotNoise:
+    """Noise ``basis @ knots``: ``self.basis`` (T, K) maps K iid Gaussian knots to T steps."""
+
+    basis: np.ndarray
+    n_knots: int
+
+    def sample(self, n: int, n_dims: int, rng: np.random.Generator, std=1.0) -> np.ndarray:
+        """Draw ``n`` noise trajectories of shape (n, T, n_dims); ``std`` (scalar or (n_dims,), in
+        whatever units the caller works in) scales the knots of each dimension."""
+        n = check_positive_int("n", n, minimum=0)
+        std = check_array("std", std, ndim=(0, 1))
+        knots = rng.standard_normal((n, self.n_knots, n_dims))
+        return np.einsum("tk,nkd->ntd", self.basis, knots) * std
+
+
+class SmoothNoise(_KnotNoise):
+    """Smooth Gaussian noise over ``n_steps`` time steps; its std is ``std`` at every step.
 
     Parameters
     ----------
@@ -34,18 +49,8 @@ class SmoothNoise:
         # Unit-norm rows: with iid N(0,1) knots every step then has variance exactly 1.
         self.basis = basis / np.linalg.norm(basis, axis=1, keepdims=True)
 
-    def sample(self, n: int, n_dims: int, rng: np.random.Generator, std=1.0) -> np.ndarray:
-        """Draw ``n`` noise trajectories of shape (n, T, n_dims) with per-dimension std ``std``.
 
-        ``std`` is a scalar or (n_dims,) array (in whatever units the caller works in).
-        """
-        n = check_positive_int("n", n, minimum=0)
-        std = check_array("std", std, ndim=(0, 1))
-        knots = rng.standard_normal((n, self.n_knots, n_dims))
-        return np.einsum("tk,nkd->ntd", self.basis, knots) * std
-
-
-class CubicNoise:
+class CubicNoise(_KnotNoise):
     """The authors' E4 exploration noise: ``n_knots`` iid Gaussian samples at evenly spaced times,
     replaced by their least-squares cubic polynomial in time.
 
@@ -74,11 +79,3 @@ class CubicNoise:
     def step_std(self) -> np.ndarray:
         """(T,) std of the noise at each step per unit ``std`` of the samples."""
         return np.linalg.norm(self.basis, axis=1)
-
-    def sample(self, n: int, n_dims: int, rng: np.random.Generator, std=1.0) -> np.ndarray:
-        """Draw ``n`` noise trajectories of shape (n, T, n_dims); ``std`` (scalar or (n_dims,)) is the
-        samples' std per dimension (see the class docstring for the std per step)."""
-        n = check_positive_int("n", n, minimum=0)
-        std = check_array("std", std, ndim=(0, 1))
-        knots = rng.standard_normal((n, self.n_knots, n_dims))
-        return np.einsum("tk,nkd->ntd", self.basis, knots) * std
