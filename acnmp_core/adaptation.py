@@ -33,7 +33,9 @@ exploration std. Each iteration executes the mean and ``noisy_per_iter`` noisy t
   the first one: the authors tie the std to the remaining error in every experiment, each with
   its own constants; a ratio needs none. ``explore_error_gain`` and ``explore_cap`` give the
   authors' absolute form instead, ``min(gain * err, cap)`` in raw units (their E4: 3 x error, at most
-  0.08 rad); off by default. An iteration whose roll-outs all returned the same rewards (no
+  0.08 rad); off by default. ``noise="cubic"`` draws the noise as the authors' E4 does (a few
+  samples smoothed into one cubic polynomial per output, :class:`~acnmp_core.exploration.CubicNoise`;
+  off by default). An iteration whose roll-outs all returned the same rewards (no
   advantage, nothing to learn) takes no policy step; ``signal_tolerance`` says when rewards count
   as the same: a simulator's contact solver jitters an
   untouched object by micrometres, so rewards that should be equal differ by far less than any real
@@ -53,7 +55,7 @@ import torch
 
 from .cnmp import CNMP, Query
 from .data import DemoSet
-from .exploration import SmoothNoise
+from .exploration import CubicNoise, SmoothNoise
 from .optim_step import Stepper
 from .rollout import RolloutBatch, RolloutEvaluator
 from .training import TrainConfig, make_sampler, nll_loss
@@ -63,6 +65,8 @@ MODES = ("acnmp", "rl_only", "lfd_only")
 ADVANTAGES = ("awr", "reinforce")
 #: Which executed roll-out can be adapt()'s solution (``AdaptConfig.solution``).
 SOLUTIONS = ("mean", "any")
+#: Shapes of the exploration noise (``AdaptConfig.noise``).
+NOISES = ("rbf", "cubic")
 #: How a task's rewards depend on the actions (a class attribute ``credit`` of its evaluator):
 #: "step" (the reward at t depends on the state at t only) or "future" (on everything before it).
 CREDITS = ("step", "future")
@@ -86,6 +90,10 @@ class AdaptConfig:
         mean roll-out's by no more than this at every step are the same: no signal, no policy step.
         The default 1e-12 is exact equality up to rounding.
     n_knots : knots of the time-correlated exploration noise (fewer: smoother).
+    noise : "rbf" (the default: :class:`~acnmp_core.exploration.SmoothNoise`, ``n_knots`` knots, the
+        std the same at every step) or "cubic" (the authors' E4 noise,
+        :class:`~acnmp_core.exploration.CubicNoise`: the least-squares cubic through ``n_knots``
+        >= 4 samples of the std, about 0.42 x it per step on average).
     advantage : "awr" or "reinforce" (the authors'); see the module docstring.
     temperature : of the "awr" weights, relative to the rewards' spread at each step.
     lr : Adam learning rate of the policy steps.
@@ -113,6 +121,7 @@ class AdaptConfig:
     explore_cap: float | None = None
     signal_tolerance: float = 1e-12
     n_knots: int = 12
+    noise: str = "rbf"
     advantage: str = "awr"
     temperature: float = 0.1
     lr: float = 1e-4
@@ -152,6 +161,10 @@ class AdaptConfig:
                 raise ValueError(f"{name}: expected a number > 0 or None, got {value!r}")
         if not isinstance(self.stop_on_success, bool):
             raise ValueError(f"stop_on_success: expected true or false, got {self.stop_on_success!r}")
+        if self.noise not in NOISES:
+            raise ValueError(f"noise: expected one of {NOISES}, got {self.noise!r}")
+        if self.noise == "cubic" and self.n_knots < 4:
+            raise ValueError(f"n_knots: expected >= 4 with noise='cubic', got {self.n_knots}")
         if self.solution not in SOLUTIONS:
             raise ValueError(f"solution: expected one of {SOLUTIONS}, got {self.solution!r}")
 
@@ -408,7 +421,8 @@ def adapt(
     std0 = cfg.explore_scale * np.ones(d)  # normalised units: the demos' std is 1
     rng = np.random.default_rng(seed)
     gen = torch.Generator().manual_seed(seed)
-    noise = SmoothNoise(len(times), min(cfg.n_knots, len(times)))
+    n_knots = min(cfg.n_knots, len(times))
+    noise = CubicNoise(len(times), n_knots) if cfg.noise == "cubic" else SmoothNoise(len(times), n_knots)
     updater = _Updater(model, query, cfg, demos, train_cfg, gen, None if params is None else list(params))
     credit = getattr(evaluator, "credit", "step")
     history: list[IterationLog] = []

@@ -507,6 +507,19 @@ def _config_changes(config: dict, base: dict) -> str:
     return ", ".join(out) or "(the settings before the sweep)"
 
 
+def _e4_pooled_fresh(variants: dict) -> dict[str, list[float]]:
+    """Success by iteration pooled over the two fresh RL seed sets (``name@30+seed30`` and
+    ``name@30+seed60``, 30 runs each), for each variant that has both: ``{name: [rate, ...]}``."""
+    out = {}
+    for key, v in variants.items():
+        name, _, tail = key.partition("@")
+        other = variants.get(f"{name}@30+seed60")
+        if tail == "30+seed30" and other and v.get("success_by_iteration"):
+            out[name] = [(v["success_by_iteration"][k] + other["success_by_iteration"][k]) / 2
+                         for k in v["success_by_iteration"]]
+    return out
+
+
 @renderer("e4-sweep")
 def e4_sweep() -> str:
     r = load("e4_sweep")
@@ -523,6 +536,11 @@ def e4_sweep() -> str:
             authors_rows.append([name, changes, ", ".join(fmt(x) for x in rmse)])
     lines = [table(["variant@runs", "settings changed", "runs", "success after 3 it.", "7 it.", "11 it.", "19 it.",
                     "first cube error (median, m)", "iterations without a signal (mean per run)"], rl_rows)]
+    pooled = _e4_pooled_fresh(variants)
+    if pooled:
+        lines += ["", "* Pooled over both fresh sets (RL seeds 30..89, 60 runs), success after 3 / 7 / 11 / 19 "
+                      "iterations: " + "; ".join(f"`{name}` " + " / ".join(pct(x) for x in rates)
+                                                 for name, rates in pooled.items()) + "."]
     if authors_rows:
         first = next(v for v in variants.values() if v["authors_data"]["transfer_rmse"])["authors_data"]
         lines += ["", table(["variant", "settings changed", "authors' data: transfer RMSE per pair seed 0, 1, ... (rad)"],
@@ -575,7 +593,8 @@ def _e4_failure_rows(r: dict) -> list[list[str]]:
 
 @renderer("e4-failures")
 def e4_failures() -> str:
-    files = [f for f in ("e4_failures", "e4_failures_seed0", "e4_failures_sl_once") if (RESULTS / f"{f}.json").exists()]
+    files = [f for f in ("e4_failures", "e4_failures_seed0", "e4_failures_sl_once", "e4_failures_cubic")
+             if (RESULTS / f"{f}.json").exists()]
     results = [load(f) for f in files]
     rows = [row for r in results for row in _e4_failure_rows(r)]
     lines = [table(["setting (e4_sweep.py variant)", "RL seed", "pair seed", "mean solved at iteration", "label", "first iteration a roll-out moved "

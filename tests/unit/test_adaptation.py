@@ -8,7 +8,7 @@ import pytest
 from acnmp_core.adaptation import AdaptConfig, adapt, per_step_advantages
 from acnmp_core.assimilation import AssimilationConfig, assimilate
 from acnmp_core.data import Demonstration
-from acnmp_core.exploration import SmoothNoise
+from acnmp_core.exploration import CubicNoise, SmoothNoise
 from acnmp_core.experiments.viapoint import make_setup, trajectory_metrics
 from acnmp_core.rollout import RolloutBatch
 from acnmp_core.training import reproduction_error
@@ -179,6 +179,53 @@ def test_smooth_noise_is_smooth_with_the_requested_std():
     np.testing.assert_allclose(x.std(axis=0).mean(axis=0), [0.5, 2.0], rtol=0.05)
     # neighbouring steps are strongly correlated: smooth, not white
     assert np.corrcoef(x[:, 100, 0], x[:, 101, 0])[0, 1] > 0.99
+
+
+def test_cubic_noise_is_the_least_squares_cubic_through_its_samples():
+    """The authors' E4 noise: each draw is a cubic in time (4 degrees of freedom, whatever the
+    number of samples), the samples' least-squares cubic, scaled per dimension by ``std``."""
+    noise = CubicNoise(300, n_knots=20)
+    x = noise.sample(3, 2, np.random.default_rng(0), std=[0.05, 2.0])
+    s = np.linspace(-1, 1, 300)
+    for draw in x.transpose(0, 2, 1).reshape(-1, 300):
+        np.testing.assert_allclose(np.polyval(np.polyfit(s, draw, 3), s), draw, atol=1e-9)
+    knots = np.random.default_rng(0).standard_normal((3, 20, 2))  # the same samples, refitted by numpy
+    c = np.linspace(-1, 1, 20)
+    want = np.polyval(np.polyfit(c, knots[1, :, 1], 3), s) * 2.0
+    np.testing.assert_allclose(x[1, :, 1], want, atol=1e-9)
+    # a cubic through 20 samples keeps about 4/20 of their variance: the ends swing most
+    st = noise.step_std()
+    assert 0.38 < np.sqrt(np.mean(st ** 2)) < 0.47 and st[0] > 2 * st[150]
+    with pytest.raises(ValueError, match="n_knots"):
+        CubicNoise(300, n_knots=3)
+
+
+def test_cubic_noise_option_changes_only_the_noise_and_defaults_off(e1_model, setup):
+    """noise="cubic": every noisy roll-out deviates from its mean by a cubic in time; the default
+    ("rbf") by the 20-knot noise, not a cubic; a cubic needs 4 samples."""
+    assert AdaptConfig().noise == "rbf"
+
+    def deviations(**kw) -> list[np.ndarray]:
+        seen = []
+        adapt(copy.deepcopy(e1_model), setup.demos, setup.target, setup.task,
+              AdaptConfig(max_rollouts=6, noisy_per_iter=1, n_knots=20, stop_on_success=False, **kw), seed=0,
+              on_iteration=lambda log, trajs, batch: seen.append(trajs[1:] - trajs[:1]))
+        return [d for d in seen if len(d)]
+
+    def cubic_residual(d: np.ndarray) -> float:
+        """Largest distance of one deviation (T, D) from its least-squares cubic, relative to it."""
+        s = np.linspace(-1, 1, d.shape[0])
+        fit = np.stack([np.polyval(np.polyfit(s, d[:, j], 3), s) for j in range(d.shape[1])], axis=1)
+        return float(np.abs(fit - d).max() / np.abs(d).max())
+
+    cubic, rbf = deviations(noise="cubic"), deviations()
+    assert len(cubic) == len(rbf) == 3
+    assert max(cubic_residual(d[0]) for d in cubic) < 1e-6  # the normalisation is per output: still a cubic
+    assert min(cubic_residual(d[0]) for d in rbf) > 0.05
+    with pytest.raises(ValueError, match="noise"):
+        AdaptConfig(noise="white")
+    with pytest.raises(ValueError, match="n_knots"):
+        AdaptConfig(noise="cubic", n_knots=3)
 
 
 def test_signal_tolerance_treats_jittered_equal_rewards_as_no_signal(e1_model, setup):
