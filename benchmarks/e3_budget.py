@@ -54,6 +54,10 @@ CANDIDATES = {
     # the skill assimilates precise solutions rather than ones just inside the 0.25 tolerance.
     "stop0.10_c0.05": dict(stop_tolerance=0.10, stop_clearance=0.05),
     "stop0.15_c0": dict(stop_tolerance=0.15, stop_clearance=0.0),
+    # After the first pair: which of the two (tolerance, clearance) cost stop0.10_c0.05 its test success,
+    # and a milder hysteresis.
+    "stop0.10_c0": dict(stop_tolerance=0.10, stop_clearance=0.0),
+    "stop0.20_c0": dict(stop_tolerance=0.20, stop_clearance=0.0),
 }
 #: Candidate keys that set the stopping criterion rather than a run_wall argument.
 STOP_KEYS = ("stop_tolerance", "stop_clearance")
