@@ -1,12 +1,17 @@
-"""E3, ACNMP only: assimilation (and first-training) budgets side by side on ``run_wall``.
+"""E3: assimilation, first-training and stopping-criterion candidates side by side on ``run_wall``.
 
 Each candidate is a set of ``run_wall`` keyword arguments (steps, episodes per step, targets per
-episode, learning rate, anchor weight); the rest are the library's defaults. Candidates run in
+episode, learning rate, anchor weight), and optionally the adaptations' stopping criterion
+(``stop_tolerance``, ``stop_clearance``: the paper setting with its ``goal_tolerance`` and
+``goal_clearance`` replaced; the trigger, and with it the test success, stays the setting's 0.25
+criterion); the rest are the library's defaults. ACNMP only unless ``--methods`` names more (the
+ProMP + RL baseline with the same stopping criterion, for a fair comparison). Candidates run in
 processes, at most two at once (the machine is shared), on the same environments and seed; every
 variant keeps its own provenance, so candidates may be run in several invocations and merged into
 one file (``--merge`` into ``--out`` as it runs, or ``--combine`` files of earlier invocations without
 running anything). Writes ``benchmarks/results/e3_budget.json``. Usage:
-``python benchmarks/e3_budget.py [--envs 300] [--seed 0] [--candidates NAME ...] [--merge] [--out FILE]``,
+``python benchmarks/e3_budget.py [--envs 300] [--seed 0] [--candidates NAME ...] [--methods M ...] [--merge]
+[--out FILE]``,
 ``python benchmarks/e3_budget.py --combine A.json B.json ... [--out FILE]``.
 """
 from __future__ import annotations
@@ -16,6 +21,7 @@ import json
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
+from dataclasses import replace
 from pathlib import Path
 
 import torch
@@ -23,7 +29,8 @@ import torch
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from acnmp_core.experiments.wall import TRAIN_DEFAULTS, run_wall  # noqa: E402
+from acnmp_core.experiments.wall import ALL_METHODS, TRAIN_DEFAULTS, run_wall  # noqa: E402
+from acnmp_core.tasks.wall_settings import PAPER, WallSetting  # noqa: E402
 from benchmarks._results import provenance, save_result  # noqa: E402
 
 #: name -> run_wall keyword arguments that differ from the defaults ("baseline": none).
@@ -43,16 +50,39 @@ CANDIDATES = {
     "first3000x128x30": dict(batch_size=128, n_targets=30),
     # Less forgetting per assimilation.
     "lr1e-4": dict(assimilate_lr=1e-4),
+    # Hysteresis, as the authors: adaptations triggered at 0.25 stop only on a stricter criterion, so
+    # the skill assimilates precise solutions rather than ones just inside the 0.25 tolerance.
+    "stop0.10_c0.05": dict(stop_tolerance=0.10, stop_clearance=0.05),
+    "stop0.15_c0": dict(stop_tolerance=0.15, stop_clearance=0.0),
+    # After the first pair: which of the two (tolerance, clearance) cost stop0.10_c0.05 its test success,
+    # and a milder hysteresis.
+    "stop0.10_c0": dict(stop_tolerance=0.10, stop_clearance=0.0),
+    "stop0.20_c0": dict(stop_tolerance=0.20, stop_clearance=0.0),
 }
+#: Candidate keys that set the stopping criterion rather than a run_wall argument.
+STOP_KEYS = ("stop_tolerance", "stop_clearance")
 
 
-def _one(name: str, envs: int, seed: int, eval_every: int) -> dict:
-    """One ACNMP-only E3 run of candidate ``name``; returns its summary, curve, config, provenance."""
+def candidate_setting(overrides: dict) -> WallSetting:
+    """The paper setting with a candidate's stopping criterion (start/goal errors <= ``stop_tolerance``
+    and clearance > ``stop_clearance``, world units); the paper setting itself when it sets neither."""
+    return replace(PAPER, goal_tolerance=overrides.get("stop_tolerance", PAPER.goal_tolerance),
+                   goal_clearance=overrides.get("stop_clearance", PAPER.goal_clearance))
+
+
+def _one(name: str, envs: int, seed: int, eval_every: int, methods: tuple[str, ...]) -> dict:
+    """One E3 run of candidate ``name`` with ``methods``; returns ACNMP's summary and curve (when it
+    ran), the other methods' under ``others``, the config and the provenance."""
     torch.set_num_threads(1)
     meta = provenance()
-    r = run_wall(envs, seed, eval_every=eval_every, methods=("acnmp",), **CANDIDATES[name])
-    return {"provenance": meta, "overrides": CANDIDATES[name], "summary": r["methods"]["acnmp"],
-            "curve": r["curves"]["acnmp"], "config": r["config"], "wall_time_s": r["wall_time_s"]}
+    kw = {k: v for k, v in CANDIDATES[name].items() if k not in STOP_KEYS}
+    r = run_wall(envs, seed, eval_every=eval_every, methods=methods, setting=candidate_setting(CANDIDATES[name]),
+                 **kw)
+    out = {"provenance": meta, "overrides": CANDIDATES[name], "methods": list(methods)}
+    if "acnmp" in methods:
+        out.update(summary=r["methods"]["acnmp"], curve=r["curves"]["acnmp"])
+    others = {m: {"summary": r["methods"][m], "curve": r["curves"][m]} for m in methods if m != "acnmp"}
+    return {**out, **({"others": others} if others else {}), "config": r["config"], "wall_time_s": r["wall_time_s"]}
 
 
 def _combine(files: list[str], out: str, meta: dict) -> int:
@@ -75,6 +105,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--eval-every", type=int, default=60)
     ap.add_argument("--candidates", nargs="+", default=list(CANDIDATES), choices=list(CANDIDATES))
+    ap.add_argument("--methods", nargs="+", default=["acnmp"], choices=list(ALL_METHODS),
+                    help="the methods each candidate runs (default ACNMP only)")
     ap.add_argument("--merge", action="store_true", help="keep the variants already in --out")
     ap.add_argument("--combine", nargs="+", metavar="JSON", help="only merge these earlier results into --out")
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "e3_budget.json"))
@@ -87,13 +119,16 @@ def main(argv: list[str] | None = None) -> int:
         ap.error(f"--merge: {args.out} holds envs {old['envs']}, seed {old['seed']}")
     t0 = time.perf_counter()
     with ProcessPoolExecutor(max_workers=2) as pool:
-        futures = {n: pool.submit(_one, n, args.envs, args.seed, args.eval_every) for n in args.candidates}
+        futures = {n: pool.submit(_one, n, args.envs, args.seed, args.eval_every, tuple(args.methods))
+                   for n in args.candidates}
         variants = {n: f.result() for n, f in futures.items()}
     for n, r in variants.items():
-        s = r["summary"]
-        print(f"{n:<22} test success {100 * s['test_success_rate']:.1f} %  error {s['test_error_mean']:.3f}  "
-              f"goal error {s['test_goal_error_mean']:.3f}  trajectories {s['trajectories_total']}  "
-              f"max {s['trajectories_per_env_max']}  adaptations {s['adaptations']}  {s['time_s']:.0f} s")
+        runs = {**({"acnmp": r["summary"]} if "summary" in r else {}),
+                **{m: o["summary"] for m, o in r.get("others", {}).items()}}
+        for m, s in runs.items():
+            print(f"{n:<16} {m:<9} test success {100 * s['test_success_rate']:.1f} %  error {s['test_error_mean']:.3f}  "
+                  f"goal error {s['test_goal_error_mean']:.3f}  trajectories {s['trajectories_total']}  "
+                  f"max {s['trajectories_per_env_max']}  adaptations {s['adaptations']}  {s['time_s']:.0f} s")
     result = {"provenance": meta, "experiment": "e3_budget", "envs": args.envs, "seed": args.seed,
               "defaults": TRAIN_DEFAULTS, "variants": {**old.get("variants", {}), **variants},
               "wall_time_s": round(time.perf_counter() - t0, 2)}

@@ -434,6 +434,44 @@ def e3_budget() -> str:
     ])
 
 
+def _stop_label(setting: dict) -> str:
+    """A stopping criterion from a run's setting: errors at most the tolerance, clearance above."""
+    return f"errors ≤ {setting['goal_tolerance']:g}, clearance > {setting['goal_clearance']:g}"
+
+
+@renderer("e3-stop")
+def e3_stop() -> str:
+    """The stopping-criterion candidates (e3_stop.json) beside the baseline (stop = trigger): ACNMP's
+    baseline row from e3_budget.json (the same run, reproduced exactly), ProMP + RL's from e3_stop.json."""
+    r, budget = load("e3_stop"), load("e3_budget")
+    rows = []
+    acnmp_base = budget["variants"]["baseline"]
+    runs = [("baseline", acnmp_base["config"]["setting"], "acnmp", acnmp_base["summary"])]
+    for name, w in sorted(r["variants"].items(), key=lambda kv: kv[0] != "baseline"):
+        if "summary" in w:
+            runs.append((name, w["config"]["setting"], "acnmp", w["summary"]))
+        runs += [(name, w["config"]["setting"], m, o["summary"]) for m, o in w.get("others", {}).items()]
+    for name, setting, m, s in sorted(runs, key=lambda x: x[2] != "acnmp"):
+        row = _e3_row(f"{name}: {_stop_label(setting)}", s, s["time_s"])
+        strict = s.get("test_success_rate_strict")
+        rows.append([row[0], TWO_LABELS[m], row[1], "=" if strict is None else pct(strict), *row[2:]])
+    commits = sorted({(w["provenance"]["commit"] or "unknown")[:10] for w in r["variants"].values()})
+    return "\n".join([
+        table(["stopping criterion", "method", "test success (trigger: 0.25)", "test success, stopping criterion",
+               "mean test error", "mean goal error", "trajectories", "max per env", "adaptations", "time (s)"], rows),
+        "",
+        f"* Seed {r['seed']}, {r['envs']} new environments after 30 demonstrated ones, 1000 test environments, "
+        "otherwise the defaults. An adaptation is triggered when the generated trajectory misses the 0.25 "
+        "criterion (start and goal errors ≤ 0.25, clearance > 0) and stops on the row's criterion; test "
+        "success is the trigger's criterion, the next column the stopping criterion's (\"=\": the same).",
+        f"* ACNMP baseline row: the `baseline` variant of `e3_budget.json` (commit "
+        f"{acnmp_base['provenance']['commit'][:10]}); the other rows ran at commit(s) {', '.join(commits)}, "
+        "the two ACNMP candidates side by side (two processes), so only their times compare.",
+        "",
+        source(r, "e3_stop"),
+    ])
+
+
 @renderer("e3-profile")
 def e3_profile() -> str:
     r = load("e3_profile")
