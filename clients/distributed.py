@@ -38,7 +38,6 @@ from acnmp_core.adaptation import AdaptResult
 from acnmp_core.experiments.viapoint import ViaPointRun, ViaPointSetup, run_viapoint
 from clients.client import RETRY_CODES, ACNMPClient, ClientError
 from services.launcher import LocalDeployment
-from services.recording.publisher import EventPublisher
 from services.recording.recorded import RecordedEvaluator
 from services.worker.remote import RemoteEvaluator
 
@@ -98,7 +97,7 @@ def evaluator_maker(dep: LocalDeployment, robot: str, task: str, *, record: bool
     made) with the fields ``extra`` added to each event. RuntimeError if its recorder is not up."""
     publisher = None
     if record:
-        publisher = EventPublisher(dep.session, dep.keys)
+        publisher = dep.events  # the deployment's: its stop() waits until the recorder has what it published
         if not publisher.wait_for_recorder(timeout=30):
             raise RuntimeError(f"the recorder of deployment {dep.namespace!r} did not come up")
     counter = itertools.count()

@@ -314,13 +314,22 @@ class LocalDeployment:
         if self._events is not None:
             self._events.publish(event)
 
+    @property
+    def events(self) -> EventPublisher:
+        """The launcher session's event publisher (after :meth:`start`): what an experiment run
+        on this deployment publishes through it is recorded before :meth:`stop` ends the recorder."""
+        if self._events is None:
+            raise RuntimeError("the deployment is not started")
+        return self._events
+
     # ----- stopping --------------------------------------------------------------------------
     def stop(self) -> dict[str, int | None]:
         """Stop the children with SIGTERM (SIGKILL after ``stop_timeout``), in two overlapping steps:
         the learner, the model and the workers at once (the learner abandons the batch in flight
         of its running job, which is saved ``interrupted`` and resumes on the next start, so it
-        needs no worker to stop), then, as soon as the learner is gone and its last events are out,
-        the recorder (it records them and writes its footer). Closes the session, merges the
+        needs no worker to stop), then, as soon as the learner is gone and its last events are out
+        and the recorder's counts hold every roll-out published through :attr:`events` (at most
+        ``stop_timeout`` s), the recorder (it records them and writes its footer). Closes the session, merges the
         recorder's files after a restart, unlocks the state directory. Returns {name: exit code};
         names SIGKILLed are added to ``killed``. Supervision ends first, so nothing stopped here is
         restarted. Safe to call twice.
@@ -335,6 +344,9 @@ class LocalDeployment:
         deadline = time.monotonic() + self.stop_timeout
         self._terminate(learner + others)
         self._reap(learner, deadline)
+        if recorder and self._events is not None and not self._events.wait_recorded(self.stop_timeout):
+            log.warning("the recorder did not confirm every roll-out published through the launcher "
+                        "within %.0f s; stopping it anyway", self.stop_timeout)
         self._terminate(recorder)
         self._reap(others, deadline)
         self._reap(recorder, time.monotonic() + self.stop_timeout)

@@ -7,12 +7,13 @@ cache, the events it missed (services/recording/recorder.py, docs/PROTOCOL.md se
 from __future__ import annotations
 
 import threading
-from collections import OrderedDict
+import time
+from collections import Counter, OrderedDict
 
 import zenoh
 import zenoh.ext as zext
 
-from services.transport import Keyspace, encode, wait_for_liveliness
+from services.transport import Keyspace, WireError, call, encode, wait_for_liveliness
 
 from .events import event_key, validate_event
 
@@ -30,6 +31,9 @@ MAX_KEYS = 64
 #: Seconds between the heartbeats by which a subscriber learns a publisher's last sequence number
 #: (zenoh-ext sample-miss detection), so a lost tail of events is also recovered.
 HEARTBEAT = 0.5
+
+#: Seconds between two looks at the recorder's counts in :meth:`EventPublisher.wait_recorded`.
+POLL_INTERVAL = 0.05
 
 
 class EventPublisher:
@@ -50,6 +54,7 @@ class EventPublisher:
         self.cache_samples = int(cache_samples)
         self._publishers: OrderedDict[str, zext.AdvancedPublisher] = OrderedDict()
         self._lock = threading.Lock()
+        self._rollouts: Counter[str] = Counter()  # rollout events published per job
 
     def _publisher(self, key: str) -> zext.AdvancedPublisher:
         with self._lock:
@@ -71,6 +76,37 @@ class EventPublisher:
         """Validate, encode and put one event (any kind)."""
         validate_event(msg)
         self._publisher(event_key(self.keys, msg)).put(encode(msg))
+        if msg["kind"] == "rollout":
+            with self._lock:
+                self._rollouts[msg["job"]] += 1
+
+    def rollouts_published(self) -> dict[str, int]:
+        """``{job: n}``: the rollout events this publisher has put, per job."""
+        with self._lock:
+            return dict(self._rollouts)
+
+    def wait_recorded(self, timeout: float = 10.0) -> bool:
+        """Block until the recorder's counts (its status queryable) hold every rollout event this
+        publisher put, job by job; True when they do, False after ``timeout`` s (or at once when no
+        recorder answers). A put returns when the event is queued, not when it is recorded: call
+        this before stopping the recorder, or the events still in flight are lost with it."""
+        wanted = self.rollouts_published()
+        if not wanted:
+            return True
+        deadline = time.monotonic() + timeout
+        while True:
+            left = deadline - time.monotonic()
+            if left <= 0:
+                return False
+            try:
+                have = call(self.session, self.keys.recorder_status(), None, timeout=min(left, 5.0))["rollouts"]
+            except WireError as exc:
+                if exc.code == "unavailable":  # no recorder: nothing will ever record them
+                    return False
+                continue
+            if all(have.get(job, 0) >= n for job, n in wanted.items()):
+                return True
+            time.sleep(min(POLL_INTERVAL, max(0.0, deadline - time.monotonic())))
 
     def close(self) -> None:
         """Undeclare the publishers (their caches go with them); idempotent."""
