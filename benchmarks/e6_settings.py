@@ -14,9 +14,10 @@ which never fired) are not repeated; "F" is re-run here as the baseline. The JSO
 ``no_signal_iterations`` (iterations whose roll-outs all poured the same: none) were logged by
 ``run_seed`` until that option went.
 
-The harder tuning set (``results/e6_settings_hard.json``): seeds 100-115 (``--seeds 100-115``),
-budget 30 (``--budget 30``: a run not solved by then counts as 31 in the median), "F" against
-"N", "O" and "Q"; ``baseline_not_within_20`` lists the seeds "F" does not solve within 20.
+The harder tuning set (``results/e6_settings_hard.json``): seeds 100-115 (``--seeds 104-115,100-103``,
+the new ones first), budget 30 (``--budget 30``: a run not solved by then counts as 31 in the
+median), "F" against "N", "O" and "Q" (``--only F,N,O,Q``); ``baseline_not_within_20`` lists the
+seeds the first candidate of ``--only`` (here "F") does not solve within 20.
 
 Usage: ``python benchmarks/e6_settings.py [--seeds 100,101,102,103 | 100-115] [--only F,G] [--budget 25]
 [--jobs 2] [--out FILE]``.
