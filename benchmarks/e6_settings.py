@@ -14,7 +14,13 @@ which never fired) are not repeated; "F" is re-run here as the baseline. The JSO
 ``no_signal_iterations`` (iterations whose roll-outs all poured the same: none) were logged by
 ``run_seed`` until that option went.
 
-Usage: ``python benchmarks/e6_settings.py [--seeds 100,101,102,103] [--only F,G] [--jobs 2] [--out FILE]``.
+The harder tuning set (``results/e6_settings_hard.json``): seeds 100-115 (``--seeds 104-115,100-103``,
+the new ones first), budget 30 (``--budget 30``: a run not solved by then counts as 31 in the
+median), "F" against "N", "O" and "Q" (``--only F,N,O,Q``); ``baseline_not_within_20`` lists the
+seeds the first candidate of ``--only`` (here "F") does not solve within 20.
+
+Usage: ``python benchmarks/e6_settings.py [--seeds 100,101,102,103 | 100-115] [--only F,G] [--budget 25]
+[--jobs 2] [--out FILE]``.
 """
 from __future__ import annotations
 
@@ -31,10 +37,14 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from acnmp_core.adaptation import AdaptConfig  # noqa: E402
+from acnmp_core.exploration import CubicNoise  # noqa: E402
 from acnmp_core.experiments.pour import TOLERANCE_G, WITHIN, make_setup, run_seed, train_pour_cnmp  # noqa: E402
 from benchmarks._results import provenance, save_result  # noqa: E402
 
 BUDGET = 25
+#: Mean std per step of E6's cubic noise (12 knots, the AdaptConfig default, over the demos' 240 rows)
+#: per unit std of its samples.
+CUBIC_STEP_STD = float(CubicNoise(240, 12).step_std().mean())
 #: The candidates on the 35 deg rig, the library's defaults otherwise (always ``solution="any"``).
 #: F: the 25 deg rig's choice (std = min(1.5e-3 rad/g x error, 0.5 rad), lr 1e-3, temperature 0.05).
 CANDIDATES = {
@@ -49,28 +59,45 @@ CANDIDATES = {
     "L": dict(explore_error_gain=1.5e-3, explore_cap=0.5, lr=1e-3, temperature=0.05, noisy_per_iter=9),
     # greedier AWR weights (nearer to following the best roll-out alone)
     "M": dict(explore_error_gain=1.5e-3, explore_cap=0.5, lr=1e-3, temperature=0.02),
+    # the harder tuning set's candidates: fewer noisy roll-outs per iteration, so more policy updates
+    # within 20 roll-outs (an iteration of 3 roll-outs: 6 updates by roll-out 20, against 3 with 4 noisy)
+    "N": dict(explore_error_gain=1.5e-3, explore_cap=0.5, lr=1e-3, temperature=0.05, noisy_per_iter=2),
+    "O": dict(explore_error_gain=1.5e-3, explore_cap=0.5, lr=1e-3, temperature=0.05, noisy_per_iter=3),
+    # the authors' cubic noise at F's std per step on average: with 12 knots over 240 steps its std per
+    # step averages CUBIC_STEP_STD (0.52) x the samples' std, so the samples' gain and cap are F's / 0.52
+    "Q": dict(explore_error_gain=1.5e-3 / CUBIC_STEP_STD, explore_cap=0.5 / CUBIC_STEP_STD, lr=1e-3,
+              temperature=0.05, noise="cubic"),
 }
 
 
-def candidate_config(name: str) -> AdaptConfig:
-    """The AdaptConfig of candidate ``name`` (a key of :data:`CANDIDATES`), budget :data:`BUDGET`."""
-    return AdaptConfig(max_rollouts=BUDGET, solution="any", **CANDIDATES[name])
+def candidate_config(name: str, budget: int = BUDGET) -> AdaptConfig:
+    """The AdaptConfig of candidate ``name`` (a key of :data:`CANDIDATES`) with ``budget`` roll-outs."""
+    return AdaptConfig(max_rollouts=budget, solution="any", **CANDIDATES[name])
 
 
-def seed_job(args: tuple[int, list[str]]) -> list[dict]:
+def parse_seeds(text: str) -> list[int]:
+    """Seeds from ``"100,101"`` or ``"100-115"`` (inclusive) or a mix of both (``"100-103,110"``)."""
+    seeds: list[int] = []
+    for part in text.split(","):
+        lo, _, hi = part.partition("-")
+        seeds.extend(range(int(lo), int(hi) + 1) if hi else [int(lo)])
+    return seeds
+
+
+def seed_job(args: tuple[int, list[str], int]) -> list[dict]:
     """Train seed's LfD model once and adapt a copy of it with every named candidate; in a child
     process (one torch thread, its own rig). Returns one dict per candidate (run_seed's, with
     ``candidate`` and ``seed``)."""
     from acnmp_core.robots.pour import PourTask
 
-    seed, names = args
+    seed, names, budget = args
     torch.set_num_threads(1)
     setup = make_setup()
     model = train_pour_cnmp(setup.demos, seed)
     out = []
     with PourTask(tolerance_g=TOLERANCE_G) as task:
         for name in names:
-            r = run_seed(copy.deepcopy(model), setup, task, candidate_config(name), seed, None)
+            r = run_seed(copy.deepcopy(model), setup, task, candidate_config(name, budget), seed, None)
             out.append({"candidate": name, "seed": seed, "first_success_rollout": r["first_success_rollout"],
                         "rollouts": r["rollouts"], "lfd_error_g": r["lfd_error_g"],
                         "errors_g_per_rollout": r["errors_g_per_rollout"], "curve": r["curve"]})
@@ -85,11 +112,12 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", default="100,101,102,103")
     ap.add_argument("--only", default=",".join(CANDIDATES))
+    ap.add_argument("--budget", type=int, default=BUDGET)
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "e6_settings.json"))
     args = ap.parse_args(argv)
     meta = provenance()
-    seeds = [int(s) for s in args.seeds.split(",")]
+    seeds = parse_seeds(args.seeds)
     names = args.only.split(",")
     t0 = time.perf_counter()
     make_setup()  # generates and caches the demonstrations once, before any child
@@ -97,16 +125,18 @@ def main(argv: list[str] | None = None) -> int:
     from multiprocessing import get_context
 
     with ProcessPoolExecutor(min(args.jobs, len(seeds)), mp_context=get_context("spawn")) as pool:
-        rows = [r for rs in pool.map(seed_job, [(s, names) for s in seeds]) for r in rs]
+        rows = [r for rs in pool.map(seed_job, [(s, names, args.budget) for s in seeds]) for r in rs]
     runs = {n: [r for r in rows if r["candidate"] == n] for n in names}
     first = {n: [r["first_success_rollout"] for r in runs[n]] for n in names}
     result = {"provenance": meta, "benchmark": "e6_settings", "rig": "pour wall flared 35 deg", "seeds": seeds,
-              "budget": BUDGET, "candidates": {n: candidate_config(n).to_dict() for n in names},
+              "budget": args.budget, "candidates": {n: candidate_config(n, args.budget).to_dict() for n in names},
               "within_20": {n: sum(f is not None and f <= WITHIN for f in first[n]) for n in names},
               "first_success_rollout": first,
               # a seed without a success counts as budget + 1
-              "first_success_median": {n: float(np.median([BUDGET + 1 if f is None else f for f in first[n]]))
+              "first_success_median": {n: float(np.median([args.budget + 1 if f is None else f for f in first[n]]))
                                        for n in names},
+              # the seeds the first candidate (the baseline, "F") does not solve within 20 roll-outs
+              "baseline_not_within_20": [s for s, f in zip(seeds, first[names[0]]) if f is None or f > WITHIN],
               "wall_time_s": round(time.perf_counter() - t0, 1), "runs": runs}
     save_result(result, args.out, None, ("within_20", "first_success_rollout", "wall_time_s"))
     return 0
