@@ -47,6 +47,10 @@ from .store import SkillState
 
 log = logging.getLogger(__name__)
 
+#: Seconds a closing learner waits for the recorder to confirm its roll-outs (well inside the
+#: launcher's stop timeout, after which it is SIGKILLed).
+RECORDED_WAIT = 4.0
+
 #: Bound on the demonstrations of one train request (N * T * D values).
 MAX_DEMO_VALUES = 10_000_000
 #: Model-architecture fields a train request may set (the rest come from the data).
@@ -246,13 +250,17 @@ class LearnerService:
                 query.reply_err(error_payload("internal", f"{type(exc).__name__}: {exc}"))
 
     def close(self) -> None:
-        """Stop taking requests, interrupt the running job (it resumes on restart), undeclare all."""
+        """Stop taking requests, interrupt the running job (it resumes on restart), undeclare all;
+        with a recorder (``wait_recorder`` > 0), wait up to :data:`RECORDED_WAIT` s until it holds
+        every roll-out this learner published (the launcher stops it only after the learner)."""
         for undeclare in (self._token.undeclare, *(rpc.close for rpc in self._rpcs), self._latest.undeclare):
             try:
                 undeclare()
             except Exception:  # the session may be closing under us
                 log.debug("undeclare failed", exc_info=True)
         self.core.close()
+        if self.wait_recorder > 0 and not self.events.wait_recorded(RECORDED_WAIT):
+            log.warning("the recorder did not confirm every roll-out of this learner within %.0f s", RECORDED_WAIT)
 
     def __enter__(self) -> "LearnerService":
         return self
