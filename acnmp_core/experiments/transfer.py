@@ -302,6 +302,7 @@ def run_transfer(
     cfg: TransferExperimentConfig | None = None,
     conditions: tuple[str, ...] = CONDITIONS,
     authors_data: bool = True,
+    authors_data_dir: Path | str = AUTHORS_DATA,
     evaluator_factory: Callable[[str], RolloutEvaluator] | None = None,
     on_iteration: Callable[[str, int], Callable] | None = None,
     log: Callable[[str], None] | None = None,
@@ -319,7 +320,8 @@ def run_transfer(
         supervised sampling seeded by r.
     cfg : :class:`TransferExperimentConfig` (default: its defaults).
     conditions : a subset of :data:`CONDITIONS`.
-    authors_data : run :func:`authors_data_check` (seed 0) too.
+    authors_data : run :func:`authors_data_check` (seed 0) too, on the arrays in
+        ``authors_data_dir`` (the result's ``authors_data`` is None when they are absent).
     evaluator_factory : ``(condition) -> RolloutEvaluator`` of robot B's task, called once per run
         and condition (e.g. remote workers); default one in-process CubeGapTask(4) for all.
     on_iteration : ``(condition, seed) -> callback`` for adapt(), e.g. to record.
@@ -400,7 +402,8 @@ def run_transfer(
         "controls": {c: summary[c] for c in conditions if c != "transfer"},
         "conditions": summary,
         "paper": {"success_by_iteration": {str(k): v for k, v in PAPER_SUCCESS.items()}},
-        "authors_data": authors_data_check(cfg.authors_pair, 0, n_obs=cfg.n_obs) if authors_data else None,
+        "authors_data": (authors_data_check(cfg.authors_pair, 0, authors_data_dir, n_obs=cfg.n_obs)
+                         if authors_data else None),
         "latent_alignment": {k: float(np.median(v)) for k, v in alignment.items()},
         "demo_error": setup.new_a_error,
         "config": cfg.to_dict(),

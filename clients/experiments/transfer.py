@@ -1,6 +1,8 @@
 """``acnmp experiment transfer``: E4, a 3-DoF arm's skill transferred to a 4-DoF arm and refined by RL."""
 from __future__ import annotations
 
+from pathlib import Path
+
 from .common import add_deployment_arguments, add_output_arguments, check_deployment_arguments, write_json
 
 
@@ -23,7 +25,10 @@ def register(subparsers) -> None:
     p.add_argument("--budget", type=int, default=None,
                    help="roll-outs per RL run in robot B, 2 per iteration (default 40)")
     p.add_argument("--no-authors-data", action="store_true",
-                   help="skip the check on the authors' published arrays (../shared/data/acnmp-paper)")
+                   help="skip the check on the authors' published arrays")
+    p.add_argument("--authors-data", metavar="DIR", default=None,
+                   help="directory of the authors' E4 arrays (3doftraining_joint_trajectories.npy, ...; "
+                        "default: ../shared/data/acnmp-paper/experiment4 beside the repository)")
     add_output_arguments(p, "write success vs RL iteration per condition, the paper's beside (PNG)")
     add_deployment_arguments(p, "the pairs trained by the learner, the 4-DoF arm's first attempt from the model "
                                 "service's transfer query, its roll-outs on planar4 PyBullet workers")
@@ -37,7 +42,7 @@ def run(args) -> int:
 
     from dataclasses import replace
 
-    from acnmp_core.experiments.transfer import TransferExperimentConfig, run_transfer
+    from acnmp_core.experiments.transfer import AUTHORS_DATA, TransferExperimentConfig, load_authors_data, run_transfer
 
     torch.set_num_threads(1)  # the CNMPs are small; threads only contend with the simulator
     for name in ("runs", "pair_steps", "budget"):
@@ -45,12 +50,15 @@ def run(args) -> int:
         if value is not None and value < 1:
             raise ValueError(f"--{name.replace('_', '-')}: expected a positive integer, got {value}")
     check_deployment_arguments(args)
+    data_dir = AUTHORS_DATA if args.authors_data is None else Path(args.authors_data)
+    if args.authors_data is not None and not args.no_authors_data and load_authors_data(data_dir) is None:
+        raise ValueError(f"--authors-data {args.authors_data}: the authors' four E4 arrays are not all there")
     cfg = TransferExperimentConfig()
     if args.pair_steps is not None:
         cfg.pair = replace(cfg.pair, steps=args.pair_steps)
     if args.budget is not None:
         cfg.adapt = replace(cfg.adapt, max_rollouts=args.budget)
-    kwargs = dict(cfg=cfg, authors_data=not args.no_authors_data,
+    kwargs = dict(cfg=cfg, authors_data=not args.no_authors_data, authors_data_dir=data_dir,
                   log=None if args.quiet else (lambda s: print(s, flush=True)))
     if args.distributed:
         from clients.transfer_service import run_transfer_distributed
@@ -77,6 +85,8 @@ def run(args) -> int:
         print(f"authors' data, RMSE (rad) against the 4-DoF ground truth: transfer {a['transfer_rmse']:.3f}, "
               f"mean demonstration {a['mean_demo_rmse']:.3f}, nearest demonstration's partner "
               f"{a['nearest_partner_rmse']:.3f}")
+    elif not args.no_authors_data:
+        print(f"authors' data check skipped: their arrays are not in {data_dir} (--authors-data DIR)")
     write_json(result, args.json)
     if args.plot:
         from acnmp_core.plots import plot_transfer

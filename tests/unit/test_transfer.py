@@ -144,3 +144,11 @@ def test_summary_counts_success_within_k_iterations(tmp_path):
     result = {"runs": 4, "per_run": runs, "paper": {"success_by_iteration": {"3": 0.23, "19": 1.0}}}
     out = plot_transfer(json.loads(json.dumps(result)), tmp_path / "e4.png")
     assert out.exists() and out.stat().st_size > 0
+
+
+def test_an_authors_data_directory_without_their_arrays_is_refused_before_any_training(tmp_path, capsys):
+    from clients.cli import main
+
+    assert main(["experiment", "transfer", "--runs", "1", "--authors-data", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert f"--authors-data {tmp_path}: the authors' four E4 arrays are not all there" in err
