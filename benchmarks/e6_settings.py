@@ -67,6 +67,10 @@ CANDIDATES = {
     # step averages CUBIC_STEP_STD (0.52) x the samples' std, so the samples' gain and cap are F's / 0.52
     "Q": dict(explore_error_gain=1.5e-3 / CUBIC_STEP_STD, explore_cap=0.5 / CUBIC_STEP_STD, lr=1e-3,
               temperature=0.05, noise="cubic"),
+    # the fit (e6_fit_trace_104/115.json): every update of F ends at max_reuse (50 steps) with the mean
+    # still 0.13-1.5 stds from the AWR target, having moved part of the way to it: more steps, or faster ones
+    "R": dict(explore_error_gain=1.5e-3, explore_cap=0.5, lr=1e-3, temperature=0.05, max_reuse=200),
+    "S": dict(explore_error_gain=1.5e-3, explore_cap=0.5, lr=3e-3, temperature=0.05, max_reuse=100),
 }
 
 
