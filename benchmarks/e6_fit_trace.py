@@ -5,8 +5,9 @@ For each seed a CNMP is trained as in E6 and adapted with a candidate of ``e6_se
 traced, without changing it: the wrist's largest tilt (deg) of the mean before the update, of the
 AWR target and of the iteration's best roll-out, and of the mean after it; the fit measure (the
 largest relevance-weighted distance of the mean from the target, in exploration stds, the one
-``fit_tolerance`` is compared with) after each policy step, the step where that largest distance
-sits, and why the update stopped ("fit_tolerance" or "max_reuse").
+``fit_tolerance`` is compared with) after each policy step but the last (update() does not
+measure it either), the step where that largest distance sits (0-239), and why the update stopped
+("fit_tolerance" or "max_reuse").
 
 Usage: ``python benchmarks/e6_fit_trace.py [--seeds 104,115] [--candidate F] [--out FILE]``.
 """

@@ -17,7 +17,9 @@ which never fired) are not repeated; "F" is re-run here as the baseline. The JSO
 The harder tuning set (``results/e6_settings_hard.json``): seeds 100-115 (``--seeds 104-115,100-103``,
 the new ones first), budget 30 (``--budget 30``: a run not solved by then counts as 31 in the
 median), "F" against "N", "O" and "Q" (``--only F,N,O,Q``); ``baseline_not_within_20`` lists the
-seeds the first candidate of ``--only`` (here "F") does not solve within 20.
+seeds the first candidate of ``--only`` (here "F") does not solve within 20. The fit's candidates
+"R" and "S" on the same set (``results/e6_settings_fit.json``, ``--only R,S``; F not re-run, the runs
+are deterministic): there ``baseline_not_within_20`` is R's.
 
 Usage: ``python benchmarks/e6_settings.py [--seeds 100,101,102,103 | 100-115] [--only F,G] [--budget 25]
 [--jobs 2] [--out FILE]``.
