@@ -17,7 +17,9 @@ which never fired) are not repeated; "F" is re-run here as the baseline. The JSO
 The harder tuning set (``results/e6_settings_hard.json``): seeds 100-115 (``--seeds 104-115,100-103``,
 the new ones first), budget 30 (``--budget 30``: a run not solved by then counts as 31 in the
 median), "F" against "N", "O" and "Q" (``--only F,N,O,Q``); ``baseline_not_within_20`` lists the
-seeds the first candidate of ``--only`` (here "F") does not solve within 20.
+seeds the first candidate of ``--only`` (here "F") does not solve within 20. The fit's candidates
+"R" and "S" on the same set (``results/e6_settings_fit.json``, ``--only R,S``; F not re-run, the runs
+are deterministic): there ``baseline_not_within_20`` is R's.
 
 Usage: ``python benchmarks/e6_settings.py [--seeds 100,101,102,103 | 100-115] [--only F,G] [--budget 25]
 [--jobs 2] [--out FILE]``.
@@ -67,6 +69,10 @@ CANDIDATES = {
     # step averages CUBIC_STEP_STD (0.52) x the samples' std, so the samples' gain and cap are F's / 0.52
     "Q": dict(explore_error_gain=1.5e-3 / CUBIC_STEP_STD, explore_cap=0.5 / CUBIC_STEP_STD, lr=1e-3,
               temperature=0.05, noise="cubic"),
+    # the fit (e6_fit_trace_104/115.json): every update of F ends at max_reuse (50 steps) with the mean
+    # still 0.13-1.5 stds from the AWR target, having moved part of the way to it: more steps, or faster ones
+    "R": dict(explore_error_gain=1.5e-3, explore_cap=0.5, lr=1e-3, temperature=0.05, max_reuse=200),
+    "S": dict(explore_error_gain=1.5e-3, explore_cap=0.5, lr=3e-3, temperature=0.05, max_reuse=100),
 }
 
 
