@@ -6,7 +6,8 @@ no assimilation, through :func:`~acnmp_core.experiments.pour.run_seed` (E6's own
 candidate is E6's protocol (``solution="any"``: the first executed roll-out within 30 g, mean or
 noisy, ends the adaptation) with the library's defaults except the keys listed; the reward is E6's
 (minus the final error, g). It writes, per candidate and seed, the first roll-out within 30 g, every
-roll-out's error (g) and the mean's curve; ``within_20`` counts the seeds with a roll-out within 30 g among the first 20.
+roll-out's error (g) and the mean's curve; ``within_20`` counts the seeds with a roll-out within 30 g
+among the first 20.
 
 Candidates "A"-"F" (tried on the rig flared 25 deg, ``results/e6_settings_flare25.json``; "F" is
 ``e6_adapt_config`` there, then with ``explore_widen`` 2, an option since removed from AdaptConfig,
@@ -19,7 +20,7 @@ the new ones first), budget 30 (``--budget 30``: a run not solved by then counts
 median), "F" against "N", "O" and "Q" (``--only F,N,O,Q``); ``baseline_not_within_20`` lists the
 seeds the first candidate of ``--only`` (here "F") does not solve within 20. The fit's candidates
 "R" and "S" on the same set (``results/e6_settings_fit.json``, ``--only R,S``; F not re-run, the runs
-are deterministic): there ``baseline_not_within_20`` is R's.
+are deterministic): there ``baseline_not_within_20`` is R's. "S" is ``e6_adapt_config`` since.
 
 Usage: ``python benchmarks/e6_settings.py [--seeds 100,101,102,103 | 100-115] [--only F,G] [--budget 25]
 [--jobs 2] [--out FILE]``.

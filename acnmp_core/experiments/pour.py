@@ -63,8 +63,9 @@ def e6_adapt_config(max_rollouts: int = BUDGET) -> AdaptConfig:
     ``e6_settings_hard.json``). Then the fit: every policy update of that setting ended at
     ``max_reuse`` (50) with the mean short of its AWR target (``e6_fit_trace_104/115.json``);
     candidate "S" (lr 3e-3, max_reuse 100) solves 14 of those 16 seeds within 20 roll-outs, median
-    first success 11 (the earlier setting "F": 11, 15.5; ``e6_settings_fit.json``) and is this one; on the reported seeds 0-4 it solves 4 of 5 within
-    20 roll-outs (``e6_pour.json``; F 2 of 5, ``e6_pour_setting_f.json``):
+    first success 11 (the earlier setting "F": 11, 15.5; ``e6_settings_fit.json``) and is this
+    one; on the reported seeds 0-4 it solves 4 of 5 within 20 roll-outs (``e6_pour.json``; F 2 of
+    5, ``e6_pour_setting_f.json``):
 
     explore_error_gain 1.5e-3 rad/g, explore_cap 0.5 rad : the authors' rule, the std tied to the
         remaining error in absolute terms (as in every one of their experiments): 0.5 rad (29 deg)
