@@ -8,7 +8,7 @@ import sys
 
 import numpy as np
 
-from clients.argtypes import int_at_least
+from services.transport.argtypes import int_at_least, seconds
 from services.transport import SessionOptions, jsonable
 
 #: What ``query`` says when no model service answers its liveliness query.
@@ -97,23 +97,12 @@ def _common(parser: argparse.ArgumentParser, skill: bool = True) -> None:
     # the same session options as every process (services/transport/session.py); a command has no
     # router role; without --connect it finds the running deployment (clients/discovery.py)
     SessionOptions.add_arguments(parser, modes=("peer", "client"))
-    parser.add_argument("--timeout", type=positive_float, default=10.0,
+    parser.add_argument("--timeout", type=seconds(), default=10.0,
                         help="seconds to wait for a reply (default: %(default)s)")
     parser.add_argument("--json", action="store_true", help="print the full reply as JSON")
     if skill:
         parser.add_argument("--skill", "-s", default=None,
                             help="skill name (default: the deployment's skill, when it serves exactly one)")
-
-
-def positive_float(text: str) -> float:
-    """An argparse type: a finite number > 0."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number > 0, got {text!r}") from None
-    if not (math.isfinite(value) and value > 0):
-        raise argparse.ArgumentTypeError(f"expected a number > 0, got {text!r}")
-    return value
 
 
 def _number(text, where: str) -> float:

@@ -8,7 +8,7 @@ def register(subparsers) -> None:
     """Add the ``up`` sub-command."""
     from acnmp_core.robots.registry import robot_kinds
 
-    from clients.argtypes import int_at_least
+    from services.transport.argtypes import int_at_least
 
     p = subparsers.add_parser("up", help="start a local deployment on 127.0.0.1 until Ctrl-C / SIGTERM",
                               description=__doc__.splitlines()[0].split(": ", 1)[1])

@@ -6,7 +6,7 @@ import sys
 
 import numpy as np
 
-from clients.argtypes import int_at_least
+from services.transport.argtypes import int_at_least
 
 from .common import add_deployment_arguments, add_output_arguments, check_deployment_arguments, write_json
 

@@ -2,7 +2,7 @@
 (and the baseline after Ewerton et al. 2019), in the paper's or the authors' task setting."""
 from __future__ import annotations
 
-from clients.argtypes import int_at_least
+from services.transport.argtypes import int_at_least
 
 from .common import add_deployment_arguments, add_output_arguments, check_deployment_arguments, write_json
 
