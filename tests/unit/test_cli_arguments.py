@@ -14,11 +14,34 @@ HUGE = "99999999999999999999"
 
 
 def refused(argv: list[str], capsys) -> str:
-    """Run ``acnmp argv``; assert argparse refused it (exit 2); return its last stderr line."""
+    """Run ``acnmp argv``; assert it was refused with exit code 2 and one line on stderr; return it."""
+    assert main(argv) == 2
+    captured = capsys.readouterr()
+    lines = captured.err.strip().splitlines()
+    assert len(lines) == 1 and captured.out == "", captured
+    return lines[0]
+
+
+@pytest.mark.parametrize("argv, expected", [
+    (["bogus"], ["invalid choice: 'bogus'", "(see acnmp --help)"]),
+    (["experiment"], ["required: NAME"]),
+    (["experiment", "viapoint", "--seed", "-1"], ["argument --seed: expected an integer >= 0, got -1",
+                                                  "(see acnmp experiment viapoint --help)"]),
+    (["experiment", "push", "--setting", "x"], ["--setting", "'paper', 'authors'"]),
+    (["query", "cancel"], ["required: JOB"]),
+    (["serve", "worker", "--robot", "ur11"], ["--robot", "'point2d'"]),
+])
+def test_argparse_mistakes_are_one_line_and_exit_2(argv, expected, capsys):
+    """Not argparse's usage block and a SystemExit: one line, and main returns 2 as for any bad value."""
+    line = refused(argv, capsys)
+    for text in expected:
+        assert text in line
+
+
+def test_help_still_exits_0(capsys):
     with pytest.raises(SystemExit) as exit_:
-        main(argv)
-    assert exit_.value.code == 2
-    return capsys.readouterr().err.strip().splitlines()[-1]
+        main(["experiment", "viapoint", "--help"])
+    assert exit_.value.code == 0 and "--seed" in capsys.readouterr().out
 
 
 def test_shared_types_have_bounds():
