@@ -6,6 +6,8 @@ import os
 import sys
 from pathlib import Path
 
+from services.transport.argtypes import int_at_least
+
 #: The options that name a file an experiment writes at its end (checked before it starts).
 OUTPUT_OPTIONS = ("json", "plot", "record")
 
@@ -20,26 +22,25 @@ def add_size_arguments(p, *, seeds: int, train_steps: int, budget: int, budget_h
     """Add ``--seeds N`` (default ``seeds``), ``--train-steps N`` and ``--budget N``; the last two
     default to None, resolved by :func:`sizes` from the experiment module's constants (the help
     names ``train_steps`` and ``budget``; importing the module here would load torch for ``--help``)."""
-    p.add_argument("--seeds", type=int, default=seeds, help=f"number of seeds 0..N-1 (default {seeds})")
-    p.add_argument("--train-steps", type=int, default=None, help=f"CNMP training steps (default {train_steps})")
-    p.add_argument("--budget", type=int, default=None, help=f"{budget_help} (default {budget})")
+    count = int_at_least(1)
+    p.add_argument("--seeds", type=count, default=seeds, help=f"number of seeds 0..N-1 (default {seeds})")
+    p.add_argument("--train-steps", type=count, default=None, help=f"CNMP training steps (default {train_steps})")
+    p.add_argument("--budget", type=count, default=None, help=f"{budget_help} (default {budget})")
 
 
 def sizes(args, train_steps: int, budget: int) -> tuple[int, int]:
-    """``(train steps, budget)`` from ``args`` with the given defaults; ValueError naming the
-    options unless they and ``--seeds`` are positive."""
-    steps = train_steps if args.train_steps is None else args.train_steps
-    budget = budget if args.budget is None else args.budget
-    if args.seeds < 1 or steps < 1 or budget < 1:
-        raise ValueError("--seeds, --train-steps, --budget: expected positive integers")
-    return steps, budget
+    """``(train steps, budget)`` from ``args`` with the given defaults (the parser of
+    :func:`add_size_arguments` has refused values below 1)."""
+    return (train_steps if args.train_steps is None else args.train_steps,
+            budget if args.budget is None else args.budget)
 
 
 def add_deployment_arguments(p, what: str) -> None:
     """Add ``--distributed`` (help: ``what`` runs where), ``--workers N``, ``--record FILE.rrd``
     and ``--insecure`` (as ``acnmp up --insecure``: the fresh deployment without authentication)."""
     p.add_argument("--distributed", action="store_true", help=f"run {what} on a local zenoh deployment")
-    p.add_argument("--workers", type=int, default=2, help="workers of the --distributed deployment (default 2)")
+    p.add_argument("--workers", type=int_at_least(1), default=2,
+                   help="workers of the --distributed deployment (default 2)")
     p.add_argument("--record", metavar="FILE.rrd",
                    help="with --distributed: the recorder writes every roll-out to this Rerun file")
     p.add_argument("--insecure", action="store_true",
@@ -49,8 +50,6 @@ def add_deployment_arguments(p, what: str) -> None:
 
 def check_deployment_arguments(args) -> None:
     """ValueError when the deployment options do not fit together."""
-    if args.distributed and args.workers < 1:
-        raise ValueError(f"--workers: expected at least 1, got {args.workers}")
     if args.record and not args.distributed:
         raise ValueError("--record: only with --distributed (the recorder is a process of the deployment)")
     if args.insecure and not args.distributed:

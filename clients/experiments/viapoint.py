@@ -25,8 +25,9 @@ def register(subparsers) -> None:
     p.add_argument("--seed", type=int_at_least(0), default=0, help="seed of training and exploration (default 0)")
     p.add_argument("--variant", choices=("2d", "1d"), default="2d",
                    help="2d paths around obstacles (default) or the authors' 1-D two-bump function")
-    p.add_argument("--budget", type=int, default=100, help="roll-out budget per method (default 100)")
-    p.add_argument("--train-steps", type=int, default=3000, help="supervised training steps (default 3000)")
+    p.add_argument("--budget", type=int_at_least(1), default=100, help="roll-out budget per method (default 100)")
+    p.add_argument("--train-steps", type=int_at_least(1), default=3000,
+                   help="supervised training steps (default 3000)")
     add_output_arguments(p, "write Fig. 3-like PNG (and FILE_latents.png like Fig. 4)")
     add_deployment_arguments(p, "training and adaptation jobs on the learner, roll-outs on point2d workers")
     p.add_argument("--namespace", "-n", default=None, metavar="NS",
@@ -47,8 +48,6 @@ def run(args) -> int:
     # in the same order, so the in-process and the distributed runs give the same numbers.
     torch.set_num_threads(1)
 
-    if args.budget < 1 or args.train_steps < 1:
-        raise ValueError("--budget and --train-steps: expected positive integers")
     kwargs = dict(seed=args.seed, variant=args.variant, budget=args.budget, train_steps=args.train_steps,
                   progress=not args.quiet)
     check_deployment_arguments(args)

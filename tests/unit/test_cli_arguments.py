@@ -66,3 +66,35 @@ def test_shared_types_have_bounds():
 ])
 def test_out_of_range_values_are_refused_naming_the_option(argv, option, capsys):
     assert option in refused(argv, capsys)
+
+
+@pytest.mark.parametrize("argv, option", [
+    (["experiment", "push", "--acnmp-budget", "0"], "--acnmp-budget"),  # was: silently the default, 300
+    (["experiment", "push", "--promp-budget", "0"], "--promp-budget"),  # was: silently the default, 1500
+    (["experiment", "push", "--seeds", HUGE], "--seeds"),           # was: OverflowError, exit 1
+    (["experiment", "ur10", "--seeds", HUGE], "--seeds"),
+    (["experiment", "pour", "--train-steps", HUGE], "--train-steps"),
+    (["experiment", "transfer", "--runs", HUGE], "--runs"),
+    (["experiment", "wall", "--envs", HUGE], "--envs"),            # was: "Maximum allowed dimension exceeded"
+    (["experiment", "wall", "--test", "0"], "--test"),
+    (["experiment", "viapoint", "--distributed", "--workers", "0"], "--workers"),
+])
+def test_experiment_counts_are_checked_while_parsing(argv, option, capsys):
+    assert option in refused(argv, capsys)
+
+
+def test_push_quick_keeps_the_options_given(monkeypatch):
+    """--quick sets what was not given: an explicit --train-steps was silently replaced by 1500."""
+    import acnmp_core.experiments.push as push
+
+    seen = {}
+
+    def fake_run_push(seeds, **kwargs):
+        seen.update(kwargs, seeds=seeds)
+        raise KeyboardInterrupt  # stop before printing a result
+
+    monkeypatch.setattr(push, "run_push", fake_run_push)
+    assert main(["experiment", "push", "--quick", "--train-steps", "200", "--quiet"]) == 130
+    assert seen["train_steps"] == 200 and seen["adapt_config"].max_rollouts == 60
+    assert main(["experiment", "push", "--quick", "--quiet"]) == 130 and seen["train_steps"] == 1500
+    assert main(["experiment", "push", "--quiet"]) == 130 and seen["train_steps"] == 3000
