@@ -51,6 +51,10 @@ def run(args) -> int:
     kwargs = dict(seed=args.seed, variant=args.variant, budget=args.budget, train_steps=args.train_steps,
                   progress=not args.quiet)
     check_deployment_arguments(args)
+    if (args.namespace is not None or args.fresh) and not args.distributed:
+        raise ValueError("--namespace, --fresh: only with --distributed")
+    if args.namespace is not None and args.fresh:
+        raise ValueError("--namespace and --fresh: choose a running deployment or a fresh one")
     if args.distributed:
         from clients.distributed import run_viapoint_distributed
 
@@ -89,10 +93,6 @@ def _running_deployment(args):
     from clients.client import ACNMPClient
     from services.transport.runfile import DeploymentNotFound, find
 
-    if (args.namespace is not None or args.fresh) and not args.distributed:
-        raise ValueError("--namespace, --fresh: only with --distributed")
-    if args.namespace is not None and args.fresh:
-        raise ValueError("--namespace and --fresh: choose a running deployment or a fresh one")
     if args.fresh:
         yield None
         return

@@ -98,3 +98,18 @@ def test_push_quick_keeps_the_options_given(monkeypatch):
     assert seen["train_steps"] == 200 and seen["adapt_config"].max_rollouts == 60
     assert main(["experiment", "push", "--quick", "--quiet"]) == 130 and seen["train_steps"] == 1500
     assert main(["experiment", "push", "--quiet"]) == 130 and seen["train_steps"] == 3000
+
+
+@pytest.mark.parametrize("argv, option", [
+    (["experiment", "viapoint", "--fresh"], "--fresh"),               # was: ignored, E1 ran in-process
+    (["experiment", "viapoint", "--namespace", "lab"], "--namespace"),
+    (["experiment", "viapoint", "--distributed", "--namespace", "lab", "--fresh"], "--fresh"),
+])
+def test_viapoint_deployment_options_need_distributed(argv, option, monkeypatch, capsys):
+    import acnmp_core.experiments.viapoint as viapoint
+
+    def must_not_run(**kwargs):
+        raise AssertionError("E1 started despite the mistake")
+
+    monkeypatch.setattr(viapoint, "run_viapoint", must_not_run)
+    assert option in refused(argv, capsys)
