@@ -5,9 +5,11 @@ from __future__ import annotations
 
 def register(subparsers) -> None:
     """Add the ``credentials`` sub-command."""
+    from services.transport.argtypes import non_empty
+
     p = subparsers.add_parser("credentials", help="write per-role passwords, the router's ACL and zenoh configs",
                               description=__doc__.split(": ", 1)[1])
-    p.add_argument("directory", metavar="DIR", help="where to write users.txt, router.json5, <role>.json5 (mode 0600)")
+    p.add_argument("directory", type=non_empty, metavar="DIR", help="where to write users.txt, router.json5, <role>.json5 (mode 0600)")
     p.add_argument("--listen", default=None, metavar="EP",
                    help="the router's endpoint (default: tls/0.0.0.0:7447 with --tls, else tcp/0.0.0.0:7447)")
     p.add_argument("--connect", default=None, metavar="EP",

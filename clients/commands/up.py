@@ -8,7 +8,7 @@ def register(subparsers) -> None:
     """Add the ``up`` sub-command."""
     from acnmp_core.robots.registry import robot_kinds
 
-    from services.transport.argtypes import int_at_least
+    from services.transport.argtypes import int_at_least, non_empty
 
     p = subparsers.add_parser("up", help="start a local deployment on 127.0.0.1 until Ctrl-C / SIGTERM",
                               description=__doc__.splitlines()[0].split(": ", 1)[1])
@@ -16,8 +16,8 @@ def register(subparsers) -> None:
     p.add_argument("--workers", type=int, default=2, help="number of workers (default: %(default)s)")
     p.add_argument("--robot", default=robot_kinds()[0], choices=robot_kinds(),
                    help="robot kind of the workers (default: %(default)s)")
-    p.add_argument("--record", default=None, metavar="FILE.rrd", help="start a recorder writing this file")
-    p.add_argument("--state-dir", default=None, metavar="DIR",
+    p.add_argument("--record", type=non_empty, default=None, metavar="FILE.rrd", help="start a recorder writing this file")
+    p.add_argument("--state-dir", type=non_empty, default=None, metavar="DIR",
                    help="learner checkpoints and process logs, locked while the deployment runs "
                         "(default: runs/<namespace>/state)")
     p.add_argument("--no-model", action="store_true", help="do not start the model service")

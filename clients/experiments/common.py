@@ -6,7 +6,7 @@ import os
 import sys
 from pathlib import Path
 
-from services.transport.argtypes import int_at_least
+from services.transport.argtypes import int_at_least, non_empty
 
 #: The options that name a file an experiment writes at its end (checked before it starts).
 OUTPUT_OPTIONS = ("json", "plot", "record")
@@ -14,8 +14,8 @@ OUTPUT_OPTIONS = ("json", "plot", "record")
 
 def add_output_arguments(p, plot_help: str) -> None:
     """Add ``--json FILE`` and ``--plot FILE`` (with ``plot_help``) to parser ``p``."""
-    p.add_argument("--json", metavar="FILE", help="write the results as JSON")
-    p.add_argument("--plot", metavar="FILE", help=plot_help)
+    p.add_argument("--json", type=non_empty, metavar="FILE", help="write the results as JSON")
+    p.add_argument("--plot", type=non_empty, metavar="FILE", help=plot_help)
 
 
 def add_size_arguments(p, *, seeds: int, train_steps: int, budget: int, budget_help: str) -> None:
@@ -41,7 +41,7 @@ def add_deployment_arguments(p, what: str) -> None:
     p.add_argument("--distributed", action="store_true", help=f"run {what} on a local zenoh deployment")
     p.add_argument("--workers", type=int_at_least(1), default=2,
                    help="workers of the --distributed deployment (default 2)")
-    p.add_argument("--record", metavar="FILE.rrd",
+    p.add_argument("--record", type=non_empty, metavar="FILE.rrd",
                    help="with --distributed: the recorder writes every roll-out to this Rerun file")
     p.add_argument("--insecure", action="store_true",
                    help="with --distributed: start the deployment without authentication, a zenoh peer mesh any "

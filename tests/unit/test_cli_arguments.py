@@ -113,3 +113,17 @@ def test_viapoint_deployment_options_need_distributed(argv, option, monkeypatch,
 
     monkeypatch.setattr(viapoint, "run_viapoint", must_not_run)
     assert option in refused(argv, capsys)
+
+
+@pytest.mark.parametrize("argv, option", [
+    (["credentials", ""], "DIR"),                          # was: nine secret files written into the cwd
+    (["experiment", "viapoint", "--json", ""], "--json"),  # was: E1 ran and saved nothing
+    (["experiment", "wall", "--plot", " "], "--plot"),
+    (["experiment", "ur10", "--distributed", "--record", ""], "--record"),
+    (["up", "--state-dir", ""], "--state-dir"),            # was: silently runs/<namespace>/state
+    (["up", "--record", ""], "--record"),
+])
+def test_empty_file_names_are_refused(argv, option, tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert option in refused(argv, capsys)
+    assert list(tmp_path.iterdir()) == []
