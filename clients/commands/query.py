@@ -174,13 +174,14 @@ def _floats(text: str | None, name: str) -> np.ndarray | None:
     return np.array([_number(v, f"{name} {text!r}") for v in text.split(",") if v.strip()])
 
 
-def _client(args):
+def _client(args, role: str = "client"):
     from clients.client import ACNMPClient
 
     opts = SessionOptions.from_args(args)
-    # no --connect/--config: the running deployment of --namespace (its run file), as role client
+    # no --connect/--config: the running deployment of --namespace (its run file), with the
+    # credentials of ``role``: client (may only ask), or operator for what changes a job
     return ACNMPClient(opts.namespace, connect=opts.connect, mode=opts.mode, listen=opts.listen,
-                       config_file=opts.config, timeout=args.timeout, role="client")
+                       config_file=opts.config, timeout=args.timeout, role=role)
 
 
 def _fail(exc) -> int:
@@ -251,12 +252,12 @@ def _skill(args, client) -> str:
     raise ClientError("unknown_skill", f"--skill: choose the skill to ask (served: {found})")
 
 
-def _ask(args, ask) -> tuple[dict | None, int]:
-    """``ask(client)`` on a client made from ``args``: (reply, 0) for the caller to print; (None,
-    exit code) when it is done: an error reply was reported (1) or ``--json`` printed the reply (0)."""
+def _ask(args, ask, role: str = "client") -> tuple[dict | None, int]:
+    """``ask(client)`` on a client of ``role`` made from ``args``: (reply, 0) for the caller to print;
+    (None, exit code) when it is done: an error reply was reported (1) or ``--json`` printed the reply (0)."""
     from clients.client import ClientError
 
-    with _client(args) as client:
+    with _client(args, role) as client:
         try:
             reply = ask(client)
         except ClientError as exc:
@@ -304,7 +305,9 @@ def _run_skills(args) -> int:
 
 
 def _run_cancel(args) -> int:
-    status, code = _ask(args, lambda client: client.cancel(args.job))
+    # the router's ACL lets only the operator (and the learner) cancel (docs/PROTOCOL.md, "Security"):
+    # with the client's credentials the query is dropped and times out as `unavailable`
+    status, code = _ask(args, lambda client: client.cancel(args.job), role="operator")
     if status is None:
         return code
     pending = " (cancel requested: it stops after its current iteration)" if status["state"] == "running" else ""

@@ -127,3 +127,36 @@ def test_empty_file_names_are_refused(argv, option, tmp_path, monkeypatch, capsy
     monkeypatch.chdir(tmp_path)
     assert option in refused(argv, capsys)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_query_cancel_uses_the_operator_credentials(monkeypatch, capsys):
+    """The router's ACL lets only the operator cancel: with the client's credentials (what every
+    other `acnmp query` uses) the cancel was dropped and ended `unavailable` after the timeout."""
+    import clients.client
+
+    roles = []
+
+    class FakeClient:
+        def __init__(self, namespace, *, role, **kwargs):
+            roles.append(role)
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
+            pass
+
+        def cancel(self, job):
+            return {"job": job, "state": "cancelled"}
+
+        def skills(self):
+            return ["e1"]
+
+        def model_services(self):
+            return 1
+
+    monkeypatch.setattr(clients.client, "ACNMPClient", FakeClient)
+    assert main(["query", "cancel", "e1-0123"]) == 0
+    assert capsys.readouterr().out == "job e1-0123: cancelled\n"
+    assert main(["query", "skills"]) == 0
+    assert roles == ["operator", "client"]
