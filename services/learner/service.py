@@ -30,7 +30,7 @@ import zenoh
 from acnmp_core.adapt_job import AdaptJob
 from acnmp_core.cnmp import CNMPConfig
 from acnmp_core.data import DemoSet
-from acnmp_core.demo_io import load_demos
+from acnmp_core.demo_io import DemoArrays, load_demos
 from acnmp_core.training import TrainConfig
 from acnmp_core.transfer_job import PairTrainJob
 from services.model.weights import encode_weights
@@ -275,16 +275,38 @@ def _weights(state: SkillState) -> bytes:
                           n_demos=len(state.demos), partner=state.partner)
 
 
+def parse_demos_spec(spec: str) -> str:
+    """The skill name of a ``--demos`` value ``SKILL=FILE.npz``; ValueError naming ``--demos`` for a
+    bad form or name."""
+    name, sep, path = spec.partition("=")
+    if not sep or not path:
+        raise ValueError(f"--demos: expected SKILL=FILE.npz, got {spec!r}")
+    try:
+        return check_name("skill", name)
+    except ValueError as exc:
+        raise ValueError(f"--demos {spec}: {exc}") from None
+
+
+def load_demos_spec(spec: str) -> DemoArrays:
+    """The demonstration file of a ``--demos`` value ``SKILL=FILE.npz``, read and checked; ValueError
+    naming ``--demos`` for a bad form, name or file (``acnmp up`` checks its values with it before
+    it starts the learner)."""
+    parse_demos_spec(spec)
+    try:
+        arrays = load_demos(spec.partition("=")[2])
+        arrays.to_demo_set()
+    except ValueError as exc:
+        raise ValueError(f"--demos {spec}: {str(exc).removeprefix('path: ')}") from None
+    return arrays
+
+
 def bootstrap(core: LearnerCore, specs: Sequence[str], steps: int) -> None:
     """Train ``SKILL=FILE.npz`` demonstration files that are not skills yet (``--demos``)."""
     for spec in specs:
-        if "=" not in spec:
-            raise ValueError(f"--demos: expected SKILL=FILE.npz, got {spec!r}")
-        name, path = spec.split("=", 1)
-        check_name("skill", name)
+        name = parse_demos_spec(spec)
         if name in core.skills:
             continue
-        arrays = load_demos(path)
+        arrays = load_demos_spec(spec)
         demos = arrays.to_demo_set()
         cfg = CNMPConfig(n_outputs=demos.n_outputs, n_task_params=demos.n_task_params,
                          output_names=() if arrays.value_names is None else tuple(arrays.value_names),

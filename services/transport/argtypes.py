@@ -9,6 +9,8 @@ from __future__ import annotations
 import argparse
 import math
 
+from .keys import check_name
+
 #: The largest integer a count, a number of steps or a seed may be (fits every int32 and a numpy seed).
 MAX_INT = 2**31 - 1
 #: The largest number of seconds a timeout or a delay may be (about 31 years).
@@ -53,3 +55,14 @@ def non_empty(text: str) -> str:
     if not text.strip():
         raise argparse.ArgumentTypeError(f"expected a file or directory name, got {text!r}")
     return text
+
+
+def key_name(kind: str):
+    """An argparse type: a name that is one key chunk (:func:`services.transport.keys.check_name`),
+    such as a namespace."""
+    def parse(text: str) -> str:
+        try:
+            return check_name(kind, text)
+        except ValueError as exc:
+            raise argparse.ArgumentTypeError(str(exc).removeprefix(f"{kind}: ")) from None
+    return parse

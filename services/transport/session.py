@@ -30,6 +30,7 @@ from typing import Any, Iterator, Sequence
 
 import zenoh
 
+from .argtypes import key_name
 from .keys import DEFAULT_NAMESPACE
 
 MODES = ("peer", "client", "router")
@@ -160,7 +161,7 @@ class SessionOptions:
     def add_arguments(parser: argparse.ArgumentParser, *, default_mode: str = "peer",
                       modes: Sequence[str] = MODES) -> None:
         """Add the options to ``parser``; ``default_mode`` is what ``--mode`` says when not given."""
-        parser.add_argument("--namespace", "-n", default=DEFAULT_NAMESPACE,
+        parser.add_argument("--namespace", "-n", type=key_name("namespace"), default=DEFAULT_NAMESPACE,
                             help="key prefix acnmp/<namespace>/ shared by one deployment (default: %(default)s)")
         parser.add_argument("--mode", choices=tuple(modes), default=None,
                             help=f"zenoh mode (default: {default_mode}, or what --config says)")

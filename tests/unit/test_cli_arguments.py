@@ -160,3 +160,37 @@ def test_query_cancel_uses_the_operator_credentials(monkeypatch, capsys):
     assert capsys.readouterr().out == "job e1-0123: cancelled\n"
     assert main(["query", "skills"]) == 0
     assert roles == ["operator", "client"]
+
+
+@pytest.mark.parametrize("argv, expected", [
+    (["up", "--demos", "e1"], ["--demos", "SKILL=FILE.npz"]),
+    (["up", "--demos", "e1=/nonexistent/d.npz"], ["--demos e1=/nonexistent/d.npz", "cannot read"]),
+    (["up", "--demos", "a/b=d.npz"], ["--demos a/b=d.npz", "not a valid name"]),
+    (["up", "--record", "."], ["--record .", "is a directory"]),
+    (["up", "--record", "/proc/nope/r.rrd"], ["--record /proc/nope/r.rrd", "cannot write there"]),
+    (["up", "--namespace", "a b"], ["--namespace", "'a b'"]),
+    (["up", "--workers", "-1"], ["--workers"]),
+])
+def test_up_checks_its_arguments_before_starting_anything(argv, expected, tmp_path, monkeypatch, capsys):
+    """A bad --demos started the deployment, the learner exited 2 at its start and was restarted
+    again and again while `acnmp up` said "deployment is up"; a bad --record was a RuntimeError
+    once the recorder had exited; a bad namespace had left runs/<namespace>/state behind."""
+    import services.launcher
+
+    def must_not_start(*args, **kwargs):
+        raise AssertionError("the deployment was started despite the mistake")
+
+    monkeypatch.setattr(services.launcher, "LocalDeployment", must_not_start)
+    monkeypatch.chdir(tmp_path)
+    line = refused(argv, capsys)
+    for text in expected:
+        assert text in line
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_good_demos_value_passes_the_check(tmp_path):
+    from clients.default_skill import default_demos
+    from services.learner.service import load_demos_spec
+
+    spec = default_demos(tmp_path)  # e1=<tmp>/e1-demos.npz
+    assert len(load_demos_spec(spec).to_demo_set()) == 6
