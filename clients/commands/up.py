@@ -42,12 +42,12 @@ def run(args) -> int:
     the option) for a --demos file the learner could not train or a --record file that cannot be
     written, before anything starts."""
     from clients.default_skill import SKILL, default_demos
-    from clients.experiments.common import check_output_path
     from services.launcher import LocalDeployment
     from services.launcher.announce import NamespaceInUse
     from services.learner.service import load_demos_spec
     from services.learner.store import StateDirInUse
     from services.transport import install_shutdown_handlers
+    from services.transport.argtypes import check_output_path
 
     for spec in args.demos:  # the learner would exit at its start, be restarted, and exit again
         load_demos_spec(spec)

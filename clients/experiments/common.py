@@ -2,11 +2,10 @@
 from __future__ import annotations
 
 import json
-import os
 import sys
 from pathlib import Path
 
-from services.transport.argtypes import int_at_least, non_empty
+from services.transport.argtypes import check_output_path, int_at_least, non_empty
 
 #: The options that name a file an experiment writes at its end (checked before it starts).
 OUTPUT_OPTIONS = ("json", "plot", "record")
@@ -54,28 +53,6 @@ def check_deployment_arguments(args) -> None:
         raise ValueError("--record: only with --distributed (the recorder is a process of the deployment)")
     if args.insecure and not args.distributed:
         raise ValueError("--insecure: only with --distributed (it is about the deployment's authentication)")
-
-
-def check_output_path(path: str | None, option: str) -> None:
-    """ValueError naming ``option`` unless a file can be written at ``path`` (None: nothing to check).
-
-    Creates missing parent directories (as the writers do) and probes the file itself, so a run
-    of minutes never ends with a result it cannot save. A probe file it created is removed.
-    """
-    if not path:
-        return
-    p = Path(path)
-    if p.is_dir():
-        raise ValueError(f"{option} {path}: is a directory; give a file name")
-    try:
-        p.parent.mkdir(parents=True, exist_ok=True)
-        existed = p.exists()
-        with open(p, "a"):
-            pass
-        if not existed:
-            os.unlink(p)
-    except OSError as exc:
-        raise ValueError(f"{option} {path}: cannot write there ({exc.strerror or exc})") from None
 
 
 def check_output_arguments(args) -> None:

@@ -36,6 +36,7 @@ from acnmp_core.transfer_job import PairTrainJob
 from services.model.weights import encode_weights
 from services.recording.publisher import EventPublisher
 from services.transport import Keyspace, Ready, Service, WireError, declare_rpc, option, wait_until_stopped
+from services.transport.argtypes import int_at_least, seconds
 from services.transport.errors import wire_error
 from services.transport.keys import check_name, job_from_key, skill_from_key
 from services.transport.wire import array_field, error_payload, field, require_payload
@@ -326,16 +327,17 @@ class LearnerConfig(Service):
     learner_id: str | None = option(None, "learner id (default: learner-<pid>)", flag="--id", metavar="ID")
     demos: list[str] = option([], "train SKILL from a demonstration file at start unless it exists (repeatable)",
                               metavar="SKILL=FILE.npz")
-    train_steps: int = option(3000, "steps for --demos (default: %(default)s)")
+    train_steps: int = option(3000, "steps for --demos (default: %(default)s)", metavar="N", type=int_at_least(1))
     wait_recorder: float = option(0.0, "wait up to S seconds for a recorder before the first event (default: 0)",
-                                  metavar="S")
+                                  metavar="S", type=seconds(zero=True))
     chunk_timeout: float = option(60.0, "seconds a worker may take for its share of a batch (default: %(default)s)",
-                                  metavar="S")
+                                  metavar="S", type=seconds())
     max_train_steps: int = option(LearnerLimits.max_train_steps,
                                   "refuse train requests (and assimilations) of more steps (default: %(default)s)",
-                                  metavar="N")
+                                  metavar="N", type=int_at_least(1))
     max_rollouts: int = option(LearnerLimits.max_rollouts,
-                               "refuse adaptation jobs with a larger roll-out budget (default: %(default)s)", metavar="N")
+                               "refuse adaptation jobs with a larger roll-out budget (default: %(default)s)", metavar="N",
+                               type=int_at_least(1))
 
     def serve(self, session: zenoh.Session, stop: threading.Event, ready: Ready) -> int:
         import torch

@@ -3,11 +3,14 @@
 A bad value ends in argparse's one-line error naming the option (exit code 2), before anything
 runs. Integers and numbers have an upper bound too, so a huge value is refused there instead of
 overflowing later in torch, numpy or the wire codec with a message that names no option.
+:func:`check_output_path` checks, after parsing, that a file a command will write can be written.
 """
 from __future__ import annotations
 
 import argparse
 import math
+import os
+from pathlib import Path
 
 from .keys import check_name
 
@@ -66,3 +69,25 @@ def key_name(kind: str):
         except ValueError as exc:
             raise argparse.ArgumentTypeError(str(exc).removeprefix(f"{kind}: ")) from None
     return parse
+
+
+def check_output_path(path: str | None, option: str) -> None:
+    """ValueError naming ``option`` unless a file can be written at ``path`` (None: nothing to check).
+
+    Creates missing parent directories (as the writers do) and probes the file itself, so a run
+    of minutes never ends with a result it cannot save. A probe file it created is removed.
+    """
+    if not path:
+        return
+    p = Path(path)
+    if p.is_dir():
+        raise ValueError(f"{option} {path}: is a directory; give a file name")
+    try:
+        p.parent.mkdir(parents=True, exist_ok=True)
+        existed = p.exists()
+        with open(p, "a"):
+            pass
+        if not existed:
+            os.unlink(p)
+    except OSError as exc:
+        raise ValueError(f"{option} {path}: cannot write there ({exc.strerror or exc})") from None

@@ -194,3 +194,29 @@ def test_a_good_demos_value_passes_the_check(tmp_path):
 
     spec = default_demos(tmp_path)  # e1=<tmp>/e1-demos.npz
     assert len(load_demos_spec(spec).to_demo_set()) == 6
+
+
+@pytest.mark.parametrize("argv, option", [
+    (["serve", "model", "--workers", "0"], "--workers"),      # was: answered on zenoh's own threads
+    (["serve", "model", "--max-queue", "0"], "--max-queue"),  # was: every predict answered 'overloaded'
+    (["serve", "model", "--batch-window", "nan"], "--batch-window"),
+    (["serve", "learner", "--train-steps", "0"], "--train-steps"),
+    (["serve", "learner", "--chunk-timeout", "nan"], "--chunk-timeout"),
+    (["serve", "learner", "--chunk-timeout", "-1"], "--chunk-timeout"),
+    (["serve", "learner", "--wait-recorder", "-5"], "--wait-recorder"),
+    (["serve", "learner", "--max-rollouts", "0"], "--max-rollouts"),
+    (["serve", "learner", "--max-train-steps", "-1"], "--max-train-steps"),
+    (["serve", "worker", "--delay", "inf"], "--delay"),
+    (["serve", "recorder", "--out", ""], "--out"),
+])
+def test_serve_options_are_checked_while_parsing(argv, option, capsys):
+    """These started a live process with the bad value (`acnmp serve ...` is what compose runs)."""
+    assert option in refused(argv, capsys)
+
+
+def test_the_recorder_refuses_a_directory_before_rerun_opens_it(tmp_path):
+    """Was: rerun's RuntimeError, then its warning at exit: two lines."""
+    from services.recording.recorder import RecorderConfig
+
+    with pytest.raises(ValueError, match=f"--out {tmp_path}: is a directory"):
+        RecorderConfig(out=str(tmp_path)).serve(None, None, None)
