@@ -220,3 +220,8 @@ def test_the_recorder_refuses_a_directory_before_rerun_opens_it(tmp_path):
 
     with pytest.raises(ValueError, match=f"--out {tmp_path}: is a directory"):
         RecorderConfig(out=str(tmp_path)).serve(None, None, None)
+
+
+def test_replay_of_a_device_says_what_it_is(capsys):
+    assert main(["replay", "/dev/null"]) == 1  # was: "/dev/null: no such file"
+    assert capsys.readouterr().err == "acnmp replay: /dev/null: not a regular file, not a recording\n"
