@@ -55,7 +55,11 @@ _OPTIONS = {"mode": "--mode", "listen/endpoints": "--listen", "connect/endpoints
 
 def _zenoh_message(exc: BaseException) -> str:
     """The readable part of a zenoh error: its first sentence, without Rust source locations."""
-    text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+    lines = str(exc).splitlines()
+    text = lines[0] if lines else type(exc).__name__
+    if text.lstrip().startswith("-->"):  # a JSON5 syntax error: " --> 1:9", a drawing, "  = expected ..."
+        what = [ln.strip()[2:] for ln in lines if ln.strip().startswith("= ")]
+        text = f"line:column {text.strip()[3:].strip()}: {what[-1] if what else 'syntax error'}"
     text = re.sub(r"\s+at /\S+:\d+\.?", "", text)           # "... at /root/.cargo/...rs:615."
     text = re.sub(r"^Json5Err\(Message \{ msg: \"(.*?)(: [^:]*)?\", location.*$", r"\1", text)
     return text.strip()
@@ -75,7 +79,7 @@ def make_config(mode: str | None = "peer", listen: Sequence[str] | None = None,
         try:
             cfg = zenoh.Config.from_file(str(config_file))
         except Exception as exc:  # zenoh raises ZError; make it the CLI's ValueError
-            raise ValueError(f"zenoh config {config_file}: {exc}") from None
+            raise ValueError(f"--config {config_file}: {_zenoh_message(exc)}") from None
     else:
         cfg = zenoh.Config()
     pristine = zenoh.Config()

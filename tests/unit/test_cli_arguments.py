@@ -225,3 +225,14 @@ def test_the_recorder_refuses_a_directory_before_rerun_opens_it(tmp_path):
 def test_replay_of_a_device_says_what_it_is(capsys):
     assert main(["replay", "/dev/null"]) == 1  # was: "/dev/null: no such file"
     assert capsys.readouterr().err == "acnmp replay: /dev/null: not a regular file, not a recording\n"
+
+
+@pytest.mark.parametrize("text, expected", [("{ mode: 'x' ", "line:column 1:9: expected boolean or null"),
+                                            (None, "No such file or directory")])
+def test_a_bad_zenoh_config_file_is_one_line_naming_config(text, expected, tmp_path, capsys):
+    """Was: "zenoh config F:" and zenoh's six-line drawing of a syntax error, with a Rust source path."""
+    path = tmp_path / "bad.json5"
+    if text is not None:
+        path.write_text(text)
+    line = refused(["query", "info", "--config", str(path)], capsys)
+    assert line.startswith(f"acnmp: error: --config {path}: ") and expected in line and ".cargo" not in line
