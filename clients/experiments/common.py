@@ -56,9 +56,18 @@ def check_deployment_arguments(args) -> None:
 
 
 def check_output_arguments(args) -> None:
-    """:func:`check_output_path` for each of ``--json``, ``--plot``, ``--record`` that ``args`` has."""
+    """:func:`check_output_path` for each of ``--json``, ``--plot``, ``--record`` that ``args`` has,
+    and that matplotlib can write the format ``--plot``'s suffix names (no suffix: PNG)."""
     for name in OUTPUT_OPTIONS:
         check_output_path(getattr(args, name, None), f"--{name}")
+    suffix = Path(getattr(args, "plot", None) or "").suffix.lower()[1:]
+    if suffix:
+        from matplotlib.backend_bases import FigureCanvasBase
+
+        formats = FigureCanvasBase.get_supported_filetypes()
+        if suffix not in formats:
+            raise ValueError(f"--plot {args.plot}: matplotlib cannot write .{suffix} files "
+                             f"(give one of .{', .'.join(sorted(formats))})")
 
 
 def write_json(result: dict, path: str | None) -> None:

@@ -236,3 +236,16 @@ def test_a_bad_zenoh_config_file_is_one_line_naming_config(text, expected, tmp_p
         path.write_text(text)
     line = refused(["query", "info", "--config", str(path)], capsys)
     assert line.startswith(f"acnmp: error: --config {path}: ") and expected in line and ".cargo" not in line
+
+
+def test_a_plot_format_matplotlib_cannot_write_is_refused_before_the_run(tmp_path, monkeypatch, capsys):
+    """Was: the whole run, then "Format 'txt' is not supported" when the figure was saved."""
+    import acnmp_core.experiments.viapoint as viapoint
+
+    def must_not_run(**kwargs):
+        raise AssertionError("E1 started despite the mistake")
+
+    monkeypatch.setattr(viapoint, "run_viapoint", must_not_run)
+    plot = tmp_path / "e1.txt"
+    line = refused(["experiment", "viapoint", "--plot", str(plot)], capsys)
+    assert f"--plot {plot}: matplotlib cannot write .txt files" in line and ".png" in line
