@@ -8,9 +8,12 @@ overflowing later in torch, numpy or the wire codec with a message that names no
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import os
 from pathlib import Path
+
+import zenoh
 
 from .keys import check_name
 
@@ -69,6 +72,17 @@ def key_name(kind: str):
         except ValueError as exc:
             raise argparse.ArgumentTypeError(str(exc).removeprefix(f"{kind}: ")) from None
     return parse
+
+
+def endpoint(text: str) -> str:
+    """An argparse type: a zenoh endpoint ``<protocol>/<address>`` as zenoh parses it (for the
+    endpoints a command writes into config files rather than opening a session on)."""
+    try:
+        zenoh.Config().insert_json5("connect/endpoints", json.dumps([text]))
+    except zenoh.ZError:
+        raise argparse.ArgumentTypeError(f"expected an endpoint <protocol>/<address>, e.g. tcp/router:7447, "
+                                          f"got {text!r}") from None
+    return text
 
 
 def check_output_path(path: str | None, option: str) -> None:

@@ -249,3 +249,13 @@ def test_a_plot_format_matplotlib_cannot_write_is_refused_before_the_run(tmp_pat
     plot = tmp_path / "e1.txt"
     line = refused(["experiment", "viapoint", "--plot", str(plot)], capsys)
     assert f"--plot {plot}: matplotlib cannot write .txt files" in line and ".png" in line
+
+
+@pytest.mark.parametrize("argv, option", [
+    (["--listen", "garbage"], "--listen"),  # was: written into router.json5; the router failed at its start
+    (["--connect", ""], "--connect"),
+    (["--tls", ""], "--tls"),
+])
+def test_credentials_checks_the_endpoints_it_writes(argv, option, tmp_path, capsys):
+    assert option in refused(["credentials", str(tmp_path / "secrets"), *argv], capsys)
+    assert not (tmp_path / "secrets").exists()
