@@ -78,10 +78,11 @@ def register(subparsers) -> None:
 def _prediction_arguments(parser: argparse.ArgumentParser, task_params: bool) -> None:
     """The options of ``predict`` and ``transfer``: observations, query times, samples."""
     _common(parser)
-    parser.add_argument("--obs", action="append", default=[], metavar="T:V1,V2,...",
-                        help="one observation: time, then a value per output dimension (_ = not observed). Repeatable")
-    parser.add_argument("--obs-json", metavar="JSON",
-                        help='observations as JSON: [[t, [v1, v2, ...]], ...] (null = not observed), or @FILE')
+    what = parser.add_mutually_exclusive_group()  # --obs-json would silently win over --obs
+    what.add_argument("--obs", action="append", default=[], metavar="T:V1,V2,...",
+                      help="one observation: time, then a value per output dimension (_ = not observed). Repeatable")
+    what.add_argument("--obs-json", metavar="JSON",
+                      help='observations as JSON: [[t, [v1, v2, ...]], ...] (null = not observed), or @FILE')
     if task_params:
         parser.add_argument("--task-params", metavar="P1,P2,...", help="task parameters, comma-separated")
     when = parser.add_mutually_exclusive_group()

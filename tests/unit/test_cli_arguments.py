@@ -259,3 +259,9 @@ def test_a_plot_format_matplotlib_cannot_write_is_refused_before_the_run(tmp_pat
 def test_credentials_checks_the_endpoints_it_writes(argv, option, tmp_path, capsys):
     assert option in refused(["credentials", str(tmp_path / "secrets"), *argv], capsys)
     assert not (tmp_path / "secrets").exists()
+
+
+def test_obs_and_obs_json_are_one_or_the_other(capsys):
+    """Was: --obs-json used and the --obs given beside it silently dropped."""
+    line = refused(["query", "predict", "--obs", "0:0,0", "--obs-json", "[[1, [1, 0]]]"], capsys)
+    assert "--obs-json: not allowed with argument --obs" in line
