@@ -37,8 +37,9 @@ router) skips that.
 def register(subparsers) -> None:
     """Add ``query`` with the ``predict``, ``transfer``, ``info``, ``skills`` and ``cancel`` sub-commands."""
     parser = subparsers.add_parser(
-        "query", help="query a running model service (predict, info, skills)",
-        description="Query a running deployment's model service over zenoh.",
+        "query", help="ask a running deployment (predict, transfer, info, skills; cancel a job)",
+        description="Ask a running deployment over zenoh: its model service (predict, transfer, info,\n"
+                    "skills) or its learner (cancel a job).",
         epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = parser.add_subparsers(dest="query_command", metavar="WHAT", required=True)
 

@@ -265,3 +265,11 @@ def test_obs_and_obs_json_are_one_or_the_other(capsys):
     """Was: --obs-json used and the --obs given beside it silently dropped."""
     line = refused(["query", "predict", "--obs", "0:0,0", "--obs-json", "[[1, [1, 0]]]"], capsys)
     assert "--obs-json: not allowed with argument --obs" in line
+
+
+def test_query_help_names_every_sub_command(capsys):
+    """Was: "query a running model service (predict, info, skills)": no transfer, and cancel asks the learner."""
+    with pytest.raises(SystemExit):
+        main(["--help"])
+    out = " ".join(capsys.readouterr().out.split())
+    assert "query ask a running deployment (predict, transfer, info, skills; cancel a job)" in out
