@@ -92,7 +92,8 @@ def _prediction_arguments(parser: argparse.ArgumentParser, task_params: bool) ->
     when.add_argument("--times", metavar="T1,T2,...", help="predict at these times")
     parser.add_argument("--samples", type=int_at_least(0), default=None, metavar="S",
                         help="also draw S sampled trajectories")
-    parser.add_argument("--seed", type=int_at_least(0), default=None, help="seed of the samples")
+    parser.add_argument("--seed", type=int_at_least(0, hi=2**64 - 1), default=None,  # the wire's uint64
+                        help="seed of the samples")
 
 
 def _common(parser: argparse.ArgumentParser, skill: bool = True) -> None:

@@ -59,7 +59,7 @@ def test_shared_types_have_bounds():
     (["experiment", "wall", "--seed", HUGE], "--seed"),
     (["query", "predict", "--obs", "0:0", "--steps", HUGE], "--steps"),  # was: sent, cannot encode message
     (["query", "predict", "--obs", "0:0", "--samples", HUGE], "--samples"),
-    (["query", "predict", "--obs", "0:0", "--seed", HUGE], "--seed"),
+    (["query", "predict", "--obs", "0:0", "--seed", str(2**64)], "--seed"),  # the wire's uint64 holds 2**64 - 1
     (["query", "info", "--timeout", "1e300"], "--timeout"),           # was: negative timeout
     (["status", "--timeout", "-1"], "--timeout"),                     # was: negative timeout, exit 2 unnamed
     (["status", "--timeout", "nan"], "--timeout"),
@@ -273,3 +273,10 @@ def test_query_help_names_every_sub_command(capsys):
         main(["--help"])
     out = " ".join(capsys.readouterr().out.split())
     assert "query ask a running deployment (predict, transfer, info, skills; cancel a job)" in out
+
+
+def test_query_seed_takes_what_the_wire_takes():
+    from clients.cli import build_parser
+
+    args = build_parser().parse_args(["query", "predict", "--obs", "0:0", "--seed", str(2**64 - 1)])
+    assert args.seed == 2**64 - 1
