@@ -15,9 +15,23 @@ import sys
 from clients import commands
 
 
+class UsageError(SystemExit):
+    """A bad argument, already reported on stderr (exit code 2)."""
+
+
+class Parser(argparse.ArgumentParser):
+    """An argument parser whose mistakes are one line on stderr, naming the option and how to get
+    help (argparse's usage block would come first otherwise); the parsers of sub-commands are of
+    this class too (argparse makes them of their parent's)."""
+
+    def error(self, message: str):
+        print(f"{self.prog}: error: {message} (see {self.prog} --help)", file=sys.stderr)
+        raise UsageError(2)
+
+
 def build_parser() -> argparse.ArgumentParser:
     """Return the top-level parser with every sub-command of :mod:`clients.commands` registered."""
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="acnmp",
         description=(
             "Adaptive Conditional Neural Movement Primitives: learn movement skills from a few "
@@ -45,9 +59,13 @@ def main(argv: list[str] | None = None) -> int:
     argparse's own errors), 1 for a failure at run time (no connection, an unreadable file, an
     unexpected error: its type and message; ``ACNMP_TRACEBACK=1`` shows the traceback), 130 for
     Ctrl-C, 141 when stdout is a pipe whose reader has gone (quietly: ``| head`` is not an error).
+    ``--help`` prints the help and raises SystemExit(0), as argparse does.
     """
     parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except UsageError as exc:
+        return exc.code
     if not getattr(args, "func", None):
         parser.print_help()
         return 2

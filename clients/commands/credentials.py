@@ -5,16 +5,18 @@ from __future__ import annotations
 
 def register(subparsers) -> None:
     """Add the ``credentials`` sub-command."""
+    from services.transport.argtypes import endpoint, non_empty
+
     p = subparsers.add_parser("credentials", help="write per-role passwords, the router's ACL and zenoh configs",
                               description=__doc__.split(": ", 1)[1])
-    p.add_argument("directory", metavar="DIR", help="where to write users.txt, router.json5, <role>.json5 (mode 0600)")
-    p.add_argument("--listen", default=None, metavar="EP",
+    p.add_argument("directory", type=non_empty, metavar="DIR", help="where to write users.txt, router.json5, <role>.json5 (mode 0600)")
+    p.add_argument("--listen", type=endpoint, default=None, metavar="EP",
                    help="the router's endpoint (default: tls/0.0.0.0:7447 with --tls, else tcp/0.0.0.0:7447)")
-    p.add_argument("--connect", default=None, metavar="EP",
+    p.add_argument("--connect", type=endpoint, default=None, metavar="EP",
                    help="the endpoint the processes connect to (default: tls/router:7447 with --tls, else tcp/router:7447)")
-    p.add_argument("--tls", default=None, metavar="CERT_DIR",
+    p.add_argument("--tls", type=non_empty, default=None, metavar="CERT_DIR",
                    help="mutual TLS with the certificates of scripts/make_tls_certs.sh, at CERT_DIR as the processes see it")
-    p.add_argument("--at", default=None, metavar="PATH",
+    p.add_argument("--at", type=non_empty, default=None, metavar="PATH",
                    help="where the processes see DIR (e.g. /etc/acnmp in the containers; default: DIR)")
     p.set_defaults(func=run)
 

@@ -8,7 +8,7 @@ import sys
 
 import numpy as np
 
-from clients.argtypes import int_at_least
+from services.transport.argtypes import int_at_least, seconds
 from services.transport import SessionOptions, jsonable
 
 #: What ``query`` says when no model service answers its liveliness query.
@@ -37,8 +37,9 @@ router) skips that.
 def register(subparsers) -> None:
     """Add ``query`` with the ``predict``, ``transfer``, ``info``, ``skills`` and ``cancel`` sub-commands."""
     parser = subparsers.add_parser(
-        "query", help="query a running model service (predict, info, skills)",
-        description="Query a running deployment's model service over zenoh.",
+        "query", help="ask a running deployment (predict, transfer, info, skills; cancel a job)",
+        description="Ask a running deployment over zenoh: its model service (predict, transfer, info,\n"
+                    "skills) or its learner (cancel a job).",
         epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = parser.add_subparsers(dest="query_command", metavar="WHAT", required=True)
 
@@ -78,10 +79,11 @@ def register(subparsers) -> None:
 def _prediction_arguments(parser: argparse.ArgumentParser, task_params: bool) -> None:
     """The options of ``predict`` and ``transfer``: observations, query times, samples."""
     _common(parser)
-    parser.add_argument("--obs", action="append", default=[], metavar="T:V1,V2,...",
-                        help="one observation: time, then a value per output dimension (_ = not observed). Repeatable")
-    parser.add_argument("--obs-json", metavar="JSON",
-                        help='observations as JSON: [[t, [v1, v2, ...]], ...] (null = not observed), or @FILE')
+    what = parser.add_mutually_exclusive_group()  # --obs-json would silently win over --obs
+    what.add_argument("--obs", action="append", default=[], metavar="T:V1,V2,...",
+                      help="one observation: time, then a value per output dimension (_ = not observed). Repeatable")
+    what.add_argument("--obs-json", metavar="JSON",
+                      help='observations as JSON: [[t, [v1, v2, ...]], ...] (null = not observed), or @FILE')
     if task_params:
         parser.add_argument("--task-params", metavar="P1,P2,...", help="task parameters, comma-separated")
     when = parser.add_mutually_exclusive_group()
@@ -90,30 +92,20 @@ def _prediction_arguments(parser: argparse.ArgumentParser, task_params: bool) ->
     when.add_argument("--times", metavar="T1,T2,...", help="predict at these times")
     parser.add_argument("--samples", type=int_at_least(0), default=None, metavar="S",
                         help="also draw S sampled trajectories")
-    parser.add_argument("--seed", type=int_at_least(0), default=None, help="seed of the samples")
+    parser.add_argument("--seed", type=int_at_least(0, hi=2**64 - 1), default=None,  # the wire's uint64
+                        help="seed of the samples")
 
 
 def _common(parser: argparse.ArgumentParser, skill: bool = True) -> None:
     # the same session options as every process (services/transport/session.py); a command has no
     # router role; without --connect it finds the running deployment (clients/discovery.py)
     SessionOptions.add_arguments(parser, modes=("peer", "client"))
-    parser.add_argument("--timeout", type=positive_float, default=10.0,
+    parser.add_argument("--timeout", type=seconds(), default=10.0,
                         help="seconds to wait for a reply (default: %(default)s)")
     parser.add_argument("--json", action="store_true", help="print the full reply as JSON")
     if skill:
         parser.add_argument("--skill", "-s", default=None,
                             help="skill name (default: the deployment's skill, when it serves exactly one)")
-
-
-def positive_float(text: str) -> float:
-    """An argparse type: a finite number > 0."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number > 0, got {text!r}") from None
-    if not (math.isfinite(value) and value > 0):
-        raise argparse.ArgumentTypeError(f"expected a number > 0, got {text!r}")
-    return value
 
 
 def _number(text, where: str) -> float:
@@ -185,13 +177,14 @@ def _floats(text: str | None, name: str) -> np.ndarray | None:
     return np.array([_number(v, f"{name} {text!r}") for v in text.split(",") if v.strip()])
 
 
-def _client(args):
+def _client(args, role: str = "client"):
     from clients.client import ACNMPClient
 
     opts = SessionOptions.from_args(args)
-    # no --connect/--config: the running deployment of --namespace (its run file), as role client
+    # no --connect/--config: the running deployment of --namespace (its run file), with the
+    # credentials of ``role``: client (may only ask), or operator for what changes a job
     return ACNMPClient(opts.namespace, connect=opts.connect, mode=opts.mode, listen=opts.listen,
-                       config_file=opts.config, timeout=args.timeout, role="client")
+                       config_file=opts.config, timeout=args.timeout, role=role)
 
 
 def _fail(exc) -> int:
@@ -262,12 +255,12 @@ def _skill(args, client) -> str:
     raise ClientError("unknown_skill", f"--skill: choose the skill to ask (served: {found})")
 
 
-def _ask(args, ask) -> tuple[dict | None, int]:
-    """``ask(client)`` on a client made from ``args``: (reply, 0) for the caller to print; (None,
-    exit code) when it is done: an error reply was reported (1) or ``--json`` printed the reply (0)."""
+def _ask(args, ask, role: str = "client") -> tuple[dict | None, int]:
+    """``ask(client)`` on a client of ``role`` made from ``args``: (reply, 0) for the caller to print;
+    (None, exit code) when it is done: an error reply was reported (1) or ``--json`` printed the reply (0)."""
     from clients.client import ClientError
 
-    with _client(args) as client:
+    with _client(args, role) as client:
         try:
             reply = ask(client)
         except ClientError as exc:
@@ -315,7 +308,9 @@ def _run_skills(args) -> int:
 
 
 def _run_cancel(args) -> int:
-    status, code = _ask(args, lambda client: client.cancel(args.job))
+    # the router's ACL lets only the operator (and the learner) cancel (docs/PROTOCOL.md, "Security"):
+    # with the client's credentials the query is dropped and times out as `unavailable`
+    status, code = _ask(args, lambda client: client.cancel(args.job), role="operator")
     if status is None:
         return code
     pending = " (cancel requested: it stops after its current iteration)" if status["state"] == "running" else ""

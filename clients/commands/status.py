@@ -8,10 +8,13 @@ from dataclasses import dataclass
 
 def register(subparsers) -> None:
     """Add the ``status`` sub-command."""
+    from services.transport.argtypes import seconds
+
     p = subparsers.add_parser("status", help="list the running deployments (acnmp up), their processes and health",
                               description=__doc__.splitlines()[0].split(": ", 1)[1])
     p.add_argument("--namespace", "-n", default=None, help="only this deployment")
-    p.add_argument("--timeout", type=float, default=2.0, help="seconds to wait for liveliness (default: %(default)s)")
+    p.add_argument("--timeout", type=seconds(zero=True), default=2.0,
+                   help="seconds to wait for liveliness (default: %(default)s)")
     p.add_argument("--json", action="store_true", help="print the status as JSON")
     p.set_defaults(func=run)
 

@@ -8,16 +8,17 @@ def register(subparsers) -> None:
     """Add the ``up`` sub-command."""
     from acnmp_core.robots.registry import robot_kinds
 
-    from clients.argtypes import int_at_least
+    from services.transport.argtypes import int_at_least, key_name, non_empty
 
     p = subparsers.add_parser("up", help="start a local deployment on 127.0.0.1 until Ctrl-C / SIGTERM",
                               description=__doc__.splitlines()[0].split(": ", 1)[1])
-    p.add_argument("--namespace", "-n", default="default", help="key prefix acnmp/<namespace>/ (default: %(default)s)")
-    p.add_argument("--workers", type=int, default=2, help="number of workers (default: %(default)s)")
+    p.add_argument("--namespace", "-n", type=key_name("namespace"), default="default",
+                   help="key prefix acnmp/<namespace>/ (default: %(default)s)")
+    p.add_argument("--workers", type=int_at_least(0), default=2, help="number of workers (default: %(default)s)")
     p.add_argument("--robot", default=robot_kinds()[0], choices=robot_kinds(),
                    help="robot kind of the workers (default: %(default)s)")
-    p.add_argument("--record", default=None, metavar="FILE.rrd", help="start a recorder writing this file")
-    p.add_argument("--state-dir", default=None, metavar="DIR",
+    p.add_argument("--record", type=non_empty, default=None, metavar="FILE.rrd", help="start a recorder writing this file")
+    p.add_argument("--state-dir", type=non_empty, default=None, metavar="DIR",
                    help="learner checkpoints and process logs, locked while the deployment runs "
                         "(default: runs/<namespace>/state)")
     p.add_argument("--no-model", action="store_true", help="do not start the model service")
@@ -37,13 +38,20 @@ def run(args) -> int:
     """Start the deployment (authenticated unless ``--insecure``, announced by its run file; the
     default skill served first), print what runs where, wait for SIGINT/SIGTERM (restarting children
     that die meanwhile, see services/launcher/supervision.py), stop everything.
-    Exit 0; 1 if it could not start or the default skill was never served."""
+    Exit 0; 1 if it could not start or the default skill was never served; 2 (ValueError naming
+    the option) for a --demos file the learner could not train or a --record file that cannot be
+    written, before anything starts."""
     from clients.default_skill import SKILL, default_demos
     from services.launcher import LocalDeployment
     from services.launcher.announce import NamespaceInUse
+    from services.learner.service import load_demos_spec
     from services.learner.store import StateDirInUse
     from services.transport import install_shutdown_handlers
+    from services.transport.argtypes import check_output_path
 
+    for spec in args.demos:  # the learner would exit at its start, be restarted, and exit again
+        load_demos_spec(spec)
+    check_output_path(args.record, "--record")  # the recorder would exit before going live
     stop = install_shutdown_handlers()
     state_dir = args.state_dir or f"runs/{args.namespace}/state"
     demos = list(args.demos)

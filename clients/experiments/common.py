@@ -2,9 +2,10 @@
 from __future__ import annotations
 
 import json
-import os
 import sys
 from pathlib import Path
+
+from services.transport.argtypes import check_output_path, int_at_least, non_empty
 
 #: The options that name a file an experiment writes at its end (checked before it starts).
 OUTPUT_OPTIONS = ("json", "plot", "record")
@@ -12,35 +13,34 @@ OUTPUT_OPTIONS = ("json", "plot", "record")
 
 def add_output_arguments(p, plot_help: str) -> None:
     """Add ``--json FILE`` and ``--plot FILE`` (with ``plot_help``) to parser ``p``."""
-    p.add_argument("--json", metavar="FILE", help="write the results as JSON")
-    p.add_argument("--plot", metavar="FILE", help=plot_help)
+    p.add_argument("--json", type=non_empty, metavar="FILE", help="write the results as JSON")
+    p.add_argument("--plot", type=non_empty, metavar="FILE", help=plot_help)
 
 
 def add_size_arguments(p, *, seeds: int, train_steps: int, budget: int, budget_help: str) -> None:
     """Add ``--seeds N`` (default ``seeds``), ``--train-steps N`` and ``--budget N``; the last two
     default to None, resolved by :func:`sizes` from the experiment module's constants (the help
     names ``train_steps`` and ``budget``; importing the module here would load torch for ``--help``)."""
-    p.add_argument("--seeds", type=int, default=seeds, help=f"number of seeds 0..N-1 (default {seeds})")
-    p.add_argument("--train-steps", type=int, default=None, help=f"CNMP training steps (default {train_steps})")
-    p.add_argument("--budget", type=int, default=None, help=f"{budget_help} (default {budget})")
+    count = int_at_least(1)
+    p.add_argument("--seeds", type=count, default=seeds, help=f"number of seeds 0..N-1 (default {seeds})")
+    p.add_argument("--train-steps", type=count, default=None, help=f"CNMP training steps (default {train_steps})")
+    p.add_argument("--budget", type=count, default=None, help=f"{budget_help} (default {budget})")
 
 
 def sizes(args, train_steps: int, budget: int) -> tuple[int, int]:
-    """``(train steps, budget)`` from ``args`` with the given defaults; ValueError naming the
-    options unless they and ``--seeds`` are positive."""
-    steps = train_steps if args.train_steps is None else args.train_steps
-    budget = budget if args.budget is None else args.budget
-    if args.seeds < 1 or steps < 1 or budget < 1:
-        raise ValueError("--seeds, --train-steps, --budget: expected positive integers")
-    return steps, budget
+    """``(train steps, budget)`` from ``args`` with the given defaults (the parser of
+    :func:`add_size_arguments` has refused values below 1)."""
+    return (train_steps if args.train_steps is None else args.train_steps,
+            budget if args.budget is None else args.budget)
 
 
 def add_deployment_arguments(p, what: str) -> None:
     """Add ``--distributed`` (help: ``what`` runs where), ``--workers N``, ``--record FILE.rrd``
     and ``--insecure`` (as ``acnmp up --insecure``: the fresh deployment without authentication)."""
     p.add_argument("--distributed", action="store_true", help=f"run {what} on a local zenoh deployment")
-    p.add_argument("--workers", type=int, default=2, help="workers of the --distributed deployment (default 2)")
-    p.add_argument("--record", metavar="FILE.rrd",
+    p.add_argument("--workers", type=int_at_least(1), default=2,
+                   help="workers of the --distributed deployment (default 2)")
+    p.add_argument("--record", type=non_empty, metavar="FILE.rrd",
                    help="with --distributed: the recorder writes every roll-out to this Rerun file")
     p.add_argument("--insecure", action="store_true",
                    help="with --distributed: start the deployment without authentication, a zenoh peer mesh any "
@@ -49,40 +49,25 @@ def add_deployment_arguments(p, what: str) -> None:
 
 def check_deployment_arguments(args) -> None:
     """ValueError when the deployment options do not fit together."""
-    if args.distributed and args.workers < 1:
-        raise ValueError(f"--workers: expected at least 1, got {args.workers}")
     if args.record and not args.distributed:
         raise ValueError("--record: only with --distributed (the recorder is a process of the deployment)")
     if args.insecure and not args.distributed:
         raise ValueError("--insecure: only with --distributed (it is about the deployment's authentication)")
 
 
-def check_output_path(path: str | None, option: str) -> None:
-    """ValueError naming ``option`` unless a file can be written at ``path`` (None: nothing to check).
-
-    Creates missing parent directories (as the writers do) and probes the file itself, so a run
-    of minutes never ends with a result it cannot save. A probe file it created is removed.
-    """
-    if not path:
-        return
-    p = Path(path)
-    if p.is_dir():
-        raise ValueError(f"{option} {path}: is a directory; give a file name")
-    try:
-        p.parent.mkdir(parents=True, exist_ok=True)
-        existed = p.exists()
-        with open(p, "a"):
-            pass
-        if not existed:
-            os.unlink(p)
-    except OSError as exc:
-        raise ValueError(f"{option} {path}: cannot write there ({exc.strerror or exc})") from None
-
-
 def check_output_arguments(args) -> None:
-    """:func:`check_output_path` for each of ``--json``, ``--plot``, ``--record`` that ``args`` has."""
+    """:func:`check_output_path` for each of ``--json``, ``--plot``, ``--record`` that ``args`` has,
+    and that matplotlib can write the format ``--plot``'s suffix names (no suffix: PNG)."""
     for name in OUTPUT_OPTIONS:
         check_output_path(getattr(args, name, None), f"--{name}")
+    suffix = Path(getattr(args, "plot", None) or "").suffix.lower()[1:]
+    if suffix:
+        from matplotlib.backend_bases import FigureCanvasBase
+
+        formats = FigureCanvasBase.get_supported_filetypes()
+        if suffix not in formats:
+            raise ValueError(f"--plot {args.plot}: matplotlib cannot write .{suffix} files "
+                             f"(give one of .{', .'.join(sorted(formats))})")
 
 
 def write_json(result: dict, path: str | None) -> None:

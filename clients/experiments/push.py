@@ -1,10 +1,14 @@
 """``acnmp experiment push``: E2, ACNMP vs adaptive ProMP + RL, a 3-DoF arm pushing a cylinder."""
 from __future__ import annotations
 
+from services.transport.argtypes import int_at_least
+
 from .common import add_deployment_arguments, add_output_arguments, check_deployment_arguments, write_json
 
 #: --quick: enough to see both methods run end to end in about a minute.
 QUICK = dict(train_steps=1500, acnmp_budget=60, promp_budget=150)
+#: CNMP training steps without --quick or --train-steps.
+TRAIN_STEPS = 3000
 
 
 def register(subparsers) -> None:
@@ -18,17 +22,19 @@ def register(subparsers) -> None:
             "extrapolation target, over several seeds. Prints a table; --json and --plot save results."
         ),
     )
-    p.add_argument("--seeds", type=int, default=3, help="number of seeds 0..N-1 (default 3)")
+    p.add_argument("--seeds", type=int_at_least(1), default=3, help="number of seeds 0..N-1 (default 3)")
     p.add_argument("--setting", choices=("paper", "authors"), default="paper",
                    help="task setting: 'paper' (default) or 'authors' (the authors' targets, scaled to "
                         "our arm, and their dense tracking reward for ACNMP)")
-    p.add_argument("--train-steps", type=int, default=3000, help="CNMP training steps (default 3000)")
-    p.add_argument("--acnmp-budget", type=int, default=None, help="ACNMP roll-out budget per target (default 300)")
-    p.add_argument("--promp-budget", type=int, default=None,
+    p.add_argument("--train-steps", type=int_at_least(1), default=None,
+                   help=f"CNMP training steps (default {TRAIN_STEPS})")
+    p.add_argument("--acnmp-budget", type=int_at_least(1), default=None,
+                   help="ACNMP roll-out budget per target (default 300)")
+    p.add_argument("--promp-budget", type=int_at_least(3), default=None,
                    help="ProMP + RL roll-out budget per target (default 1500)")
     p.add_argument("--quick", action="store_true",
                    help=f"small run for a smoke test ({QUICK['train_steps']} training steps, budgets "
-                        f"{QUICK['acnmp_budget']}/{QUICK['promp_budget']})")
+                        f"{QUICK['acnmp_budget']}/{QUICK['promp_budget']}, each unless given)")
     add_output_arguments(p, "write learning curves like the paper's Fig. 5(b) (PNG)")
     add_deployment_arguments(p, "the roll-outs on planar3 PyBullet workers")
     p.add_argument("--quiet", action="store_true", help="no per-run lines, no progress bars")
@@ -46,11 +52,10 @@ def run(args) -> int:
 
     torch.set_num_threads(1)  # the CNMP is small; threads only contend with the simulator
     q = QUICK if args.quick else {}
-    train_steps = q.get("train_steps", args.train_steps)
+    # an option given wins over --quick, --quick over the defaults (the parser refused values below 1)
+    train_steps = args.train_steps or q.get("train_steps") or TRAIN_STEPS
     acnmp_budget = args.acnmp_budget or q.get("acnmp_budget") or ACNMP_BUDGET
     promp_budget = args.promp_budget or q.get("promp_budget") or PROMP_DEFAULTS["max_rollouts"]
-    if args.seeds < 1 or train_steps < 1 or acnmp_budget < 1 or promp_budget < 3:
-        raise ValueError("--seeds, --train-steps, --acnmp-budget: expected positive integers; --promp-budget >= 3")
     kwargs = dict(
         train_steps=train_steps,
         adapt_config=AdaptConfig(max_rollouts=acnmp_budget),

@@ -3,6 +3,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from services.transport.argtypes import int_at_least
+
 from .common import add_deployment_arguments, add_output_arguments, check_deployment_arguments, write_json
 
 
@@ -19,10 +21,10 @@ def register(subparsers) -> None:
             "RL from the 4-DoF arm's own LfD model. Prints success after 3/7/11/19 RL iterations."
         ),
     )
-    p.add_argument("--runs", type=int, default=30, help="runs (seeds 0..N-1, default 30)")
-    p.add_argument("--pair-steps", type=int, default=None,
+    p.add_argument("--runs", type=int_at_least(1), default=30, help="runs (seeds 0..N-1, default 30)")
+    p.add_argument("--pair-steps", type=int_at_least(1), default=None,
                    help="training steps of each transfer pair on our task (default 6000)")
-    p.add_argument("--budget", type=int, default=None,
+    p.add_argument("--budget", type=int_at_least(1), default=None,
                    help="roll-outs per RL run in robot B, 2 per iteration (default 40)")
     p.add_argument("--no-authors-data", action="store_true",
                    help="skip the check on the authors' published arrays")
@@ -45,10 +47,6 @@ def run(args) -> int:
     from acnmp_core.experiments.transfer import AUTHORS_DATA, TransferExperimentConfig, load_authors_data, run_transfer
 
     torch.set_num_threads(1)  # the CNMPs are small; threads only contend with the simulator
-    for name in ("runs", "pair_steps", "budget"):
-        value = getattr(args, name)
-        if value is not None and value < 1:
-            raise ValueError(f"--{name.replace('_', '-')}: expected a positive integer, got {value}")
     check_deployment_arguments(args)
     data_dir = AUTHORS_DATA if args.authors_data is None else Path(args.authors_data)
     if args.authors_data is not None and not args.no_authors_data and load_authors_data(data_dir) is None:

@@ -6,7 +6,7 @@ import sys
 
 import numpy as np
 
-from clients.argtypes import int_at_least
+from services.transport.argtypes import int_at_least
 
 from .common import add_deployment_arguments, add_output_arguments, check_deployment_arguments, write_json
 
@@ -25,8 +25,9 @@ def register(subparsers) -> None:
     p.add_argument("--seed", type=int_at_least(0), default=0, help="seed of training and exploration (default 0)")
     p.add_argument("--variant", choices=("2d", "1d"), default="2d",
                    help="2d paths around obstacles (default) or the authors' 1-D two-bump function")
-    p.add_argument("--budget", type=int, default=100, help="roll-out budget per method (default 100)")
-    p.add_argument("--train-steps", type=int, default=3000, help="supervised training steps (default 3000)")
+    p.add_argument("--budget", type=int_at_least(1), default=100, help="roll-out budget per method (default 100)")
+    p.add_argument("--train-steps", type=int_at_least(1), default=3000,
+                   help="supervised training steps (default 3000)")
     add_output_arguments(p, "write Fig. 3-like PNG (and FILE_latents.png like Fig. 4)")
     add_deployment_arguments(p, "training and adaptation jobs on the learner, roll-outs on point2d workers")
     p.add_argument("--namespace", "-n", default=None, metavar="NS",
@@ -47,11 +48,13 @@ def run(args) -> int:
     # in the same order, so the in-process and the distributed runs give the same numbers.
     torch.set_num_threads(1)
 
-    if args.budget < 1 or args.train_steps < 1:
-        raise ValueError("--budget and --train-steps: expected positive integers")
     kwargs = dict(seed=args.seed, variant=args.variant, budget=args.budget, train_steps=args.train_steps,
                   progress=not args.quiet)
     check_deployment_arguments(args)
+    if (args.namespace is not None or args.fresh) and not args.distributed:
+        raise ValueError("--namespace, --fresh: only with --distributed")
+    if args.namespace is not None and args.fresh:
+        raise ValueError("--namespace and --fresh: choose a running deployment or a fresh one")
     if args.distributed:
         from clients.distributed import run_viapoint_distributed
 
@@ -90,10 +93,6 @@ def _running_deployment(args):
     from clients.client import ACNMPClient
     from services.transport.runfile import DeploymentNotFound, find
 
-    if (args.namespace is not None or args.fresh) and not args.distributed:
-        raise ValueError("--namespace, --fresh: only with --distributed")
-    if args.namespace is not None and args.fresh:
-        raise ValueError("--namespace and --fresh: choose a running deployment or a fresh one")
     if args.fresh:
         yield None
         return

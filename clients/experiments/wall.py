@@ -2,7 +2,7 @@
 (and the baseline after Ewerton et al. 2019), in the paper's or the authors' task setting."""
 from __future__ import annotations
 
-from clients.argtypes import int_at_least
+from services.transport.argtypes import int_at_least
 
 from .common import add_deployment_arguments, add_output_arguments, check_deployment_arguments, write_json
 
@@ -19,11 +19,12 @@ def register(subparsers) -> None:
             "printed as learning proceeds; --json and --plot save the result and the Fig. 5 d, e curves."
         ),
     )
-    p.add_argument("--envs", type=int, default=100, help="new environments in the loop (default 100)")
+    p.add_argument("--envs", type=int_at_least(1), default=100, help="new environments in the loop (default 100)")
     p.add_argument("--seed", type=int_at_least(0), default=0, help="seed of environments, training, exploration (default 0)")
-    p.add_argument("--initial", type=int, default=30, help="demonstrated environments (default 30)")
-    p.add_argument("--test", type=int, default=1000, help="test environments (default 1000)")
-    p.add_argument("--eval-every", type=int, default=10, help="new environments between test evaluations (default 10)")
+    p.add_argument("--initial", type=int_at_least(1), default=30, help="demonstrated environments (default 30)")
+    p.add_argument("--test", type=int_at_least(1), default=1000, help="test environments (default 1000)")
+    p.add_argument("--eval-every", type=int_at_least(1), default=10,
+                   help="new environments between test evaluations (default 10)")
     p.add_argument("--assimilate-from", choices=("skill", "adapted"), default=None,
                    help="ACNMP's assimilation continues from the skill before the adaptation, or from the "
                         "adapted copy (default: run_wall's, the skill)")
@@ -45,9 +46,6 @@ def run(args) -> int:
     from acnmp_core.tasks.wall_settings import wall_setting
 
     # The arguments are checked before torch is imported, so a mistake is reported at once.
-    for name in ("envs", "initial", "test", "eval_every"):
-        if getattr(args, name) < 1:
-            raise ValueError(f"--{name.replace('_', '-')}: expected a positive integer, got {getattr(args, name)}")
     try:
         setting = wall_setting(args.setting)
     except ValueError as exc:

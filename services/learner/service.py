@@ -30,12 +30,13 @@ import zenoh
 from acnmp_core.adapt_job import AdaptJob
 from acnmp_core.cnmp import CNMPConfig
 from acnmp_core.data import DemoSet
-from acnmp_core.demo_io import load_demos
+from acnmp_core.demo_io import DemoArrays, load_demos
 from acnmp_core.training import TrainConfig
 from acnmp_core.transfer_job import PairTrainJob
 from services.model.weights import encode_weights
 from services.recording.publisher import EventPublisher
 from services.transport import Keyspace, Ready, Service, WireError, declare_rpc, option, wait_until_stopped
+from services.transport.argtypes import int_at_least, seconds
 from services.transport.errors import wire_error
 from services.transport.keys import check_name, job_from_key, skill_from_key
 from services.transport.wire import array_field, error_payload, field, require_payload
@@ -275,16 +276,38 @@ def _weights(state: SkillState) -> bytes:
                           n_demos=len(state.demos), partner=state.partner)
 
 
+def parse_demos_spec(spec: str) -> str:
+    """The skill name of a ``--demos`` value ``SKILL=FILE.npz``; ValueError naming ``--demos`` for a
+    bad form or name."""
+    name, sep, path = spec.partition("=")
+    if not sep or not path:
+        raise ValueError(f"--demos: expected SKILL=FILE.npz, got {spec!r}")
+    try:
+        return check_name("skill", name)
+    except ValueError as exc:
+        raise ValueError(f"--demos {spec}: {exc}") from None
+
+
+def load_demos_spec(spec: str) -> DemoArrays:
+    """The demonstration file of a ``--demos`` value ``SKILL=FILE.npz``, read and checked; ValueError
+    naming ``--demos`` for a bad form, name or file (``acnmp up`` checks its values with it before
+    it starts the learner)."""
+    parse_demos_spec(spec)
+    try:
+        arrays = load_demos(spec.partition("=")[2])
+        arrays.to_demo_set()
+    except ValueError as exc:
+        raise ValueError(f"--demos {spec}: {str(exc).removeprefix('path: ')}") from None
+    return arrays
+
+
 def bootstrap(core: LearnerCore, specs: Sequence[str], steps: int) -> None:
     """Train ``SKILL=FILE.npz`` demonstration files that are not skills yet (``--demos``)."""
     for spec in specs:
-        if "=" not in spec:
-            raise ValueError(f"--demos: expected SKILL=FILE.npz, got {spec!r}")
-        name, path = spec.split("=", 1)
-        check_name("skill", name)
+        name = parse_demos_spec(spec)
         if name in core.skills:
             continue
-        arrays = load_demos(path)
+        arrays = load_demos_spec(spec)
         demos = arrays.to_demo_set()
         cfg = CNMPConfig(n_outputs=demos.n_outputs, n_task_params=demos.n_task_params,
                          output_names=() if arrays.value_names is None else tuple(arrays.value_names),
@@ -304,16 +327,17 @@ class LearnerConfig(Service):
     learner_id: str | None = option(None, "learner id (default: learner-<pid>)", flag="--id", metavar="ID")
     demos: list[str] = option([], "train SKILL from a demonstration file at start unless it exists (repeatable)",
                               metavar="SKILL=FILE.npz")
-    train_steps: int = option(3000, "steps for --demos (default: %(default)s)")
+    train_steps: int = option(3000, "steps for --demos (default: %(default)s)", metavar="N", type=int_at_least(1))
     wait_recorder: float = option(0.0, "wait up to S seconds for a recorder before the first event (default: 0)",
-                                  metavar="S")
+                                  metavar="S", type=seconds(zero=True))
     chunk_timeout: float = option(60.0, "seconds a worker may take for its share of a batch (default: %(default)s)",
-                                  metavar="S")
+                                  metavar="S", type=seconds())
     max_train_steps: int = option(LearnerLimits.max_train_steps,
                                   "refuse train requests (and assimilations) of more steps (default: %(default)s)",
-                                  metavar="N")
+                                  metavar="N", type=int_at_least(1))
     max_rollouts: int = option(LearnerLimits.max_rollouts,
-                               "refuse adaptation jobs with a larger roll-out budget (default: %(default)s)", metavar="N")
+                               "refuse adaptation jobs with a larger roll-out budget (default: %(default)s)", metavar="N",
+                               type=int_at_least(1))
 
     def serve(self, session: zenoh.Session, stop: threading.Event, ready: Ready) -> int:
         import torch

@@ -31,6 +31,7 @@ import zenoh
 
 from acnmp_core.checkpoint import load_checkpoint
 from services.transport import Keyspace, Ready, Service, declare_rpc, option, wait_until_stopped
+from services.transport.argtypes import int_at_least, seconds
 from services.transport.auth import authenticated_user
 from services.transport.keys import check_name, skill_from_key
 from services.transport.wire import WireError
@@ -242,14 +243,16 @@ class ModelConfig(Service):
     checkpoints: list[str] = option(
         [], "start from a checkpoint file (acnmp_core.checkpoint format; skill name from SKILL=, the "
             "checkpoint's meta, or the file name). Repeatable", flag="--checkpoint", metavar="[SKILL=]FILE")
-    workers: int = option(2, "threads answering predict queries (default: %(default)s)", metavar="N")
+    workers: int = option(2, "threads answering predict queries (default: %(default)s)", metavar="N",
+                          type=int_at_least(1))
     max_queue: int = option(MAX_QUEUE, "predict queries that may wait for a thread; more are answered "
-                                       "'overloaded' (default: %(default)s)", metavar="N")
+                                       "'overloaded' (default: %(default)s)", metavar="N", type=int_at_least(1))
     batch_max: int = option(DEFAULT_BATCH_MAX, "concurrent predicts of one skill computed in one forward pass, "
-                                               "at most N; 1 turns batching off (default: %(default)s)", metavar="N")
+                                               "at most N; 1 turns batching off (default: %(default)s)", metavar="N",
+                            type=int_at_least(1))
     batch_window: float = option(DEFAULT_BATCH_WINDOW, "seconds to wait for more predicts to batch with the "
                                                        "first (default: %(default)s: only those already waiting)",
-                                 metavar="SECONDS")
+                                 metavar="SECONDS", type=seconds(zero=True))
 
     def serve(self, session: zenoh.Session, stop: threading.Event, ready: Ready) -> int:
         """Serve until ``stop``: checkpoints are loaded before ``ready`` is called."""
@@ -262,7 +265,10 @@ class ModelConfig(Service):
                           batch_window=self.batch_window) as service:
             for value in self.checkpoints:
                 skill, path = _parse_checkpoint_arg(value)
-                entry = service.load_checkpoint(path, skill)
+                try:
+                    entry = service.load_checkpoint(path, skill)
+                except ValueError as exc:
+                    raise ValueError(f"--checkpoint {value}: {str(exc).removeprefix('path: ')}") from None
                 log.info("loaded checkpoint %s as %s v%d", path, entry.skill, entry.version)
             served = ", ".join(service.registry.skills()) or "none yet"
             ready(f"model service live as {service.token_key}; skills: {served}")

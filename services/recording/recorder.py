@@ -46,6 +46,7 @@ import zenoh
 import zenoh.ext as zext
 
 from services.transport import Keyspace, Ready, Service, WireError, declare_rpc, option
+from services.transport.argtypes import check_output_path, non_empty
 from services.transport.auth import write_private
 
 from .event_ids import SeenEvents, marks_path
@@ -69,7 +70,7 @@ class RecorderConfig(Service):
     summary: ClassVar[str] = "the recorder: writes every event into a .rrd file"
 
     out: str = option("runs/recording.rrd", "recording to write (default: %(default)s)", short="-o",
-                      metavar="FILE.rrd")
+                      metavar="FILE.rrd", type=non_empty)
     recording_id: str | None = option(None, "Rerun recording id (default: a new one); a recorder restarted by "
                                             "its launcher keeps the id, so its files merge into one recording",
                                       metavar="ID")
@@ -79,6 +80,7 @@ class RecorderConfig(Service):
     final: dict = field(default_factory=dict, init=False, repr=False)
 
     def serve(self, session: zenoh.Session, stop: threading.Event, ready: Ready) -> int:
+        check_output_path(self.out, "--out")  # one line, not rerun's error and its warning at exit
         self.final = record(session, Keyspace(self.session.namespace), self.out, stop, ready,
                             recording_id=self.recording_id, seen=self.seen)
         return 0

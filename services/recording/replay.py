@@ -75,8 +75,10 @@ def summarize(path: str | Path) -> dict:
     path = Path(path)
     if path.is_dir():
         raise IsADirectoryError(f"{path}: is a directory, not a recording (give the .rrd file in it)")
-    if not path.is_file():
+    if not path.exists():
         raise FileNotFoundError(f"{path}: no such file")
+    if not path.is_file():  # /dev/null, a fifo: rerun would wait on it or call it empty
+        raise ValueError(f"{path}: not a regular file, not a recording")
     reader, stores = _open(path)
     if not stores:
         raise ValueError(f"{path}: contains no recording")

@@ -14,6 +14,7 @@ module                  one job
 ``rpc``                 :func:`call` (the one RPC caller) and :func:`declare_rpc`
 ``service``             :class:`Service`, :func:`option`, :func:`run_service`, :func:`main`:
                         one way to configure and run any process
+``argtypes``            argparse types with bounds, shared by every command line
 ``router``              :class:`RouterConfig`, a zenoh router process
 ``auth``                per-deployment passwords per role, the router's ACL, configs
 ``runfile``             the run file of a running deployment (discovery on one machine)

@@ -44,15 +44,17 @@ Ready = Callable[[str], None]
 
 
 def option(default: Any, help: str, *, flag: str | None = None, short: str | None = None,
-           metavar: str | None = None, choices: Sequence[str] | Callable[[], Sequence[str]] | None = None) -> Any:
+           metavar: str | None = None, choices: Sequence[str] | Callable[[], Sequence[str]] | None = None,
+           type: Callable[[str], Any] | None = None) -> Any:
     """A :class:`Service` field that is also a command-line option.
 
     ``default`` (a list default is copied per instance), ``help`` (``%(default)s`` allowed),
     ``flag`` (default ``--<field-name>`` with ``-`` for ``_``), ``short`` (e.g. ``-o``),
     ``metavar``, ``choices`` (a sequence, or a function returning one, called when the parser is
-    built). A ``list[...]`` field becomes a repeatable option.
+    built), ``type`` (the argparse type, e.g. a bounded one of :mod:`services.transport.argtypes`;
+    default: the field's annotation). A ``list[...]`` field becomes a repeatable option.
     """
-    meta = {"help": help, "flag": flag, "short": short, "metavar": metavar, "choices": choices}
+    meta = {"help": help, "flag": flag, "short": short, "metavar": metavar, "choices": choices, "type": type}
     if isinstance(default, list):
         return field(default_factory=lambda: list(default), metadata=meta)
     return field(default=default, metadata=meta)
@@ -110,7 +112,7 @@ def add_arguments(parser: argparse.ArgumentParser, cls: type[Service]) -> None:
             kwargs.update(action="store_true", default=default)
             kwargs.pop("metavar")
         else:
-            kwargs.update(type=kind, default=default)
+            kwargs.update(type=meta["type"] or kind, default=default)
             if repeat:
                 kwargs["action"] = "append"
         choices = meta["choices"]

@@ -30,6 +30,7 @@ from typing import Any, Iterator, Sequence
 
 import zenoh
 
+from .argtypes import key_name
 from .keys import DEFAULT_NAMESPACE
 
 MODES = ("peer", "client", "router")
@@ -54,7 +55,11 @@ _OPTIONS = {"mode": "--mode", "listen/endpoints": "--listen", "connect/endpoints
 
 def _zenoh_message(exc: BaseException) -> str:
     """The readable part of a zenoh error: its first sentence, without Rust source locations."""
-    text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+    lines = str(exc).splitlines()
+    text = lines[0] if lines else type(exc).__name__
+    if text.lstrip().startswith("-->"):  # a JSON5 syntax error: " --> 1:9", a drawing, "  = expected ..."
+        what = [ln.strip()[2:] for ln in lines if ln.strip().startswith("= ")]
+        text = f"line:column {text.strip()[3:].strip()}: {what[-1] if what else 'syntax error'}"
     text = re.sub(r"\s+at /\S+:\d+\.?", "", text)           # "... at /root/.cargo/...rs:615."
     text = re.sub(r"^Json5Err\(Message \{ msg: \"(.*?)(: [^:]*)?\", location.*$", r"\1", text)
     return text.strip()
@@ -74,7 +79,7 @@ def make_config(mode: str | None = "peer", listen: Sequence[str] | None = None,
         try:
             cfg = zenoh.Config.from_file(str(config_file))
         except Exception as exc:  # zenoh raises ZError; make it the CLI's ValueError
-            raise ValueError(f"zenoh config {config_file}: {exc}") from None
+            raise ValueError(f"--config {config_file}: {_zenoh_message(exc)}") from None
     else:
         cfg = zenoh.Config()
     pristine = zenoh.Config()
@@ -160,7 +165,7 @@ class SessionOptions:
     def add_arguments(parser: argparse.ArgumentParser, *, default_mode: str = "peer",
                       modes: Sequence[str] = MODES) -> None:
         """Add the options to ``parser``; ``default_mode`` is what ``--mode`` says when not given."""
-        parser.add_argument("--namespace", "-n", default=DEFAULT_NAMESPACE,
+        parser.add_argument("--namespace", "-n", type=key_name("namespace"), default=DEFAULT_NAMESPACE,
                             help="key prefix acnmp/<namespace>/ shared by one deployment (default: %(default)s)")
         parser.add_argument("--mode", choices=tuple(modes), default=None,
                             help=f"zenoh mode (default: {default_mode}, or what --config says)")

@@ -17,6 +17,7 @@ import zenoh
 
 from acnmp_core.robots.registry import robot_kinds
 from services.transport import Keyspace, Ready, Service, declare_rpc, option, wait_until_stopped
+from services.transport.argtypes import seconds
 
 from .core import Worker
 
@@ -33,7 +34,8 @@ class WorkerConfig(Service):
     robot: str = option("point2d", "robot kind (acnmp_core/robots/registry.py; default: %(default)s)",
                         choices=robot_kinds)
     worker_id: str | None = option(None, "worker id (default: <robot>-<pid>)", flag="--id", metavar="ID")
-    delay: float = option(0.0, "sleep S seconds per roll-out, to simulate a slow robot (default: 0)", metavar="S")
+    delay: float = option(0.0, "sleep S seconds per roll-out, to simulate a slow robot (default: 0)", metavar="S",
+                          type=seconds(zero=True))
 
     def serve(self, session: zenoh.Session, stop: threading.Event, ready: Ready) -> int:
         keys = Keyspace(self.session.namespace)

@@ -1,0 +1,107 @@
+"""Argparse types shared by every command line (``acnmp ...`` and ``acnmp serve <process>``).
+
+A bad value ends in argparse's one-line error naming the option (exit code 2), before anything
+runs. Integers and numbers have an upper bound too, so a huge value is refused there instead of
+overflowing later in torch, numpy or the wire codec with a message that names no option.
+:func:`check_output_path` checks, after parsing, that a file a command will write can be written.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+from pathlib import Path
+
+import zenoh
+
+from .keys import check_name
+
+#: The largest integer a count, a number of steps or a seed may be (fits every int32 and a numpy seed).
+MAX_INT = 2**31 - 1
+#: The largest number of seconds a timeout or a delay may be (about 31 years).
+MAX_SECONDS = 1e9
+
+
+def int_at_least(lo: int, hi: int = MAX_INT):
+    """An argparse type: an int from ``lo`` to ``hi``."""
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected an integer >= {lo}, got {text!r}") from None
+        if value < lo:
+            raise argparse.ArgumentTypeError(f"expected an integer >= {lo}, got {value}")
+        if value > hi:
+            raise argparse.ArgumentTypeError(f"expected an integer <= {hi}, got {value}")
+        return value
+    return parse
+
+
+def seconds(*, zero: bool = False, hi: float = MAX_SECONDS):
+    """An argparse type: a finite number of seconds > 0 (``zero=True``: >= 0), at most ``hi``."""
+    bound = ">= 0" if zero else "> 0"
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a number {bound}, got {text!r}") from None
+        if not (math.isfinite(value) and (value >= 0 if zero else value > 0)):
+            raise argparse.ArgumentTypeError(f"expected a number {bound}, got {text!r}")
+        if value > hi:
+            raise argparse.ArgumentTypeError(f"expected a number <= {hi:g}, got {text!r}")
+        return value
+    return parse
+
+
+def non_empty(text: str) -> str:
+    """An argparse type: a file or directory name that is not empty (``--json ""`` would otherwise
+    mean "no file", or the current directory)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError(f"expected a file or directory name, got {text!r}")
+    return text
+
+
+def key_name(kind: str):
+    """An argparse type: a name that is one key chunk (:func:`services.transport.keys.check_name`),
+    such as a namespace."""
+    def parse(text: str) -> str:
+        try:
+            return check_name(kind, text)
+        except ValueError as exc:
+            raise argparse.ArgumentTypeError(str(exc).removeprefix(f"{kind}: ")) from None
+    return parse
+
+
+def endpoint(text: str) -> str:
+    """An argparse type: a zenoh endpoint ``<protocol>/<address>`` as zenoh parses it (for the
+    endpoints a command writes into config files rather than opening a session on)."""
+    try:
+        zenoh.Config().insert_json5("connect/endpoints", json.dumps([text]))
+    except zenoh.ZError:
+        raise argparse.ArgumentTypeError(f"expected an endpoint <protocol>/<address>, e.g. tcp/router:7447, "
+                                          f"got {text!r}") from None
+    return text
+
+
+def check_output_path(path: str | None, option: str) -> None:
+    """ValueError naming ``option`` unless a file can be written at ``path`` (None: nothing to check).
+
+    Creates missing parent directories (as the writers do) and probes the file itself, so a run
+    of minutes never ends with a result it cannot save. A probe file it created is removed.
+    """
+    if not path:
+        return
+    p = Path(path)
+    if p.is_dir():
+        raise ValueError(f"{option} {path}: is a directory; give a file name")
+    try:
+        p.parent.mkdir(parents=True, exist_ok=True)
+        existed = p.exists()
+        with open(p, "a"):
+            pass
+        if not existed:
+            os.unlink(p)
+    except OSError as exc:
+        raise ValueError(f"{option} {path}: cannot write there ({exc.strerror or exc})") from None
