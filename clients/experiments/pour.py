@@ -2,6 +2,8 @@
 LfD only vs ACNMP, then the assimilated solution."""
 from __future__ import annotations
 
+from services.transport.argtypes import int_at_least
+
 from .common import (add_deployment_arguments, add_output_arguments, add_size_arguments,
                      check_deployment_arguments, sizes, write_json)
 
@@ -22,7 +24,7 @@ def register(subparsers) -> None:
     p.add_argument("--no-assimilation", action="store_true", help="skip the assimilation and its checks")
     add_output_arguments(p, "write the error of every roll-out per seed (PNG)")
     add_deployment_arguments(p, "the roll-outs on pour PyBullet workers")
-    p.add_argument("--jobs", type=int, default=1,
+    p.add_argument("--jobs", type=int_at_least(1, 64), default=1,
                    help="seeds run in this many processes at once, same result (not with --distributed; default 1)")
     p.add_argument("--quiet", action="store_true", help="no per-seed lines")
     p.set_defaults(func=run)
@@ -36,8 +38,8 @@ def run(args) -> int:
 
     train_steps, budget = sizes(args, TRAIN_STEPS, BUDGET)
     check_deployment_arguments(args)
-    if args.jobs < 1 or (args.jobs > 1 and args.distributed):
-        raise ValueError("--jobs: expected a positive integer, and 1 with --distributed")
+    if args.jobs > 1 and args.distributed:
+        raise ValueError("--jobs: expected 1 with --distributed")
     torch.set_num_threads(1)  # the CNMP is small; threads only contend with the simulator
     kwargs = dict(train_steps=train_steps, adapt_config=e6_adapt_config(budget),
                   assimilate_solution=not args.no_assimilation, log=None if args.quiet else print)

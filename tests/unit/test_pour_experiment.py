@@ -107,6 +107,10 @@ def test_bad_cli_input_is_a_clear_error(capsys):
     assert main(["experiment", "pour", "--seeds", "0"]) == 2
     err = capsys.readouterr().err
     assert "--seeds" in err and len(err.strip().splitlines()) == 1
+    for jobs in ("0", "-1", "x", "99999999999999999999"):  # refused while parsing, before any training
+        assert main(["experiment", "pour", "--jobs", jobs]) == 2
+        err = capsys.readouterr().err
+        assert "--jobs" in err and len(err.strip().splitlines()) == 1
 
 
 def _without_timings(result):
