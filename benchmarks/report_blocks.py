@@ -665,3 +665,39 @@ def e4_failures() -> str:
                      f"{(p.get('commit') or 'unknown')[:10]}{' (dirty tree)' if p.get('dirty') else ''}.*")
         lines.append("")
     return "\n".join(lines).rstrip("\n")
+
+
+# --------------------------------------------------------------------------------------------------
+# E6
+# --------------------------------------------------------------------------------------------------
+@renderer("e6-robust-demos")
+def e6_robust_demos() -> str:
+    """The current E6 demonstrations beside the designed robust set: the LfD model's held-tilt error and
+    how many demonstrations it reproduces within 30 g, per seed (pour_robust_angles.json)."""
+    r = load("pour_robust_angles")
+    s = r["search"]
+    labels = {"current": "current (shuffled tilts)", "robust": "designed (robust tilts following the weight)"}
+    rows = []
+    for k, label in labels.items():
+        m = r["sets"][k]
+        counts = m["within_30g_per_seed"]
+        n_tilts = len(m["runs"]) * len(m["weights_g"])
+        rows.append([label, f"{min(m['weights_g']):g}-{max(m['weights_g']):g} g",
+                     f"{m['held_tilt_error_deg_median']:.2f} deg (over {n_tilts})",
+                     f"{', '.join(map(str, counts))} (median {fmt(m['within_30g_median'])})",
+                     f"{m['seeds_16_of_16']} of {len(counts)}"])
+    seeds = r["seeds"]
+    missing = sorted(set(w["weight_g"] for w in s["weights"]) - set(s["robust_weights_g"]))
+    return "\n".join([
+        table(["demonstration set", "weights", "LfD held-tilt error (median)",
+               f"demonstrations within 30 g, seeds {seeds[0]}-{seeds[-1]}", "seeds with 16 of 16"], rows),
+        "",
+        f"* Robust tilts: at {len(s['robust_weights_g'])} of {len(s['weights'])} whole-marble weights a tilt within "
+        f"{fmt(s['window_deg'])} deg of the rule (steps of {fmt(s['step_deg'])} deg) pours within "
+        f"{fmt(s['tolerance_g'])} g of itself under held-tilt offsets of "
+        f"{', '.join(f'{o:+g}' for o in s['offsets_deg'])} deg, shifts of "
+        f"{', '.join(f'{x:+d}' for x in s['shifts_rows'])} rows and {s['noise_draws']} smooth noise draws of "
+        f"{fmt(s['noise_deg'])} deg; none at {', '.join(f'{w:g}' for w in missing)} g ({s['rollouts']} roll-outs).",
+        "",
+        source(r, "pour_robust_angles"),
+    ])
