@@ -7,16 +7,45 @@ arguments and returning an exit code. Modules are discovered, so adding a comman
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import os
 import pkgutil
+import signal
 import sys
+import threading
 
 from clients import commands
 
 
 class UsageError(SystemExit):
     """A bad argument, already reported on stderr (exit code 2)."""
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM arrived while a command ran: it unwinds like Ctrl-C (context managers stop what they
+    started, a local deployment included) and the process then exits normally, so its exit handlers
+    run too (e.g. the removal of the generated URDF files), which SIGTERM's default action skips."""
+
+
+@contextlib.contextmanager
+def sigterm_unwinds():
+    """While inside, SIGTERM raises :class:`Terminated` in the main thread, unless a handler other than
+    the default is in place (a command that handles it itself, e.g. ``acnmp up``, installs its own
+    inside, which wins); the previous handler is restored on the way out."""
+    if threading.current_thread() is not threading.main_thread() \
+            or signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL:
+        yield
+        return
+
+    def handler(signum, frame):
+        raise Terminated()
+
+    signal.signal(signal.SIGTERM, handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
 
 
 class Parser(argparse.ArgumentParser):
@@ -58,7 +87,8 @@ def main(argv: list[str] | None = None) -> int:
     Every failure is one line on stderr and a nonzero exit: 2 for a bad argument (ValueError, and
     argparse's own errors), 1 for a failure at run time (no connection, an unreadable file, an
     unexpected error: its type and message; ``ACNMP_TRACEBACK=1`` shows the traceback), 130 for
-    Ctrl-C, 141 when stdout is a pipe whose reader has gone (quietly: ``| head`` is not an error).
+    Ctrl-C, 143 for SIGTERM (both unwind what the command started, see :class:`Terminated`), 141
+    when stdout is a pipe whose reader has gone (quietly: ``| head`` is not an error).
     ``--help`` prints the help and raises SystemExit(0), as argparse does.
     """
     parser = build_parser()
@@ -70,9 +100,12 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return 2
     try:
-        code = int(args.func(args) or 0)
+        with sigterm_unwinds():
+            code = int(args.func(args) or 0)
         sys.stdout.flush()  # a closed pipe shows here, not at interpreter exit
         return code
+    except Terminated:
+        return 128 + signal.SIGTERM
     except KeyboardInterrupt:
         return 130
     except BrokenPipeError:
