@@ -43,7 +43,7 @@ def run(args) -> int:
     written, before anything starts."""
     from clients.default_skill import SKILL, default_demos
     from services.launcher import LocalDeployment
-    from services.launcher.announce import NamespaceInUse
+    from services.launcher.announce import NamespaceInUse, check_namespace_free
     from services.learner.service import load_demos_spec
     from services.learner.store import StateDirInUse
     from services.transport import install_shutdown_handlers
@@ -52,6 +52,11 @@ def run(args) -> int:
     for spec in args.demos:  # the learner would exit at its start, be restarted, and exit again
         load_demos_spec(spec)
     check_output_path(args.record, "--record")  # the recorder would exit before going live
+    try:  # before the default skill's demonstrations are written into the state directory
+        check_namespace_free(args.namespace)
+    except NamespaceInUse as exc:
+        print(f"acnmp up: {exc}", file=sys.stderr)
+        return 1
     stop = install_shutdown_handlers()
     state_dir = args.state_dir or f"runs/{args.namespace}/state"
     demos = list(args.demos)

@@ -26,6 +26,15 @@ class NamespaceInUse(RuntimeError):
     """Another live deployment announced the same namespace on this machine."""
 
 
+def check_namespace_free(namespace: str) -> None:
+    """Raise :class:`NamespaceInUse` if a live deployment (another process) announced ``namespace`` on
+    this machine (its run file in :func:`~services.transport.runfile.deployment_dir`)."""
+    other = RunFile.read(deployment_dir(namespace) / "run.json")
+    if other is not None and other.alive() and other.pid != os.getpid():
+        raise NamespaceInUse(f"a deployment of namespace {namespace!r} is already running "
+                             f"(launcher pid {other.pid}, anchor {other.anchor}); stop it or use --namespace")
+
+
 def role_of(child_name: str) -> str:
     """The zenoh username a child authenticates as: ``worker-<id>`` -> ``worker``, else its name."""
     return "worker" if child_name.startswith("worker") else child_name
@@ -51,10 +60,8 @@ class Announcement:
         """Refuse (:class:`NamespaceInUse`) if a live deployment announced this namespace; else,
         when secure, write fresh secrets for ``anchor`` and return the anchor's router config
         (None when not secure: the anchor is a peer of the mesh)."""
-        other = RunFile.read(self.directory / "run.json") if self.announced else None
-        if other is not None and other.alive() and other.pid != os.getpid():
-            raise NamespaceInUse(f"a deployment of namespace {self.namespace!r} is already running "
-                                 f"(launcher pid {other.pid}, anchor {other.anchor}); stop it or use --namespace")
+        if self.announced:
+            check_namespace_free(self.namespace)
         self.secrets.remove()  # a stale deployment's secrets
         self._claimed = True
         if not self.secure:

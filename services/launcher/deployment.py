@@ -56,7 +56,7 @@ from services.recording.publisher import EventPublisher
 from services.transport import Keyspace, free_port, loopback_endpoint, open_session, wait_for_liveliness
 from services.transport.lifetime import PARENT_PID_ENV
 
-from .announce import Announcement
+from .announce import Announcement, check_namespace_free
 from .processes import entry_module
 from .supervision import RestartPolicy, Supervisor
 
@@ -192,7 +192,10 @@ class LocalDeployment:
     def start(self) -> "LocalDeployment":
         """Lock the state directory, open the anchor session, start every child, wait until all are
         live; returns self. :class:`~services.learner.store.StateDirInUse` (nothing started) when
-        another deployment holds the state directory."""
+        another deployment holds the state directory, :class:`~services.launcher.announce.NamespaceInUse`
+        (nothing started, the state directory untouched) when a live deployment announced the namespace."""
+        if self.announcement is not None and self.announcement.announced:
+            check_namespace_free(self.namespace)
         self._dir_lock.acquire()
         try:
             port = free_port()

@@ -280,3 +280,24 @@ def test_query_seed_takes_what_the_wire_takes():
 
     args = build_parser().parse_args(["query", "predict", "--obs", "0:0", "--seed", str(2**64 - 1)])
     assert args.seed == 2**64 - 1
+
+
+def test_up_refuses_a_running_namespace_before_touching_the_state_directory(tmp_path, monkeypatch, capsys):
+    """`acnmp up -n NS --state-dir NEW` while NS runs was refused only after NEW/e1-demos.npz and
+    NEW/deployment.lock had been written; now nothing is written and nothing started."""
+    import os
+
+    import services.launcher
+    from services.transport.runfile import RunFile
+
+    def must_not_start(*args, **kwargs):
+        raise AssertionError("the deployment was started despite the running namespace")
+
+    monkeypatch.setenv("ACNMP_RUNTIME_DIR", str(tmp_path / "runtime"))
+    RunFile("lab", "tcp/127.0.0.1:1", os.getppid()).write()  # a live process (pytest's parent) announced "lab"
+    monkeypatch.setattr(services.launcher, "LocalDeployment", must_not_start)
+    new = tmp_path / "new-state"
+    assert main(["up", "--namespace", "lab", "--state-dir", str(new)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "namespace 'lab' is already running" in err[0]
+    assert not new.exists()
