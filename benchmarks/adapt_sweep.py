@@ -36,6 +36,10 @@ SETTINGS: dict[str, tuple[str, dict]] = {
                 "reuse, reuse until the mean moved 1 std (at most 50), iid-like noise (20 knots), lr 5e-5",
                 dict(advantage="reinforce", noisy_per_iter=1, sl_steps=50, sl_steps_reuse=20, max_reuse=50,
                      reuse_threshold=1.0, lr=5e-5, sl_lr=5e-5, n_knots=20)),
+    "authors_lr10": ("the authors' update as above with a 10x policy rate (lr 5e-4): with 5e-5 its mean hardly "
+                     "moved (adapt_sweep_authors.json)",
+                     dict(advantage="reinforce", noisy_per_iter=1, sl_steps=50, sl_steps_reuse=20, max_reuse=50,
+                          reuse_threshold=1.0, lr=5e-4, sl_lr=5e-5, n_knots=20)),
     "sl_lr_as_rl": ("supervised steps at the RL rate (sl_lr 1e-4)", dict(sl_lr=1e-4)),
     "knots_20": ("finer exploration noise (20 knots)", dict(n_knots=20)),
     "knots_8": ("smoother exploration noise (8 knots)", dict(n_knots=8)),
