@@ -66,7 +66,7 @@ def _serve(checkpoint: str, endpoint: str, workers: int, batch_max: int, window:
                 pass
             b = service.batcher
             if b is not None:
-                print(f"batcher (max {b.max_items}, window {b.window}, passes {b.max_passes}): {b.computed} predicts "
+                print(f"batcher (max {b.max_items}, window {b.window}, threads {b.threads}): {b.computed} predicts "
                       f"in {b.passes} passes, "
                       f"largest {b.largest}", file=sys.stderr, flush=True)
         q.undeclare()

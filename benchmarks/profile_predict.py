@@ -43,10 +43,10 @@ STAGES = (
     ("request: query tensors (normalise, time grid)", "acnmp_core/cnmp.py", "CNMP.make_query"),
     ("forward: encoder + decoder (torch)", "acnmp_core/cnmp.py", "CNMP.predict_queries"),
     ("request: msgpack decode", "services/transport/wire.py", "decode"),
-    ("request: validation and limits", "services/model/handlers.py", "handle_predict"),
-    ("batching: collecting, futures", "services/model/batching.py", "PredictBatcher.submit"),
-    ("rpc: queue, thread pool, deadlines", "services/transport/rpc.py", "RpcQueryable._serve_queued"),
-    ("zenoh callback: queueing the query", "services/transport/rpc.py", "RpcQueryable._dispatch"),
+    ("request: validation and limits", "services/model/handlers.py", "prepare_predict"),
+    ("batching: collecting, futures", "services/model/batching.py", "PredictBatcher._take"),
+    ("batching: collecting, futures", "services/model/batching.py", "PredictBatcher._run_pass"),
+    ("zenoh callback: queueing the query", "services/transport/rpc.py", "RpcQueryable._serve_inline"),
 )
 _FRAME = re.compile(r"^(?P<func>.+?) \((?P<file>[^:)]+)(?::\d+)?\)$")
 

@@ -8,9 +8,8 @@ from __future__ import annotations
 
 import threading
 import time
-from concurrent.futures import Future
 from dataclasses import dataclass, field as dc_field, replace
-from typing import TYPE_CHECKING, Iterable
+from typing import Iterable
 
 import numpy as np
 import torch
@@ -19,9 +18,6 @@ from acnmp_core.cnmp import CNMP, Prediction, Query
 from acnmp_core.transfer import TransferPair, TransferredSkill
 from services.transport.errors import wire_error
 from services.transport.wire import DEFAULT_MAX_BYTES, WireError, array_field, field, require_payload
-
-if TYPE_CHECKING:  # batching imports this module
-    from .batching import PredictBatcher
 
 #: Bounds on one predict request (absurd sizes get ``too_large``, never a stalled service).
 MAX_OBS = 4096            # observations N
@@ -242,15 +238,6 @@ def run_predict(entry: SkillModel, item: PredictItem) -> dict:
     return predict_reply(entry, item, entry.model.predict_query(item_query(entry, item)))
 
 
-def predict_one(entry: SkillModel, request: dict) -> dict:
-    """Answer one predict request (decoded map) with ``entry``'s model: :func:`parse_predict`,
-    :func:`check_cost`, :func:`run_predict`. Raises WireError (bad_request, bad_shape, bad_dtype,
-    non_finite, too_large)."""
-    item = parse_predict(entry, request)
-    check_cost(entry, [item])
-    return run_predict(entry, item)
-
-
 _thread_state = threading.local()
 
 
@@ -266,27 +253,37 @@ def pin_threads() -> None:
         _thread_state.pinned = True
 
 
-def handle_predict(registry: ModelRegistry, skill: str, request, batcher: PredictBatcher | None = None,
-                   deadline: float | None = None) -> dict | Future:
-    """Answer a predict query for ``skill``: a single request or ``{"batch": [request, ...]}``.
+@dataclass
+class PreparedPredict:
+    """A single predict request checked and turned into network inputs, ready for a forward pass
+    (alone or batched with others of the same ``entry``)."""
 
-    The entry is taken once, so every item of a batch uses the same model version. A batched
-    reply is ``{"v", "skill", "version", "results": [single reply, ...]}``; a bad item fails the
-    whole batch with its index in the message; its items are computed one by one, so each equals
-    its single predict bit for bit. With a
-    ``batcher`` (services/model/batching.py), a single request is checked here (every error is
-    raised here) and handed to it: the return value is then a future of the reply, computed in one
-    forward pass with other predicts of the same model, dropped uncomputed after ``deadline``.
+    entry: SkillModel
+    item: PredictItem
+    query: Query
+
+    @property
+    def points(self) -> int:
+        """Observation plus query points (N + T): what the pass's cost grows with."""
+        return self.item.n_obs + self.item.n_query
+
+
+def prepare_predict(registry: ModelRegistry, skill: str, request) -> PreparedPredict | dict:
+    """Check a predict query for ``skill`` (decoded map) without a forward pass.
+
+    A single request comes back as a :class:`PreparedPredict` (its entry taken now, so the version
+    it will be computed with); ``{"batch": [request, ...]}`` is answered here, item by item (each
+    equals its single predict bit for bit), as the reply map ``{"v", "skill", "version",
+    "results": [single reply, ...]}`` (a bad item fails the whole batch, its index in the message).
+    Raises WireError (every code of :func:`parse_predict`, ``unknown_skill``, ``bad_request``).
     """
     request = require_payload(request, "a predict request (obs_times, obs_values, ...)")
     entry = registry.get(skill)
     pin_threads()
     if "batch" not in request:
-        if batcher is None:
-            return predict_one(entry, request)
         item = parse_predict(entry, request)
         check_cost(entry, [item])
-        return batcher.submit(entry, item, item_query(entry, item), deadline)
+        return PreparedPredict(entry, item, item_query(entry, item))
     batch = field(request, "batch", list)
     if not batch:
         raise WireError("bad_request", "field 'batch': empty")
@@ -306,6 +303,17 @@ def handle_predict(registry: ModelRegistry, skill: str, request, batcher: Predic
         except WireError as exc:
             raise WireError(exc.code, f"batch[{i}]: {exc.message}") from None
     return {"v": 1, "skill": entry.skill, "version": entry.version, "results": results}
+
+
+def handle_predict(registry: ModelRegistry, skill: str, request) -> dict:
+    """Answer a predict query for ``skill`` on this thread: a single request or
+    ``{"batch": [request, ...]}`` (see :func:`prepare_predict`); returns the reply map. The model
+    service's batched path (services/model/batching.py) runs :func:`prepare_predict` on its own
+    threads instead and computes single requests of one model together."""
+    prepared = prepare_predict(registry, skill, request)
+    if isinstance(prepared, dict):
+        return prepared
+    return predict_reply(prepared.entry, prepared.item, prepared.entry.model.predict_query(prepared.query))
 
 
 # --------------------------------------------------------------------------------------------

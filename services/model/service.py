@@ -37,7 +37,7 @@ from services.transport.keys import check_name, skill_from_key
 from services.transport.wire import WireError
 
 from .batching import DEFAULT_BATCH_MAX, DEFAULT_BATCH_WINDOW, PredictBatcher
-from .handlers import ModelRegistry, SkillModel, handle_info, handle_predict, handle_transfer
+from .handlers import ModelRegistry, SkillModel, handle_info, handle_predict, handle_transfer, prepare_predict
 from .weights import decode_weights
 
 log = logging.getLogger(__name__)
@@ -65,11 +65,12 @@ class ModelService:
     session : an open zenoh session (the caller closes it after :meth:`close`).
     namespace : deployment namespace.
     skills : serve only these skills; None serves every skill whose weights appear.
-    workers : threads answering queries (zenoh's own threads are never held by a predict).
+    workers : threads answering predicts with batching off (zenoh's own threads are never held by a
+        predict). With batching on, one batcher thread prepares and computes them: more threads
+        only fight over the GIL (benchmarks/results/bench_predict.json).
     fetch_latest : query ``weights/latest`` at start and while skills are missing.
     max_queue : predict queries waiting for a thread before more are answered ``overloaded``; a
-        waiting query whose timeout has passed is dropped without being computed. The same bound
-        applies to checked predicts waiting for a forward pass.
+        waiting query whose timeout has passed is dropped without being computed.
     weights_source : what ``info`` says for weights that came over zenoh: ``learner`` where the
         deployment's ACL lets only the learner put them, ``unauthenticated`` where anyone could.
     batch_max : concurrent single predicts of one skill model run in one forward pass, at most this
@@ -101,12 +102,18 @@ class ModelService:
         self._subs = [session.declare_subscriber(self.keys.weights(s), self._on_weights) for s in sub_skills]
         # complete=False: this process does not claim to serve every skill name, so a wildcard or
         # unknown-skill query still reaches the other model processes
+        if self.batcher is None:  # each predict decoded, checked and computed on a handler thread
+            predict = declare_rpc(session, self.keys.predict("*"),
+                                  lambda req, q: handle_predict(self.registry, _skill_of(q), req),
+                                  workers=workers, complete=False, max_queue=max_queue,
+                                  default_timeout=DEFAULT_QUERY_TIMEOUT)
+        else:  # zenoh's thread only queues the query: the batcher's threads decode, check and compute
+            predict = declare_rpc(session, self.keys.predict("*"), self._submit_predict, workers=0,
+                                  complete=False, decode_payload=False, default_timeout=DEFAULT_QUERY_TIMEOUT,
+                                  pass_deadline=True)
+        self._predict_rpc = predict
         self._rpcs = [
-            declare_rpc(session, self.keys.predict("*"),
-                        lambda req, q, deadline: handle_predict(self.registry, _skill_of(q), req,
-                                                                self.batcher, deadline),
-                        workers=workers, complete=False, max_queue=max_queue,
-                        default_timeout=DEFAULT_QUERY_TIMEOUT, pass_deadline=True),
+            predict,
             # a transfer is a predict through two models: the same queue bound and deadline, no batching
             declare_rpc(session, self.keys.transfer("*"),
                         lambda req, q: handle_transfer(self.registry, _skill_of(q), req),
@@ -123,6 +130,12 @@ class ModelService:
             self._fetcher.start()
         self.token_key = self.keys.model_service_token(str(session.zid()))
         self._token = session.liveliness().declare_token(self.token_key)
+
+    def _submit_predict(self, _request, query: zenoh.Query, deadline: float | None):
+        # on zenoh's callback thread: nothing but the skill's name is looked at here
+        skill = _skill_of(query)
+        return self.batcher.submit(
+            lambda: prepare_predict(self.registry, skill, self._predict_rpc.decode_request(query)), deadline)
 
     # ----- loading ---------------------------------------------------------------------------
     def _on_weights(self, sample: zenoh.Sample) -> None:
@@ -243,7 +256,8 @@ class ModelConfig(Service):
     checkpoints: list[str] = option(
         [], "start from a checkpoint file (acnmp_core.checkpoint format; skill name from SKILL=, the "
             "checkpoint's meta, or the file name). Repeatable", flag="--checkpoint", metavar="[SKILL=]FILE")
-    workers: int = option(2, "threads answering predict queries (default: %(default)s)", metavar="N",
+    workers: int = option(2, "threads answering predict queries with batching off (--batch-max 1); batched "
+                                "predicts are computed on one thread (default: %(default)s)", metavar="N",
                           type=int_at_least(1))
     max_queue: int = option(MAX_QUEUE, "predict queries that may wait for a thread; more are answered "
                                        "'overloaded' (default: %(default)s)", metavar="N", type=int_at_least(1))

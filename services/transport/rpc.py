@@ -108,13 +108,26 @@ class RpcQueryable:
         self.expired = 0     # dropped unanswered from the queue: their querier had given up
         self.waiting = 0     # queued, not started
         self._lock = threading.Lock()
-        callback = self._dispatch if self._pool else self._serve
+        callback = self._dispatch if self._pool else self._serve_inline
         self._queryable = session.declare_queryable(key_expr, callback, complete=complete)
+
+    def _deadline(self, query: zenoh.Query) -> float | None:
+        timeout = query_timeout(query) or self.default_timeout
+        return None if timeout is None else time.monotonic() + timeout
+
+    def decode_request(self, query: zenoh.Query) -> dict | None:
+        """The query's payload decoded as this queryable decodes it (None when it has none);
+        WireError on a bad one. For handlers declared with ``decode_payload=False`` that decode
+        later, on another thread."""
+        raw = query.payload.to_bytes() if query.payload is not None else b""
+        return decode(raw, expect_version=self._expect_version, max_bytes=self._max_bytes) if raw else None
+
+    def _serve_inline(self, query: zenoh.Query) -> None:
+        self._serve(query, self._deadline(query))
 
     def _dispatch(self, query: zenoh.Query) -> None:
         # hand the query to the pool so a slow handler never holds a zenoh runtime thread
-        timeout = query_timeout(query) or self.default_timeout
-        deadline = None if timeout is None else time.monotonic() + timeout
+        deadline = self._deadline(query)
         with self._lock:
             full = self.max_queue is not None and self.waiting >= self.max_queue
             if full:
@@ -148,11 +161,7 @@ class RpcQueryable:
 
     def _serve(self, query: zenoh.Query, deadline: float | None = None) -> None:
         try:
-            request = None
-            if self._decode:
-                raw = query.payload.to_bytes() if query.payload is not None else b""
-                request = decode(raw, expect_version=self._expect_version,
-                                 max_bytes=self._max_bytes) if raw else None
+            request = self.decode_request(query) if self._decode else None
             result = (self._handler(request, query, deadline) if self._pass_deadline
                       else self._handler(request, query))
         except Exception as exc:  # a raising callback would send no reply at all
@@ -235,7 +244,10 @@ def declare_rpc(session: zenoh.Session, key_expr: str, handler: Handler, **kwarg
     ``pass_deadline=True`` calls ``handler(request, query, deadline)`` with that deadline
     (``time.monotonic()`` seconds, or None). A handler may return a :class:`concurrent.futures.Future`
     instead of a reply: the query is answered when it completes (its result or exception, as
-    above; :class:`Expired` drops the query unanswered), on the thread that completes it.
+    above; :class:`Expired` drops the query unanswered), on the thread that completes it. With
+    ``workers=0`` the handler runs on zenoh's callback thread, so it must only hand the query on
+    (return a future at once); with ``decode_payload=False`` it gets None as the request and may
+    decode later with :meth:`RpcQueryable.decode_request`.
     Other keyword arguments: see :class:`RpcQueryable`.
     """
     return RpcQueryable(session, key_expr, handler, **kwargs)

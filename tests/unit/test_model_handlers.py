@@ -102,10 +102,14 @@ def test_the_reply_size_estimate_bounds_the_encoded_reply(small_model):
         assert actual <= estimate <= actual + REPLY_OVERHEAD, (request.keys(), actual, estimate)
 
 
-def test_batched_predicts_answer_each_its_own_request_in_one_forward_pass(small_model):
-    import threading
-    from concurrent.futures import Future
+def _submit(batcher, reg, skill, request, deadline=None):
+    """What the model service's predict queryable does: queue the request with its preparation."""
+    from services.model.handlers import prepare_predict
 
+    return batcher.submit(lambda: prepare_predict(reg, skill, request), deadline)
+
+
+def test_batched_predicts_answer_each_its_own_request_in_one_forward_pass(small_model):
     from services.model.batching import PredictBatcher
 
     reg = ModelRegistry()
@@ -113,24 +117,10 @@ def test_batched_predicts_answer_each_its_own_request_in_one_forward_pass(small_
     requests = [{**OBS, "n_steps": 50}, {"obs_times": [0.5], "obs_values": [[0.3, 0.1]], "n_steps": 7},
                 {**OBS, "query_times": np.linspace(0.2, 0.8, 30), "n_samples": 3, "seed": 5},
                 {"obs_times": [0.1, 0.4, 0.9], "obs_values": np.ones((3, 2)), "n_steps": 200}]
-    # four handler threads at once and a long window: the first to submit leads the pass and waits
-    # until it has all four, so they run as one pass
-    batcher = PredictBatcher(max_items=len(requests), window=60.0)
-    futures = [None] * len(requests)
-
-    def handler(i):
-        futures[i] = handle_predict(reg, "reach", requests[i], batcher)
-
-    threads = [threading.Thread(target=handler, args=(i,)) for i in range(len(requests))]
-    try:
-        for t in threads:
-            t.start()
-        for t in threads:
-            t.join(timeout=60)
-        assert all(isinstance(f, Future) for f in futures)
+    # a long window: the batcher thread waits until it has all four, so they run as one pass
+    with PredictBatcher(max_items=len(requests), window=60.0) as batcher:
+        futures = [_submit(batcher, reg, "reach", r) for r in requests]
         got = [f.result(timeout=60) for f in futures]
-    finally:
-        batcher.close()
     assert (batcher.passes, batcher.computed, batcher.largest) == (1, 4, 4)
     for request, reply in zip(requests, got):
         ref = handle_predict(reg, "reach", request)
@@ -151,20 +141,48 @@ def test_the_batcher_drops_expired_predicts_and_never_mixes_models(small_model):
     reg.offer(SkillModel("b", 1, copy.deepcopy(small_model)))
     batcher = PredictBatcher(max_items=8, window=0.0)
     try:
-        late = handle_predict(reg, "a", {**OBS, "n_steps": 5}, batcher, deadline=time.monotonic() - 1.0)
+        late = _submit(batcher, reg, "a", {**OBS, "n_steps": 5}, deadline=time.monotonic() - 1.0)
         assert isinstance(late.exception(timeout=30), Expired)
-        # alone, a predict is computed on the thread that submits it: its future is done on return
-        assert handle_predict(reg, "a", {**OBS, "n_steps": 5}, batcher).done()
-        pending = [handle_predict(reg, s, {**OBS, "n_steps": 5}, batcher) for s in "abab"]
+        pending = [_submit(batcher, reg, s, {**OBS, "n_steps": 5}) for s in "abab"]
         replies = [f.result(timeout=30) for f in pending]
+        # a bad request fails its own future only, with its code; an explicit batch needs no pass
+        bad = _submit(batcher, reg, "a", {**OBS, "n_steps": 10**6})
+        good = _submit(batcher, reg, "a", {**OBS, "n_steps": 5})
+        both = _submit(batcher, reg, "a", {"batch": [{**OBS, "n_steps": 5}] * 2})
+        assert bad.exception(timeout=30).code == "too_large"
+        assert good.result(timeout=30)["skill"] == "a" and len(both.result(timeout=30)["results"]) == 2
     finally:
         batcher.close()
     assert [r["skill"] for r in replies] == list("abab") and batcher.expired == 1
     assert batcher.computed == 5 and batcher.passes >= 3  # a pass holds one model only
-    # bad requests are refused on the handler's thread, before the batcher sees them
     with pytest.raises(WireError) as info:
-        handle_predict(reg, "a", {**OBS, "n_steps": 10**6}, batcher)
-    assert info.value.code == "too_large"
-    with pytest.raises(WireError) as info:
-        handle_predict(reg, "a", {**OBS, "n_steps": 5}, batcher)
+        _submit(batcher, reg, "a", {**OBS, "n_steps": 5})
     assert info.value.code == "unavailable"  # closed
+
+
+def test_a_light_predict_taken_with_heavy_ones_is_computed_first(small_model):
+    import threading
+
+    from services.model.batching import PredictBatcher
+
+    reg = ModelRegistry()
+    reg.offer(SkillModel("a", 1, small_model))
+    heavy = {"obs_times": np.linspace(0, 1, 1000), "obs_values": np.zeros((1000, 2)), "n_steps": 2000}
+    order, lock = [], threading.Lock()
+
+    def done(name):
+        def note(_future):
+            with lock:
+                order.append(name)
+        return note
+
+    # the window holds the thread until all four are queued: they are taken in one round
+    with PredictBatcher(max_items=4, window=60.0) as batcher:
+        futures = []
+        for name, request in [("heavy1", heavy), ("heavy2", heavy), ("light", {**OBS, "n_steps": 5}),
+                              ("heavy3", heavy)]:
+            futures.append(_submit(batcher, reg, "a", request))
+            futures[-1].add_done_callback(done(name))
+        for f in futures:
+            f.result(timeout=60)
+    assert order[0] == "light" and batcher.passes == 4  # each heavy one alone (over the pass's points)
