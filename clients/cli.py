@@ -16,10 +16,7 @@ import sys
 import threading
 
 from clients import commands
-
-
-class UsageError(SystemExit):
-    """A bad argument, already reported on stderr (exit code 2)."""
+from services.transport.argtypes import Parser, UsageError
 
 
 class Terminated(KeyboardInterrupt):
@@ -46,16 +43,6 @@ def sigterm_unwinds():
         yield
     finally:
         signal.signal(signal.SIGTERM, signal.SIG_DFL)
-
-
-class Parser(argparse.ArgumentParser):
-    """An argument parser whose mistakes are one line on stderr, naming the option and how to get
-    help (argparse's usage block would come first otherwise); the parsers of sub-commands are of
-    this class too (argparse makes them of their parent's)."""
-
-    def error(self, message: str):
-        print(f"{self.prog}: error: {message} (see {self.prog} --help)", file=sys.stderr)
-        raise UsageError(2)
 
 
 def build_parser() -> argparse.ArgumentParser:

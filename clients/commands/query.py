@@ -119,6 +119,13 @@ def _number(text, where: str) -> float:
     return value
 
 
+def _json_number(value, where: str) -> float:
+    """A finite JSON number (not a bool, not a string holding one); ValueError naming ``where``."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ValueError(f"{where}: {json.dumps(value)} is not a number")
+    return _number(value, where)
+
+
 def parse_obs(items: list[str]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``["t:v1,v2", ...]`` -> times (N,), values (N, D), mask (N, D) bool (False where ``_``).
 
@@ -157,8 +164,8 @@ def parse_obs_json(text: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     for entry in data:
         if not (isinstance(entry, list) and len(entry) == 2 and isinstance(entry[1], list)):
             raise ValueError(f"{where}: entry {entry!r} is not [t, [values...]]")
-        times.append(_number(entry[0], where))
-        rows.append([0.0 if v is None else _number(v, where) for v in entry[1]])
+        times.append(_json_number(entry[0], where))
+        rows.append([0.0 if v is None else _json_number(v, where) for v in entry[1]])
         masks.append([v is not None for v in entry[1]])
     return _stack_obs(times, rows, masks)
 
@@ -174,7 +181,10 @@ def _stack_obs(times, rows, masks):
 def _floats(text: str | None, name: str) -> np.ndarray | None:
     if text is None:
         return None
-    return np.array([_number(v, f"{name} {text!r}") for v in text.split(",") if v.strip()])
+    parts = [v.strip() for v in text.split(",")]
+    if not all(parts):
+        raise ValueError(f"{name} {text!r}: an empty entry; expected numbers separated by commas")
+    return np.array([_number(v, f"{name} {text!r}") for v in parts])
 
 
 def _client(args, role: str = "client"):
@@ -193,8 +203,8 @@ def _fail(exc) -> int:
 
 
 def _run_predict(args) -> int:
-    return _run_prediction(args, lambda client, skill, **kw: client.predict(
-        skill, task_params=_floats(args.task_params, "--task-params"), **kw))
+    task_params = _floats(args.task_params, "--task-params")  # refused before any session opens
+    return _run_prediction(args, lambda client, skill, **kw: client.predict(skill, task_params=task_params, **kw))
 
 
 def _run_transfer(args) -> int:

@@ -11,6 +11,8 @@ import argparse
 import json
 import math
 import os
+import stat
+import sys
 from pathlib import Path
 
 import zenoh
@@ -85,6 +87,20 @@ def endpoint(text: str) -> str:
     return text
 
 
+class UsageError(SystemExit):
+    """A bad argument, already reported on stderr (exit code 2)."""
+
+
+class Parser(argparse.ArgumentParser):
+    """An argument parser whose mistakes are one line on stderr, naming the option and how to get
+    help (argparse's usage block would come first otherwise); the parsers of sub-commands are of
+    this class too (argparse makes them of their parent's). Raises :class:`UsageError`."""
+
+    def error(self, message: str):
+        print(f"{self.prog}: error: {message} (see {self.prog} --help)", file=sys.stderr)
+        raise UsageError(2)
+
+
 def check_output_path(path: str | None, option: str) -> None:
     """ValueError naming ``option`` unless a file can be written at ``path`` (None: nothing to check).
 
@@ -96,6 +112,8 @@ def check_output_path(path: str | None, option: str) -> None:
     p = Path(path)
     if p.is_dir():
         raise ValueError(f"{option} {path}: is a directory; give a file name")
+    if p.exists() and not stat.S_ISREG(p.stat().st_mode):  # /dev/full opens, then every write fails
+        raise ValueError(f"{option} {path}: not a regular file; give a file name")
     try:
         p.parent.mkdir(parents=True, exist_ok=True)
         existed = p.exists()

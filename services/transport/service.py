@@ -36,6 +36,7 @@ from typing import Any, Callable, ClassVar, Sequence
 
 import zenoh
 
+from .argtypes import Parser, UsageError
 from .lifetime import install_shutdown_handlers
 from .session import MODES, SessionOptions
 
@@ -142,7 +143,7 @@ def run_service(config: Service, *, stop: threading.Event | None = None, ready: 
 
 def parser_for(cls: type[Service], prog: str | None = None) -> argparse.ArgumentParser:
     """A stand-alone parser for ``cls`` (what ``python -m services.<wing>`` uses)."""
-    parser = argparse.ArgumentParser(prog=prog or f"acnmp serve {cls.name}", description=cls.summary)
+    parser = Parser(prog=prog or f"acnmp serve {cls.name}", description=cls.summary)
     add_arguments(parser, cls)
     return parser
 
@@ -154,8 +155,11 @@ def configure_logging(name: str) -> None:
 
 def main(cls: type[Service], argv: list[str] | None = None) -> int:
     """Parse ``argv`` for ``cls`` and run it: the body of every ``services/<wing>/__main__.py``.
-    A bad option value (ValueError) is one line on stderr and exit code 2."""
-    args = parser_for(cls).parse_args(argv)
+    A bad option or option value is one line on stderr and exit code 2."""
+    try:
+        args = parser_for(cls).parse_args(argv)
+    except UsageError as exc:
+        return int(exc.code)
     configure_logging(cls.name)
     try:
         return run_service(from_args(cls, args))

@@ -301,3 +301,33 @@ def test_up_refuses_a_running_namespace_before_touching_the_state_directory(tmp_
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "namespace 'lab' is already running" in err[0]
     assert not new.exists()
+
+
+def test_a_service_started_as_a_module_refuses_a_bad_option_in_one_line(capsys):
+    """``python -m services.<wing>`` parses with the same one-line parser as ``acnmp``."""
+    from services.model.service import ModelConfig
+    from services.transport.service import main as service_main
+
+    for argv, expected in [(["--bogus"], "unrecognized arguments: --bogus"),
+                           (["--workers", "0"], "argument --workers: expected an integer >= 1, got 0")]:
+        assert service_main(ModelConfig, argv) == 2
+        captured = capsys.readouterr()
+        lines = captured.err.strip().splitlines()
+        assert len(lines) == 1 and expected in lines[0] and "usage:" not in captured.err, captured
+
+
+@pytest.mark.parametrize("argv, expected", [
+    (["--obs", "0:0.1,0.2", "--times", "1,,2"], "--times '1,,2': an empty entry"),
+    (["--obs", "0:0.1,0.2", "--times", "0,1,"], "--times '0,1,': an empty entry"),
+    (["--obs", "0:0.1,0.2", "--task-params", ",0.3"], "--task-params ',0.3': an empty entry"),
+    (["--obs-json", "[[0, [true, 0.1]]]"], "--obs-json: true is not a number"),
+    (["--obs-json", '[["0.5", [0.1, 0.2]]]'], '--obs-json: "0.5" is not a number'),
+])
+def test_query_predict_refuses_what_is_not_a_list_of_numbers(argv, expected, capsys):
+    """Checked before any session is opened (no deployment runs here)."""
+    assert expected in refused(["query", "predict", *argv], capsys)
+
+
+def test_an_output_that_is_not_a_regular_file_is_refused_before_the_run(capsys):
+    """/dev/full opens for writing; every write then fails: a result of minutes would be lost."""
+    assert "--json /dev/full: not a regular file" in refused(["experiment", "viapoint", "--json", "/dev/full"], capsys)
