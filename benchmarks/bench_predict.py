@@ -17,7 +17,10 @@ Target: p50(predict_zenoh) <= 1.5 x (p50(in_process) + p50(empty_query)). Then t
 (predicts/s) with 1, 4 and 16 concurrent clients, each a thread of this process with its own zenoh
 session, ``--reps`` times, cycling through the configurations within each repetition; the target
 is throughput(16) >= 3 x throughput(1) of the same configuration (medians over the repetitions).
-The clients share the machine (2 cores here) with the service.
+The clients share the machine (2 cores here) with the service. For each configuration it also
+records the cores kept busy (service and clients, CPU seconds per second) and the CPU ceiling of the
+scaling: cores / (CPU ms per predict at 16 clients) / throughput(1), what 16 clients could reach
+with every core busy at the CPU cost per predict they were measured at.
 
     python benchmarks/bench_predict.py --json benchmarks/results/bench_predict.json
 """
@@ -292,7 +295,20 @@ def main(argv: list[str] | None = None) -> int:
             "client_cpu_ms_per_predict_median": {
                 str(k): _median([r["client_cpu_ms_per_predict"] for r in runs if r["mode"] == m and r["clients"] == k])
                 for k in n_clients},
+            # cores kept busy by the service and the clients together (CPU seconds per second)
+            "cores_busy_median": {
+                str(k): _median([r["predicts_per_s"] * (r["service_cpu_ms_per_predict"] + r["client_cpu_ms_per_predict"])
+                                 / 1e3 for r in runs if r["mode"] == m and r["clients"] == k]) for k in n_clients},
         }
+        # The CPU ceiling: with every core busy at the CPU per predict measured at the top client
+        # count, throughput could be at most cores / that; relative to one client's rate it is
+        # (cores / cores busy with one client) x (CPU per predict with one client / at the top).
+        row = by_mode[m]
+        cpu = {k: row["service_cpu_ms_per_predict_median"][k] + row["client_cpu_ms_per_predict_median"][k]
+               for k in row["service_cpu_ms_per_predict_median"]}
+        first, last = str(n_clients[0]), str(n_clients[-1])
+        row["cpu_ms_per_predict_median"] = cpu
+        row["scaling_ceiling"] = (os.cpu_count() * 1e3 / cpu[last]) / rate[n_clients[0]]
     top = str(n_clients[-1])
     result = {
         "benchmark": "predict", "provenance": prov, "steps": STEPS,
@@ -318,7 +334,9 @@ def main(argv: list[str] | None = None) -> int:
         cpu = ", ".join(f"{k}: {row['service_cpu_ms_per_predict_median'][k]:.2f}+"
                         f"{row['client_cpu_ms_per_predict_median'][k]:.2f}" for k in row["predicts_per_s_median"])
         print(f"{m:7s} p50 ratio {row['p50_ratio']:.2f}; {rates}; x{row['scaling_vs_1'][top]:.2f} at {top} "
-              f"({row['errors']} errors); CPU ms per predict service+clients {cpu}")
+              f"({row['errors']} errors); CPU ms per predict service+clients {cpu}; cores busy "
+              f"{', '.join(f'{k}: {v:.2f}' for k, v in row['cores_busy_median'].items())}; CPU ceiling at {top}: "
+              f"x{row['scaling_ceiling']:.2f}")
     if args.json:
         save_result(result, args.json)
     return 0
