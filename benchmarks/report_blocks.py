@@ -289,7 +289,9 @@ def readme_results() -> str:
         rows.append(["predict throughput", "–",
                      f"{top} clients: {on['scaling_vs_1'][top]:.2f}x one client with dynamic batching "
                      f"({on['predicts_per_s_median'][top]:.0f}/s), {off['scaling_vs_1'][top]:.2f}x without "
-                     f"({off['predicts_per_s_median'][top]:.0f}/s); target ≥ 3x; medians of {p['reps']} runs, 2 shared cores"])
+                     f"({off['predicts_per_s_median'][top]:.0f}/s); target ≥ 3x; medians of {p['reps']} runs, 2 shared cores"
+                     + (f"; CPU ceiling {on['scaling_ceiling']:.2f}x (both cores busy at the CPU per predict of "
+                        f"{top} clients)" if "scaling_ceiling" in on else "")])
     h = load("bench_hostile")
     rows.append(["hostile input", "–",
                  f"{h['requests']:,} generated requests: {h['documented_pct']:.0f} % documented codes, "
