@@ -3,7 +3,7 @@ with dynamic batching on and off side by side.
 
 One model service process per configuration (``--modes``: ``off`` = ``batch_max=1``, each predict
 alone; ``on`` = the service default, batching what is waiting; ``window`` = batching with a
-``--window`` collection window), all started at once, spawned, peer mode on loopback, one hop. In
+``--window`` collection window; ``threads2`` = batching on two batcher threads), all started at once, spawned, peer mode on loopback, one hop. In
 one run, interleaved so that they share the machine's conditions:
 
 - ``predict_zenoh``: a 200-step predict (2 observations, the E1 model, default architecture) sent by
@@ -47,7 +47,8 @@ OBS_V = np.array([[0.0, 0.0], [1.0, 0.0]])
 STEPS = 200
 
 
-def _serve(checkpoint: str, endpoint: str, workers: int, batch_max: int, window: float, ready, stop) -> None:
+def _serve(checkpoint: str, endpoint: str, workers: int, batch_max: int, window: float, threads: int, ready,
+           stop) -> None:
     """Child process: a model service serving ``checkpoint`` as skill 'reach' plus the empty queryable."""
     import torch
 
@@ -62,7 +63,7 @@ def _serve(checkpoint: str, endpoint: str, workers: int, batch_max: int, window:
 
         q = session.declare_queryable(EMPTY_KEY, empty, complete=True)
         with ModelService(session, NS, workers=workers, fetch_latest=False, batch_max=batch_max,
-                          batch_window=window) as service:
+                          batch_window=window, batch_threads=threads) as service:
             service.load_checkpoint(checkpoint, "reach")
             ready.set()
             while not stop.wait(0.2):
@@ -182,7 +183,7 @@ def measure_throughput(endpoint: str, n_clients: int, duration: float, service=N
 
 #: The configurations: ``off``, ``on``, ``window`` (services), ``empty`` (empty queries to the ``on``
 #: service: the transport's floor, throughput only).
-MODES = ("off", "on", "window", "empty")
+MODES = ("off", "on", "window", "threads2", "empty")
 
 
 def _wait_served(client) -> None:
@@ -209,7 +210,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--duration", type=float, default=3.0, help="seconds per throughput point")
     parser.add_argument("--clients", default="1,4,16", help="concurrent clients per throughput point")
     parser.add_argument("--reps", type=int, default=3, help="repetitions of the throughput points (default: %(default)s)")
-    parser.add_argument("--modes", default="off,on,window,empty", help="configurations (default: %(default)s)")
+    parser.add_argument("--modes", default="off,on,window,threads2,empty", help="configurations (default: %(default)s)")
     parser.add_argument("--window", type=float, default=0.001, help="collection window of mode 'window', seconds")
     parser.add_argument("--workers", type=int, default=2, help="model service predict threads")
     parser.add_argument("--train-steps", type=int, default=300, help="training steps of the benchmarked model")
@@ -229,8 +230,9 @@ def main(argv: list[str] | None = None) -> int:
     modes = [m for m in args.modes.split(",") if m]
     if "on" not in modes or any(m not in MODES for m in modes):
         parser.error(f"--modes: a comma-separated subset of {', '.join(MODES)} that includes 'on'")
-    settings = {"off": (1, 0.0), "on": (DEFAULT_BATCH_MAX, DEFAULT_BATCH_WINDOW),
-                "window": (DEFAULT_BATCH_MAX, args.window), "empty": (None, None)}
+    settings = {"off": (1, 0.0, 1), "on": (DEFAULT_BATCH_MAX, DEFAULT_BATCH_WINDOW, 1),
+                "window": (DEFAULT_BATCH_MAX, args.window, 1), "threads2": (DEFAULT_BATCH_MAX, DEFAULT_BATCH_WINDOW, 2),
+                "empty": (None, None, None)}
     n_clients = [int(k) for k in args.clients.split(",")]
     ctx = mp.get_context("spawn")  # zenoh sessions do not survive fork
     with tempfile.TemporaryDirectory(prefix="bench-predict-") as tmp:
@@ -282,7 +284,7 @@ def main(argv: list[str] | None = None) -> int:
         per_rep = {k: [r["predicts_per_s"] for r in runs if r["mode"] == m and r["clients"] == k] for k in n_clients}
         lat = latency["empty_query" if m == "empty" else f"predict_{m}"]
         by_mode[m] = {
-            "batch_max": settings[m][0], "batch_window_s": settings[m][1],
+            "batch_max": settings[m][0], "batch_window_s": settings[m][1], "batch_threads": settings[m][2],
             "p50_ms": lat["p50_ms"], "p50_ratio": lat["p50_ms"] / floor,
             "predicts_per_s_median": {str(k): rate[k] for k in n_clients},
             "scaling_vs_1": {str(k): rate[k] / rate[n_clients[0]] for k in n_clients},

@@ -125,7 +125,7 @@ def main(argv: list[str] | None = None) -> int:
         forward = forward_cpu_per_item(B._train_checkpoint(ckpt, 300))  # before the service runs
         endpoint = loopback_endpoint(free_port())
         stop, ready = ctx.Event(), ctx.Event()
-        child = ctx.Process(target=B._serve, args=(str(ckpt), endpoint, 2, DEFAULT_BATCH_MAX, DEFAULT_BATCH_WINDOW,
+        child = ctx.Process(target=B._serve, args=(str(ckpt), endpoint, 2, DEFAULT_BATCH_MAX, DEFAULT_BATCH_WINDOW, 1,
                                                    ready, stop), daemon=True)
         child.start()
         try:

@@ -75,13 +75,15 @@ class ModelService:
         deployment's ACL lets only the learner put them, ``unauthenticated`` where anyone could.
     batch_max : concurrent single predicts of one skill model run in one forward pass, at most this
         many (services/model/batching.py); 1 turns batching off (each computed on its handler thread).
-    batch_window : seconds a pass's leader waits for more predicts after the first of a pass.
+    batch_window : seconds the batcher thread waits for more predicts after the first of a round.
+    batch_threads : batcher threads (default 1); each takes the predicts waiting and computes them.
     """
 
     def __init__(self, session: zenoh.Session, namespace: str = "default", *,
                  skills: Sequence[str] | None = None, workers: int = 2, fetch_latest: bool = True,
                  max_queue: int = MAX_QUEUE, weights_source: str = "learner",
-                 batch_max: int = DEFAULT_BATCH_MAX, batch_window: float = DEFAULT_BATCH_WINDOW):
+                 batch_max: int = DEFAULT_BATCH_MAX, batch_window: float = DEFAULT_BATCH_WINDOW,
+                 batch_threads: int = 1):
         self.session = session
         self.weights_source = weights_source
         self.keys = Keyspace(namespace)
@@ -97,7 +99,7 @@ class ModelService:
             raise ValueError(f"--batch-max: expected >= 1 (1 turns batching off), got {batch_max}")
         if not batch_window >= 0:
             raise ValueError(f"--batch-window: expected >= 0 seconds, got {batch_window}")
-        self.batcher = (PredictBatcher(batch_max, batch_window, max_pending=max_queue)
+        self.batcher = (PredictBatcher(batch_max, batch_window, max_pending=max_queue, threads=batch_threads)
                         if batch_max > 1 else None)
         self._subs = [session.declare_subscriber(self.keys.weights(s), self._on_weights) for s in sub_skills]
         # complete=False: this process does not claim to serve every skill name, so a wildcard or
@@ -267,6 +269,9 @@ class ModelConfig(Service):
     batch_window: float = option(DEFAULT_BATCH_WINDOW, "seconds to wait for more predicts to batch with the "
                                                        "first (default: %(default)s: only those already waiting)",
                                  metavar="SECONDS", type=seconds(zero=True))
+    batch_threads: int = option(1, "threads computing batched predicts; the work around a forward pass holds "
+                                   "Python's GIL, so on 2 cores one is fastest (default: %(default)s)",
+                                metavar="N", type=int_at_least(1))
 
     def serve(self, session: zenoh.Session, stop: threading.Event, ready: Ready) -> int:
         """Serve until ``stop``: checkpoints are loaded before ``ready`` is called."""
@@ -276,7 +281,7 @@ class ModelConfig(Service):
         source = "learner" if authenticated_user(self.session.config) else "unauthenticated"
         with ModelService(session, self.session.namespace, skills=self.skills, workers=self.workers,
                           max_queue=self.max_queue, weights_source=source, batch_max=self.batch_max,
-                          batch_window=self.batch_window) as service:
+                          batch_window=self.batch_window, batch_threads=self.batch_threads) as service:
             for value in self.checkpoints:
                 skill, path = _parse_checkpoint_arg(value)
                 try:

@@ -200,6 +200,7 @@ def test_a_good_demos_value_passes_the_check(tmp_path):
     (["serve", "model", "--workers", "0"], "--workers"),      # was: answered on zenoh's own threads
     (["serve", "model", "--max-queue", "0"], "--max-queue"),  # was: every predict answered 'overloaded'
     (["serve", "model", "--batch-window", "nan"], "--batch-window"),
+    (["serve", "model", "--batch-threads", "0"], "--batch-threads"),
     (["serve", "learner", "--train-steps", "0"], "--train-steps"),
     (["serve", "learner", "--chunk-timeout", "nan"], "--chunk-timeout"),
     (["serve", "learner", "--chunk-timeout", "-1"], "--chunk-timeout"),

@@ -186,3 +186,21 @@ def test_a_light_predict_taken_with_heavy_ones_is_computed_first(small_model):
         for f in futures:
             f.result(timeout=60)
     assert order[0] == "light" and batcher.passes == 4  # each heavy one alone (over the pass's points)
+
+
+def test_two_batcher_threads_answer_every_predict_with_its_own_model(small_model):
+    from services.model.batching import PredictBatcher
+
+    reg = ModelRegistry()
+    reg.offer(SkillModel("a", 1, small_model))
+    reg.offer(SkillModel("b", 2, copy.deepcopy(small_model)))
+    requests = [("ab"[i % 2], {"obs_times": [0.1 * (i % 9)], "obs_values": [[0.05 * i, 0.0]], "n_steps": 3 + i})
+                for i in range(24)]
+    with PredictBatcher(max_items=5, threads=2) as batcher:
+        futures = [_submit(batcher, reg, skill, request) for skill, request in requests]
+        replies = [f.result(timeout=60) for f in futures]
+    assert batcher.computed == len(requests)
+    for (skill, request), reply in zip(requests, replies):
+        ref = handle_predict(reg, skill, request)
+        assert (reply["skill"], reply["version"]) == (skill, ref["version"])
+        np.testing.assert_allclose(reply["mean"], ref["mean"], rtol=1e-5, atol=1e-5)
