@@ -66,8 +66,7 @@ class ModelService:
     namespace : deployment namespace.
     skills : serve only these skills; None serves every skill whose weights appear.
     workers : threads answering predicts with batching off (zenoh's own threads are never held by a
-        predict). With batching on, one batcher thread prepares and computes them: more threads
-        only fight over the GIL (benchmarks/results/bench_predict.json).
+        predict). With batching on, the ``batch_threads`` batcher threads prepare and compute them.
     fetch_latest : query ``weights/latest`` at start and while skills are missing.
     max_queue : predict queries waiting for a thread before more are answered ``overloaded``; a
         waiting query whose timeout has passed is dropped without being computed.
@@ -77,6 +76,8 @@ class ModelService:
         many (services/model/batching.py); 1 turns batching off (each computed on its handler thread).
     batch_window : seconds the batcher thread waits for more predicts after the first of a round.
     batch_threads : batcher threads (default 1); each takes the predicts waiting and computes them.
+        More than one only fight over the GIL on 2 cores (mode ``threads2`` of
+        benchmarks/results/bench_predict.json).
     """
 
     def __init__(self, session: zenoh.Session, namespace: str = "default", *,
@@ -259,7 +260,7 @@ class ModelConfig(Service):
         [], "start from a checkpoint file (acnmp_core.checkpoint format; skill name from SKILL=, the "
             "checkpoint's meta, or the file name). Repeatable", flag="--checkpoint", metavar="[SKILL=]FILE")
     workers: int = option(2, "threads answering predict queries with batching off (--batch-max 1); batched "
-                                "predicts are computed on one thread (default: %(default)s)", metavar="N",
+                                "predicts are computed on the --batch-threads (default: %(default)s)", metavar="N",
                           type=int_at_least(1))
     max_queue: int = option(MAX_QUEUE, "predict queries that may wait for a thread; more are answered "
                                        "'overloaded' (default: %(default)s)", metavar="N", type=int_at_least(1))
