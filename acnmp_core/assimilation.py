@@ -29,7 +29,7 @@ from .adaptation import AdaptTarget
 from .cnmp import CNMP
 from .data import DemoSet, Demonstration, Episode
 from .optim_step import Stepper
-from .training import TrainConfig, make_sampler, nll_loss
+from .training import TrainConfig, check_lr_final, cosine_lr, make_sampler, nll_loss, set_lr
 from .validation import check_positive_int
 
 
@@ -42,6 +42,8 @@ class AssimilationConfig:
     batch_size : random episodes per step (from all demonstrations, the solution included).
     n_targets : target points per episode.
     anchor_weight : weight of the anchor NLL (the solution given the adaptation's conditions).
+    lr_final : None keeps ``lr`` constant; a number decays it along a half cosine to ``lr_final``
+        at the last step (:func:`~acnmp_core.training.cosine_lr`).
     """
 
     steps: int = 1000
@@ -49,6 +51,7 @@ class AssimilationConfig:
     batch_size: int = 32
     n_targets: int = 10
     anchor_weight: float = 1.0
+    lr_final: float | None = None
 
     def __post_init__(self) -> None:
         check_positive_int("steps", self.steps, minimum=0)
@@ -56,13 +59,15 @@ class AssimilationConfig:
         check_positive_int("n_targets", self.n_targets)
         if isinstance(self.lr, bool) or not isinstance(self.lr, (int, float)) or not self.lr > 0:
             raise ValueError(f"lr: expected a number > 0, got {self.lr!r}")
+        check_lr_final(self.lr, self.lr_final)
         if isinstance(self.anchor_weight, bool) or not isinstance(self.anchor_weight, (int, float)) \
                 or not self.anchor_weight >= 0:
             raise ValueError(f"anchor_weight: expected a number >= 0, got {self.anchor_weight!r}")
 
 
 def assimilate(model: CNMP, demos: DemoSet, solution: Demonstration, cfg: AssimilationConfig | None = None, *,
-               conditions: AdaptTarget | None = None, seed: int = 0) -> tuple[DemoSet, list[float]]:
+               conditions: AdaptTarget | None = None, seed: int = 0,
+               optimizer: torch.optim.Optimizer | None = None) -> tuple[DemoSet, list[float]]:
     """Add ``solution`` to ``demos`` and continue training ``model`` in place on the new set.
 
     Parameters
@@ -74,6 +79,8 @@ def assimilate(model: CNMP, demos: DemoSet, solution: Demonstration, cfg: Assimi
     conditions : the query the solution was found for (its observations and task parameters; the
         query times are replaced by the solution's). None trains on random episodes only.
     seed : seeds the episode sampling.
+    optimizer : an optimiser over ``model``'s parameters to continue (its moments carry over from the
+        training before, its rate is set to ``cfg.lr``); None starts a fresh Adam.
 
     Returns the enlarged :class:`DemoSet` and the loss per step (empty when ``cfg.steps`` is 0).
     """
@@ -92,15 +99,19 @@ def assimilate(model: CNMP, demos: DemoSet, solution: Demonstration, cfg: Assimi
         with torch.no_grad():
             y = model.value_norm.normalize(torch.as_tensor(new[-1].values)).float()[None]
         anchor = Episode(q.obs_x, q.obs_mask, q.tgt_x, y)
-    opt = Stepper(torch.optim.Adam(model.parameters(), lr=cfg.lr, fused=True))
+    if optimizer is not None:
+        set_lr(optimizer, cfg.lr)
+    opt = Stepper(optimizer or torch.optim.Adam(model.parameters(), lr=cfg.lr, fused=True))
     losses = []
     model.train()
-    for _ in range(cfg.steps):
+    for step in range(1, cfg.steps + 1):
         loss = nll_loss(model, sampler.sample(cfg.batch_size, gen), train_cfg.beta)
         if anchor is not None:
             loss = loss + cfg.anchor_weight * nll_loss(model, anchor, train_cfg.beta)
         opt.zero_grad()
         loss.backward()
+        if cfg.lr_final is not None:
+            set_lr(opt.opt, cosine_lr(cfg.lr, cfg.lr_final, step, cfg.steps))
         opt.step()
         losses.append(loss.item())
     model.eval()

@@ -27,6 +27,9 @@ class TrainConfig:
     is used instead, which still makes best-checkpoint keeping meaningful.
     val_every : steps between validations. partial_obs_prob : see EpisodeSampler.
     beta : beta-NLL exponent for the training loss (see :func:`nll_loss`); 0 is the plain NLL.
+    lr_final : None keeps ``lr`` constant; a number decays the rate from ``lr`` to ``lr_final``
+        along a half cosine over the steps (:func:`cosine_lr`), which ends training with small,
+        precise steps instead of Adam's full-rate jitter.
     """
 
     steps: int = 5000
@@ -40,6 +43,7 @@ class TrainConfig:
     val_episodes: int = 256
     partial_obs_prob: float = 0.2
     beta: float = 0.5
+    lr_final: float | None = None
 
     def __post_init__(self) -> None:
         check_positive_int("steps", self.steps, minimum=0)
@@ -49,6 +53,30 @@ class TrainConfig:
             raise ValueError(f"val_fraction: expected 0 <= val_fraction < 1, got {self.val_fraction}")
         if not (self.lr > 0):
             raise ValueError(f"lr: expected > 0, got {self.lr}")
+        check_lr_final(self.lr, self.lr_final)
+
+
+def check_lr_final(lr: float, lr_final: float | None) -> None:
+    """Refuse a final learning rate that is not a number in (0, lr] (None: no decay)."""
+    if lr_final is None:
+        return
+    if isinstance(lr_final, bool) or not isinstance(lr_final, (int, float)) or not 0 < lr_final <= lr:
+        raise ValueError(f"lr_final: expected None or a number in (0, lr = {lr}], got {lr_final!r}")
+
+
+def cosine_lr(lr: float, lr_final: float | None, step: int, steps: int) -> float:
+    """Learning rate of gradient step ``step`` (1..steps): ``lr`` at the first step, falling along
+    a half cosine to ``lr_final`` at the last; ``lr`` throughout when ``lr_final`` is None."""
+    if lr_final is None or steps <= 1:
+        return lr
+    frac = (step - 1) / (steps - 1)
+    return lr_final + 0.5 * (lr - lr_final) * (1.0 + math.cos(math.pi * frac))
+
+
+def set_lr(opt: torch.optim.Optimizer, lr: float) -> None:
+    """Set every parameter group's learning rate of ``opt`` (a float, as the fused Adam wants)."""
+    for g in opt.param_groups:
+        g["lr"] = float(lr)
 
 
 @dataclass
@@ -154,6 +182,8 @@ def train(
         loss = nll_loss(model, sampler.sample(cfg.batch_size, gen), cfg.beta)
         opt.zero_grad()
         loss.backward()
+        if cfg.lr_final is not None:
+            set_lr(opt.opt, cosine_lr(cfg.lr, cfg.lr_final, step, cfg.steps))
         opt.step()
         result.train_loss.append(loss.item())
         if step % cfg.val_every == 0 or step == cfg.steps:

@@ -58,6 +58,12 @@ CANDIDATES = {
     # and a milder hysteresis.
     "stop0.10_c0": dict(stop_tolerance=0.10, stop_clearance=0.0),
     "stop0.20_c0": dict(stop_tolerance=0.20, stop_clearance=0.0),
+    # Assimilation's optimiser: one Adam kept over the skill's life instead of a fresh one per
+    # solution (whose first steps move every weight by about the full rate), and/or a rate that
+    # decays to a tenth within each assimilation.
+    "keep_opt": dict(keep_optimizer=True),
+    "cos3e-5": dict(assimilate_lr_final=3e-5),
+    "keep_opt_cos3e-5": dict(keep_optimizer=True, assimilate_lr_final=3e-5),
 }
 #: Candidate keys that set the stopping criterion rather than a run_wall argument.
 STOP_KEYS = ("stop_tolerance", "stop_clearance")

@@ -40,6 +40,7 @@ from dataclasses import dataclass, replace
 from typing import Callable
 
 import numpy as np
+import torch
 
 from ..adaptation import AdaptConfig, AdaptTarget, adapt
 from ..assimilation import AssimilationConfig, assimilate
@@ -70,7 +71,7 @@ PROMP_DEFAULTS = dict(method="reps", n_samples=10, max_rollouts=1000, init="cond
 #: assimilate_anchor_weight).
 TRAIN_DEFAULTS = dict(train_steps=3000, assimilate_steps=300, assimilate_lr=3e-4, batch_size=32, n_targets=10,
                       assimilate_batch_size=32, assimilate_targets=10, assimilate_anchor_weight=1.0,
-                      assimilate_from="skill")
+                      assimilate_from="skill", assimilate_lr_final=None, keep_optimizer=False)
 #: Which network the assimilation continues from: the skill as it was before the adaptation
 #: ("skill"; the solution is learnt through the anchor), or the adapted copy ("adapted").
 ASSIMILATE_FROM = ("skill", "adapted")
@@ -180,11 +181,17 @@ class _AcnmpLearner:
     """CNMP + ACNMP adaptation + assimilation."""
 
     def __init__(self, setup: WallSetup, seed: int, cfg: AdaptConfig, train_cfg: TrainConfig,
-                 assimilation: AssimilationConfig, assimilate_from: str, progress: bool) -> None:
+                 assimilation: AssimilationConfig, assimilate_from: str, progress: bool,
+                 keep_optimizer: bool = False) -> None:
         self.demos, self.times, self.seed, self.cfg = setup.initial, setup.times, seed, cfg
         self.assimilation, self.assimilate_from = assimilation, assimilate_from
         self.model = make_wall_cnmp(seed)
-        train(self.model, self.demos, train_cfg, seed=seed, progress=progress)
+        self.opt = None
+        if keep_optimizer:
+            # One Adam for the skill's whole life: a fresh one per assimilation moves every weight
+            # by about the full rate in its first steps, and hundreds of assimilations shake the skill.
+            self.opt = torch.optim.Adam(self.model.parameters(), lr=train_cfg.lr, fused=True)
+        train(self.model, self.demos, train_cfg, seed=seed, progress=progress, optimizer=self.opt)
 
     def generate(self, task_params: np.ndarray) -> np.ndarray:
         return cnmp_trajectories(self.model, task_params, self.times)
@@ -197,8 +204,10 @@ class _AcnmpLearner:
         if res.success:
             if self.assimilate_from == "adapted":
                 self.model = candidate
+                if self.opt is not None:
+                    self.opt = torch.optim.Adam(self.model.parameters(), lr=self.assimilation.lr, fused=True)
             self.demos, _ = assimilate(self.model, self.demos, Demonstration(self.times.copy(), res.trajectory, c.copy()),
-                                       self.assimilation, conditions=target, seed=seed)
+                                       self.assimilation, conditions=target, seed=seed, optimizer=self.opt)
         return bool(res.success), int(res.rollouts)
 
 
@@ -377,6 +386,8 @@ def run_wall(
     assimilate_targets: int = TRAIN_DEFAULTS["assimilate_targets"],
     assimilate_anchor_weight: float = TRAIN_DEFAULTS["assimilate_anchor_weight"],
     assimilate_from: str = TRAIN_DEFAULTS["assimilate_from"],
+    assimilate_lr_final: float | None = TRAIN_DEFAULTS["assimilate_lr_final"],
+    keep_optimizer: bool = TRAIN_DEFAULTS["keep_optimizer"],
     adapt_config: AdaptConfig | None = None,
     promp_config: PrompRLConfig | None = None,
     ewerton_config: SelfImproveConfig | None = None,
@@ -447,8 +458,9 @@ def run_wall(
             learner = _AcnmpLearner(
                 setup, seed, acfg, TrainConfig(steps=train_steps, batch_size=batch_size, n_targets=n_targets),
                 AssimilationConfig(steps=assimilate_steps, lr=assimilate_lr, batch_size=assimilate_batch_size,
-                                   n_targets=assimilate_targets, anchor_weight=assimilate_anchor_weight),
-                assimilate_from, progress)
+                                   n_targets=assimilate_targets, anchor_weight=assimilate_anchor_weight,
+                                   lr_final=assimilate_lr_final),
+                assimilate_from, progress, keep_optimizer)
         elif m == "ewerton":
             learner = _EwertonLearner(setup, ecfg, n_basis)
         else:
@@ -478,6 +490,7 @@ def run_wall(
                    "assimilate_lr": assimilate_lr, "batch_size": batch_size, "n_targets": n_targets,
                    "assimilate_batch_size": assimilate_batch_size, "assimilate_targets": assimilate_targets,
                    "assimilate_anchor_weight": assimilate_anchor_weight, "assimilate_from": assimilate_from,
+                   "assimilate_lr_final": assimilate_lr_final, "keep_optimizer": keep_optimizer,
                    "eval_every": eval_every, "n_basis": n_basis,
                    "acnmp": _plain(vars(acfg)), "promp_rl": _plain(vars(pcfg)),
                    **({"ewerton": _plain(vars(ecfg))} if "ewerton" in methods else {}),
