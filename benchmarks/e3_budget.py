@@ -64,6 +64,10 @@ CANDIDATES = {
     "keep_opt": dict(keep_optimizer=True),
     "cos3e-5": dict(assimilate_lr_final=3e-5),
     "keep_opt_cos3e-5": dict(keep_optimizer=True, assimilate_lr_final=3e-5),
+    # With the optimiser kept, a higher rate per solution no longer restarts Adam's moments; or half
+    # the steps, for time.
+    "keep_opt_1e-3_cos1e-4": dict(keep_optimizer=True, assimilate_lr=1e-3, assimilate_lr_final=1e-4),
+    "keep_opt_cos3e-5_s150": dict(keep_optimizer=True, assimilate_lr_final=3e-5, assimilate_steps=150),
 }
 #: Candidate keys that set the stopping criterion rather than a run_wall argument.
 STOP_KEYS = ("stop_tolerance", "stop_clearance")
