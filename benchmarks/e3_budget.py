@@ -12,7 +12,8 @@ one file (``--merge`` into ``--out`` as it runs, or ``--combine`` files of earli
 running anything). Writes ``benchmarks/results/e3_budget.json``. Usage:
 ``python benchmarks/e3_budget.py [--envs 300] [--seed 0] [--candidates NAME ...] [--methods M ...] [--merge]
 [--out FILE]``,
-``python benchmarks/e3_budget.py --combine A.json B.json ... [--out FILE]``.
+``python benchmarks/e3_budget.py --combine A.json B.json ... [--out FILE]``,
+``python benchmarks/e3_budget.py --combine-seeds S0.json S1.json ... --out FILE`` (several seeds).
 """
 from __future__ import annotations
 
@@ -61,9 +62,11 @@ CANDIDATES = {
     # Assimilation's optimiser: one Adam kept over the skill's life instead of a fresh one per
     # solution (whose first steps move every weight by about the full rate), and/or a rate that
     # decays to a tenth within each assimilation.
+    # The defaults before e3_optimizer.json (the "baseline" of the runs before it).
+    "fresh_opt": dict(keep_optimizer=False, assimilate_lr_final=None),
     "keep_opt": dict(keep_optimizer=True),
     "cos3e-5": dict(assimilate_lr_final=3e-5),
-    "keep_opt_cos3e-5": dict(keep_optimizer=True, assimilate_lr_final=3e-5),
+    "keep_opt_cos3e-5": dict(keep_optimizer=True, assimilate_lr_final=3e-5),  # the defaults since
     # With the optimiser kept, a higher rate per solution no longer restarts Adam's moments; or half
     # the steps, for time.
     "keep_opt_1e-3_cos1e-4": dict(keep_optimizer=True, assimilate_lr=1e-3, assimilate_lr_final=1e-4),
@@ -111,6 +114,25 @@ def _combine(files: list[str], out: str, meta: dict) -> int:
     return 0
 
 
+def _combine_seeds(files: list[str], out: str, meta: dict) -> int:
+    """Merge e3_budget results of the same envs but different seeds into ``out``:
+    ``{"seeds": {seed: {variant: ...}}}``; a variant named twice for one seed is refused."""
+    parts = [json.loads(Path(f).read_text()) for f in files]
+    if len({p["envs"] for p in parts}) != 1:
+        sys.exit(f"--combine-seeds: the files differ in envs: {files}")
+    seeds: dict[str, dict] = {}
+    for p in parts:
+        mine = seeds.setdefault(str(p["seed"]), {})
+        twice = set(mine) & set(p["variants"])
+        if twice:
+            sys.exit(f"--combine-seeds: seed {p['seed']} has {sorted(twice)} twice")
+        mine.update(p["variants"])
+    save_result({"provenance": meta, "experiment": "e3_budget_seeds", "envs": parts[0]["envs"],
+                 "defaults": TRAIN_DEFAULTS, "seeds": seeds, "combined_from": [p["provenance"] for p in parts],
+                 "wall_time_s": round(sum(p["wall_time_s"] for p in parts), 2)}, out)
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the chosen candidates (two at a time) and write, or merge into, the JSON."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -122,11 +144,15 @@ def main(argv: list[str] | None = None) -> int:
                     help="the methods each candidate runs (default ACNMP only)")
     ap.add_argument("--merge", action="store_true", help="keep the variants already in --out")
     ap.add_argument("--combine", nargs="+", metavar="JSON", help="only merge these earlier results into --out")
+    ap.add_argument("--combine-seeds", nargs="+", metavar="JSON",
+                    help="only merge earlier results of several seeds (same envs) into --out")
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "e3_budget.json"))
     args = ap.parse_args(argv)
     meta = provenance()
     if args.combine:
         return _combine(args.combine, args.out, meta)
+    if args.combine_seeds:
+        return _combine_seeds(args.combine_seeds, args.out, meta)
     old = json.loads(Path(args.out).read_text()) if args.merge and Path(args.out).exists() else {}
     if old and (old["envs"], old["seed"]) != (args.envs, args.seed):
         ap.error(f"--merge: {args.out} holds envs {old['envs']}, seed {old['seed']}")

@@ -764,3 +764,45 @@ def predict_scaling() -> str:
         _predict_source(before, "bench_predict_handler_threads"),
     ]
     return "\n".join(lines)
+
+
+def _optimizer_label(name: str, c: dict) -> str:
+    """An assimilation-optimiser candidate: fresh or kept Adam, its rate and where the rate decays to."""
+    opt = "one Adam kept" if c.get("keep_optimizer") else "fresh Adam per solution"
+    end = c.get("assimilate_lr_final")
+    rate = f"lr {c['assimilate_lr']:g}" + (f" → {end:g} (cosine)" if end is not None else "")
+    return f"{name}: {opt}, {c['assimilate_steps']} steps, {rate}"
+
+
+@renderer("e3-optimizer")
+def e3_optimizer() -> str:
+    """The assimilation-optimiser candidates over several seeds (e3_optimizer.json): final test success
+    per seed ("-": not run for that seed) and its mean over the seeds run, the mean of the last four
+    test evaluations (less noisy than the last one), goal error, trajectories, ACNMP time."""
+    r = load("e3_optimizer")
+    seeds = sorted(r["seeds"], key=int)
+    names = list(dict.fromkeys(n for s in seeds for n in r["seeds"][s]))
+    names.sort(key=lambda n: (n != "baseline", -sum(n in r["seeds"][s] for s in seeds)))
+    rows = []
+    for n in names:
+        runs = [r["seeds"][s][n] for s in seeds if n in r["seeds"][s]]
+        final = [r["seeds"][s][n]["summary"]["test_success_rate"] if n in r["seeds"][s] else None for s in seeds]
+        last4 = [np.mean([c["test_success_rate"] for c in w["curve"][-4:]]) for w in runs]
+        rows.append([_optimizer_label(n, runs[0]["config"]), " / ".join("-" if f is None else pct(f) for f in final),
+                     pct(float(np.mean([f for f in final if f is not None]))), pct(float(np.mean(last4))),
+                     fmt(float(np.mean([w["summary"]["test_goal_error_mean"] for w in runs]))),
+                     f"{np.mean([w['summary']['trajectories_total'] for w in runs]):.0f}",
+                     max(w["summary"]["trajectories_per_env_max"] for w in runs),
+                     f"{np.mean([w['summary']['time_s'] for w in runs]):.0f}"])
+    commits = sorted({(w["provenance"]["commit"] or "unknown")[:10] for s in seeds for w in r["seeds"][s].values()})
+    return "\n".join([
+        table(["candidate", f"test success, seeds {' / '.join(seeds)}", "mean", "mean of the last 4 evaluations",
+               "mean goal error", "trajectories (mean)", "max per env", "ACNMP time (s, mean)"], rows),
+        "",
+        f"* ACNMP only, {r['envs']} new environments after 30 demonstrated ones, 1000 test environments, test "
+        "evaluations every 60 environments; otherwise the defaults of the commit each ran at. Two candidates at a "
+        "time side by side (two processes) on one machine. Means are over the seeds a candidate ran.",
+        f"* Run at commit(s) {', '.join(commits)}; each variant's provenance is in the file.",
+        "",
+        source(r, "e3_optimizer"),
+    ])

@@ -71,7 +71,11 @@ PROMP_DEFAULTS = dict(method="reps", n_samples=10, max_rollouts=1000, init="cond
 #: assimilate_anchor_weight).
 TRAIN_DEFAULTS = dict(train_steps=3000, assimilate_steps=300, assimilate_lr=3e-4, batch_size=32, n_targets=10,
                       assimilate_batch_size=32, assimilate_targets=10, assimilate_anchor_weight=1.0,
-                      assimilate_from="skill", assimilate_lr_final=None, keep_optimizer=False)
+                      assimilate_from="skill", assimilate_lr_final=3e-5, keep_optimizer=True)
+#: The assimilations continue one Adam kept over the skill's life (keep_optimizer) and decay their rate
+#: from assimilate_lr to assimilate_lr_final within each assimilation: over seeds 0-2 at 300 environments,
+#: 78.2 % test success on average against 72.4 % with a fresh Adam per solution at a constant rate
+#: (benchmarks/results/e3_optimizer.json).
 #: Which network the assimilation continues from: the skill as it was before the adaptation
 #: ("skill"; the solution is learnt through the anchor), or the adapted copy ("adapted").
 ASSIMILATE_FROM = ("skill", "adapted")
@@ -419,6 +423,10 @@ def run_wall(
         RL steps' side effects add up: "skill" reached 78.3 % test success against 69.9 % at 300
         environments (benchmarks/results/e3_assimilate_from.json) and 80.4 % against 77.5 % at
         1500 (e3_wall_assimilate_{skill,adapted}.json).
+    assimilate_lr_final : each assimilation's rate decays from ``assimilate_lr`` to this along a half
+        cosine (None: constant). keep_optimizer : one Adam continues from the first training through
+        every assimilation (its moments carry over; "adapted" starts a new one with each adapted copy);
+        False: a fresh Adam per assimilation.
     adapt_config : ACNMP adaptation (default ``AdaptConfig(max_rollouts=ACNMP_BUDGET)``).
     promp_config : ProMP + RL (default ``PrompRLConfig(**PROMP_DEFAULTS)``); its seed is set per env.
     ewerton_config : the baseline after Ewerton et al. (default ``SelfImproveConfig(max_rollouts=
