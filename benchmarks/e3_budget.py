@@ -74,6 +74,9 @@ CANDIDATES = {
     # After keep_opt_1e-3_cos1e-4 led: is it the rate or the decay, and does a lower end help?
     "keep_opt_1e-3": dict(keep_optimizer=True, assimilate_lr=1e-3),
     "keep_opt_1e-3_cos1e-5": dict(keep_optimizer=True, assimilate_lr=1e-3, assimilate_lr_final=1e-5),
+    # From the new defaults (keep_opt_cos3e-5): twice the steps per solution, or a higher first rate.
+    "keep_opt_cos3e-5_s600": dict(keep_optimizer=True, assimilate_lr_final=3e-5, assimilate_steps=600),
+    "keep_opt_1e-3_cos3e-5": dict(keep_optimizer=True, assimilate_lr=1e-3, assimilate_lr_final=3e-5),
 }
 #: Candidate keys that set the stopping criterion rather than a run_wall argument.
 STOP_KEYS = ("stop_tolerance", "stop_clearance")
