@@ -776,10 +776,21 @@ def _optimizer_label(name: str, c: dict) -> str:
 
 @renderer("e3-optimizer")
 def e3_optimizer() -> str:
-    """The assimilation-optimiser candidates over several seeds (e3_optimizer.json): final test success
-    per seed ("-": not run for that seed) and its mean over the seeds run, the mean of the last four
-    test evaluations (less noisy than the last one), goal error, trajectories, ACNMP time."""
-    r = load("e3_optimizer")
+    """The assimilation-optimiser candidates at 300 environments (e3_optimizer.json)."""
+    return _optimizer_table("e3_optimizer")
+
+
+@renderer("e3-optimizer-1500")
+def e3_optimizer_1500() -> str:
+    """The previous and the new assimilation optimiser at the full 1500 environments (e3_optimizer_1500.json)."""
+    return _optimizer_table("e3_optimizer_1500")
+
+
+def _optimizer_table(name: str) -> str:
+    """Assimilation-optimiser candidates over one or more seeds (e3_budget --combine-seeds): final test
+    success per seed ("-": not run for that seed) and its mean over the seeds run, the mean of the last
+    four test evaluations (less noisy than the last one), goal error, trajectories, ACNMP time."""
+    r = load(name)
     seeds = sorted(r["seeds"], key=int)
     names = list(dict.fromkeys(n for s in seeds for n in r["seeds"][s]))
     names.sort(key=lambda n: (n != "baseline", -sum(n in r["seeds"][s] for s in seeds)))
@@ -800,9 +811,10 @@ def e3_optimizer() -> str:
                "mean goal error", "trajectories (mean)", "max per env", "ACNMP time (s, mean)"], rows),
         "",
         f"* ACNMP only, {r['envs']} new environments after 30 demonstrated ones, 1000 test environments, test "
-        "evaluations every 60 environments; otherwise the defaults of the commit each ran at. Two candidates at a "
+        f"evaluations every {r['seeds'][seeds[0]][names[0]]['config']['eval_every']} environments; otherwise the "
+        "defaults of the commit each ran at. Two candidates at a "
         "time side by side (two processes) on one machine. Means are over the seeds a candidate ran.",
         f"* Run at commit(s) {', '.join(commits)}; each variant's provenance is in the file.",
         "",
-        source(r, "e3_optimizer"),
+        source(r, name),
     ])
