@@ -77,6 +77,9 @@ CANDIDATES = {
     # From the new defaults (keep_opt_cos3e-5): twice the steps per solution, or a higher first rate.
     "keep_opt_cos3e-5_s600": dict(keep_optimizer=True, assimilate_lr_final=3e-5, assimilate_steps=600),
     "keep_opt_1e-3_cos3e-5": dict(keep_optimizer=True, assimilate_lr=1e-3, assimilate_lr_final=3e-5),
+    # Solutions moved onto their own start and goal before assimilation (executed first, counted):
+    # an adaptation stops within 0.25 of the goal, and the skill learnt to miss by as much.
+    "snap": dict(snap_solutions=True),
 }
 #: Candidate keys that set the stopping criterion rather than a run_wall argument.
 STOP_KEYS = ("stop_tolerance", "stop_clearance")

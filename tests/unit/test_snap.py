@@ -1,0 +1,45 @@
+"""snap_to_observations: an assimilated solution passes through the observations it was found for."""
+import numpy as np
+import pytest
+
+from acnmp_core.adaptation import AdaptTarget
+from acnmp_core.assimilation import snap_to_observations
+from acnmp_core.data import Demonstration
+
+T = np.linspace(0.0, 1.0, 101)
+PATH = np.stack([10 * T, 5 + np.sin(3 * T)], axis=1)
+
+
+def _target(times, values, mask=None):
+    return AdaptTarget(np.asarray(times, float), np.asarray(values, float), np.zeros(4), T, mask)
+
+
+def test_snapped_path_passes_through_start_and_goal_and_keeps_its_shape():
+    target = _target([0.0, 1.0], [[0.1, 4.9], [9.8, 5.3]])
+    out = snap_to_observations(Demonstration(T, PATH, np.arange(4.0)), target)
+    np.testing.assert_allclose(out.values[0], [0.1, 4.9], atol=1e-12)
+    np.testing.assert_allclose(out.values[-1], [9.8, 5.3], atol=1e-12)
+    # the correction is linear in time between the two points: the second difference is unchanged
+    np.testing.assert_allclose(np.diff(out.values, 2, axis=0), np.diff(PATH, 2, axis=0), atol=1e-12)
+    np.testing.assert_array_equal(out.task_params, np.arange(4.0))
+    np.testing.assert_array_equal(out.times, T)
+
+
+def test_a_path_through_its_observations_is_unchanged():
+    target = _target([0.0, 0.25, 1.0], PATH[[0, 25, 100]])
+    out = snap_to_observations(Demonstration(T, PATH), target)
+    np.testing.assert_allclose(out.values, PATH, atol=1e-12)
+
+
+def test_masked_dimensions_and_repeated_times():
+    # y observed twice at t = 0.5 (offsets averaged), x never: x stays, y moves by a constant
+    target = _target([0.5, 0.5], [[99.0, PATH[50, 1] + 0.2], [-99.0, PATH[50, 1]]],
+                     mask=np.array([[False, True], [False, True]]))
+    out = snap_to_observations(Demonstration(T, PATH), target)
+    np.testing.assert_allclose(out.values[:, 0], PATH[:, 0])
+    np.testing.assert_allclose(out.values[:, 1], PATH[:, 1] + 0.1)
+
+
+def test_observations_of_the_wrong_width_are_refused():
+    with pytest.raises(ValueError, match="obs_values"):
+        snap_to_observations(Demonstration(T, PATH), _target([0.0], [[1.0, 2.0, 3.0]]))
