@@ -190,6 +190,8 @@ class _AcnmpLearner:
                  keep_optimizer: bool = False, snap_solutions: bool = False) -> None:
         self.demos, self.times, self.seed, self.cfg = setup.initial, setup.times, seed, cfg
         self.snap_solutions = snap_solutions
+        #: snapped solutions executed, and how many of them succeeded (and were assimilated)
+        self.snaps_tried, self.snaps_kept = 0, 0
         self.assimilation, self.assimilate_from = assimilation, assimilate_from
         self.model = make_wall_cnmp(seed)
         self.opt = None
@@ -215,8 +217,10 @@ class _AcnmpLearner:
                 # the ends can move the path into the wall.
                 snapped = snap_to_observations(solution, target)
                 used += 1
+                self.snaps_tried += 1
                 if evaluator.evaluate(snapped.values[None], self.times, c).success[0]:
                     solution = snapped
+                    self.snaps_kept += 1
             if self.assimilate_from == "adapted":
                 self.model = candidate
                 if self.opt is not None:
@@ -491,6 +495,8 @@ def run_wall(
         out = self_improve(learner, setup, ev, seed=seed, eval_every=eval_every, log=log, name=m,
                            setting=setting)
         methods_out[m] = {**_summary(out), "time_s": round(time.perf_counter() - t1, 2)}
+        if m == "acnmp" and snap_solutions:
+            methods_out[m].update(snaps_tried=learner.snaps_tried, snaps_kept=learner.snaps_kept)
         curves[m] = out["curve"]
         per_env[m] = [e["rollouts"] for e in out["per_env"]]
     ratio = None
