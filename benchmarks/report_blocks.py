@@ -182,7 +182,7 @@ def e2_baselines() -> str:
 def _e3_row(label: str, s: dict, time_s: float) -> list:
     """One E3 table row from a method's summary (run_wall's ``methods[m]``): success and error from
     the first to the last test evaluation, goal error, trajectories, adaptations, time."""
-    return [label, f"{pct(s['test_success_rate_initial'])} → {pct(s['test_success_rate'])}",
+    return [label, f"{pct(s['test_success_rate_initial'], 1)} → {pct(s['test_success_rate'], 1)}",
             f"{fmt(s['test_error_mean_initial'])} → {fmt(s['test_error_mean'])}",
             fmt(s["test_goal_error_mean"]), s["trajectories_total"], s["trajectories_per_env_max"],
             f"{s['adaptations']} ({s['adaptations_failed']} failed)", f"{time_s:.0f}"]
@@ -226,9 +226,9 @@ def e3_compare() -> str:
         for m, label in E3_COMPARE_LABELS.items():
             s = c["methods"][m]
             ratio = "1x" if m == "acnmp" else f"{c['trajectory_ratios'][f'{m}_over_acnmp']:.2f}x"
-            strict = pct(s["test_success_rate_strict"]) if "test_success_rate_strict" in s else "="
-            first = pct(r["methods"][m]["test_success_rate_initial"])
-            rows.append([f"ours, {name} setting ({r['envs']} envs)", label, f"{first} → {pct(s['test_success_rate'])}",
+            strict = pct(s["test_success_rate_strict"], 1) if "test_success_rate_strict" in s else "="
+            first = pct(r["methods"][m]["test_success_rate_initial"], 1)
+            rows.append([f"ours, {name} setting ({r['envs']} envs)", label, f"{first} → {pct(s['test_success_rate'], 1)}",
                          strict,
                          fmt(s["test_error_mean"]), s["trajectories_total"], s["trajectories_per_env_max"],
                          s["trajectories_paper_style"], ratio, f"{s['time_s']:.0f}"])
@@ -268,9 +268,9 @@ def e3_row() -> list[str]:
     a, p = r["methods"]["acnmp"], r["methods"]["promp_rl"]
     ratio = r["trajectory_ratio_promp_over_acnmp"]
     return [f"E3 wall ({r['envs']} envs)", "≤ 1.4K per env, ProMP+RL ~14x more",
-            f"ACNMP test success {pct(a['test_success_rate_initial'])} → {pct(a['test_success_rate'])}, max "
+            f"ACNMP test success {pct(a['test_success_rate_initial'], 1)} → {pct(a['test_success_rate'], 1)}, max "
             f"{a['trajectories_per_env_max']} per env, {a['trajectories_total']} in all, {a['time_s']:.0f} s; "
-            f"ProMP+RL {pct(p['test_success_rate'])}, {p['trajectories_total']}"
+            f"ProMP+RL {pct(p['test_success_rate'], 1)}, {p['trajectories_total']}"
             + ("" if ratio is None else f": {ratio:.1f}x")]
 
 
@@ -322,7 +322,7 @@ def adaptation_sweep() -> str:
             "-" if e1 is None else f"{frac(e1['success_rate'], n)}, {fmt(e1['rollouts_median'])}, "
                                    f"{frac(e1['within_35_rate'], n)}, {fmt(e1['shape_error_median'])}",
             "-" if e2 is None else f"{frac(e2['success_rate'], n)}, {fmt(e2['rollouts_median'])}",
-            "-" if e3 is None else f"{pct(e3['test_success_rate'])}, {fmt(e3['test_error_mean'])}, "
+            "-" if e3 is None else f"{pct(e3['test_success_rate'], 1)}, {fmt(e3['test_error_mean'])}, "
                                    f"{e3['trajectories_total']}, {e3['trajectories_per_env_max']}, "
                                    f"{e3['adaptations_failed']}/{e3['adaptations']}",
         ])
@@ -346,7 +346,7 @@ def adaptation_sweep() -> str:
 @renderer("e3-fit-precision")
 def e3_fit_precision() -> str:
     r = load("e3_fit_precision")
-    rows = [[x["demos"], x["steps"], x["batch_size"], x["n_targets"], pct(x["test_success_rate"]),
+    rows = [[x["demos"], x["steps"], x["batch_size"], x["n_targets"], pct(x["test_success_rate"], 1),
              fmt(x["test_error_mean"]), fmt(x["test_goal_error_mean"]), pct(x["test_through_hole_rate"]),
              f"{x['time_s']:.0f}"] for x in r["runs"]]
     return "\n".join([
@@ -456,7 +456,7 @@ def e3_stop() -> str:
     for name, setting, m, s in sorted(runs, key=lambda x: x[2] != "acnmp"):
         row = _e3_row(f"{name}: {_stop_label(setting)}", s, s["time_s"])
         strict = s.get("test_success_rate_strict")
-        rows.append([row[0], TWO_LABELS[m], row[1], "=" if strict is None else pct(strict), *row[2:]])
+        rows.append([row[0], TWO_LABELS[m], row[1], "=" if strict is None else pct(strict, 1), *row[2:]])
     commits = sorted({(w["provenance"]["commit"] or "unknown")[:10] for w in r["variants"].values()})
     return "\n".join([
         table(["stopping criterion", "method", "test success (trigger: 0.25)", "test success, stopping criterion",
@@ -771,7 +771,8 @@ def _optimizer_label(name: str, c: dict) -> str:
     opt = "one Adam kept" if c.get("keep_optimizer") else "fresh Adam per solution"
     end = c.get("assimilate_lr_final")
     rate = f"lr {c['assimilate_lr']:g}" + (f" → {end:g} (cosine)" if end is not None else "")
-    return f"{name}: {opt}, {c['assimilate_steps']} steps, {rate}"
+    snap = ", solutions snapped onto start and goal" if c.get("snap_solutions") else ""
+    return f"{name}: {opt}, {c['assimilate_steps']} steps, {rate}{snap}"
 
 
 @renderer("e3-optimizer")
@@ -786,11 +787,27 @@ def e3_optimizer_1500() -> str:
     return _optimizer_table("e3_optimizer_1500")
 
 
-def _optimizer_table(name: str) -> str:
+@renderer("e3-snap")
+def e3_snap() -> str:
+    """Solutions snapped onto their start and goal (e3_snap.json) against the same defaults without
+    (the kept-optimiser row of e3_optimizer.json), seeds 0-2 at 300 environments."""
+    before, snap = load("e3_optimizer"), load("e3_snap")
+    if before["envs"] != snap["envs"]:
+        raise ValueError("e3_optimizer.json and e3_snap.json differ in envs")
+    seeds = {s: {"as found": before["seeds"][s]["keep_opt_cos3e-5"], **snap["seeds"][s]}
+             for s in snap["seeds"] if "keep_opt_cos3e-5" in before["seeds"].get(s, {})}
+    return _optimizer_table("e3_snap", {"envs": snap["envs"], "seeds": seeds},
+                            sources=[(before, "e3_optimizer"), (snap, "e3_snap")])
+
+
+def _optimizer_table(name: str, r: dict | None = None, *, sources: list[tuple[dict, str]] | None = None) -> str:
     """Assimilation-optimiser candidates over one or more seeds (e3_budget --combine-seeds): final test
     success per seed ("-": not run for that seed) and its mean over the seeds run, the mean of the last
-    four test evaluations (less noisy than the last one), goal error, trajectories, ACNMP time."""
-    r = load(name)
+    four test evaluations (less noisy than the last one), goal error, trajectories, ACNMP time.
+    ``r`` : the seeds and envs to show (default: those of ``name``'s file); ``sources`` : the files
+    they come from, (result, file) pairs (default: ``name``'s)."""
+    r = r or load(name)
+    sources = sources or [(r, name)]
     seeds = sorted(r["seeds"], key=int)
     names = list(dict.fromkeys(n for s in seeds for n in r["seeds"][s]))
     names.sort(key=lambda n: (n != "baseline", -sum(n in r["seeds"][s] for s in seeds)))
@@ -799,8 +816,8 @@ def _optimizer_table(name: str) -> str:
         runs = [r["seeds"][s][n] for s in seeds if n in r["seeds"][s]]
         final = [r["seeds"][s][n]["summary"]["test_success_rate"] if n in r["seeds"][s] else None for s in seeds]
         last4 = [np.mean([c["test_success_rate"] for c in w["curve"][-4:]]) for w in runs]
-        rows.append([_optimizer_label(n, runs[0]["config"]), " / ".join("-" if f is None else pct(f) for f in final),
-                     pct(float(np.mean([f for f in final if f is not None]))), pct(float(np.mean(last4))),
+        rows.append([_optimizer_label(n, runs[0]["config"]), " / ".join("-" if f is None else pct(f, 1) for f in final),
+                     pct(float(np.mean([f for f in final if f is not None])), 1), pct(float(np.mean(last4)), 1),
                      fmt(float(np.mean([w["summary"]["test_goal_error_mean"] for w in runs]))),
                      f"{np.mean([w['summary']['trajectories_total'] for w in runs]):.0f}",
                      max(w["summary"]["trajectories_per_env_max"] for w in runs),
@@ -816,5 +833,5 @@ def _optimizer_table(name: str) -> str:
         "time side by side (two processes) on one machine. Means are over the seeds a candidate ran.",
         f"* Run at commit(s) {', '.join(commits)}; each variant's provenance is in the file.",
         "",
-        source(r, name),
+        "\n\n".join(source(res, file) for res, file in sources),
     ])
