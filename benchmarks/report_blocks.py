@@ -791,13 +791,25 @@ def e3_optimizer_1500() -> str:
 def e3_snap() -> str:
     """Solutions snapped onto their start and goal (e3_snap.json) against the same defaults without
     (the kept-optimiser row of e3_optimizer.json), seeds 0-2 at 300 environments."""
-    before, snap = load("e3_optimizer"), load("e3_snap")
+    return _snap_table("e3_snap", "e3_optimizer")
+
+
+@renderer("e3-snap-1500")
+def e3_snap_1500() -> str:
+    """The same at 1500 environments, seeds 1 and 2 (e3_snap_1500.json against e3_optimizer_1500.json)."""
+    return _snap_table("e3_snap_1500", "e3_optimizer_1500")
+
+
+def _snap_table(snap_file: str, before_file: str) -> str:
+    """``snap_file``'s variants beside the kept-optimiser variant of ``before_file`` ("as found"),
+    on the seeds both ran."""
+    before, snap = load(before_file), load(snap_file)
     if before["envs"] != snap["envs"]:
-        raise ValueError("e3_optimizer.json and e3_snap.json differ in envs")
+        raise ValueError(f"{before_file}.json and {snap_file}.json differ in envs")
     seeds = {s: {"as found": before["seeds"][s]["keep_opt_cos3e-5"], **snap["seeds"][s]}
              for s in snap["seeds"] if "keep_opt_cos3e-5" in before["seeds"].get(s, {})}
-    return _optimizer_table("e3_snap", {"envs": snap["envs"], "seeds": seeds},
-                            sources=[(before, "e3_optimizer"), (snap, "e3_snap")])
+    return _optimizer_table(snap_file, {"envs": snap["envs"], "seeds": seeds},
+                            sources=[(before, before_file), (snap, snap_file)])
 
 
 def _optimizer_table(name: str, r: dict | None = None, *, sources: list[tuple[dict, str]] | None = None) -> str:
