@@ -122,34 +122,46 @@ def snap_to_observations(solution: Demonstration, conditions: AdaptTarget) -> De
     """The solution moved so that it passes exactly through the observations it was found for.
 
     An adaptation stops as soon as the task's tolerance is met, so a solution may end e.g. 0.2 away
-    from the goal it was conditioned on (E3: 0.15 on average against a 0.25 tolerance). Assimilated
-    as it is, it teaches the skill that conditioning on a point means missing it by that much, and
-    the skill's own fitting error then adds to the miss. Snapping removes the inconsistency: at each
-    observed time the offset ``observation - solution`` (the solution linearly interpolated there) is
-    computed per observed dimension, and the offsets are interpolated linearly in time between the
-    observation times (held constant before the first and after the last) and added to the whole
-    trajectory. A path that passes through its observations is unchanged; the correction is smooth
-    and no larger than the largest miss, but it can move a path into an obstacle, so a task with
-    constraints between the observations should execute the snapped path before keeping it.
+    from the goal it was conditioned on (E3's tolerance is 0.25). Assimilated as it is, it teaches
+    the skill that conditioning on a point means missing it by that much, and the skill's own
+    fitting error then adds to the miss. Snapping removes the inconsistency (see
+    :func:`snap_path`); a path that passes through its observations is unchanged. The correction
+    is smooth and no larger than the largest miss, but it can move a path into an obstacle, so a
+    task with constraints between the observations should execute the snapped path before keeping it.
 
     solution : the adapted trajectory, times (T,), values (T, D) raw units.
     conditions : its query (obs_times (N,), obs_values (N, D), obs_dims_mask (N, D) or None).
     Returns a new :class:`Demonstration` with the same times and task parameters.
     """
     t = np.asarray(solution.times, dtype=np.float64)
-    v = np.asarray(solution.values, dtype=np.float64)
+    values = snap_path(t, solution.values, conditions.obs_times, conditions.obs_values, conditions.obs_dims_mask)
+    return Demonstration(t.copy(), values, np.asarray(solution.task_params).copy())
+
+
+def snap_path(times, values, obs_times, obs_values, obs_dims_mask=None) -> np.ndarray:
+    """A path moved onto observations by a correction linear in time between them.
+
+    At each observed time the offset ``observation - path`` (the path linearly interpolated there)
+    is computed per observed dimension; the offsets are interpolated linearly in time between the
+    observation times (held constant before the first and after the last; repeated times average
+    their offsets) and added to the whole path. Dimensions never observed are unchanged.
+
+    times (T,) increasing; values (T, D); obs_times (N,); obs_values (N, D); obs_dims_mask (N, D)
+    bool or None (all observed). Returns the moved values (T, D), float64, same units.
+    """
+    t = check_array("times", times, ndim=1, min_size=2)
+    v = check_array("values", values, ndim=2, shape=(t.shape[0], None))
     d = v.shape[1]
-    ot = check_array("obs_times", conditions.obs_times, ndim=1)
-    ov = check_array("obs_values", conditions.obs_values, ndim=2, shape=(ot.shape[0], d))
-    mask = np.ones(ov.shape, dtype=bool) if conditions.obs_dims_mask is None \
-        else np.asarray(conditions.obs_dims_mask, dtype=bool)
-    out = v.copy()
+    ot = check_array("obs_times", obs_times, ndim=1)
+    ov = check_array("obs_values", obs_values, ndim=2, shape=(ot.shape[0], d))
+    mask = np.ones(ov.shape, dtype=bool) if obs_dims_mask is None else np.asarray(obs_dims_mask, dtype=bool)
+    out = v.astype(np.float64, copy=True)
     for j in range(d):
         keep = mask[:, j]
         if not keep.any():
             continue
-        times_j, inv = np.unique(ot[keep], return_inverse=True)  # repeated times: their offsets averaged
+        times_j, inv = np.unique(ot[keep], return_inverse=True)
         miss = ov[keep, j] - np.interp(ot[keep], t, v[:, j])
         offsets = np.bincount(inv, weights=miss) / np.bincount(inv)
         out[:, j] += np.interp(t, times_j, offsets)
-    return Demonstration(t.copy(), out, np.asarray(solution.task_params).copy())
+    return out

@@ -43,3 +43,25 @@ def test_masked_dimensions_and_repeated_times():
 def test_observations_of_the_wrong_width_are_refused():
     with pytest.raises(ValueError, match="obs_values"):
         snap_to_observations(Demonstration(T, PATH), _target([0.0], [[1.0, 2.0, 3.0]]))
+
+
+def test_wall_run_counts_executed_snaps_and_snapped_outputs_end_on_the_goal():
+    from acnmp_core.adaptation import AdaptConfig
+    from acnmp_core.experiments.wall import run_wall
+
+    # a small budget keeps the adaptations that fail short
+    kw = dict(envs=4, seed=0, n_initial=12, n_test=50, eval_every=4, train_steps=300, assimilate_steps=30,
+              adapt_config=AdaptConfig(max_rollouts=60))
+    snapped = run_wall(**kw, methods=("acnmp",))
+    a = snapped["methods"]["acnmp"]
+    solved = a["adaptations"] - a["adaptations_failed"]
+    assert solved > 0 and a["snaps_tried"] == solved and 0 <= a["snaps_kept"] <= solved
+    assert snapped["config"]["snap_solutions"] is True
+
+    from acnmp_core.experiments.wall import PROMP_DEFAULTS
+    from acnmp_core.promp_rl import PrompRLConfig
+
+    out = run_wall(**kw, snap_outputs=True, promp_config=PrompRLConfig(**{**PROMP_DEFAULTS, "max_rollouts": 60}))
+    for m in ("acnmp", "promp_rl"):
+        assert out["methods"][m]["test_goal_error_mean"] < 1e-9
+    assert out["config"]["snap_outputs"] is True
