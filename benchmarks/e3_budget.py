@@ -80,8 +80,8 @@ CANDIDATES = {
     # Solutions moved onto their own start and goal before assimilation (executed first, counted):
     # an adaptation stops within 0.25 of the goal, and the skill learnt to miss by as much.
     "snap": dict(snap_solutions=True),
-    # What the end points still cost: every method's generated trajectories moved onto start and goal
-    # (run with --methods acnmp promp_rl; a measurement, not the paper's method).
+    # What the end points still cost: every path of every method moved onto its start and goal before
+    # it is executed or scored (run with --methods acnmp promp_rl; a measurement, not the paper's method).
     "snap_outputs": dict(snap_outputs=True),
 }
 #: Candidate keys that set the stopping criterion rather than a run_wall argument.

@@ -227,8 +227,8 @@ def e3_snap_outputs() -> str:
                "adaptations", "time (s)"], rows),
         "",
         f"* Seed {snap['seed']}, {snap['envs']} new environments after 30 demonstrated ones, 1000 test environments; "
-        "\"outputs snapped\": every generated trajectory (for a new environment and on the test set) moved onto "
-        "its start and goal before it is executed or scored, the adaptations' roll-outs as they are.",
+        "\"outputs snapped\": every path (generated for a new or a test environment, or an adaptation's "
+        "roll-out) moved onto its start and goal before it is executed or scored.",
         "",
         source(full, "e3_wall"),
         "",

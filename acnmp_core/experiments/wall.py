@@ -254,18 +254,35 @@ class _PrompLearner:
         return bool(res.success), int(res.n_rollouts)
 
 
+def snap_wall_paths(paths: np.ndarray, times: np.ndarray, task_params) -> np.ndarray:
+    """E3 paths moved onto their start and goal (:func:`~acnmp_core.assimilation.snap_path` with
+    :func:`wall_conditions`): paths (B, T, 2), times (T,), task_params (B, 4) or one row (4,) for all.
+    Returns (B, T, 2), world units."""
+    c = np.asarray(task_params, dtype=np.float64)
+    c = np.broadcast_to(c, (paths.shape[0], W.N_TASK_PARAMS)) if c.ndim == 1 else c
+    obs_t, obs_v = wall_conditions(c)
+    return np.stack([snap_path(times, paths[b], obs_t[b], obs_v[b]) for b in range(paths.shape[0])])
+
+
+class _SnappingEvaluator:
+    """Executes E3 paths after moving them onto their start and goal (``run_wall(snap_outputs=True)``)."""
+
+    def __init__(self, inner: RolloutEvaluator) -> None:
+        self.inner = inner
+
+    def evaluate(self, trajectories: np.ndarray, times: np.ndarray, task_params=None) -> RolloutBatch:
+        return self.inner.evaluate(snap_wall_paths(np.asarray(trajectories), times, task_params), times, task_params)
+
+
 class _SnappedOutputs:
-    """A learner whose generated trajectories are moved onto their start and goal
-    (:func:`~acnmp_core.assimilation.snap_path`) before they are executed or scored; its adaptations
-    are the learner's own. Used for every method of a run alike (``run_wall(snap_outputs=True)``)."""
+    """A learner whose generated trajectories are moved onto their start and goal before they are
+    scored on the test set (the executed ones are moved by :class:`_SnappingEvaluator`)."""
 
     def __init__(self, learner, times: np.ndarray) -> None:
         self.inner, self.times = learner, times
 
     def generate(self, task_params: np.ndarray) -> np.ndarray:
-        y = self.inner.generate(task_params)
-        obs_t, obs_v = wall_conditions(task_params)
-        return np.stack([snap_path(self.times, y[b], obs_t[b], obs_v[b]) for b in range(y.shape[0])])
+        return snap_wall_paths(self.inner.generate(task_params), self.times, task_params)
 
     def improve(self, c: np.ndarray, evaluator: RolloutEvaluator, seed: int) -> tuple[bool, int]:
         return self.inner.improve(c, evaluator, seed)
@@ -468,9 +485,10 @@ def run_wall(
     snap_solutions : before a solution is assimilated, move it onto its start and goal
         (:func:`~acnmp_core.assimilation.snap_to_observations`), execute the moved path (one more
         roll-out, counted) and assimilate it instead when it succeeds; False: the solution as found.
-    snap_outputs : every method's generated trajectories (for a new environment and on the test set)
-        are moved onto their start and goal before they are executed or scored; the adaptations'
-        roll-outs are not. A measurement of what the end points cost, not the paper's method.
+    snap_outputs : every path of every method (generated for a new environment or a test
+        environment, or an adaptation's roll-out) is moved onto its start and goal before it is
+        executed or scored, as by a controller that holds the ends. A measurement of what the end
+        points cost, not the paper's method.
     adapt_config : ACNMP adaptation (default ``AdaptConfig(max_rollouts=ACNMP_BUDGET)``).
     promp_config : ProMP + RL (default ``PrompRLConfig(**PROMP_DEFAULTS)``); its seed is set per env.
     ewerton_config : the baseline after Ewerton et al. (default ``SelfImproveConfig(max_rollouts=
@@ -518,7 +536,7 @@ def run_wall(
         else:
             learner = _PrompLearner(setup, pcfg, n_basis)
         if snap_outputs:
-            learner = _SnappedOutputs(learner, setup.times)
+            learner, ev = _SnappedOutputs(learner, setup.times), _SnappingEvaluator(ev)
         out = self_improve(learner, setup, ev, seed=seed, eval_every=eval_every, log=log, name=m,
                            setting=setting)
         methods_out[m] = {**_summary(out), "time_s": round(time.perf_counter() - t1, 2)}
