@@ -80,9 +80,11 @@ CANDIDATES = {
     # Solutions moved onto their own start and goal before assimilation (executed first, counted):
     # an adaptation stops within 0.25 of the goal, and the skill learnt to miss by as much.
     "snap": dict(snap_solutions=True),
-    # What the end points still cost: every path of every method moved onto its start and goal before
-    # it is executed or scored (run with --methods acnmp promp_rl; a measurement, not the paper's method).
+    # What the end points still cost (run with --methods acnmp promp_rl; measurements, not the paper's
+    # method): every method's generated paths moved onto start and goal before they are executed or
+    # scored; and every executed path too, the adaptations' roll-outs included.
     "snap_outputs": dict(snap_outputs=True),
+    "snap_outputs_rollouts": dict(snap_outputs=True, snap_rollouts=True),
 }
 #: Candidate keys that set the stopping criterion rather than a run_wall argument.
 STOP_KEYS = ("stop_tolerance", "stop_clearance")

@@ -6,9 +6,10 @@ Writes benchmarks/results/e3_compare_<setting>.json (with its provenance) and th
 mean test error, trajectories as measured (total, per-environment maximum) and as the paper counts
 them (environments x the per-environment maximum), wall time. Usage:
 ``python benchmarks/e3_compare.py --setting paper|authors --envs N [--seed S] [--snap-outputs] [--out FILE]``;
-``--snap-outputs`` moves every path of every method onto its start and goal before it is executed or
-scored (``run_wall(snap_outputs=True)``: what the end points cost, not the paper's method) and writes
-``e3_compare_<setting>_snapped.json`` by default.
+``--snap-outputs`` moves every path of every method, the adaptations' roll-outs included, onto its
+start and goal before it is executed or scored (``run_wall(snap_outputs=True, snap_rollouts=True)``:
+what the end points cost, not the paper's method) and writes ``e3_compare_<setting>_snapped.json`` by
+default.
 """
 from __future__ import annotations
 
@@ -64,6 +65,7 @@ def main(argv: list[str] | None = None) -> int:
     assert set(methods) == set(ALL_METHODS)
     r = run_wall(args.envs, args.seed, eval_every=args.eval_every, methods=methods,
                  setting=wall_setting(args.setting), snap_outputs=args.snap_outputs,
+                 snap_rollouts=args.snap_outputs,
                  log=lambda s: print(s, flush=True))
     result = {"provenance": meta, **r, "comparison": comparison(r)}
     save_result(result, out, plot_wall, ("comparison", "wall_time_s"))

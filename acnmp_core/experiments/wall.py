@@ -265,7 +265,7 @@ def snap_wall_paths(paths: np.ndarray, times: np.ndarray, task_params) -> np.nda
 
 
 class _SnappingEvaluator:
-    """Executes E3 paths after moving them onto their start and goal (``run_wall(snap_outputs=True)``)."""
+    """Executes E3 paths after moving them onto their start and goal (``run_wall(snap_rollouts=True)``)."""
 
     def __init__(self, inner: RolloutEvaluator) -> None:
         self.inner = inner
@@ -276,7 +276,7 @@ class _SnappingEvaluator:
 
 class _SnappedOutputs:
     """A learner whose generated trajectories are moved onto their start and goal before they are
-    scored on the test set (the executed ones are moved by :class:`_SnappingEvaluator`)."""
+    executed or scored (``run_wall(snap_outputs=True)``); its adaptations are its own."""
 
     def __init__(self, learner, times: np.ndarray) -> None:
         self.inner, self.times = learner, times
@@ -447,6 +447,7 @@ def run_wall(
     keep_optimizer: bool = TRAIN_DEFAULTS["keep_optimizer"],
     snap_solutions: bool = TRAIN_DEFAULTS["snap_solutions"],
     snap_outputs: bool = False,
+    snap_rollouts: bool = False,
     adapt_config: AdaptConfig | None = None,
     promp_config: PrompRLConfig | None = None,
     ewerton_config: SelfImproveConfig | None = None,
@@ -485,10 +486,11 @@ def run_wall(
     snap_solutions : before a solution is assimilated, move it onto its start and goal
         (:func:`~acnmp_core.assimilation.snap_to_observations`), execute the moved path (one more
         roll-out, counted) and assimilate it instead when it succeeds; False: the solution as found.
-    snap_outputs : every path of every method (generated for a new environment or a test
-        environment, or an adaptation's roll-out) is moved onto its start and goal before it is
-        executed or scored, as by a controller that holds the ends. A measurement of what the end
-        points cost, not the paper's method.
+    snap_outputs : every method's generated paths (for a new environment and on the test set) are
+        moved onto their start and goal before they are executed or scored; the adaptations'
+        roll-outs are not. snap_rollouts : every executed path, the adaptations' roll-outs included,
+        is moved the same way, as by a controller that holds the ends. Both are measurements of what
+        the end points cost, not the paper's method.
     adapt_config : ACNMP adaptation (default ``AdaptConfig(max_rollouts=ACNMP_BUDGET)``).
     promp_config : ProMP + RL (default ``PrompRLConfig(**PROMP_DEFAULTS)``); its seed is set per env.
     ewerton_config : the baseline after Ewerton et al. (default ``SelfImproveConfig(max_rollouts=
@@ -536,7 +538,9 @@ def run_wall(
         else:
             learner = _PrompLearner(setup, pcfg, n_basis)
         if snap_outputs:
-            learner, ev = _SnappedOutputs(learner, setup.times), _SnappingEvaluator(ev)
+            learner = _SnappedOutputs(learner, setup.times)
+        if snap_rollouts:
+            ev = _SnappingEvaluator(ev)
         out = self_improve(learner, setup, ev, seed=seed, eval_every=eval_every, log=log, name=m,
                            setting=setting)
         methods_out[m] = {**_summary(out), "time_s": round(time.perf_counter() - t1, 2)}
@@ -566,7 +570,8 @@ def run_wall(
                    "assimilate_batch_size": assimilate_batch_size, "assimilate_targets": assimilate_targets,
                    "assimilate_anchor_weight": assimilate_anchor_weight, "assimilate_from": assimilate_from,
                    "assimilate_lr_final": assimilate_lr_final, "keep_optimizer": keep_optimizer,
-                   "snap_solutions": snap_solutions, "snap_outputs": snap_outputs, "eval_every": eval_every, "n_basis": n_basis,
+                   "snap_solutions": snap_solutions, "snap_outputs": snap_outputs,
+                   "snap_rollouts": snap_rollouts, "eval_every": eval_every, "n_basis": n_basis,
                    "acnmp": _plain(vars(acfg)), "promp_rl": _plain(vars(pcfg)),
                    **({"ewerton": _plain(vars(ecfg))} if "ewerton" in methods else {}),
                    "setting": _plain(vars(setting))},

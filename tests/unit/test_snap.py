@@ -65,3 +65,17 @@ def test_wall_run_counts_executed_snaps_and_snapped_outputs_end_on_the_goal():
     for m in ("acnmp", "promp_rl"):
         assert out["methods"][m]["test_goal_error_mean"] < 1e-9
     assert out["config"]["snap_outputs"] is True
+
+
+def test_snap_wall_paths_moves_each_path_onto_its_own_start_and_goal():
+    from acnmp_core.experiments.wall import snap_wall_paths
+    from acnmp_core.tasks import wall as W
+
+    paths = np.stack([PATH, PATH + 0.3])
+    c = np.array([[5.0, 5.0, 9.0, 2.0], [5.0, 5.0, 8.0, 7.0]])
+    out = snap_wall_paths(paths, T, c)
+    for b in range(2):
+        np.testing.assert_allclose(out[b, 0], W.START, atol=1e-12)
+        np.testing.assert_allclose(out[b, -1], c[b, 2:4], atol=1e-12)
+    one = snap_wall_paths(paths, T, c[0])  # one row of task parameters for every path
+    np.testing.assert_allclose(one[:, -1], [[9.0, 2.0], [9.0, 2.0]], atol=1e-12)
