@@ -250,21 +250,25 @@ def e3_compare() -> str:
     rows = [["Akbulut et al. 2020 (paper)", "ACNMP", "-", "-", "-", "-", "≤ 1.4K", "0.7M", "1x", "-"],
             ["Akbulut et al. 2020 (paper)", "Ewerton et al. 2019 (quoted)", "-", "-", "-", "-", "20K", "10M", "~14x",
              "-"]]
-    runs = {name: load(f"e3_compare_{name}") for name in ("paper", "authors")}
+    files = ["e3_compare_paper", "e3_compare_authors"]
+    files += [f for f in ("e3_compare_paper_snapped", "e3_compare_authors_snapped") if (RESULTS / f"{f}.json").exists()]
+    runs = {f: load(f) for f in files}
     default_from = load("e3_wall")["config"]["assimilate_from"]
     notes = []
-    for name, r in runs.items():
+    for file, r in runs.items():
+        snapped = r["config"].get("snap_rollouts", False)
+        name = r["setting"] + (" setting, paths snapped" if snapped else " setting")
         c = r["comparison"]
         for m, label in E3_COMPARE_LABELS.items():
             s = c["methods"][m]
             ratio = "1x" if m == "acnmp" else f"{c['trajectory_ratios'][f'{m}_over_acnmp']:.2f}x"
             strict = pct(s["test_success_rate_strict"], 1) if "test_success_rate_strict" in s else "="
             first = pct(r["methods"][m]["test_success_rate_initial"], 1)
-            rows.append([f"ours, {name} setting ({r['envs']} envs)", label, f"{first} → {pct(s['test_success_rate'], 1)}",
+            rows.append([f"ours, {name} ({r['envs']} envs)", label, f"{first} → {pct(s['test_success_rate'], 1)}",
                          strict,
                          fmt(s["test_error_mean"]), s["trajectories_total"], s["trajectories_per_env_max"],
                          s["trajectories_paper_style"], ratio, f"{s['time_s']:.0f}"])
-        notes.append(f"* {name} setting: {r['envs']} new environments after {r['n_initial']} demonstrated, "
+        notes.append(f"* {name}: {r['envs']} new environments after {r['n_initial']} demonstrated, "
                      f"{r['n_test']} test; adaptations (failed): "
                      + ", ".join(f"{E3_COMPARE_LABELS[m].split(' (')[0]} {c['methods'][m]['adaptations']} "
                                  f"({c['methods'][m]['adaptations_failed']})" for m in E3_COMPARE_LABELS)
@@ -286,11 +290,11 @@ def e3_compare() -> str:
         "criterion (\"=\": the same criterion in the paper setting).",
         "* The paper's totals are environments x the per-environment maximum (upper bounds, not counts); "
         "the paper-style column computes ours the same way, the measured column counts every trajectory executed.",
+        *(["* \"Paths snapped\" (section 7 above, `e3_compare.py --snap-outputs`): every path of every method, "
+           "generated or an adaptation's roll-out, is moved onto its start and goal before it is executed or "
+           "scored; not the paper's method."] if len(runs) > 2 else []),
         *notes,
-        "",
-        source(runs["paper"], "e3_compare_paper"),
-        "",
-        source(runs["authors"], "e3_compare_authors"),
+        *[line for f, r in runs.items() for line in ("", source(r, f))],
     ]
     return "\n".join(lines)
 
