@@ -85,6 +85,9 @@ CANDIDATES = {
     # scored; and every executed path too, the adaptations' roll-outs included.
     "snap_outputs": dict(snap_outputs=True),
     "snap_outputs_rollouts": dict(snap_outputs=True, snap_rollouts=True),
+    # With snapped solutions (the defaults since e3_snap.json): does half the assimilation budget
+    # (the largest share of the run's time) keep the test success?
+    "snap_s150": dict(snap_solutions=True, assimilate_steps=150),
 }
 #: Candidate keys that set the stopping criterion rather than a run_wall argument.
 STOP_KEYS = ("stop_tolerance", "stop_clearance")
