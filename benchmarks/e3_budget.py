@@ -88,6 +88,8 @@ CANDIDATES = {
     # With snapped solutions (the defaults since e3_snap.json): does half the assimilation budget
     # (the largest share of the run's time) keep the test success?
     "snap_s150": dict(snap_solutions=True, assimilate_steps=150),
+    # The anchor (the solution given its own start and goal) now teaches exact ends: weight it more.
+    "snap_anchor3": dict(snap_solutions=True, assimilate_anchor_weight=3.0),
 }
 #: Candidate keys that set the stopping criterion rather than a run_wall argument.
 STOP_KEYS = ("stop_tolerance", "stop_clearance")
