@@ -35,6 +35,13 @@ def register(subparsers) -> None:
     p.add_argument("--methods", default="acnmp,promp_rl",
                    help="comma-separated methods: acnmp, promp_rl (ProMP + REPS), ewerton (ProMP + PRO + GP "
                         "after Ewerton et al. 2019); default acnmp,promp_rl")
+    p.add_argument("--solutions-as-found", action="store_true",
+                   help="assimilate ACNMP's solutions as the adaptation found them, not moved onto their start "
+                        "and goal first (the default moves, executes and keeps the moved path if it succeeds)")
+    p.add_argument("--snap-paths", choices=("none", "generated", "all"), default="none",
+                   help="move every method's paths onto their start and goal before they are executed or scored: "
+                        "'generated' (new and test environments) or 'all' (the adaptations' roll-outs too); "
+                        "a measurement of what the end points cost, not the paper's method (default none)")
     add_output_arguments(p, "write test error / success vs environments and trajectories (PNG)")
     add_deployment_arguments(p, "the roll-outs on point2d workers")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
@@ -66,6 +73,8 @@ def run(args) -> int:
     kwargs = dict(n_initial=args.initial, n_test=args.test, eval_every=args.eval_every, setting=setting,
                   methods=methods,
                   **({} if args.assimilate_from is None else {"assimilate_from": args.assimilate_from}),
+                  **({"snap_solutions": False} if args.solutions_as_found else {}),
+                  snap_outputs=args.snap_paths != "none", snap_rollouts=args.snap_paths == "all",
                   log=None if args.quiet else (lambda s: print(s, flush=True)))
     check_deployment_arguments(args)
     if args.distributed:

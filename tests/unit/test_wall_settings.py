@@ -84,3 +84,16 @@ def test_trigger_decides_adaptation_in_the_loop():
     assert r["setting"] == "authors" and "test_success_rate_strict" in s
     assert s["test_success_rate_strict"] <= s["test_success_rate"]
     assert math.isfinite(s["test_error_mean"])
+
+
+def test_cli_snap_options_reach_the_run(tmp_path, capsys):
+    import json
+
+    out = tmp_path / "e3.json"
+    assert main(["experiment", "wall", "--envs", "1", "--initial", "10", "--test", "20", "--eval-every", "1",
+                 "--methods", "promp_rl", "--snap-paths", "all", "--solutions-as-found", "--quiet",
+                 "--json", str(out)]) == 0
+    cfg = json.loads(out.read_text())["config"]
+    assert (cfg["snap_outputs"], cfg["snap_rollouts"], cfg["snap_solutions"]) == (True, True, False)
+    assert main(["experiment", "wall", "--snap-paths", "ends"]) == 2
+    assert len(capsys.readouterr().err.strip().splitlines()) == 1
