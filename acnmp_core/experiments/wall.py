@@ -537,16 +537,13 @@ def run_wall(
             learner = _EwertonLearner(setup, ecfg, n_basis)
         else:
             learner = _PrompLearner(setup, pcfg, n_basis)
-        if snap_outputs:
-            learner = _SnappedOutputs(learner, setup.times)
         if snap_rollouts:
             ev = _SnappingEvaluator(ev)
-        out = self_improve(learner, setup, ev, seed=seed, eval_every=eval_every, log=log, name=m,
-                           setting=setting)
+        out = self_improve(_SnappedOutputs(learner, setup.times) if snap_outputs else learner, setup, ev,
+                           seed=seed, eval_every=eval_every, log=log, name=m, setting=setting)
         methods_out[m] = {**_summary(out), "time_s": round(time.perf_counter() - t1, 2)}
         if m == "acnmp" and snap_solutions:
-            inner = learner.inner if snap_outputs else learner
-            methods_out[m].update(snaps_tried=inner.snaps_tried, snaps_kept=inner.snaps_kept)
+            methods_out[m].update(snaps_tried=learner.snaps_tried, snaps_kept=learner.snaps_kept)
         curves[m] = out["curve"]
         per_env[m] = [e["rollouts"] for e in out["per_env"]]
     ratio = None
