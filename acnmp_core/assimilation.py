@@ -44,6 +44,8 @@ class AssimilationConfig:
     anchor_weight : weight of the anchor NLL (the solution given the adaptation's conditions).
     lr_final : None keeps ``lr`` constant; a number decays it along a half cosine to ``lr_final``
         at the last step (:func:`~acnmp_core.training.cosine_lr`).
+    targets_include_obs : the episodes' observations are among their targets (see
+        :class:`~acnmp_core.data.EpisodeSampler`); False: never (the authors').
     """
 
     steps: int = 1000
@@ -52,6 +54,7 @@ class AssimilationConfig:
     n_targets: int = 10
     anchor_weight: float = 1.0
     lr_final: float | None = None
+    targets_include_obs: bool = False
 
     def __post_init__(self) -> None:
         check_positive_int("steps", self.steps, minimum=0)
@@ -89,7 +92,8 @@ def assimilate(model: CNMP, demos: DemoSet, solution: Demonstration, cfg: Assimi
                                     np.asarray(solution.task_params)))
     if cfg.steps == 0:
         return new, []
-    train_cfg = TrainConfig(batch_size=cfg.batch_size, n_targets=cfg.n_targets)
+    train_cfg = TrainConfig(batch_size=cfg.batch_size, n_targets=cfg.n_targets,
+                            targets_include_obs=cfg.targets_include_obs)
     sampler = make_sampler(model, new, train_cfg)
     gen = torch.Generator().manual_seed(seed)
     anchor = None

@@ -154,9 +154,12 @@ class Episode:
 class EpisodeSampler:
     """Draws training episodes: per sample a demonstration, 1..max_obs observations, n_targets targets.
 
-    Targets are never among the sample's observations. With probability ``partial_obs_prob`` an
-    observation carries only a random non-empty subset of the output dimensions, which teaches the
-    model to condition on partial observations.
+    Targets are never among the sample's observations (the authors'), unless
+    ``targets_include_obs``: then the targets are the episode's first ``n_targets`` points, its
+    observations among them (as in conditional neural processes, Garnelo et al. 2018, whose context
+    is a subset of the targets), so the model also learns to pass through what it is conditioned on.
+    With probability ``partial_obs_prob`` an observation carries only a random non-empty subset of
+    the output dimensions, which teaches the model to condition on partial observations.
 
     ``packed`` is read once, at construction: the sampler keeps its own float32 table of it (one
     row per demonstration point), so a sampler over demonstrations that changed must be rebuilt.
@@ -170,6 +173,7 @@ class EpisodeSampler:
         max_obs: int = 5,
         n_targets: int = 10,
         partial_obs_prob: float = 0.2,
+        targets_include_obs: bool = False,
     ) -> None:
         shortest = int(packed.lengths.min())
         if min_obs < 1 or max_obs < min_obs:
@@ -178,7 +182,8 @@ class EpisodeSampler:
             raise ValueError(f"max_obs: the shortest demonstration has {shortest} points; need max_obs < {shortest}")
         self.packed = packed
         self.min_obs, self.max_obs = min_obs, max_obs
-        self.n_targets = max(1, min(n_targets, shortest - max_obs))
+        self.targets_include_obs = bool(targets_include_obs)
+        self.n_targets = max(1, min(n_targets, shortest if self.targets_include_obs else shortest - max_obs))
         self.partial_obs_prob = partial_obs_prob
         n, tmax, d = packed.values.shape
         self._n, self._tmax, self._d = n, tmax, d
@@ -218,7 +223,10 @@ class EpisodeSampler:
         keys = torch.rand(b, tmax, generator=gen, dtype=torch.float64)
         if self._padded:
             keys = torch.where(self._slots < self._lengths[demo_idx][:, None], keys, 2.0)
-        m, k = self.max_obs, self.max_obs + self.n_targets
+        m = self.max_obs
+        # Targets follow the observations in the permutation, or (targets_include_obs) start with them.
+        t0 = 0 if self.targets_include_obs else m
+        k = max(m, t0 + self.n_targets)
         points = self._table[self._first_points(keys, k) + demo_idx[:, None] * tmax]  # (B, k, 1 + D)
         n_obs = torch.randint(self.min_obs, self.max_obs + 1, (b,), generator=gen)
         obs_mask = self._obs_slots < n_obs[:, None]
@@ -233,5 +241,6 @@ class EpisodeSampler:
             rand_mask.scatter_(2, first[..., None], 1.0)
             dim_mask = torch.where(partial, rand_mask, dim_mask)
         obs_x = torch.cat([ot, tp[:, None, :].expand(-1, m, -1), ov * dim_mask, dim_mask], dim=-1)
-        tgt_x = torch.cat([points[:, m:, :1], tp[:, None, :].expand(-1, k - m, -1)], dim=-1)
-        return Episode(obs_x, obs_mask, tgt_x, points[:, m:, 1:].contiguous())
+        tgt = points[:, t0:t0 + self.n_targets]
+        tgt_x = torch.cat([tgt[..., :1], tp[:, None, :].expand(-1, self.n_targets, -1)], dim=-1)
+        return Episode(obs_x, obs_mask, tgt_x, tgt[..., 1:].contiguous())

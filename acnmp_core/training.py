@@ -21,7 +21,8 @@ class TrainConfig:
 
     steps : gradient steps. batch_size : episodes per step (each from a random demonstration).
     min_obs, max_obs : observations per episode, uniform in [min_obs, max_obs] (the authors: 1..5).
-    n_targets : target points per episode, never among its observations.
+    n_targets : target points per episode, never among its observations unless
+        ``targets_include_obs`` (then the observations are among them; see EpisodeSampler).
     lr : Adam learning rate. val_fraction : share of demonstrations held out for validation; when it
     rounds to zero demonstrations, a fixed set of episodes drawn from the training demonstrations
     is used instead, which still makes best-checkpoint keeping meaningful.
@@ -44,6 +45,7 @@ class TrainConfig:
     partial_obs_prob: float = 0.2
     beta: float = 0.5
     lr_final: float | None = None
+    targets_include_obs: bool = False
 
     def __post_init__(self) -> None:
         check_positive_int("steps", self.steps, minimum=0)
@@ -113,6 +115,7 @@ def make_sampler(model: CNMP, demos: DemoSet, cfg: TrainConfig) -> EpisodeSample
         max_obs=cfg.max_obs,
         n_targets=cfg.n_targets,
         partial_obs_prob=cfg.partial_obs_prob,
+        targets_include_obs=cfg.targets_include_obs,
     )
 
 

@@ -90,6 +90,9 @@ CANDIDATES = {
     "snap_s150": dict(snap_solutions=True, assimilate_steps=150),
     # The anchor (the solution given its own start and goal) now teaches exact ends: weight it more.
     "snap_anchor3": dict(snap_solutions=True, assimilate_anchor_weight=3.0),
+    # The supervised steps also target the episodes' observations (as conditional neural processes
+    # do), so the skill learns to pass through the start and goal it is conditioned on.
+    "targets_obs": dict(targets_include_obs=True),
 }
 #: Candidate keys that set the stopping criterion rather than a run_wall argument.
 STOP_KEYS = ("stop_tolerance", "stop_clearance")

@@ -72,7 +72,7 @@ PROMP_DEFAULTS = dict(method="reps", n_samples=10, max_rollouts=1000, init="cond
 TRAIN_DEFAULTS = dict(train_steps=3000, assimilate_steps=300, assimilate_lr=3e-4, batch_size=32, n_targets=10,
                       assimilate_batch_size=32, assimilate_targets=10, assimilate_anchor_weight=1.0,
                       assimilate_from="skill", assimilate_lr_final=3e-5, keep_optimizer=True,
-                      snap_solutions=True)
+                      snap_solutions=True, targets_include_obs=False)
 #: The assimilations continue one Adam kept over the skill's life (keep_optimizer) and decay their rate
 #: from assimilate_lr to assimilate_lr_final within each assimilation: over seeds 0-2 at 300 environments,
 #: 78.2 % test success on average against 72.4 % with a fresh Adam per solution at a constant rate
@@ -446,6 +446,7 @@ def run_wall(
     assimilate_lr_final: float | None = TRAIN_DEFAULTS["assimilate_lr_final"],
     keep_optimizer: bool = TRAIN_DEFAULTS["keep_optimizer"],
     snap_solutions: bool = TRAIN_DEFAULTS["snap_solutions"],
+    targets_include_obs: bool = TRAIN_DEFAULTS["targets_include_obs"],
     snap_outputs: bool = False,
     snap_rollouts: bool = False,
     adapt_config: AdaptConfig | None = None,
@@ -486,6 +487,9 @@ def run_wall(
     snap_solutions : before a solution is assimilated, move it onto its start and goal
         (:func:`~acnmp_core.assimilation.snap_to_observations`), execute the moved path (one more
         roll-out, counted) and assimilate it instead when it succeeds; False: the solution as found.
+    targets_include_obs : the CNMP's supervised steps (first training and assimilations; not the
+        adaptations' interleaved ones) also target the episodes' observations
+        (:class:`~acnmp_core.data.EpisodeSampler`); False: never (the authors').
     snap_outputs : every method's generated paths (for a new environment and on the test set) are
         moved onto their start and goal before they are executed or scored; the adaptations'
         roll-outs are not. snap_rollouts : every executed path, the adaptations' roll-outs included,
@@ -528,10 +532,11 @@ def run_wall(
         ev = evaluator_factory(m) if evaluator_factory is not None else setting.task()
         if m == "acnmp":
             learner = _AcnmpLearner(
-                setup, seed, acfg, TrainConfig(steps=train_steps, batch_size=batch_size, n_targets=n_targets),
+                setup, seed, acfg, TrainConfig(steps=train_steps, batch_size=batch_size, n_targets=n_targets,
+                                               targets_include_obs=targets_include_obs),
                 AssimilationConfig(steps=assimilate_steps, lr=assimilate_lr, batch_size=assimilate_batch_size,
                                    n_targets=assimilate_targets, anchor_weight=assimilate_anchor_weight,
-                                   lr_final=assimilate_lr_final),
+                                   lr_final=assimilate_lr_final, targets_include_obs=targets_include_obs),
                 assimilate_from, progress, keep_optimizer, snap_solutions)
         elif m == "ewerton":
             learner = _EwertonLearner(setup, ecfg, n_basis)
@@ -567,7 +572,8 @@ def run_wall(
                    "assimilate_batch_size": assimilate_batch_size, "assimilate_targets": assimilate_targets,
                    "assimilate_anchor_weight": assimilate_anchor_weight, "assimilate_from": assimilate_from,
                    "assimilate_lr_final": assimilate_lr_final, "keep_optimizer": keep_optimizer,
-                   "snap_solutions": snap_solutions, "snap_outputs": snap_outputs,
+                   "snap_solutions": snap_solutions, "targets_include_obs": targets_include_obs,
+                   "snap_outputs": snap_outputs,
                    "snap_rollouts": snap_rollouts, "eval_every": eval_every, "n_basis": n_basis,
                    "acnmp": _plain(vars(acfg)), "promp_rl": _plain(vars(pcfg)),
                    **({"ewerton": _plain(vars(ecfg))} if "ewerton" in methods else {}),

@@ -19,9 +19,12 @@ def _ragged(seed: int = 3) -> DemoSet:
 def _reference(model: CNMP, demos: DemoSet, cfg: TrainConfig, b: int, gen: torch.Generator):
     """The sampling rule written out per episode, in float64 numpy, from the same random draws in
     the same order: demo, a random order of its points (the first max_obs are observations, the
-    next n_targets targets), the number of observations, then the partial-observation masks."""
+    next n_targets targets, or with targets_include_obs the first n_targets), the number of
+    observations, then the partial-observation masks."""
     n, d, m = len(demos), demos.n_outputs, cfg.max_obs
-    n_tgt = max(1, min(cfg.n_targets, min(len(x.times) for x in demos) - m))
+    shortest = min(len(x.times) for x in demos)
+    n_tgt = max(1, min(cfg.n_targets, shortest if cfg.targets_include_obs else shortest - m))
+    first_target = 0 if cfg.targets_include_obs else m
     tmax = max(len(x.times) for x in demos)
     demo_idx = torch.randint(0, n, (b,), generator=gen).numpy()
     keys = torch.rand(b, tmax, generator=gen, dtype=torch.float64).numpy()
@@ -46,7 +49,7 @@ def _reference(model: CNMP, demos: DemoSet, cfg: TrainConfig, b: int, gen: torch
         t = norm(demo.times[:, None], model.time_norm)
         v = norm(demo.values, model.value_norm)
         p = norm(demo.task_params, model.task_norm)
-        o, g = order[:m], order[m: m + n_tgt]
+        o, g = order[:m], order[first_target: first_target + n_tgt]
         obs_x.append(np.hstack([t[o], np.tile(p, (m, 1)), v[o] * dims[i], dims[i]]))
         tgt_x.append(np.hstack([t[g], np.tile(p, (len(g), 1))]))
         tgt_y.append(v[g])
@@ -71,7 +74,9 @@ def test_episodes_follow_the_sampling_rule_bit_for_bit(e1_demos):
     ragged = _ragged()
     model = CNMP(CNMPConfig(n_outputs=3, n_task_params=2))
     model.fit_normalization(ragged)
-    for cfg in (TrainConfig(), TrainConfig(min_obs=2, max_obs=9, n_targets=7, partial_obs_prob=0.7)):
+    for cfg in (TrainConfig(), TrainConfig(min_obs=2, max_obs=9, n_targets=7, partial_obs_prob=0.7),
+                TrainConfig(targets_include_obs=True),
+                TrainConfig(min_obs=2, max_obs=9, n_targets=7, partial_obs_prob=0.7, targets_include_obs=True)):
         _check_against_reference(e1, e1_demos, cfg, seed=0)
         _check_against_reference(model, ragged, cfg, seed=1)  # padded: demos of different lengths
 
@@ -92,6 +97,24 @@ def test_a_sampler_over_a_changed_demo_set_samples_the_new_demonstrations():
     assert torch.equal(ep.tgt_y, seven.expand(4, ep.tgt_y.shape[1], 3))
     assert not torch.equal(old.sample(4, torch.Generator().manual_seed(0), idx % len(demos)).tgt_y, ep.tgt_y)
     _check_against_reference(model, grown, TrainConfig(), seed=2)
+
+
+def test_with_targets_include_obs_every_observation_is_a_target():
+    """CNP-style episodes: each observed point (time and full value) is also one of the targets, so
+    the model is taught to pass through what it is conditioned on; the default never does that."""
+    demos = _ragged()
+    model = CNMP(CNMPConfig(n_outputs=3, n_task_params=2))
+    model.fit_normalization(demos)
+    for include in (True, False):
+        ep = make_sampler(model, demos, TrainConfig(targets_include_obs=include, partial_obs_prob=0.0)).sample(
+            64, torch.Generator().manual_seed(5))
+        p = 2
+        for i in range(64):
+            obs = ep.obs_x[i, ep.obs_mask[i]]
+            obs_points = torch.cat([obs[:, :1], obs[:, 1 + p:1 + p + 3]], dim=1)
+            tgt_points = torch.cat([ep.tgt_x[i, :, :1], ep.tgt_y[i]], dim=1)
+            found = [(tgt_points == o).all(dim=1).any() for o in obs_points]
+            assert all(found) if include else not any(found)
 
 
 def test_first_points_is_argsort_also_when_keys_tie():
