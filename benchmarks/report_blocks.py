@@ -808,7 +808,8 @@ def _optimizer_label(name: str, c: dict) -> str:
     end = c.get("assimilate_lr_final")
     rate = f"lr {c['assimilate_lr']:g}" + (f" → {end:g} (cosine)" if end is not None else "")
     snap = ", solutions snapped onto start and goal" if c.get("snap_solutions") else ""
-    return f"{name}: {opt}, {c['assimilate_steps']} steps, {rate}{snap}"
+    obs = ", targets include the observations" if c.get("targets_include_obs") else ""
+    return f"{name}: {opt}, {c['assimilate_steps']} steps, {rate}{snap}{obs}"
 
 
 @renderer("e3-optimizer")
@@ -834,6 +835,34 @@ def e3_snap() -> str:
 def e3_snap_1500() -> str:
     """The same at 1500 environments, seeds 1 and 2 (e3_snap_1500.json against e3_optimizer_1500.json)."""
     return _snap_table("e3_snap_1500", "e3_optimizer_1500")
+
+
+@renderer("e3-targets-obs")
+def e3_targets_obs() -> str:
+    """Supervised episodes whose targets include their observations (e3_targets_obs.json) against the
+    defaults (the snap variant of e3_snap.json), seeds 0-2 at 300 environments."""
+    default, cand = load("e3_snap"), load("e3_targets_obs")
+    if default["envs"] != cand["envs"]:
+        raise ValueError("e3_snap.json and e3_targets_obs.json differ in envs")
+    seeds = {s: {"default (snap)": default["seeds"][s]["snap"], **cand["seeds"][s]}
+             for s in cand["seeds"] if "snap" in default["seeds"].get(s, {})}
+    return _optimizer_table("e3_targets_obs", {"envs": cand["envs"], "seeds": seeds},
+                            sources=[(default, "e3_snap"), (cand, "e3_targets_obs")])
+
+
+@renderer("e3-targets-obs-1500")
+def e3_targets_obs_1500() -> str:
+    """The same at 1500 environments: the defaults from e3_wall.json (seed 0) and e3_snap_1500.json
+    (seeds 1, 2) against e3_targets_obs_1500.json (seeds 0-2)."""
+    full, snap, cand = load("e3_wall"), load("e3_snap_1500"), load("e3_targets_obs_1500")
+    if not full["envs"] == snap["envs"] == cand["envs"]:
+        raise ValueError("e3_wall.json, e3_snap_1500.json and e3_targets_obs_1500.json differ in envs")
+    seed0 = {"provenance": full["provenance"], "config": full["config"], "curve": full["curves"]["acnmp"],
+             "summary": full["methods"]["acnmp"]}
+    defaults = {str(full["seed"]): seed0, **{s: v["snap"] for s, v in snap["seeds"].items()}}
+    seeds = {s: {"default (snap)": defaults[s], **cand["seeds"][s]} for s in cand["seeds"] if s in defaults}
+    return _optimizer_table("e3_targets_obs_1500", {"envs": cand["envs"], "seeds": seeds},
+                            sources=[(full, "e3_wall"), (snap, "e3_snap_1500"), (cand, "e3_targets_obs_1500")])
 
 
 def _snap_table(snap_file: str, before_file: str) -> str:
