@@ -382,15 +382,28 @@ def adaptation_sweep() -> str:
 @renderer("e3-fit-precision")
 def e3_fit_precision() -> str:
     r = load("e3_fit_precision")
-    rows = [[x["demos"], x["steps"], x["batch_size"], x["n_targets"], pct(x["test_success_rate"], 1),
-             fmt(x["test_error_mean"]), fmt(x["test_goal_error_mean"]), pct(x["test_through_hole_rate"]),
+
+    def budget(x: dict) -> str:
+        extra = ([f"rate → {x['lr_final']:g}"] if x.get("lr_final") else []) + \
+            (["targets include the observations"] if x.get("targets_include_obs") else [])
+        return f"{x['steps']} x {x['batch_size']} x {x['n_targets']}" + (f" ({', '.join(extra)})" if extra else "")
+
+    def fit(x: dict, key: str, f) -> str:
+        return f(x["demonstrated"][key]) if "demonstrated" in x else "-"
+
+    rows = [[x["demos"], budget(x), pct(x["test_success_rate"], 1), fmt(x["test_error_mean"]),
+             fmt(x["test_goal_error_mean"]), pct(x["test_through_hole_rate"]),
+             fit(x, "test_success_rate", lambda v: pct(v, 1)), fit(x, "test_goal_error_mean", fmt),
              f"{x['time_s']:.0f}"] for x in r["runs"]]
     return "\n".join([
-        table(["expert demos", "steps", "batch", "targets per episode", "test success", "mean test error",
-               "mean goal error", "through the hole", "time (s)"], rows),
+        table(["expert demos", "steps x batch x targets per episode", "test success", "mean test error",
+               "mean goal error", "through the hole", "demonstrated envs: success", "demonstrated envs: goal error",
+               "training time (s)"], rows),
         "",
         f"* The first training of E3 only (seed {r['seed']}), no RL: one expert demonstration per random "
-        "environment, scored on the 1000 test environments.",
+        "environment, scored on the 1000 test environments and, conditioned the same way, on the demonstrated "
+        "environments themselves (how well the skill fits what it was trained on). Rate 1e-3, constant unless a "
+        "decay (half cosine) is given.",
         "",
         source(r, "e3_fit_precision"),
     ])
