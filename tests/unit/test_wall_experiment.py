@@ -112,3 +112,24 @@ def test_assimilation_budget_is_checked(name):
     """The assimilation's own episodes per step and targets per episode are checked before any training."""
     with pytest.raises(ValueError, match=name.removeprefix("assimilate_").replace("targets", "n_targets")):
         E.run_wall(envs=1, n_test=5, methods=("acnmp",), **{name: 0})
+
+
+def test_thread_count_changes_the_time_not_the_numbers():
+    """`acnmp experiment wall --threads N` and `benchmarks/e3_wall.py --threads N` promise the same
+    run for any N: the whole loop (training, adaptations, assimilations, test curve) with 1 and 2
+    intra-op threads must agree bit for bit."""
+    before = torch.get_num_threads()
+    kw = dict(envs=4, seed=2, n_initial=20, n_test=100, eval_every=2, train_steps=600, assimilate_steps=60,
+              methods=("acnmp",))
+    try:
+        runs = []
+        for threads in (1, 2):
+            torch.set_num_threads(threads)
+            r = E.run_wall(**kw)
+            runs.append((r["methods"]["acnmp"], r["curves"]["acnmp"], r["rollouts_per_env"]["acnmp"]))
+    finally:
+        torch.set_num_threads(before)
+    (s1, c1, e1), (s2, c2, e2) = runs
+    assert s1["adaptations"] >= 1  # the comparison covers adaptation and assimilation
+    assert {k: v for k, v in s1.items() if k != "time_s"} == {k: v for k, v in s2.items() if k != "time_s"}
+    assert c1 == c2 and e1 == e2

@@ -91,9 +91,11 @@ def test_cli_snap_options_reach_the_run(tmp_path, capsys):
 
     out = tmp_path / "e3.json"
     assert main(["experiment", "wall", "--envs", "1", "--initial", "10", "--test", "20", "--eval-every", "1",
-                 "--methods", "promp_rl", "--snap-paths", "all", "--solutions-as-found", "--quiet",
+                 "--methods", "promp_rl", "--snap-paths", "all", "--solutions-as-found", "--threads", "1", "--quiet",
                  "--json", str(out)]) == 0
     cfg = json.loads(out.read_text())["config"]
     assert (cfg["snap_outputs"], cfg["snap_rollouts"], cfg["snap_solutions"]) == (True, True, False)
     assert main(["experiment", "wall", "--snap-paths", "ends"]) == 2
     assert len(capsys.readouterr().err.strip().splitlines()) == 1
+    assert main(["experiment", "wall", "--threads", "0"]) == 2
+    assert "--threads" in capsys.readouterr().err
