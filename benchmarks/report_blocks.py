@@ -542,6 +542,28 @@ def e3_profile() -> str:
     ])
 
 
+@renderer("e3-threads")
+def e3_threads() -> str:
+    """ACNMP's E3 time by torch thread count (bench_e3_threads.json), runs one after the other."""
+    r = load("bench_e3_threads")
+    c = r["config"]
+    rows = [[x["threads"], f"{x['acnmp_time_s']:.1f}", f"{x['speedup_over_one_thread']:.2f}x",
+             "yes" if x["identical_to_one_thread"] else "**no**", pct(x["test_success_rate"], 1),
+             x["trajectories_total"]] for x in r["runs"]]
+    machine = r["provenance"]["machine"]
+    return "\n".join([
+        table(["torch threads", "ACNMP time (s)", "speed-up over 1 thread", "same numbers as 1 thread",
+               "test success", "trajectories"], rows),
+        "",
+        f"* ACNMP only, seed {c['seed']}, {c['envs']} new environments after 30 demonstrated ones, 1000 test "
+        f"environments; the runs one after the other in one process on {machine['cpu']} "
+        f"({machine['cpu_count']} cores); \"same numbers\": summary, test curve and roll-outs per environment "
+        "equal bit for bit.",
+        "",
+        source(r, "bench_e3_threads"),
+    ])
+
+
 # --------------------------------------------------------------------------------------------------
 # E4
 # --------------------------------------------------------------------------------------------------
