@@ -156,8 +156,9 @@ class EpisodeSampler:
 
     Targets are never among the sample's observations (the authors'), unless
     ``targets_include_obs``: then the targets are the episode's first ``n_targets`` points, its
-    observations among them (all of them when ``n_targets`` is at least their number; as in conditional neural processes, Garnelo et al. 2018, whose context
-    is a subset of the targets), so the model also learns to pass through what it is conditioned on.
+    observations among them (all of them when ``n_targets`` is at least their number), as in
+    conditional neural processes (Garnelo et al. 2018, whose context is a subset of the targets),
+    so the model also learns to pass through what it is conditioned on.
     With probability ``partial_obs_prob`` an observation carries only a random non-empty subset of
     the output dimensions, which teaches the model to condition on partial observations.
 

@@ -45,7 +45,8 @@ def register(subparsers) -> None:
     p.add_argument("--threads", type=int_at_least(1), default=None,
                    help="torch threads for the CNMP's training and adaptation (default: one per core). The "
                         "numbers do not depend on it (1 and 2 threads give the same run bit for bit, tested); "
-                        "the time does: 2 threads ran E3 1.4x faster than 1 on a 2-core machine (bench_e3_threads.json)")
+                        "the time does: 2 threads ran E3 1.4x faster than 1 on a 2-core machine "
+                        "(bench_e3_threads.json)")
     add_output_arguments(p, "write test error / success vs environments and trajectories (PNG)")
     add_deployment_arguments(p, "the roll-outs on point2d workers")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
