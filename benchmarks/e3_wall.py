@@ -4,7 +4,8 @@ Writes benchmarks/results/e3_wall.json (with its provenance) and e3_wall.png (th
 Fig. 5 d, e). Usage: ``python benchmarks/e3_wall.py [--envs N] [--seed S] [--threads N] [--out FILE]``;
 the default is 1500 new environments after 30 demonstrated ones, tested on 1000, with torch's
 default threads (one per core; the provenance records how many). The settings are the library's
-defaults, the same as ``acnmp experiment wall``; the thread count changes the time, not the numbers.
+defaults, the same as ``acnmp experiment wall``; on the CPU ``bench_e3_threads.py`` measured, the
+thread count changes the time, not the numbers.
 """
 from __future__ import annotations
 
@@ -31,7 +32,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--assimilate-from", choices=ASSIMILATE_FROM, default=TRAIN_DEFAULTS["assimilate_from"],
                     help="the network ACNMP's assimilation continues from (see run_wall)")
     ap.add_argument("--threads", type=int, default=None,
-                    help="torch intra-op threads (default: torch's, one per core); the numbers do not depend on it")
+                    help="torch intra-op threads (default: torch's, one per core; see bench_e3_threads.py)")
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "e3_wall.json"))
     args = ap.parse_args(argv)
     if args.threads is not None:

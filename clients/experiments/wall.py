@@ -43,10 +43,10 @@ def register(subparsers) -> None:
                         "'generated' (new and test environments) or 'all' (the adaptations' roll-outs too); "
                         "a measurement of what the end points cost, not the paper's method (default none)")
     p.add_argument("--threads", type=int_at_least(1), default=None,
-                   help="torch threads for the CNMP's training and adaptation (default: one per core). The "
-                        "numbers do not depend on it (1 and 2 threads give the same run bit for bit, tested); "
-                        "the time does: 2 threads ran E3 1.4x faster than 1 on a 2-core machine "
-                        "(bench_e3_threads.json)")
+                   help="torch threads for the CNMP's training and adaptation (default: one per core). On "
+                        "the CPU measured (an AMD EPYC, bench_e3_threads.json) 1 and 2 threads give the same "
+                        "run bit for bit and 2 run E3 1.4x faster; on another CPU, run that benchmark first "
+                        "if the numbers must match a one-thread run")
     add_output_arguments(p, "write test error / success vs environments and trajectories (PNG)")
     add_deployment_arguments(p, "the roll-outs on point2d workers")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
