@@ -55,8 +55,10 @@ def main(argv: list[str] | None = None) -> int:
             cfg = TrainConfig(**budget)
             train(model, setup.initial, cfg, seed=args.seed, progress=False)
             train_time = time.perf_counter() - t1
-            scores = E.evaluate_test(lambda c: E.cnmp_trajectories(model, c, setup.times), setup.test)
-            fit = E.evaluate_test(lambda c: E.cnmp_trajectories(model, c, setup.times), demonstrated)
+            def generate(c):
+                return E.cnmp_trajectories(model, c, setup.times)
+
+            scores, fit = E.evaluate_test(generate, setup.test), E.evaluate_test(generate, demonstrated)
             runs.append({"demos": n, "steps": cfg.steps, "batch_size": cfg.batch_size, "n_targets": cfg.n_targets,
                          "lr_final": cfg.lr_final, "targets_include_obs": cfg.targets_include_obs, **scores,
                          "demonstrated": fit, "time_s": round(train_time, 2)})

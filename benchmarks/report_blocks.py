@@ -876,13 +876,7 @@ def e3_snap_1500() -> str:
 def e3_targets_obs() -> str:
     """Supervised episodes whose targets include their observations (e3_targets_obs.json) against the
     defaults (the snap variant of e3_snap.json), seeds 0-2 at 300 environments."""
-    default, cand = load("e3_snap"), load("e3_targets_obs")
-    if default["envs"] != cand["envs"]:
-        raise ValueError("e3_snap.json and e3_targets_obs.json differ in envs")
-    seeds = {s: {"default (snap)": default["seeds"][s]["snap"], **cand["seeds"][s]}
-             for s in cand["seeds"] if "snap" in default["seeds"].get(s, {})}
-    return _optimizer_table("e3_targets_obs", {"envs": cand["envs"], "seeds": seeds},
-                            sources=[(default, "e3_snap"), (cand, "e3_targets_obs")])
+    return _beside("e3_targets_obs", "e3_snap", "snap", "default (snap)")
 
 
 @renderer("e3-targets-obs-1500")
@@ -903,13 +897,19 @@ def e3_targets_obs_1500() -> str:
 def _snap_table(snap_file: str, before_file: str) -> str:
     """``snap_file``'s variants beside the kept-optimiser variant of ``before_file`` ("as found"),
     on the seeds both ran."""
-    before, snap = load(before_file), load(snap_file)
-    if before["envs"] != snap["envs"]:
-        raise ValueError(f"{before_file}.json and {snap_file}.json differ in envs")
-    seeds = {s: {"as found": before["seeds"][s]["keep_opt_cos3e-5"], **snap["seeds"][s]}
-             for s in snap["seeds"] if "keep_opt_cos3e-5" in before["seeds"].get(s, {})}
-    return _optimizer_table(snap_file, {"envs": snap["envs"], "seeds": seeds},
-                            sources=[(before, before_file), (snap, snap_file)])
+    return _beside(snap_file, before_file, "keep_opt_cos3e-5", "as found")
+
+
+def _beside(cand_file: str, base_file: str, base_variant: str, base_label: str) -> str:
+    """``cand_file``'s variants beside the variant ``base_variant`` of ``base_file`` (shown as
+    ``base_label``), on the seeds both ran; the two files must have the same number of environments."""
+    base, cand = load(base_file), load(cand_file)
+    if base["envs"] != cand["envs"]:
+        raise ValueError(f"{base_file}.json and {cand_file}.json differ in envs")
+    seeds = {s: {base_label: base["seeds"][s][base_variant], **cand["seeds"][s]}
+             for s in cand["seeds"] if base_variant in base["seeds"].get(s, {})}
+    return _optimizer_table(cand_file, {"envs": cand["envs"], "seeds": seeds},
+                            sources=[(base, base_file), (cand, cand_file)])
 
 
 def _optimizer_table(name: str, r: dict | None = None, *, sources: list[tuple[dict, str]] | None = None) -> str:
