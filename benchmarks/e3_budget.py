@@ -93,6 +93,10 @@ CANDIDATES = {
     # The supervised steps also target the episodes' observations (as conditional neural processes
     # do), so the skill learns to pass through the start and goal it is conditioned on.
     "targets_obs": dict(targets_include_obs=True),
+    # After the stream, more supervised steps on everything the skill has (e3_fit_precision: the
+    # CNMP's end points sharpen with training budget; once at the end costs far less than per solution).
+    "consolidate5k": dict(consolidate_steps=5000),
+    "consolidate10k": dict(consolidate_steps=10000),
 }
 #: Candidate keys that set the stopping criterion rather than a run_wall argument.
 STOP_KEYS = ("stop_tolerance", "stop_clearance")
