@@ -894,6 +894,32 @@ def e3_targets_obs_1500() -> str:
                             sources=[(full, "e3_wall"), (snap, "e3_snap_1500"), (cand, "e3_targets_obs_1500")])
 
 
+@renderer("e3-consolidate")
+def e3_consolidate() -> str:
+    """More supervised steps after the stream (run_wall consolidate_steps): the skill at the end of the
+    stream against the same skill trained further, one row per candidate (e3_consolidate.json)."""
+    r = load("e3_consolidate")
+    rows = []
+    for v in r["variants"].values():
+        s, c = v["summary"], v["summary"]["consolidated"]
+        rows.append([f"{c['steps']} steps, rate {fmt(v['config']['assimilate_lr'])} → "
+                     f"{fmt(v['config']['consolidate_lr_final'])}",
+                     f"{pct(s['test_success_rate'], 1)} → {pct(c['test_success_rate'], 1)}",
+                     f"{fmt(s['test_error_mean'])} → {fmt(c['test_error_mean'])}",
+                     f"{fmt(s['test_goal_error_mean'])} → {fmt(c['test_goal_error_mean'])}",
+                     f"{c['time_s']:.0f}"])
+    return "\n".join([
+        table(["after the stream", "test success", "mean test error", "mean goal error", "time (s)"], rows),
+        "",
+        f"* ACNMP, seed {r['seed']}, {r['envs']} new environments after 30 demonstrated ones, 1000 test "
+        "environments; the left of each arrow is the skill at the end of the stream (the same run as the Results "
+        "table), the right the same skill after the further steps (32 episodes of 10 targets, one Adam "
+        "continued, rate decaying along a half cosine).",
+        "",
+        source(r, "e3_consolidate"),
+    ])
+
+
 def _snap_table(snap_file: str, before_file: str) -> str:
     """``snap_file``'s variants beside the kept-optimiser variant of ``before_file`` ("as found"),
     on the seeds both ran."""

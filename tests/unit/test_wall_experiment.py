@@ -114,6 +114,27 @@ def test_assimilation_budget_is_checked(name):
         E.run_wall(envs=1, n_test=5, methods=("acnmp",), **{name: 0})
 
 
+def test_consolidation_comes_after_the_stream():
+    """consolidate_steps trains the skill once more after the last environment: the stream (curve,
+    roll-outs, headline numbers) is the same as without it, and the consolidated skill, scored on the
+    same test set, has sharper end points than the briefly trained one it started from."""
+    kw = dict(envs=2, seed=2, n_initial=20, n_test=100, eval_every=1, train_steps=1500, assimilate_steps=50,
+              methods=("acnmp",))
+    plain = E.run_wall(**kw)
+    more = E.run_wall(**kw, consolidate_steps=1500)
+    assert more["curves"] == plain["curves"] and more["rollouts_per_env"] == plain["rollouts_per_env"]
+    a, b = plain["methods"]["acnmp"], more["methods"]["acnmp"]
+    assert "consolidated" not in a
+    assert {k: v for k, v in b.items() if k not in ("consolidated", "time_s")} == \
+        {k: v for k, v in a.items() if k != "time_s"}
+    c = b["consolidated"]
+    assert c["steps"] == 1500 and more["config"]["consolidate_steps"] == 1500
+    assert c["test_goal_error_mean"] < 0.95 * a["test_goal_error_mean"]  # measured 0.86x
+    assert c["test_success_rate"] > a["test_success_rate"]
+    with pytest.raises(ValueError, match="consolidate_steps"):
+        E.run_wall(envs=1, n_test=5, methods=("acnmp",), consolidate_steps=-1)
+
+
 def test_thread_count_changes_the_time_not_the_numbers():
     """`acnmp experiment wall --threads N` and `benchmarks/e3_wall.py --threads N` promise the same
     run for 1 and 2 threads on the CPUs where benchmarks/bench_e3_threads.py measured it: the whole
