@@ -284,9 +284,11 @@ def _success_from_scores(s: WallScores, start_tolerance: float, goal_tolerance: 
     )
 
 
-def _errors_from_scores(s: WallScores) -> np.ndarray:
-    penetration = np.where(s.reaches_wall, np.maximum(-s.min_margin, 0.0), 0.0)
-    return s.start_error + s.goal_error + penetration
+def _errors_from_scores(s: WallScores, min_clearance: float = 0.0) -> np.ndarray:
+    # How far the margin falls short of the clearance asked for: with 0, how deep the path goes into
+    # the wall (the test metric's penetration).
+    shortfall = np.where(s.reaches_wall, np.maximum(min_clearance - s.min_margin, 0.0), 0.0)
+    return s.start_error + s.goal_error + shortfall
 
 
 def wall_success(
@@ -490,7 +492,9 @@ class WallTask:
         Returns
         -------
         RolloutBatch with rewards (B, T) (see :func:`wall_rewards`), success (B,),
-        ``states={"path": trajectories}`` and errors (B,) (see :func:`wall_errors`).
+        ``states={"path": trajectories}`` and errors (B,): how far each roll-out is from this task's
+        success, start error + goal error + the margin's shortfall below ``min_clearance`` (with
+        ``min_clearance`` 0, the paper's, the test metric :func:`wall_errors`).
         """
         if task_params is None:
             raise ValueError("task_params: the wall task needs (x_c, y_c, x_g, y_g), got None")
@@ -506,7 +510,7 @@ class WallTask:
             rewards=_rewards_from_scores(s, traj.shape[0], traj.shape[1], self.squared_clearance),
             success=_success_from_scores(s, self.start_tolerance, self.goal_tolerance, self.min_clearance),
             states={"path": traj},
-            errors=_errors_from_scores(s),
+            errors=_errors_from_scores(s, self.min_clearance),
         )
 
     def scores(self, trajectories, task_params) -> WallScores:

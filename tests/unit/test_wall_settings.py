@@ -57,6 +57,27 @@ def test_authors_criteria_and_squared_clearance():
     assert not PAPER.task().success(off, c)[0]
 
 
+def test_remaining_error_counts_the_missing_clearance():
+    """The error an adaptation's exploration follows is how far a roll-out is from *this* task's
+    success: in the authors' setting a path through the hole with clearance 0.5 (short of the
+    0.632 asked for) and exact ends still has an error of 0.132, not 0 (with 0, the exploration
+    narrowed to its floor while the clearance was still missing and adaptations ran to the budget);
+    the test metric and the paper setting (clearance 0) keep the depth into the wall."""
+    c = np.array([5.0, 5.0, 8.0, 5.0])
+    t = np.linspace(0, 1, 200)
+    centre, off = _straight(5.0), _straight(5.5)
+    task = AUTHORS.task()
+    assert task.evaluate(off, t, c).errors[0] == pytest.approx(math.sqrt(0.4) - 0.5, abs=1e-9)
+    assert task.evaluate(centre, t, c).errors[0] == pytest.approx(0.0, abs=1e-9)
+    assert task.errors(off, c)[0] == pytest.approx(0.0, abs=1e-9)  # the test metric: no penetration
+    into_wall = _straight(5.0 + 1.3)  # 0.3 beyond the hole's edge, inside the thick wall
+    for paper_like in (PAPER.task(), W.WallTask(hole_width=2.0, wall_thickness=2.0)):
+        batch = paper_like.evaluate(np.concatenate([into_wall, off]), t, c)
+        np.testing.assert_allclose(batch.errors, paper_like.errors(np.concatenate([into_wall, off]), c))
+    assert W.WallTask(hole_width=2.0, wall_thickness=2.0).evaluate(into_wall, t, c).errors[0] == \
+        pytest.approx(0.3, abs=1e-9)
+
+
 def test_authors_demonstrations_clear_the_thick_wall():
     setup = E.make_setup(1, seed=0, n_initial=30, n_test=5, setting=AUTHORS)
     y = np.stack([d.values for d in setup.initial])
