@@ -48,9 +48,6 @@ SETTINGS: dict[str, tuple[str, dict]] = {
     "fast_fit": ("at most 15 RL steps per iteration, fit to 0.2 std", dict(max_reuse=15, fit_tolerance=0.2)),
     "explore_min_0.1": ("exploration may shrink to 0.1 of its initial std (the authors' E3 setting stops at "
                         "0.05, which the 0.3 floor's noise hides)", dict(explore_min=0.1)),
-    "explore_min_0.05": ("exploration may shrink to 0.05 of its initial std (in the authors' E3 setting the 0.3 "
-                         "floor's noise, 5x their 0.05 stop, kept 5 of 6 traced adaptations from converging)",
-                         dict(explore_min=0.05)),
     "sl_more": ("more supervised steps (30 before an iteration, 5 before each reuse)",
                 dict(sl_steps=30, sl_steps_reuse=5)),
     "sl_strong": ("more supervised steps at the RL rate (30 and 5, sl_lr 1e-4): does SL keep E1's shape?",
