@@ -61,8 +61,7 @@ def test_remaining_error_counts_the_missing_clearance():
     """The error an adaptation's exploration follows is how far a roll-out is from *this* task's
     success: in the authors' setting a path through the hole with clearance 0.5 (short of the
     0.632 asked for) and exact ends still has an error of 0.132, not 0 (with 0, the exploration
-    narrowed to its floor while the clearance was still missing and adaptations ran to the budget);
-    the test metric and the paper setting (clearance 0) keep the depth into the wall."""
+    narrowed to its floor while the clearance was still missing); the test metric and the paper setting (clearance 0) keep the depth into the wall."""
     c = np.array([5.0, 5.0, 8.0, 5.0])
     t = np.linspace(0, 1, 200)
     centre, off = _straight(5.0), _straight(5.5)
