@@ -899,6 +899,7 @@ def e3_consolidate() -> str:
     """More supervised steps after the stream (run_wall consolidate_steps): the skill at the end of the
     stream against the same skill trained further, one row per candidate (e3_consolidate.json)."""
     r = load("e3_consolidate")
+    cfg = next(iter(r["variants"].values()))["config"]
     rows = []
     for v in r["variants"].values():
         s, c = v["summary"], v["summary"]["consolidated"]
@@ -913,8 +914,8 @@ def e3_consolidate() -> str:
         "",
         f"* ACNMP, seed {r['seed']}, {r['envs']} new environments after 30 demonstrated ones, 1000 test "
         "environments; the left of each arrow is the skill at the end of the stream (the same run as the Results "
-        "table), the right the same skill after the further steps (32 episodes of 10 targets, one Adam "
-        "continued, rate decaying along a half cosine).",
+        f"table), the right the same skill after the further steps ({cfg['assimilate_batch_size']} episodes of "
+        f"{cfg['assimilate_targets']} targets, one Adam continued, rate decaying along a half cosine).",
         "",
         source(r, "e3_consolidate"),
     ])

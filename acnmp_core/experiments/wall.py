@@ -560,9 +560,9 @@ def run_wall(
             ev = _SnappingEvaluator(ev)
         out = self_improve(_SnappedOutputs(learner, setup.times) if snap_outputs else learner, setup, ev,
                            seed=seed, eval_every=eval_every, log=log, name=m, setting=setting)
-        methods_out[m] = {**_summary(out), "time_s": round(time.perf_counter() - t1, 2)}
+        extra = {}
         if m == "acnmp" and snap_solutions:
-            methods_out[m].update(snaps_tried=learner.snaps_tried, snaps_kept=learner.snaps_kept)
+            extra.update(snaps_tried=learner.snaps_tried, snaps_kept=learner.snaps_kept)
         if m == "acnmp" and consolidate_steps > 0:
             t2 = time.perf_counter()
             learner.consolidate(TrainConfig(steps=consolidate_steps, batch_size=assimilate_batch_size,
@@ -570,10 +570,9 @@ def run_wall(
                                             lr_final=consolidate_lr_final, targets_include_obs=targets_include_obs),
                                 seed=seed * 100_003 + len(setup.stream) + 1)
             scored = _SnappedOutputs(learner, setup.times) if snap_outputs else learner
-            methods_out[m]["consolidated"] = {**evaluate_test(scored.generate, setup.test, setting),
-                                              "steps": consolidate_steps,
-                                              "time_s": round(time.perf_counter() - t2, 2)}
-            methods_out[m]["time_s"] = round(time.perf_counter() - t1, 2)
+            extra["consolidated"] = {**evaluate_test(scored.generate, setup.test, setting),
+                                     "steps": consolidate_steps, "time_s": round(time.perf_counter() - t2, 2)}
+        methods_out[m] = {**_summary(out), "time_s": round(time.perf_counter() - t1, 2), **extra}
         curves[m] = out["curve"]
         per_env[m] = [e["rollouts"] for e in out["per_env"]]
     ratio = None
