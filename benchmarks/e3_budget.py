@@ -124,10 +124,19 @@ def _one(name: str, envs: int, seed: int, eval_every: int, methods: tuple[str, .
     return {**out, **({"others": others} if others else {}), "config": r["config"], "wall_time_s": r["wall_time_s"]}
 
 
+def _read_results(files: list[str]) -> list[dict]:
+    """The earlier results to merge, read from ``files``; a missing or unreadable file ends the run
+    with a one-line message."""
+    try:
+        return [json.loads(Path(f).read_text()) for f in files]
+    except (OSError, json.JSONDecodeError) as e:
+        sys.exit(f"e3_budget.py: cannot read an earlier result: {e}")
+
+
 def _combine(files: list[str], out: str, meta: dict) -> int:
     """Merge the variants of earlier e3_budget results (same envs and seed; each variant keeps its
     own provenance) into ``out``; the run time is the sum of theirs (they ran one after the other)."""
-    parts = [json.loads(Path(f).read_text()) for f in files]
+    parts = _read_results(files)
     if len({(p["envs"], p["seed"]) for p in parts}) != 1:
         sys.exit(f"--combine: the files differ in envs or seed: {files}")
     variants = {n: v for p in parts for n, v in p["variants"].items()}
@@ -140,7 +149,7 @@ def _combine(files: list[str], out: str, meta: dict) -> int:
 def _combine_seeds(files: list[str], out: str, meta: dict) -> int:
     """Merge e3_budget results of the same envs but different seeds into ``out``:
     ``{"seeds": {seed: {variant: ...}}}``; a variant named twice for one seed is refused."""
-    parts = [json.loads(Path(f).read_text()) for f in files]
+    parts = _read_results(files)
     if len({p["envs"] for p in parts}) != 1:
         sys.exit(f"--combine-seeds: the files differ in envs: {files}")
     seeds: dict[str, dict] = {}
