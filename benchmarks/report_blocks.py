@@ -218,6 +218,8 @@ def e3_seeds() -> str:
         raise ValueError("e3_wall.json and e3_seeds.json differ in envs")
     runs = {str(full["seed"]): full["methods"]}
     for seed, variants in more["seeds"].items():
+        if seed in runs:
+            raise ValueError(f"e3_seeds.json repeats seed {seed} of e3_wall.json")
         w = variants["baseline"]
         runs[seed] = {"acnmp": w["summary"], **{m: o["summary"] for m, o in w.get("others", {}).items()}}
     seeds = sorted(runs, key=int)
@@ -246,7 +248,8 @@ def e3_seeds() -> str:
                "ProMP + RL mean test error", "ACNMP trajectories", "ProMP + RL trajectories",
                "ACNMP max per env", "ACNMP adaptations"], rows),
         "",
-        f"* {full['envs']} new environments after 30 demonstrated ones, 1000 test environments, the defaults; "
+        f"* {full['envs']} new environments after {full['n_initial']} demonstrated ones, {full['n_test']} test "
+        "environments, the defaults; "
         "both methods in one run per seed. Seeds 1-9 ran two at a time (two processes, one torch thread each).",
         f"* ACNMP at 95 % test success or more: {at_target} of {len(seeds)} seeds; its mean test error is "
         f"{error_ratio:.1f}x ProMP + RL's (means over the seeds); ProMP + RL executes {traj_ratio:.2f}x as many "
