@@ -46,37 +46,110 @@ def test_a_block_differing_from_its_json_is_reported(tmp_path, monkeypatch):
     assert "old numbers" not in page.read_text() and "ACNMP" in page.read_text()
 
 
+@pytest.fixture(scope="module")
+def here():
+    """This machine's numerics fingerprint (the canary runs: about 8 s)."""
+    import torch
+
+    from benchmarks.numerics import fingerprint
+
+    before = torch.get_num_threads()
+    torch.set_num_threads(1)  # as the pinned runs measure
+    try:
+        yield fingerprint()
+    finally:
+        torch.set_num_threads(before)
+
+
+def _measure(only):
+    import torch
+
+    before = torch.get_num_threads()
+    try:
+        return regression.measure(only)
+    finally:
+        torch.set_num_threads(before)
+
+
+@pytest.fixture(scope="module")
+def e1_measured():
+    """The suite's pinned run (E1 seed 0, about 25 s)."""
+    return _measure(regression.QUICK)
+
+
+def _checked(result):
+    assert not result.differences, ("the defaults changed the pinned runs; re-run the benchmarks and the pin:\n"
+                                    + "\n".join(result.differences))
+    if not result.exact:
+        warnings.warn(result.note + " (python benchmarks/regression.py --write adds this machine's pin)")
+
+
+def test_pinned_e1_run_is_unchanged(here, e1_measured):
+    _checked(regression.compare(regression.load_pins(), e1_measured, here))
+
+
 @pytest.mark.slow
-def test_pinned_regression_runs_are_unchanged():
-    from clients.provenance import provenance
-
-    key = regression.machine_key(provenance()["machine"])
-    exact, diff = regression.compare(regression.load_pins(), regression.measure(), key)
-    assert not diff, "the defaults changed the pinned runs; re-run the benchmarks and the pin:\n" + "\n".join(diff)
-    if not exact:
-        warnings.warn(f"no exact regression pin for {key!r}: only successes were compared "
-                      "(python benchmarks/regression.py --write adds this machine's pin)")
+def test_all_pinned_runs_are_unchanged(here):
+    """E1, E2 and E3 (minutes: deselected by default, `pytest -m slow` runs it)."""
+    _checked(regression.compare(regression.load_pins(), _measure(None), here))
 
 
-def test_a_pin_compares_every_count_on_its_machine_and_successes_elsewhere():
-    runs = {"e1_seed0": {"rl_only": {"rollouts": 25, "success": True}},
-            "e3_envs20": {"acnmp": {"rollouts_per_env": [1, 31], "test_success_rate": 0.4, "adaptations_failed": 0}}}
-    pins = {"AMD EPYC": {"provenance": {}, "runs": runs}}
-    other_counts = {"e1_seed0": {"rl_only": {"rollouts": 35, "success": True}},
-                    "e3_envs20": {"acnmp": {"rollouts_per_env": [1, 16], "test_success_rate": 0.5,
-                                            "adaptations_failed": 0}}}
-    # the machine that wrote the pin (recorded before the capability was) compares every count
-    exact, diff = regression.compare(pins, other_counts, "AMD EPYC, AVX2")
-    assert exact and len(diff) == 3
-    # another machine compares the successes only ...
-    assert regression.compare(pins, other_counts, "Intel(R) Xeon(R) Processor, AVX512") == (False, [])
-    # ... and still catches a run that stopped succeeding or an adaptation that failed
-    broken = json.loads(json.dumps(other_counts))
-    broken["e1_seed0"]["rl_only"]["success"] = False
+FP_A = {"cpu": {"vendor": "AuthenticAMD", "name": "AMD EPYC"}, "software": {"torch": "2.13.0"}, "canary": "aa"}
+RUNS = {"e1_seed0": {"rl_only": {"rollouts": 25, "success": True}},
+        "e3_envs20": {"acnmp": {"rollouts_per_env": [1, 31], "test_success_rate": 0.4, "adaptations_failed": 0}}}
+OTHER_COUNTS = {"e1_seed0": {"rl_only": {"rollouts": 35, "success": True}},
+                "e3_envs20": {"acnmp": {"rollouts_per_env": [1, 16], "test_success_rate": 0.5, "adaptations_failed": 0}}}
+BANDS = {"e1_seed0": {"rl_only": {"rollouts": [10, 120]}}}
+
+
+def test_every_count_is_compared_only_on_the_machine_whose_fingerprint_wrote_the_pin():
+    pins = {"AMD EPYC, AVX2 #1": {"provenance": {}, "fingerprint": FP_A, "runs": RUNS}}
+    same = regression.compare(pins, OTHER_COUNTS, json.loads(json.dumps(FP_A)), BANDS)
+    assert same.exact and len(same.differences) == 3 and "same fingerprint" in same.note
+    # the same CPU name and torch build, but other floats (the issue's report): successes and bands only
+    other = {**FP_A, "canary": "bb"}
+    result = regression.compare(pins, OTHER_COUNTS, other, BANDS)
+    assert result == regression.Comparison(False, [], result.note)
+    assert "exact counts not compared" in result.note and "canary: aa -> bb" in result.note
+    # a pin written before fingerprints is never exact
+    old = {"AMD EPYC, AVX2": {"provenance": {}, "runs": RUNS}}
+    assert "no fingerprint in the pin" in regression.compare(old, RUNS, FP_A, BANDS).note
+
+
+def test_without_a_pin_a_lost_success_a_failed_adaptation_or_a_count_outside_its_band_fails():
+    pins = {"AMD EPYC, AVX2 #1": {"provenance": {}, "fingerprint": FP_A, "runs": RUNS}}
+    broken = json.loads(json.dumps(OTHER_COUNTS))
+    broken["e1_seed0"]["rl_only"] = {"rollouts": 121, "success": False}
     broken["e3_envs20"]["acnmp"]["adaptations_failed"] = 2
-    exact, diff = regression.compare(pins, broken, "Intel(R) Xeon(R) Processor, AVX512")
-    assert not exact and diff == ["[AMD EPYC] e1_seed0/rl_only/success: True -> False",
-                                  "[AMD EPYC] e3_envs20/acnmp/adaptations_failed: 0 -> 2"]
+    result = regression.compare(pins, broken, {**FP_A, "canary": "bb"}, BANDS)
+    assert not result.exact and result.differences == [
+        "[AMD EPYC, AVX2 #1] e1_seed0/rl_only/success: True -> False",
+        "[AMD EPYC, AVX2 #1] e3_envs20/acnmp/adaptations_failed: 0 -> 2",
+        "e1_seed0/rl_only/rollouts: 121 outside the band [10, 120]"]
+
+
+def test_the_bands_span_the_published_seeds_widened():
+    bands = regression.published_bands()
+    e1 = json.loads((RESULTS / "e1_viapoint.json").read_text())["runs"]
+    counts = [r["methods"]["acnmp"]["rollouts"] for r in e1]
+    assert bands["e1_seed0"]["acnmp"]["rollouts"] == [min(counts) / regression.BAND_FACTOR,
+                                                       max(counts) * regression.BAND_FACTOR]
+    assert set(bands["e2_seed0"]) == {"acnmp/interpolation", "acnmp/extrapolation",
+                                      "promp_rl/interpolation", "promp_rl/extrapolation"}
+
+
+def test_a_changed_default_fails_the_check_on_a_machine_without_a_pin(here, e1_measured, monkeypatch):
+    """Item 3 of issue 32: a pin from another machine (another fingerprint) lets this machine's
+    unchanged E1 pass, and E1's roll-out budget default lowered from 100 to 20 makes it fail."""
+    from acnmp_core.experiments import viapoint
+
+    foreign = {k: {**pin, "fingerprint": {**here, "canary": "another machine"}}
+               for k, pin in regression.load_pins().items()}
+    unchanged = regression.compare(foreign, e1_measured, here)
+    assert not unchanged.exact and unchanged.differences == []
+    monkeypatch.setitem(viapoint.run_viapoint.__kwdefaults__, "budget", 20)
+    changed = regression.compare(foreign, _measure(regression.QUICK), here)
+    assert not changed.exact and "e1_seed0/acnmp/success: True -> False" in " ".join(changed.differences)
 
 
 def test_superseding_a_pin_drops_the_other_machines_and_records_them():
