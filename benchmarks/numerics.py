@@ -125,10 +125,10 @@ def fingerprint(with_canary: bool = True) -> dict[str, Any]:
 
 def fingerprint_differences(pinned: dict | None, here: dict) -> list[str]:
     """Why ``here`` is not provably the machine of ``pinned``: one ``"field: pinned -> here"`` per
-    differing field (``["no fingerprint in the pin"]`` for a pin written before fingerprints); empty
-    when every field is equal."""
+    differing field (``["its fingerprint (written before fingerprints)"]`` for a pin without one);
+    empty when every field is equal."""
     if not pinned:
-        return ["no fingerprint in the pin"]
+        return ["its fingerprint (written before fingerprints)"]
     out = []
     for part in ("cpu", "software"):
         a, b = pinned.get(part, {}), here.get(part, {})

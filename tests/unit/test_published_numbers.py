@@ -113,7 +113,7 @@ def test_every_count_is_compared_only_on_the_machine_whose_fingerprint_wrote_the
     assert "exact counts not compared" in result.note and "canary: aa -> bb" in result.note
     # a pin written before fingerprints is never exact
     old = {"AMD EPYC, AVX2": {"provenance": {}, "runs": RUNS}}
-    assert "no fingerprint in the pin" in regression.compare(old, RUNS, FP_A, BANDS).note
+    assert "its fingerprint (written before fingerprints)" in regression.compare(old, RUNS, FP_A, BANDS).note
 
 
 def test_without_a_pin_a_lost_success_a_failed_adaptation_or_a_count_outside_its_band_fails():
@@ -166,7 +166,9 @@ def test_superseding_a_pin_drops_the_other_machines_and_records_them():
     assert pins == {"Intel, AVX512": new}
     assert superseded == {"AMD EPYC": {"by_commit": "c" * 40, "pinned_at": "a" * 40}}
     # the dropped machine now compares successes only, against the new pin
-    assert regression.compare(pins, new["runs"], "AMD EPYC")[0] is False
+    other = {"cpu": {"model_name": "AMD EPYC"}, "software": {}, "canary": "0" * 16}
+    dropped = regression.compare(pins, new["runs"], other, bands={})
+    assert not dropped.exact and dropped.differences == [] and "'Intel, AVX512'" in dropped.note
     # and writing its pin again clears its superseded record
     again, superseded = regression.written_pins(pins, "AMD EPYC", new, supersede=False, superseded=superseded,
                                                 commit="d" * 40)
