@@ -231,7 +231,7 @@ class CNMP(nn.Module):
         obs_values : (N, D) observed values, raw units (entries masked out may be anything finite).
         task_params : (P,) task parameters, raw units; None allowed only when P == 0.
         query_times : (T,) times to predict at; or give ``n_steps`` for a uniform grid over the
-            trained time range.
+            trained time range (not both: ValueError).
         obs_dims_mask : (N, D) bool, which output dimensions each observation carries (default all).
 
         Returns a :class:`Query`. Raises ValueError naming the argument on bad input.
@@ -254,6 +254,9 @@ class CNMP(nn.Module):
                 raise ValueError(f"task_params: expected {p} task parameters, got none")
             task_params = np.zeros(0)
         task_params = check_array("task_params", task_params, ndim=1, shape=(p,))
+        if query_times is not None and n_steps is not None:
+            raise ValueError("query_times and n_steps: give one of them (n_steps makes a uniform grid of "
+                             "query times), not both")
         if query_times is None:
             if n_steps is None:
                 raise ValueError("query_times: give query_times or n_steps")

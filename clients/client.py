@@ -66,7 +66,11 @@ def predict_request(obs_times, obs_values, task_params=None, query_times=None, *
 
     obs_times (N,), obs_values (N, D), task_params (P,) or None, query_times (T,) or ``n_steps``,
     obs_dims_mask (N, D) bool or None, ``n_samples`` with ``seed`` for sampled trajectories.
+    ValueError when both ``query_times`` and ``n_steps`` are given (the model service refuses it).
     """
+    if query_times is not None and n_steps is not None:
+        raise ValueError("query_times and n_steps: give one of them (n_steps makes a uniform grid of "
+                         "query times), not both")
     req: dict[str, Any] = {"v": 1, "obs_times": np.asarray(obs_times, dtype=np.float64).reshape(-1),
                            "obs_values": np.atleast_2d(np.asarray(obs_values, dtype=np.float64))}
     if task_params is not None:

@@ -56,6 +56,9 @@ def test_partial_observation_uses_only_given_dimensions(e1_model, e1_demos):
         (dict(obs_times=[0.1], obs_values=[[0.0, 0.0]], query_times=[-3.0, 0.5]), "query_times"),
         (dict(obs_times=[0.1], obs_values=[[0.0, 0.0]]), "query_times"),
         (dict(obs_times=[0.1], obs_values=[[0.0, 0.0]], obs_dims_mask=[[False, False]], n_steps=5), "obs_dims_mask"),
+        # both ways of giving the times: one would be ignored silently (issue 36, row 7)
+        (dict(obs_times=[0.1], obs_values=[[0.0, 0.0]], query_times=np.linspace(0, 1, 50), n_steps=10),
+         "query_times and n_steps"),
     ],
 )
 def test_bad_input_raises_value_error_naming_the_argument(e1_model, kwargs, match):

@@ -46,3 +46,11 @@ def test_experiment_outputs_are_checked_where_they_will_be_written(tmp_path):
     for path, text in [(str(tmp_path), "is a directory"), ("/proc/nope/x.json", "cannot write there")]:
         with pytest.raises(ValueError, match=f"--json {path}: {text}"):
             check_output_path(path, "--json")
+
+
+def test_a_predict_request_with_both_query_times_and_n_steps_is_refused_before_it_is_sent():
+    from clients.client import predict_request
+
+    with pytest.raises(ValueError, match="query_times and n_steps"):
+        predict_request([0.0], [[0.0, 0.0]], query_times=np.linspace(0, 1, 50), n_steps=10)
+    assert predict_request([0.0], [[0.0, 0.0]], n_steps=10)["n_steps"] == 10
