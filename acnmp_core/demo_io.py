@@ -139,15 +139,25 @@ def save_demos(path: str | os.PathLike, demos: DemoArrays) -> Path:
     return path
 
 
+#: The first bytes of a zip archive (an .npz is one): a local file header, or an empty archive's end.
+ZIP_MAGICS = (b"PK\x03\x04", b"PK\x05\x06")
+
+
 def load_demos(path: str | os.PathLike) -> DemoArrays:
     """Read a demonstration file written by :func:`save_demos` (or by hand in the same format).
 
-    Raises ValueError for a missing key, an unknown format version, or arrays that do not fit together.
+    Raises ValueError for a file that cannot be read, one that is not an .npz archive ("not a
+    demonstrations .npz: PATH"), a missing key, an unknown format version, or arrays that do not
+    fit together.
     """
     try:
-        npz = np.load(path, allow_pickle=False)
+        with open(path, "rb") as f:
+            magic = f.read(4)
+        npz = np.load(path, allow_pickle=False) if magic in ZIP_MAGICS else None
     except (OSError, ValueError) as exc:
         raise ValueError(f"path: cannot read a demonstration file at {os.fspath(path)!r} ({exc})") from None
+    if not isinstance(npz, np.lib.npyio.NpzFile):  # text, a single .npy array, a pickle: numpy's
+        raise ValueError(f"path: not a demonstrations .npz: {os.fspath(path)}")  # words would mislead
     with npz:
         missing = [k for k in ("times", "values", "task_params") if k not in npz.files]
         if missing:

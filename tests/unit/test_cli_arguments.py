@@ -188,6 +188,31 @@ def test_up_checks_its_arguments_before_starting_anything(argv, expected, tmp_pa
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.parametrize("name, content", [
+    ("notes.txt", b"time,x\n0,1\n"),            # a text file: was "This file contains pickled (object) data"
+    ("one.npy", None),                            # a single .npy array, not an archive of them
+    ("empty.npz", b""),
+])
+def test_a_demos_file_that_is_no_npz_is_named_in_one_line(name, content, tmp_path, monkeypatch, capsys):
+    """Issue 36, row 9: `--demos x=textfile` said numpy's "This file contains pickled (object)
+    data ..."; it says the file is not a demonstrations .npz, and which."""
+    import numpy as np
+
+    import services.launcher
+
+    def must_not_start(*args, **kwargs):
+        raise AssertionError("the deployment was started despite the mistake")
+
+    monkeypatch.setattr(services.launcher, "LocalDeployment", must_not_start)
+    path = tmp_path / name
+    if content is None:
+        np.save(path, np.zeros((2, 3)))
+    else:
+        path.write_bytes(content)
+    line = refused(["up", "--demos", f"x={path}"], capsys)
+    assert f"not a demonstrations .npz: {path}" in line and "pickle" not in line
+
+
 def test_a_good_demos_value_passes_the_check(tmp_path):
     from clients.default_skill import default_demos
     from services.learner.service import load_demos_spec
