@@ -6,6 +6,7 @@ cd "$(dirname "$0")/.."
 bash scripts/setup.sh
 .venv/bin/rerun analytics disable >/dev/null 2>&1 || true
 mkdir -p out
-.venv/bin/acnmp experiment viapoint --distributed --workers 2 --record out/e1.rrd \
+# --fresh: its own deployment (a private namespace and state), even while an `acnmp up` runs
+.venv/bin/acnmp experiment viapoint --distributed --fresh --workers 2 --record out/e1.rrd \
     --json out/e1.json --plot out/e1.png "$@"
 .venv/bin/acnmp replay out/e1.rrd
