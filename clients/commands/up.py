@@ -23,7 +23,8 @@ def register(subparsers) -> None:
                         "(default: runs/<namespace>/state)")
     p.add_argument("--no-model", action="store_true", help="do not start the model service")
     p.add_argument("--demos", action="append", default=[], metavar="SKILL=FILE.npz",
-                   help="have the learner train SKILL from a demonstration file at start (repeatable); "
+                   help="have the learner train SKILL from a demonstration file at start (again when the "
+                        "file's demonstrations changed; repeatable); "
                         "without it (and without --no-default-skill) it trains E1's via-point skill 'e1'")
     p.add_argument("--train-steps", type=int_at_least(1), default=None, metavar="N",
                    help="training steps for --demos and the default skill (default: the learner's, 3000)")

@@ -174,7 +174,8 @@ class LearnerCore:
             res = train(model, spec.demos, spec.train_cfg, seed=spec.seed, progress=False)
         with self._lock:
             old = self.skills.get(skill)
-            state = SkillState(skill, model, spec.demos, 0 if old is None else old.version + 1)
+            state = SkillState(skill, model, spec.demos, 0 if old is None else old.version + 1,
+                               source_hash=spec.demos.content_hash())
             self._commit_skill(state, loss=res.best_val, note="trained")
         return state
 
@@ -359,7 +360,8 @@ class LearnerCore:
             with self._lock:
                 old = self.skills.get(job.skill)
                 state = SkillState(job.skill, pair.model_a, req.demos_a, 0 if old is None else old.version + 1,
-                                   partner=pair.model_b, partner_demos=req.demos_b)
+                                   partner=pair.model_b, partner_demos=req.demos_b,
+                                   source_hash=req.demos_a.content_hash())
                 self._commit_skill(state, (req.robot_a, req.robot_b), loss=losses.nll_b[-1] if losses.nll_b else None,
                                    note=f"paired skill trained by {job.job}")
                 job.result = PairJobResult.from_losses(state.version, losses)
@@ -441,7 +443,8 @@ class LearnerCore:
                                   AssimilationConfig(steps=req.assimilate_steps), conditions=req.target,
                                   seed=req.seed + 1)
         with self._lock:
-            state = SkillState(skill.name, model, demos, self.skills[skill.name].version + 1)
+            state = SkillState(skill.name, model, demos, self.skills[skill.name].version + 1,
+                               source_hash=skill.source_hash)  # demos = the skill's + the solution
             self._commit_skill(state, note=f"assimilated {job.job}")
             job.committed_version = state.version
             self.job_store.save(job)

@@ -301,18 +301,44 @@ def load_demos_spec(spec: str) -> DemoArrays:
     return arrays
 
 
-def bootstrap(core: LearnerCore, specs: Sequence[str], steps: int) -> None:
-    """Train ``SKILL=FILE.npz`` demonstration files that are not skills yet (``--demos``)."""
+def bootstrap(core: LearnerCore, specs: Sequence[str], steps: int) -> list[str]:
+    """Train each ``SKILL=FILE.npz`` demonstration file (``--demos``) that is not a skill yet, or
+    whose skill was trained from other demonstrations (the file changed since: the skill is
+    retrained from it as its next version, and a warning says so). A skill trained from the
+    file's demonstrations, adapted and assimilated since or not, is kept. Returns one line per
+    skill saying which happened (also logged)."""
+    lines = []
     for spec in specs:
         name = parse_demos_spec(spec)
-        if name in core.skills:
-            continue
+        path = spec.partition("=")[2]
         arrays = load_demos_spec(spec)
         demos = arrays.to_demo_set()
+        old = core.skills.get(name)
+        if old is not None and trained_from(old, demos):
+            lines.append(f"skill {name}: version {old.version} was trained from {path}; kept")
+            log.info("%s", lines[-1])
+            continue
         cfg = CNMPConfig(n_outputs=demos.n_outputs, n_task_params=demos.n_task_params,
                          output_names=() if arrays.value_names is None else tuple(arrays.value_names),
                          task_param_names=() if arrays.task_param_names is None else tuple(arrays.task_param_names))
-        core.train_skill(name, TrainSpec(demos, cfg, TrainConfig(steps=steps)))
+        if old is not None:
+            log.warning("skill %s: version %d was trained from other demonstrations than %s (data hash %s); "
+                        "retraining it from %s as version %d", name, old.version, path,
+                        demos.content_hash()[:12], path, old.version + 1)
+        state = core.train_skill(name, TrainSpec(demos, cfg, TrainConfig(steps=steps)))
+        lines.append(f"skill {name}: version {state.version} trained from {path}"
+                     + ("" if old is None else " (retrained: the file's demonstrations changed)"))
+        log.info("%s", lines[-1])
+    return lines
+
+
+def trained_from(state: SkillState, demos: DemoSet) -> bool:
+    """Whether skill ``state`` was trained from ``demos``: its recorded source hash, or (a skill
+    saved without one) its demonstrations beginning with them (assimilation appends)."""
+    if state.source_hash is not None:
+        return state.source_hash == demos.content_hash()
+    head = state.demos.demos[:len(demos)]
+    return len(head) == len(demos) and DemoSet(head).content_hash() == demos.content_hash()
 
 
 @dataclass
@@ -325,7 +351,8 @@ class LearnerConfig(Service):
     state_dir: str | None = option(None, "checkpoints of skills and jobs, locked while the learner runs "
                                          "(default: runs/<namespace>/state)", metavar="DIR")
     learner_id: str | None = option(None, "learner id (default: learner-<pid>)", flag="--id", metavar="ID")
-    demos: list[str] = option([], "train SKILL from a demonstration file at start unless it exists (repeatable)",
+    demos: list[str] = option([], "train SKILL from a demonstration file at start unless it was trained from "
+                                  "that file's demonstrations (a changed file retrains it; repeatable)",
                               metavar="SKILL=FILE.npz")
     train_steps: int = option(3000, "steps for --demos (default: %(default)s)", metavar="N", type=int_at_least(1))
     wait_recorder: float = option(0.0, "wait up to S seconds for a recorder before the first event (default: 0)",
@@ -348,8 +375,8 @@ class LearnerConfig(Service):
                             wait_recorder=self.wait_recorder, chunk_timeout=self.chunk_timeout,
                             limits=LearnerLimits(max_train_steps=self.max_train_steps,
                                                  max_rollouts=self.max_rollouts)) as learner:
-            bootstrap(learner.core, self.demos, self.train_steps)
+            booted = bootstrap(learner.core, self.demos, self.train_steps)
             ready(f"learner live as {learner.token_key}; skills: {sorted(learner.skills) or 'none yet'}; "
-                  f"state in {Path(state_dir).resolve()}")
+                  f"state in {Path(state_dir).resolve()}" + "".join(f"; {line}" for line in booted))
             wait_until_stopped(stop)
         return 0

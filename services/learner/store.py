@@ -3,7 +3,8 @@
 Layout of ``<state_dir>``::
 
     skills/<skill>/demos-v<version>.npz   the DemoSet (acnmp_core.demo_io format, padded + lengths)
-    skills/<skill>/model.pt               acnmp_core.checkpoint; meta: version, demos file, n_demos
+    skills/<skill>/model.pt               acnmp_core.checkpoint; meta: version, demos file, n_demos,
+                                          source_hash (of the demonstrations it was trained from)
     skills/<skill>/partner-v<version>.pt  a paired skill's robot B model (meta of model.pt names it)
     skills/<skill>/partner-demos-v<version>.npz   and robot B's demonstrations
     jobs/<job>.json                       one job record (JSON)
@@ -138,6 +139,10 @@ class SkillState:
     version: int
     partner: CNMP | None = None
     partner_demos: DemoSet | None = None
+    #: content hash of the demonstrations the skill was trained from (its version 0, or its last
+    #: retraining); kept through assimilations, which add to ``demos``. None: not recorded (a
+    #: skill saved before this field existed).
+    source_hash: str | None = None
 
 
 class SkillStore:
@@ -154,6 +159,8 @@ class SkillStore:
         save_demos(d / demo_file, demo_set_to_arrays(skill.demos, skill.model.config.output_names,
                                                      skill.model.config.task_param_names))
         meta = {"skill": skill.name, "version": int(skill.version), "demos": demo_file, "n_demos": len(skill.demos)}
+        if skill.source_hash is not None:
+            meta["source_hash"] = skill.source_hash
         keep = {demo_file}
         if skill.partner is not None:  # files of this version only: the old checkpoint still names the old ones
             partner_file, partner_demos = f"partner-v{skill.version}.pt", f"partner-demos-v{skill.version}.npz"
@@ -176,7 +183,7 @@ class SkillStore:
             demos = load_demos(d / meta["demos"]).to_demo_set()
             if demos.content_hash() != info["data_hash"]:
                 raise ValueError(f"skill {d.name}: demonstrations do not match the checkpoint's data hash")
-            state = SkillState(d.name, model, demos, int(meta["version"]))
+            state = SkillState(d.name, model, demos, int(meta["version"]), source_hash=meta.get("source_hash"))
             if meta.get("partner"):
                 state.partner, partner_info = load_checkpoint(d / meta["partner"])
                 state.partner_demos = load_demos(d / meta["partner_demos"]).to_demo_set()
