@@ -7,6 +7,8 @@ is the one services/recording/rrd_writer.py writes.
 from __future__ import annotations
 
 import math
+import os
+import time
 import warnings
 from collections import Counter, defaultdict
 from pathlib import Path
@@ -32,6 +34,63 @@ def has_footer(path: str | Path) -> bool | None:
         return bool(check_for_rrd_footer(str(path)))
     except Exception:
         return None
+
+
+#: Seconds: a recording without footer modified more recently than this, with no writer in
+#: sight, is said to be perhaps still being written (by a process this user cannot inspect).
+RECENT_WRITE_S = 5.0
+
+
+def open_writers(path: str | Path) -> list[int] | None:
+    """Pids of the processes holding ``path`` open for writing, read from ``/proc/<pid>/fd`` (where
+    each descriptor points) and ``/proc/<pid>/fdinfo`` (its access mode); processes of other users
+    are not visible. None where there is no /proc (not Linux): cannot tell."""
+    if not os.path.isdir("/proc/self/fd"):
+        return None
+    target = os.path.realpath(path)
+    pids = []
+    for entry in os.scandir("/proc"):
+        if not entry.name.isdigit():
+            continue
+        fd_dir = f"/proc/{entry.name}/fd"
+        try:
+            fds = os.listdir(fd_dir)
+        except OSError:  # exited meanwhile, or another user's
+            continue
+        for fd in fds:
+            try:
+                if os.readlink(f"{fd_dir}/{fd}") != target:
+                    continue
+                with open(f"/proc/{entry.name}/fdinfo/{fd}") as info:
+                    flags = next(int(line.split()[1], 8) for line in info if line.startswith("flags:"))
+            except (OSError, StopIteration, ValueError, IndexError):
+                continue
+            if flags & os.O_ACCMODE in (os.O_WRONLY, os.O_RDWR):
+                pids.append(int(entry.name))
+                break
+    return sorted(pids)
+
+
+def writer_state(path: str | Path, footer: bool | None) -> dict:
+    """Whether the recording at ``path`` (whose footer check gave ``footer``) is still being
+    written: ``{"state", "pids", "modified_s_ago"}``, state one of ``complete`` (it has its
+    footer), ``writing`` (open for writing by ``pids``), ``perhaps_writing`` (no footer, no writer
+    visible, but modified less than :data:`RECENT_WRITE_S` s ago), ``unknown`` (no footer, and no
+    /proc to look for a writer), ``stopped`` (no footer, no writer: it did not shut down cleanly);
+    None when this Rerun cannot check footers (``footer`` None)."""
+    if footer is None:
+        return {"state": None, "pids": [], "modified_s_ago": None}
+    age = max(0.0, time.time() - os.stat(path).st_mtime)
+    if footer:
+        return {"state": "complete", "pids": [], "modified_s_ago": age}
+    pids = open_writers(path)
+    if pids:
+        state = "writing"
+    elif age < RECENT_WRITE_S:
+        state = "perhaps_writing"
+    else:
+        state = "unknown" if pids is None else "stopped"
+    return {"state": state, "pids": pids or [], "modified_s_ago": age}
 
 
 def _open(path: Path):
@@ -63,7 +122,8 @@ def recorded_event_ids(path: str | Path) -> set[str]:
 def summarize(path: str | Path) -> dict:
     """Summarise a recording written by the recorder.
 
-    Returns ``{"path", "application_id", "recording_id", "footer", "jobs": {job: {...}},
+    Returns ``{"path", "application_id", "recording_id", "footer", "writer" (:func:`writer_state`),
+    "jobs": {job: {...}},
     "skills": {skill: {"versions": [...], "latents": n}}, "processes": [...], "events": {kind: n}}``;
     ``processes`` lists the launcher's restarts (``process`` events: process, action, pid,
     exit_code, restarts); per job:
@@ -79,6 +139,8 @@ def summarize(path: str | Path) -> dict:
         raise FileNotFoundError(f"{path}: no such file")
     if not path.is_file():  # /dev/null, a fifo: rerun would wait on it or call it empty
         raise ValueError(f"{path}: not a regular file, not a recording")
+    footer = has_footer(path)  # before reading: a writer may add the footer meanwhile
+    writer = writer_state(path, footer)
     reader, stores = _open(path)
     if not stores:
         raise ValueError(f"{path}: contains no recording")
@@ -143,7 +205,8 @@ def summarize(path: str | Path) -> dict:
         "path": str(path),
         "application_id": store.application_id,
         "recording_id": store.recording_id,
-        "footer": has_footer(path),
+        "footer": footer,
+        "writer": writer,
         "jobs": jobs,
         "skills": skills,
         "processes": processes,
@@ -160,7 +223,18 @@ def format_summary(summary: dict) -> str:
         return "-" if x is None or (isinstance(x, float) and math.isnan(x)) else f"{x:.4g}"
 
     lines = [f"recording {summary['path']}  (app {summary['application_id']}, id {summary['recording_id']})"]
-    if summary.get("footer") is False:
+    writer = summary.get("writer") or {}
+    state = writer.get("state")
+    if state == "writing":
+        lines.append(f"  still being written (open for writing by pid {', '.join(map(str, writer['pids']))}): "
+                     "what reached the file so far is shown; run it again for more")
+    elif state == "perhaps_writing":
+        lines.append(f"  no footer yet: perhaps still being written (modified {writer['modified_s_ago']:.1f} s ago, "
+                     "no writer visible to this user); what reached the file so far is shown")
+    elif state == "unknown":
+        lines.append("  no footer: cannot tell whether it is still being written (no /proc here to look for a "
+                     "writer); if its writer has stopped, it did not shut down cleanly; data read by streaming")
+    elif summary.get("footer") is False:
         lines.append("  warning: no footer (the writer did not shut down cleanly); data read by streaming")
     if not summary["jobs"]:
         lines.append("  no adaptation jobs recorded")

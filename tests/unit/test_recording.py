@@ -28,3 +28,34 @@ def test_replay_cli_errors_cleanly(tmp_path, capsys):
     junk.write_bytes(b"not a recording")
     assert main(["replay", str(junk)]) == 1
     assert "acnmp replay" in capsys.readouterr().err
+
+
+def test_replay_of_a_recording_still_being_written_says_so(tmp_path, capsys):
+    """Issue 36, row 8: a recording being written was reported as one whose writer "did not shut
+    down cleanly"; replay says it is still being written (by whom), and the warning stays for a
+    file without footer that nobody writes."""
+    import os
+    import shutil
+
+    from clients.cli import main
+
+    out = tmp_path / "live.rrd"
+    with RrdWriter(out) as writer:
+        for i in range(3):
+            writer.log_event(rollout_event("j", i, np.zeros((3, 2)), [0, 0.5, 1], [0, 0, 1.0], worker="w"))
+        writer.rec.flush(timeout_sec=10)  # on disk, the file still open and without footer
+        assert main(["replay", str(out)]) == 0
+        text = capsys.readouterr().out
+        shutil.copyfile(out, tmp_path / "left.rrd")  # what a writer killed now would leave
+    assert f"still being written (open for writing by pid {os.getpid()})" in text
+    assert "job j: 3 roll-outs" in text and "did not shut down cleanly" not in text
+
+    left = tmp_path / "left.rrd"
+    assert main(["replay", str(left)]) == 0  # just written, by nobody: perhaps a writer of another user
+    assert "perhaps still being written" in capsys.readouterr().out
+    os.utime(left, (1e9, 1e9))  # long ago
+    assert main(["replay", str(left)]) == 0
+    text = capsys.readouterr().out
+    assert "did not shut down cleanly" in text and "being written" not in text
+    assert main(["replay", str(out)]) == 0  # closed: its footer is written
+    assert "being written" not in capsys.readouterr().out and summarize(out)["writer"]["state"] == "complete"
