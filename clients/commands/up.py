@@ -37,15 +37,15 @@ def register(subparsers) -> None:
 
 def run(args) -> int:
     """Start the deployment (authenticated unless ``--insecure``, announced by its run file; the
-    default skill served first), print what runs where, wait for SIGINT/SIGTERM (restarting children
+    default skill, or every ``--demos`` skill, served first), print what runs where, wait for SIGINT/SIGTERM (restarting children
     that die meanwhile, see services/launcher/supervision.py), stop everything.
-    Exit 0; 1 if it could not start or the default skill was never served; 2 (ValueError naming
+    Exit 0; 1 if it could not start or a skill waited for was never served; 2 (ValueError naming
     the option) for a --demos file the learner could not train or a --record file that cannot be
     written, before anything starts."""
     from clients.default_skill import SKILL, default_demos
     from services.launcher import LocalDeployment
     from services.launcher.announce import NamespaceInUse, check_namespace_free
-    from services.learner.service import load_demos_spec
+    from services.learner.service import load_demos_spec, parse_demos_spec
     from services.learner.store import StateDirInUse
     from services.transport import install_shutdown_handlers
     from services.transport.argtypes import check_output_path
@@ -65,6 +65,11 @@ def run(args) -> int:
     if default_skill:
         demos.append(default_demos(state_dir))
     learner_args = [a for spec in demos for a in ("--demos", spec)]
+    # "up" once the model service serves every skill asked for (it serves what the learner trains)
+    waited = [] if args.no_model else [
+        (SKILL, "E1's demonstrations at the first start; --no-default-skill skips it") if default_skill else
+        (parse_demos_spec(spec), f"{spec.partition('=')[2]} at the first start or when it changed")
+        for spec in demos]
     if args.train_steps is not None:
         learner_args += ["--train-steps", str(args.train_steps)]
     served = False
@@ -82,12 +87,14 @@ def run(args) -> int:
         creds = (f"; credentials: client {run.credentials}, operator {run.operator_credentials}" if dep.secure
                  else "; NOT authenticated (--insecure): any local process can join")
         print(f"run file {run.path} (`acnmp query`, `acnmp status` find it){creds}", flush=True)
-        served = not default_skill or wait_for_skill(dep, SKILL, stop)
+        served = all(wait_for_skill(dep, skill, stop, source) for skill, source in waited)
         if served:
             print("deployment is up; Ctrl-C or SIGTERM stops it", flush=True)
             while not stop.wait(0.5):  # the deployment's supervisor restarts (and reports) dead children
                 pass
     finally:
+        if dep.children:
+            print(stopping_line(dep), flush=True)
         codes = dep.stop()
     bad = {n: c for n, c in codes.items() if c != 0}
     if bad:
@@ -96,13 +103,13 @@ def run(args) -> int:
     return 0 if served or stop.is_set() else 1
 
 
-def wait_for_skill(dep, skill: str, stop, poll: float = 1.0) -> bool:
+def wait_for_skill(dep, skill: str, stop, source: str, poll: float = 1.0) -> bool:
     """Wait until the model service serves ``skill`` (its liveliness token; the learner trains it
-    at its first start). False if stopped, or if the learner or the model exited first."""
+    from ``source``, said in the line printed first). False if stopped, or if the learner or the
+    model exited first."""
     from services.transport import wait_for_liveliness
 
-    print(f"waiting for the model service to serve skill {skill!r} (trained from E1's demonstrations at "
-          f"the first start; --no-default-skill skips it)", flush=True)
+    print(f"waiting for the model service to serve skill {skill!r} (trained from {source})", flush=True)
     while not stop.is_set():
         try:
             wait_for_liveliness(dep.session, dep.keys.model_token(skill), timeout=poll)
@@ -117,6 +124,20 @@ def wait_for_skill(dep, skill: str, stop, poll: float = 1.0) -> bool:
                       file=sys.stderr, flush=True)
                 return False
     return False
+
+
+def stopping_line(dep) -> str:
+    """The line ``acnmp up`` prints as it begins to stop ``dep``: what it stops and what is kept."""
+    names = list(dep.children)
+    workers = sum(n.startswith("worker-") for n in names)
+    parts = [{"learner": "the learner (a running job is saved and resumes at the next start)",
+              "model": "the model service"}[n] for n in ("learner", "model") if n in names]
+    if workers:
+        parts.append(f"{workers} worker{'s' if workers != 1 else ''}")
+    if "recorder" in names:
+        parts.append(f"then the recorder (it writes the rest and the footer of {dep.record})")
+    return (f"acnmp up: stopping deployment {dep.namespace!r}: {', '.join(parts) or 'nothing started'}; "
+            f"skills and jobs stay in {dep.state_dir}")
 
 
 def report(line: str) -> None:
