@@ -19,6 +19,7 @@ the solution given exactly the adaptation's conditions (the *anchor*), weighted 
 """
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -29,7 +30,7 @@ from .adaptation import AdaptTarget
 from .cnmp import CNMP
 from .data import DemoSet, Demonstration, Episode
 from .optim_step import Stepper
-from .training import TrainConfig, check_lr_final, cosine_lr, make_sampler, nll_loss, set_lr
+from .training import TrainConfig, check_lr_final, check_stop, cosine_lr, make_sampler, nll_loss, set_lr
 from .validation import check_array, check_positive_int
 
 
@@ -70,7 +71,8 @@ class AssimilationConfig:
 
 def assimilate(model: CNMP, demos: DemoSet, solution: Demonstration, cfg: AssimilationConfig | None = None, *,
                conditions: AdaptTarget | None = None, seed: int = 0,
-               optimizer: torch.optim.Optimizer | None = None) -> tuple[DemoSet, list[float]]:
+               optimizer: torch.optim.Optimizer | None = None,
+               stop: threading.Event | None = None) -> tuple[DemoSet, list[float]]:
     """Add ``solution`` to ``demos`` and continue training ``model`` in place on the new set.
 
     Parameters
@@ -84,6 +86,8 @@ def assimilate(model: CNMP, demos: DemoSet, solution: Demonstration, cfg: Assimi
     seed : seeds the episode sampling.
     optimizer : an optimiser over ``model``'s parameters to continue (its moments carry over from the
         training before, its rate is set to ``cfg.lr``); None starts a fresh Adam.
+    stop : when set (e.g. the learner shutting down), InterruptedError at the next step (``model``
+        is then part-trained: the caller discards it).
 
     Returns the enlarged :class:`DemoSet` and the loss per step (empty when ``cfg.steps`` is 0).
     """
@@ -109,6 +113,7 @@ def assimilate(model: CNMP, demos: DemoSet, solution: Demonstration, cfg: Assimi
     losses = []
     model.train()
     for step in range(1, cfg.steps + 1):
+        check_stop(stop, "assimilation")
         loss = nll_loss(model, sampler.sample(cfg.batch_size, gen), train_cfg.beta)
         if anchor is not None:
             loss = loss + cfg.anchor_weight * nll_loss(model, anchor, train_cfg.beta)

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import copy
 import math
+import threading
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -137,6 +138,7 @@ def train(
     fit_normalization: bool = True,
     progress: bool = True,
     optimizer: torch.optim.Optimizer | None = None,
+    stop: threading.Event | None = None,
 ) -> TrainResult:
     """Train ``model`` in place on ``demos`` and leave it at its best validation checkpoint.
 
@@ -149,6 +151,8 @@ def train(
     seed : makes the run deterministic (sampling and validation split).
     progress : show a tqdm progress bar.
     optimizer : continue with an existing optimizer (default: a new Adam).
+    stop : when set (e.g. a service shutting down), InterruptedError at the next step; ``model``
+        is then left part-trained, so the caller discards it.
 
     Returns a :class:`TrainResult`.
     """
@@ -182,6 +186,7 @@ def train(
     validate(0)
     bar = tqdm(range(1, cfg.steps + 1), desc="train", disable=not progress, leave=False)
     for step in bar:
+        check_stop(stop, "training")
         loss = nll_loss(model, sampler.sample(cfg.batch_size, gen), cfg.beta)
         opt.zero_grad()
         loss.backward()
@@ -195,6 +200,12 @@ def train(
     model.load_state_dict(best_state)
     model.eval()
     return result
+
+
+def check_stop(stop: threading.Event | None, what: str) -> None:
+    """InterruptedError naming ``what`` when ``stop`` is set (no-op for None)."""
+    if stop is not None and stop.is_set():
+        raise InterruptedError(f"{what} stopped: asked to stop")
 
 
 def evaluate_nll(model: CNMP, demos: DemoSet, *, episodes: int = 512, seed: int = 123, max_obs: int = 5) -> float:

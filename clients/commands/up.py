@@ -90,7 +90,7 @@ def run(args) -> int:
         served = all(wait_for_skill(dep, skill, stop, source) for skill, source in waited)
         if served:
             print("deployment is up; Ctrl-C or SIGTERM stops it", flush=True)
-            while not stop.wait(0.5):  # the deployment's supervisor restarts (and reports) dead children
+            while not stop.wait(0.2):  # the deployment's supervisor restarts (and reports) dead children
                 pass
     finally:
         if dep.children:

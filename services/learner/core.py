@@ -168,10 +168,11 @@ class LearnerCore:
             return dict(self.skills)
 
     def train_skill(self, skill: str, spec: TrainSpec) -> SkillState:
-        """Train a new model for ``skill`` on ``spec``, checkpoint and commit it as the next version."""
+        """Train a new model for ``skill`` on ``spec``, checkpoint and commit it as the next version.
+        InterruptedError (nothing committed) once :meth:`interrupt` or :meth:`close` was called."""
         model = CNMP(spec.model_cfg, seed=spec.seed)
         with self._train_lock:
-            res = train(model, spec.demos, spec.train_cfg, seed=spec.seed, progress=False)
+            res = train(model, spec.demos, spec.train_cfg, seed=spec.seed, progress=False, stop=self._stop)
         with self._lock:
             old = self.skills.get(skill)
             state = SkillState(skill, model, spec.demos, 0 if old is None else old.version + 1,
@@ -439,15 +440,22 @@ class LearnerCore:
             params = np.zeros(skill.demos.n_task_params) if tp is None else tp
             old_demos = skill.demos
         with self._train_lock:
+            # stopped by a shutdown: the job is saved interrupted and re-assimilates at the next start
             demos, _ = assimilate(model, old_demos, Demonstration(times, traj, params),
                                   AssimilationConfig(steps=req.assimilate_steps), conditions=req.target,
-                                  seed=req.seed + 1)
+                                  seed=req.seed + 1, stop=self._stop)
         with self._lock:
             state = SkillState(skill.name, model, demos, self.skills[skill.name].version + 1,
                                source_hash=skill.source_hash)  # demos = the skill's + the solution
             self._commit_skill(state, note=f"assimilated {job.job}")
             job.committed_version = state.version
             self.job_store.save(job)
+
+    def interrupt(self) -> None:
+        """Ask the work in progress to stop at its next step (a job's iteration or batch, a training,
+        an assimilation: InterruptedError there) and start no more; :meth:`close` still has to be
+        called. A service calls it as soon as it is told to stop, so nothing holds its shutdown."""
+        self._stop.set()
 
     def close(self, timeout: float = 10.0) -> None:
         """Stop running jobs: the running one is interrupted (at its next iteration, or at once by an

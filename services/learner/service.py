@@ -194,7 +194,10 @@ class LearnerService:
 
     def _handle_train(self, msg: dict | None, query: zenoh.Query) -> dict:
         skill = self._skill_of(query, msg)
-        state = self.core.train_skill(skill, parse_train_request(msg, self.limits))
+        try:
+            state = self.core.train_skill(skill, parse_train_request(msg, self.limits))
+        except InterruptedError:  # the learner is stopping: a restarted one trains it when asked again
+            raise WireError("unavailable", "the learner is shutting down; send the request again") from None
         return {"v": 1, "skill": skill, "version": state.version, "data_hash": state.demos.content_hash(),
                 "n_demos": len(state.demos)}
 
@@ -254,6 +257,7 @@ class LearnerService:
         """Stop taking requests, interrupt the running job (it resumes on restart), undeclare all;
         with a recorder (``wait_recorder`` > 0), wait up to :data:`RECORDED_WAIT` s until it holds
         every roll-out this learner published (the launcher stops it only after the learner)."""
+        self.core.interrupt()  # first: a handler training would hold the undeclaring of its queryable
         for undeclare in (self._token.undeclare, *(rpc.close for rpc in self._rpcs), self._latest.undeclare):
             try:
                 undeclare()
@@ -375,7 +379,14 @@ class LearnerConfig(Service):
                             wait_recorder=self.wait_recorder, chunk_timeout=self.chunk_timeout,
                             limits=LearnerLimits(max_train_steps=self.max_train_steps,
                                                  max_rollouts=self.max_rollouts)) as learner:
-            booted = bootstrap(learner.core, self.demos, self.train_steps)
+            # a stop interrupts what the core runs at once (training included), not after it
+            threading.Thread(target=lambda: (stop.wait(), learner.core.interrupt()), name="stop-watch",
+                             daemon=True).start()
+            try:
+                booted = bootstrap(learner.core, self.demos, self.train_steps)
+            except InterruptedError:
+                log.info("stopped while training the --demos skills; they are trained at the next start")
+                return 0
             ready(f"learner live as {learner.token_key}; skills: {sorted(learner.skills) or 'none yet'}; "
                   f"state in {Path(state_dir).resolve()}" + "".join(f"; {line}" for line in booted))
             wait_until_stopped(stop)

@@ -34,3 +34,31 @@ def test_up_with_demos_is_up_once_the_skill_is_served_and_ctrl_c_says_what_it_st
     stopping = [ln for ln in out.splitlines() if ln.startswith("acnmp up: stopping")]
     assert len(stopping) == 1 and "learner" in stopping[0] and "model" in stopping[0], out
     assert "deployment stopped" in out.splitlines()[-1]
+
+
+def test_ctrl_c_while_the_learner_trains_stops_it_without_a_kill(tmp_path, acnmp_up):
+    """Row 10: `acnmp up` took 8-14 s to stop when its learner was training (the default skill at a
+    first start, a train request, an assimilation): SIGTERM was not seen until the training ended,
+    so the launcher SIGKILLed the learner after its stop timeout. Training now stops at its next step."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    proc = subprocess.Popen([sys.executable, "-m", "clients.cli", "up", "--namespace", f"t-{uuid.uuid4().hex[:8]}",
+                             "--workers", "0", "--train-steps", "1000000", "--state-dir", str(tmp_path / "state")],
+                            cwd=root, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        for line in proc.stdout:  # the learner is live and trains the default skill
+            if "waiting for the model service to serve skill 'e1'" in line:
+                break
+        proc.send_signal(signal.SIGINT)
+        out, _ = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 0, out
+    last = out.strip().splitlines()[-1]
+    assert last.startswith("deployment stopped:") and "learner=0" in last, out  # was learner=-9
+    assert "stopped while training the --demos skills" in (tmp_path / "state" / "logs" / "learner.log").read_text()

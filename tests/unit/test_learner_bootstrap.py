@@ -69,3 +69,32 @@ def test_an_assimilated_skill_is_kept_for_the_file_it_was_trained_from(tmp_path)
             assert "kept" in bootstrap(core, [spec], STEPS)[0] and core.skills["mine"].version == 7
     finally:
         core.close()
+
+
+def test_a_stop_interrupts_training_and_assimilation_at_their_next_step(tmp_path, e1_demos):
+    """Issue 36, row 10: a learner told to stop kept training (a first start's skill, a train
+    request, an assimilation) until the launcher SIGKILLed it; each now ends at its next step."""
+    import threading
+
+    import pytest
+
+    from acnmp_core.assimilation import AssimilationConfig, assimilate
+    from acnmp_core.cnmp import CNMP, CNMPConfig
+    from acnmp_core.training import TrainConfig, train
+
+    stop = threading.Event()
+    stop.set()
+    with pytest.raises(InterruptedError):
+        train(CNMP(CNMPConfig(n_outputs=2)), e1_demos, TrainConfig(steps=10**7), progress=False, stop=stop)
+    model = CNMP(CNMPConfig(n_outputs=2))
+    model.fit_normalization(e1_demos)
+    with pytest.raises(InterruptedError):
+        assimilate(model, e1_demos, e1_demos[0], AssimilationConfig(steps=10**7), stop=stop)
+    core = _core(tmp_path / "state")
+    try:
+        core.interrupt()
+        with pytest.raises(InterruptedError):
+            bootstrap(core, [_file(tmp_path / "d.npz")], 10**7)
+        assert core.skills == {}  # nothing half-trained committed
+    finally:
+        core.close()
