@@ -28,3 +28,17 @@ def test_replay_cli_errors_cleanly(tmp_path, capsys):
     junk.write_bytes(b"not a recording")
     assert main(["replay", str(junk)]) == 1
     assert "acnmp replay" in capsys.readouterr().err
+
+
+def test_a_recording_is_readable_by_its_owner_only(tmp_path):
+    """Issue 31: roll-outs are the user's data, written 0600 like the deployment's secrets, also over
+    a file that existed with wider permissions."""
+    import stat
+
+    old = tmp_path / "old.rrd"
+    old.write_bytes(b"")
+    old.chmod(0o644)
+    for out in (tmp_path / "new.rrd", old):
+        with RrdWriter(out) as writer:
+            writer.log_event(rollout_event("j", 0, np.zeros((3, 2)), [0, 0.5, 1], [0, 0, 1.0], worker="w"))
+        assert stat.S_IMODE(out.stat().st_mode) == 0o600, out
