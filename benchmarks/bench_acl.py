@@ -76,7 +76,7 @@ def _rss(pid: int) -> int:
     return psutil.Process(pid).memory_info().rss
 
 
-def flood_and_list_predict(flood_mb: int) -> dict:
+def flood_and_list_predict(flood_mb: int, repeats: int = 3, env_extra: dict | None = None) -> dict:
     """Parts 2 and 3 (see the module docstring), on one ``acnmp up`` deployment."""
     from clients.client import ACNMPClient
     from services.transport.keys import Keyspace
@@ -84,7 +84,7 @@ def flood_and_list_predict(flood_mb: int) -> dict:
 
     ns = f"benchacl-{uuid.uuid4().hex[:6]}"
     with tempfile.TemporaryDirectory(prefix="bench-acl-up-") as tmp:
-        env = dict(os.environ, PYTHONPATH=str(ROOT), RERUN_ANALYTICS="0")
+        env = dict(os.environ, PYTHONPATH=str(ROOT), RERUN_ANALYTICS="0", **(env_extra or {}))
         up = subprocess.Popen([sys.executable, "-m", "clients.cli", "up", "-n", ns, "--workers", "0", "--train-steps",
                                "20", "--state-dir", f"{tmp}/state"], cwd=ROOT, env=env, stdout=subprocess.PIPE,
                               stderr=subprocess.STDOUT, text=True)
@@ -95,19 +95,25 @@ def flood_and_list_predict(flood_mb: int) -> dict:
             run = find(ns)
             keys = Keyspace(ns)
             pids = {"router": run.pid, "model": next(p.pid for p in run.processes if p.name == "model")}
-            out: dict = {"flood_mb": flood_mb}
+            out: dict = {"flood_mb": flood_mb, "repeats": repeats}
             with ACNMPClient(ns, role="client", timeout=30) as client:
                 client.info("e1")
-                for what in ("put", "query"):
+                start = {n: _rss(p) for n, p in pids.items()}
+                out["start_mib"] = {n: v / 2**20 for n, v in start.items()}
+                for i, what in enumerate(("put", "query") * repeats):
                     before = {n: _rss(p) for n, p in pids.items()}
                     samplers = {n: RssSampler(p) for n, p in pids.items()}
                     attack = _attack(run.credentials, keys.predict("e1"), what, flood_mb)
                     client.info("e1")  # still answering
                     peak = {n: s.stop() for n, s in samplers.items()}
                     after = {n: _rss(p) for n, p in pids.items()}
-                    out[what] = {"attacker_exit": attack.returncode, "attacker_stderr": attack.stderr[-300:],
-                                 **{f"{n}_mib": {"before": before[n] / 2**20, "peak": peak[n] / 2**20,
-                                                 "after": after[n] / 2**20} for n in pids}}
+                    out.setdefault("floods", []).append({
+                        "what": what, "attacker_exit": attack.returncode, "attacker_stderr": attack.stderr[-300:],
+                        **{f"{n}_mib": {"before": before[n] / 2**20, "peak": peak[n] / 2**20,
+                                        "after": after[n] / 2**20} for n in pids}})
+                end = {n: _rss(p) for n, p in pids.items()}
+                out["peak_mib"] = {n: max(f[f"{n}_mib"]["peak"] for f in out["floods"]) for n in pids}
+                out["end_over_start"] = {n: end[n] / start[n] for n in pids}
                 # part 3: a 57 MB list-encoded predict while light predicts run back to back
                 latencies: list[float] = []
                 stop = threading.Event()
