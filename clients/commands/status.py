@@ -37,7 +37,8 @@ class ProcessHealth:
 
 def process_health(run, timeout: float) -> list[ProcessHealth]:
     """The health of each process of run file ``run``: its pid, and its liveliness token seen
-    through a session opened with the deployment's client credentials (one liveliness query)."""
+    through a session opened with the deployment's client credentials (one liveliness query per
+    kind of token)."""
     import zenoh
 
     from clients.discovery import resolve
@@ -47,7 +48,9 @@ def process_health(run, timeout: float) -> list[ProcessHealth]:
     target = resolve(run.namespace, [run.anchor], run.credentials or None, None if run.credentials else "peer")
     try:
         with open_session(target.mode, None, target.connect, target.config_file, open_timeout=timeout) as session:
-            tokens = [zenoh.KeyExpr(t) for t in alive_tokens(session, f"acnmp/{run.namespace}/**", timeout)]
+            # one liveliness query per kind of token: the access table grants each family, never acnmp/<ns>/**
+            tokens = [zenoh.KeyExpr(t) for family in sorted({p.token for p in run.processes})
+                      for t in alive_tokens(session, family, timeout)]
     except ConnectionError:
         tokens = []
     return [ProcessHealth(p.name, p.pid, pid_alive(p.pid), any(zenoh.KeyExpr(p.token).intersects(t) for t in tokens))

@@ -38,7 +38,7 @@ from services.recording.publisher import EventPublisher
 from services.transport import Keyspace, Ready, Service, WireError, declare_rpc, option, wait_until_stopped
 from services.transport.argtypes import int_at_least, seconds
 from services.transport.errors import wire_error
-from services.transport.keys import check_name, job_from_key, skill_from_key
+from services.transport.keys import check_name, is_concrete, job_from_key, skill_from_key
 from services.transport.wire import array_field, error_payload, field, require_payload
 from services.worker.remote import RemoteEvaluator
 
@@ -155,6 +155,7 @@ class LearnerService:
             declare_rpc(session, keys.job_status("*"), self._handle_status, workers=1),
             declare_rpc(session, keys.job_cancel("*"), self._handle_cancel, workers=1),
         ]
+        self.refused_keys = 0  # weights/latest queries on other wildcards, dropped
         self._latest = session.declare_queryable(keys.weights_latest("*"), self._handle_latest)
         self.core.start()
         self.token_key = keys.learner_token(self.learner_id)
@@ -240,6 +241,9 @@ class LearnerService:
         # gets one reply per skill on that skill's concrete key
         # (any key expression that intersects ours, e.g. acnmp/**, gets the skills it matches)
         with query:
+            if not (is_concrete(query.key_expr) or str(query.key_expr) == self.keys.weights_latest("*")):
+                self.refused_keys += 1  # only one skill's key, or every skill's (the model at start)
+                return
             try:
                 asked = query.key_expr
                 states = [state for name, state in sorted(self.core.skill_states().items())

@@ -33,7 +33,7 @@ from acnmp_core.checkpoint import load_checkpoint
 from services.transport import Keyspace, Ready, Service, declare_rpc, option, wait_until_stopped
 from services.transport.argtypes import int_at_least, seconds
 from services.transport.auth import authenticated_user
-from services.transport.keys import check_name, skill_from_key
+from services.transport.keys import check_name, is_concrete, skill_from_key
 from services.transport.wire import WireError
 
 from .batching import DEFAULT_BATCH_MAX, DEFAULT_BATCH_WINDOW, PredictBatcher
@@ -142,7 +142,11 @@ class ModelService:
 
     # ----- loading ---------------------------------------------------------------------------
     def _on_weights(self, sample: zenoh.Sample) -> None:
-        # zenoh thread: only queue the bytes; decoding and building happen on the loader thread
+        # zenoh thread: only queue the bytes; decoding and building happen on the loader thread.
+        # A put on a wildcard (acnmp/NS/**) is nobody's weights: dropped and counted
+        if not is_concrete(sample.key_expr):
+            self.rejected += 1
+            return
         self._inbox.put(("bytes", sample.payload.to_bytes(), str(sample.key_expr)))
 
     def _load_loop(self) -> None:
@@ -155,6 +159,9 @@ class ModelService:
                 return
             try:
                 w = decode_weights(payload)
+                if origin not in (self.keys.weights(w.skill), self.keys.weights_latest(w.skill)):
+                    # the key names the skill the message carries
+                    raise WireError("bad_request", f"weights of skill {w.skill!r} put on {origin}")
                 self.load(SkillModel(w.skill, w.version, w.model, w.data_hash, w.n_demos, source=self.weights_source,
                                      partner=w.partner))
             except WireError as exc:
@@ -207,7 +214,7 @@ class ModelService:
             replies = self.session.get(key, target=zenoh.QueryTarget.ALL, timeout=5.0)
             for reply in replies:
                 if reply.ok is not None:
-                    self._inbox.put(("bytes", reply.ok.payload.to_bytes(), key))
+                    self._inbox.put(("bytes", reply.ok.payload.to_bytes(), str(reply.ok.key_expr)))
         except Exception as exc:  # session closing, or no learner yet: try again later
             log.debug("weights/latest query on %s failed: %s", key, exc)
 

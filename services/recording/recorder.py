@@ -48,6 +48,7 @@ import zenoh.ext as zext
 from services.transport import Keyspace, Ready, Service, WireError, declare_rpc, option
 from services.transport.argtypes import check_output_path, non_empty
 from services.transport.auth import write_private
+from services.transport.keys import is_concrete
 
 from .event_ids import SeenEvents, marks_path
 from .events import decode_event
@@ -156,6 +157,11 @@ def record(session: zenoh.Session, keys: Keyspace, path: str, stop: threading.Ev
     lock = threading.Lock()
 
     def on_sample(sample: zenoh.Sample) -> None:
+        if not is_concrete(sample.key_expr):  # a put on acnmp/NS/** is no event: dropped, counted
+            with lock:
+                rejected[0] += 1
+            log.warning("rejected a sample on the wildcard %s", sample.key_expr)
+            return
         try:
             msg = decode_event(sample.payload.to_bytes())
         except WireError as exc:

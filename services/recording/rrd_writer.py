@@ -48,6 +48,7 @@ index * ``STEP_STRIDE`` + step. In the viewer: the ``step`` timeline plays the l
 """
 from __future__ import annotations
 
+import os
 import threading
 import uuid
 import zlib
@@ -124,6 +125,11 @@ class RrdWriter:
         if not rr.is_enabled(self.rec):
             # RERUN=off in the environment would make every log call a silent no-op
             raise RuntimeError("Rerun logging is disabled (RERUN=off in the environment): nothing would be recorded")
+        # readable by its owner only, like the deployment's secrets (roll-outs, task parameters and
+        # weights versions are the user's data): created 0600 before Rerun's sink opens it, which
+        # truncates an existing file and keeps its mode
+        os.close(os.open(self.path, os.O_WRONLY | os.O_CREAT, 0o600))
+        os.chmod(self.path, 0o600)
         self.rec.save(str(self.path), default_blueprint=blueprint or default_blueprint())
         self.rec.send_recording_name(f"acnmp {self.path.stem}")
         self.counts: Counter = Counter()

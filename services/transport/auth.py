@@ -6,10 +6,8 @@ What is checked where (docs/PROTOCOL.md, "Security"):
   session, the anchor). The router has the deployment's dictionary (``users.txt``, one
   ``user:password`` per role, mode 0600) in ``transport/auth/usrpwd``, so a process without a
   password of the dictionary cannot open a link at all: no query, no put, no subscription.
-* the router applies the **access control** of :func:`acl_config` to what comes in on each link,
-  by the username that link authenticated with. Only the learner may put weights or answer
-  ``weights/latest``; only the model service may answer predict/info; only ``operator`` (and the
-  learner) may start jobs; ``client`` may query but change nothing.
+* the router applies the **access control** of :mod:`.acl` (default deny, an allow list per role)
+  to what comes in on each link, by the username that link authenticated with.
 
 Why a router and not the peer mesh: zenoh's user/password exchange authenticates the side that
 *opens* a link to the side that *accepts* it, and only the acceptor learns the username. In a
@@ -35,10 +33,9 @@ from typing import Mapping, Sequence
 
 import zenoh
 
-from .session import make_config
+from .acl import ROLES, acl_config
+from .session import MAX_MESSAGE_BYTES, make_config
 
-#: One zenoh username per role; a process of the deployment authenticates as its role.
-ROLES = ("launcher", "learner", "model", "worker", "recorder", "operator", "client")
 
 
 @dataclass(frozen=True)
@@ -77,69 +74,8 @@ def client_config(anchor: str, cred: Credentials) -> dict:
     multicast scouting, user/password authentication."""
     return {"mode": "client", "connect": {"endpoints": [anchor]},
             "scouting": {"multicast": {"enabled": False}},
-            "transport": {"auth": {"usrpwd": {"user": cred.user, "password": cred.password}}}}
-
-
-# ----- access control ---------------------------------------------------------------------------
-#: (rule id, messages, key expressions, roles allowed). Every other role is denied these messages
-#: on these keys (``ingress`` at the router). A reply is checked on its own key, so a queryable
-#: declared on a wider key (``acnmp/**``) still cannot answer on a protected key.
-#: The roles that publish events (the launcher publishes too, as the router itself: no ACL on it).
-_EVENT_PUBLISHERS = ("learner", "worker", "operator")
-
-_PROTECTED: tuple[tuple[str, tuple[str, ...], tuple[str, ...], tuple[str, ...]], ...] = (
-    ("weights", ("put", "delete"), ("acnmp/*/skill/*/weights",), ("learner",)),
-    ("weights-latest", ("declare_queryable", "reply"), ("acnmp/*/skill/*/weights/latest",), ("learner",)),
-    ("model-answers", ("declare_queryable", "reply"),
-     ("acnmp/*/skill/*/predict", "acnmp/*/skill/*/info", "acnmp/*/skill/*/transfer"), ("model",)),
-    ("model-tokens", ("liveliness_token",), ("acnmp/*/model/*", "acnmp/*/service/model/*"), ("model",)),
-    ("start-jobs", ("query",), ("acnmp/*/skill/*/train", "acnmp/*/skill/*/train_pair", "acnmp/*/skill/*/adapt",
-                                "acnmp/*/job/*/cancel"),
-     ("learner", "operator")),
-    ("learner-answers", ("declare_queryable", "reply"),
-     ("acnmp/*/skill/*/train", "acnmp/*/skill/*/train_pair", "acnmp/*/skill/*/adapt", "acnmp/*/job/*/status",
-      "acnmp/*/job/*/cancel"),
-     ("learner",)),
-    ("learner-tokens", ("liveliness_token",), ("acnmp/*/learner/*",), ("learner",)),
-    ("events", ("put", "delete"), ("acnmp/*/event/**",), _EVENT_PUBLISHERS),
-    # zenoh-ext advanced pub/sub (docs/PROTOCOL.md section 7): an event publisher's token, cache
-    # queryable and heartbeats live under <event key>/@adv/pub/..., its cache replies on the event
-    # keys; the recorder's subscriber token is under acnmp/<ns>/event/**/@adv/sub/..., and only it
-    # queries the caches. ("@adv" is a verbatim chunk: ``**`` never matches it, hence own rules.)
-    ("event-caches", ("declare_queryable", "reply", "liveliness_token", "put", "delete"),
-     ("acnmp/*/event/**/@adv/pub/**",), _EVENT_PUBLISHERS),
-    ("event-replies", ("reply",), ("acnmp/*/event/**",), _EVENT_PUBLISHERS),
-    ("event-history", ("query",), ("acnmp/*/event/**/@adv/**",), ("recorder",)),
-    ("event-subscribers", ("liveliness_token",), ("acnmp/*/event/**/@adv/sub/**",), ("recorder",)),
-    ("workers", ("declare_queryable", "reply", "liveliness_token"), ("acnmp/*/worker/*/*", "acnmp/*/worker/*/*/rollout"),
-     ("worker",)),
-    ("recorder", ("declare_queryable", "reply", "liveliness_token"),
-     ("acnmp/*/recorder/status", "acnmp/*/recorder/*"), ("recorder",)),
-)
-
-
-def acl_config(roles: Sequence[str] = ROLES) -> dict:
-    """The router's ``access_control`` section (JSON-able): default allow, and for each protected
-    (messages, keys) of ``_PROTECTED`` a deny rule for every role not allowed. Every link is
-    authenticated (the dictionary), so every link matches exactly one role's subject."""
-    rules, policies = [], []
-    for rule_id, messages, keys, allowed in _PROTECTED:
-        rules.append({"id": rule_id, "permission": "deny", "flows": ["ingress"],
-                      "messages": list(messages), "key_exprs": list(keys)})
-        denied = [r for r in roles if r not in allowed]
-        if denied:
-            policies.append({"rules": [rule_id], "subjects": denied})
-    return {"enabled": True, "default_permission": "allow", "rules": rules,
-            "subjects": [{"id": r, "usernames": [r]} for r in roles], "policies": policies}
-
-
-def may(role: str, message: str, key_family: str) -> bool:
-    """Whether :func:`acl_config` lets ``role`` send ``message`` on a key of rule ``key_family``
-    (a rule id of the table, e.g. ``may("client", "put", "weights")``); for docs and tests."""
-    for rule_id, messages, _keys, allowed in _PROTECTED:
-        if rule_id == key_family and message in messages:
-            return role in allowed
-    return True
+            "transport": {"auth": {"usrpwd": {"user": cred.user, "password": cred.password}},
+                          "link": {"rx": {"max_message_size": MAX_MESSAGE_BYTES}}}}
 
 
 def router_settings(listen: Sequence[str], dictionary_file: str | Path, own: Credentials) -> dict:
@@ -147,7 +83,8 @@ def router_settings(listen: Sequence[str], dictionary_file: str | Path, own: Cre
     user/password required from ``dictionary_file``, :func:`acl_config`."""
     return {"mode": "router", "listen": {"endpoints": list(listen)}, "scouting": {"multicast": {"enabled": False}},
             "transport": {"auth": {"usrpwd": {"user": own.user, "password": own.password,
-                                              "dictionary_file": str(dictionary_file)}}},
+                                              "dictionary_file": str(dictionary_file)}},
+                          "link": {"rx": {"max_message_size": MAX_MESSAGE_BYTES}}},
             "access_control": acl_config()}
 
 
@@ -236,11 +173,11 @@ def write_router_deployment(directory: str | os.PathLike, listen: str, connect: 
     written = {"users.txt": write_private(directory / "users.txt", dictionary_text(creds))}
     router = router_settings([listen], f"{seen}/users.txt", creds["launcher"])
     if tls_dir is not None:
-        router["transport"]["link"] = {"tls": tls_link(tls_dir, listen=True)}
+        router["transport"]["link"]["tls"] = tls_link(tls_dir, listen=True)
     written["router.json5"] = write_private(directory / "router.json5", json.dumps(router, indent=2) + "\n")
     for role, cred in creds.items():
         cfg = client_config(connect, cred)
         if tls_dir is not None:
-            cfg["transport"]["link"] = {"tls": tls_link(tls_dir, listen=False)}
+            cfg["transport"]["link"]["tls"] = tls_link(tls_dir, listen=False)
         written[f"{role}.json5"] = write_private(directory / f"{role}.json5", json.dumps(cfg, indent=2) + "\n")
     return written

@@ -45,6 +45,31 @@ def job_from_key(key: str) -> str:
     return _chunk(key, "job", 3)
 
 
+def is_concrete(key) -> bool:
+    """Whether ``key`` (a str or zenoh KeyExpr) is one concrete key: no ``*``/``**`` chunk, no ``$*``,
+    no empty chunk. A sample, query or token on anything else is never acted on (services drop
+    and count it): a wildcard must not stand for a name."""
+    text = str(key)
+    return bool(text) and all(c and "*" not in c and "$" not in c for c in text.split("/"))
+
+
+def token_id(key, pattern: str) -> str | None:
+    """The last chunk of a liveliness token's ``key`` when the key is concrete, matches ``pattern``
+    (one ``*`` chunk for the id, e.g. ``acnmp/ns/worker/ur10/*``) and the chunk is a valid name;
+    None otherwise (a forged or wildcard token, to be ignored)."""
+    text = str(key)
+    want = pattern.split("/")
+    got = text.split("/")
+    if not is_concrete(text) or len(got) != len(want):
+        return None
+    if any(w != "*" and w != g for w, g in zip(want, got)):
+        return None
+    try:
+        return check_name("id", got[-1])
+    except ValueError:
+        return None
+
+
 def last_chunk(key: str) -> str:
     """The last chunk of a key (a worker's id in its token ``.../worker/<robot>/<id>``)."""
     return str(key).rsplit("/", 1)[-1]

@@ -5,6 +5,8 @@ import threading
 
 import zenoh
 
+from .keys import is_concrete
+
 
 def wait_for_liveliness(session: zenoh.Session, key_expr: str, count: int = 1,
                         timeout: float = 10.0) -> list[str]:
@@ -17,6 +19,8 @@ def wait_for_liveliness(session: zenoh.Session, key_expr: str, count: int = 1,
     cond = threading.Condition()
 
     def on_sample(sample: zenoh.Sample) -> None:
+        if not is_concrete(sample.key_expr):  # a wildcard token stands for no process
+            return
         with cond:
             if sample.kind == zenoh.SampleKind.PUT:
                 alive.add(str(sample.key_expr))
@@ -37,10 +41,11 @@ def wait_for_liveliness(session: zenoh.Session, key_expr: str, count: int = 1,
 
 
 def alive_tokens(session: zenoh.Session, key_expr: str, timeout: float = 2.0) -> list[str]:
-    """Return the keys of the liveliness tokens matching ``key_expr`` alive now (one query)."""
+    """Return the keys of the liveliness tokens matching ``key_expr`` alive now (one query); only
+    concrete keys (a token declared on a wildcard stands for no process)."""
     found = set()
     for reply in session.liveliness().get(key_expr, timeout=timeout):
-        if reply.ok is not None:
+        if reply.ok is not None and is_concrete(reply.ok.key_expr):
             found.add(str(reply.ok.key_expr))
     return sorted(found)
 

@@ -20,6 +20,7 @@ from typing import Any, Callable
 import zenoh
 
 from .errors import wire_error
+from .keys import is_concrete
 from .wire import DEFAULT_MAX_BYTES, SCHEMA_VERSION, WireError, decode, encode, error_from_payload, error_payload
 
 log = logging.getLogger(__name__)
@@ -106,6 +107,7 @@ class RpcQueryable:
         self.failed = 0
         self.overloaded = 0  # refused at once: the queue was full
         self.expired = 0     # dropped unanswered from the queue: their querier had given up
+        self.refused_keys = 0  # dropped unanswered: asked on a wildcard, not on one concrete key
         self.waiting = 0     # queued, not started
         self._lock = threading.Lock()
         callback = self._dispatch if self._pool else self._serve_inline
@@ -122,11 +124,24 @@ class RpcQueryable:
         raw = query.payload.to_bytes() if query.payload is not None else b""
         return decode(raw, expect_version=self._expect_version, max_bytes=self._max_bytes) if raw else None
 
+    def _refused(self, query: zenoh.Query) -> bool:
+        # a query on a wildcard (acnmp/NS/skill/e1/*, acnmp/**) is answered by nobody: a service
+        # acts only on the one concrete key it serves (docs/PROTOCOL.md section 5)
+        if is_concrete(query.key_expr):
+            return False
+        with self._lock:
+            self.refused_keys += 1
+        query.drop()
+        return True
+
     def _serve_inline(self, query: zenoh.Query) -> None:
-        self._serve(query, self._deadline(query))
+        if not self._refused(query):
+            self._serve(query, self._deadline(query))
 
     def _dispatch(self, query: zenoh.Query) -> None:
         # hand the query to the pool so a slow handler never holds a zenoh runtime thread
+        if self._refused(query):
+            return
         deadline = self._deadline(query)
         with self._lock:
             full = self.max_queue is not None and self.waiting >= self.max_queue

@@ -32,6 +32,7 @@ import zenoh
 
 from .argtypes import key_name
 from .keys import DEFAULT_NAMESPACE
+from .wire import DEFAULT_MAX_BYTES
 
 MODES = ("peer", "client", "router")
 LOOPBACK = "127.0.0.1"
@@ -63,6 +64,13 @@ def _zenoh_message(exc: BaseException) -> str:
     text = re.sub(r"\s+at /\S+:\d+\.?", "", text)           # "... at /root/.cargo/...rs:615."
     text = re.sub(r"^Json5Err\(Message \{ msg: \"(.*?)(: [^:]*)?\", location.*$", r"\1", text)
     return text.strip()
+
+
+#: The largest zenoh message a session takes in (``transport/link/rx/max_message_size``): the
+#: request limit (services/transport/wire.py) and 1 MiB for the key, attachment and framing. A
+#: bigger message is refused while its fragments arrive, before it is whole in memory (zenoh's
+#: default is 1 GiB).
+MAX_MESSAGE_BYTES = DEFAULT_MAX_BYTES + (1 << 20)
 
 
 def make_config(mode: str | None = "peer", listen: Sequence[str] | None = None,
@@ -116,6 +124,8 @@ def make_config(mode: str | None = "peer", listen: Sequence[str] | None = None,
         put("scouting/multicast/enabled", bool(multicast))
     if gossip is not None or not from_file("scouting/gossip/enabled"):
         put("scouting/gossip/enabled", True if gossip is None else bool(gossip))
+    if not from_file("transport/link/rx/max_message_size"):
+        put("transport/link/rx/max_message_size", MAX_MESSAGE_BYTES)
     return cfg
 
 

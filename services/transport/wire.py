@@ -27,6 +27,12 @@ DEFAULT_MAX_BYTES = 64 * 1024 * 1024
 #: Deepest nesting of maps/lists accepted; real messages are 3-4 levels deep.
 MAX_DEPTH = 32
 
+#: Most list items and map entries a message may hold in all (arrays sent as the binary array map
+#: count as one map of three): lists of numbers are accepted for hand-written clients, but each
+#: item costs a Python object, so a 57 MB list-encoded request would hold a service for seconds.
+#: Counted while msgpack builds the containers, so decoding stops as soon as it is exceeded.
+MAX_ITEMS = 1 << 18
+
 #: Most dimensions an array may have.
 MAX_NDIM = 8
 
@@ -182,15 +188,29 @@ def decode(data: bytes | bytearray | memoryview, expect_version: int | None = SC
         # below, since strict_map_key still lets bytes keys through); ext_hook refuses every ext
         # type, and max_*_len bound every container by the payload size so a 5-byte header
         # cannot announce a 4 GiB string.
+        budget = [MAX_ITEMS]
+
+        def counted(container):
+            budget[0] -= len(container)
+            if budget[0] < 0:
+                raise WireError("too_large", f"more than {MAX_ITEMS} list items and map entries in one message; "
+                                             "send large arrays as binary array maps (docs/PROTOCOL.md section 2)")
+            return container
+
         obj = msgpack.unpackb(
             bytes(data), raw=False, strict_map_key=True, use_list=True,
-            ext_hook=_refuse_ext,
-            max_str_len=len(data), max_bin_len=len(data), max_array_len=len(data),
-            max_map_len=len(data), max_ext_len=0,
+            ext_hook=_refuse_ext, list_hook=counted, object_hook=counted,
+            max_str_len=len(data), max_bin_len=len(data), max_array_len=min(len(data), MAX_ITEMS),
+            max_map_len=min(len(data), MAX_ITEMS), max_ext_len=0,
         )
     except WireError:
         raise
-    except Exception as exc:  # msgpack raises a zoo of types (ExtraData, FormatError, ValueError...)
+    except ValueError as exc:
+        if "exceeds max_array_len" in str(exc) or "exceeds max_map_len" in str(exc):  # msgpack refused one container
+            raise WireError("too_large", f"{exc}: at most {MAX_ITEMS} list items and map entries in one message; "
+                                         "send large arrays as binary array maps") from None
+        raise WireError("malformed", f"not a valid msgpack message (ValueError: {exc})") from None
+    except Exception as exc:  # msgpack raises a zoo of types (ExtraData, FormatError, ...)
         detail = f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
         raise WireError("malformed", f"not a valid msgpack message ({detail})") from None
     if not isinstance(obj, dict):

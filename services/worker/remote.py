@@ -36,7 +36,7 @@ import zenoh
 from acnmp_core.rollout import RolloutBatch
 from acnmp_core.tasks.registry import task_credit, task_names
 from services.transport import Keyspace, WireError, alive_tokens, call
-from services.transport.keys import check_name, last_chunk
+from services.transport.keys import check_name, token_id
 
 from .core import ExecutedBatch, batch_from_reply, rollout_request, take
 
@@ -85,11 +85,13 @@ class RemoteEvaluator:
         self.max_attempts = int(max_attempts)
         self.stop = stop
         self._pattern = self.keys.worker_token(self.robot)
+        self.ignored_tokens = 0  # liveliness tokens that named no worker (wildcards, bad ids)
         self._turn = random.randrange(1 << 30)  # which worker a batch starts on (round robin)
 
     def workers(self) -> list[str]:
         """Ids of the workers of this robot kind alive now (one liveliness query)."""
-        return [last_chunk(k) for k in alive_tokens(self.session, self._pattern)]
+        ids = [token_id(k, self._pattern) for k in alive_tokens(self.session, self._pattern)]
+        return [i for i in ids if i is not None]
 
     def _check_stop(self) -> None:
         if self.stop is not None and self.stop.is_set():
@@ -129,7 +131,10 @@ class RemoteEvaluator:
         counter = [0]
 
         def on_token(sample: zenoh.Sample) -> None:
-            wid = last_chunk(sample.key_expr)
+            wid = token_id(sample.key_expr, self._pattern)
+            if wid is None:  # a wildcard or malformed token is nobody's: ignored, never a worker id
+                self.ignored_tokens += 1
+                return
             with cond:
                 if sample.kind == zenoh.SampleKind.PUT:
                     live.add(wid)

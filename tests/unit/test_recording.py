@@ -59,3 +59,17 @@ def test_replay_of_a_recording_still_being_written_says_so(tmp_path, capsys):
     assert "did not shut down cleanly" in text and "being written" not in text
     assert main(["replay", str(out)]) == 0  # closed: its footer is written
     assert "being written" not in capsys.readouterr().out and summarize(out)["writer"]["state"] == "complete"
+
+
+def test_a_recording_is_readable_by_its_owner_only(tmp_path):
+    """Issue 31: roll-outs are the user's data, written 0600 like the deployment's secrets, also over
+    a file that existed with wider permissions."""
+    import stat
+
+    old = tmp_path / "old.rrd"
+    old.write_bytes(b"")
+    old.chmod(0o644)
+    for out in (tmp_path / "new.rrd", old):
+        with RrdWriter(out) as writer:
+            writer.log_event(rollout_event("j", 0, np.zeros((3, 2)), [0, 0.5, 1], [0, 0, 1.0], worker="w"))
+        assert stat.S_IMODE(out.stat().st_mode) == 0o600, out

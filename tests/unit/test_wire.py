@@ -226,3 +226,28 @@ def test_mutated_valid_messages_only_ever_raise_wire_error(data):
         decode(bytes(good[:cut]))
     except WireError as exc:
         assert exc.code in ERROR_CODES
+
+
+@pytest.mark.parametrize("items", [np.zeros(2_000_000).tolist(), np.zeros((200_000, 2)).tolist(),
+                                   [{"a": 1}] * 200_000])
+def test_a_request_with_too_many_list_items_is_refused_while_decoding(items):
+    """Issue 31: list-encoded data is bounded by its item count, not only by its bytes (each item is a
+    Python object); the same data as a binary array map decodes."""
+    from services.transport.wire import MAX_ITEMS
+
+    assert code_of(raw({"v": 1, "x": items})) == "too_large"
+    assert len(decode(raw({"v": 1, "x": np.zeros(MAX_ITEMS // 2).tolist()}))["x"]) == MAX_ITEMS // 2
+    assert decode(encode({"v": 1, "x": np.zeros((200_000, 2))}))["x"].shape == (200_000, 2)
+
+
+def test_only_concrete_keys_name_something():
+    from services.transport.keys import is_concrete, token_id
+
+    assert is_concrete("acnmp/ns/skill/e1/predict")
+    for key in ("acnmp/ns/**", "acnmp/ns/skill/*/predict", "acnmp/ns/skill/e$*/predict", "acnmp//x", ""):
+        assert not is_concrete(key), key
+    pattern = "acnmp/ns/worker/ur10/*"
+    assert token_id("acnmp/ns/worker/ur10/w-1", pattern) == "w-1"
+    for key in ("acnmp/ns/**", "acnmp/ns/worker/ur10/*", "acnmp/ns/worker/ur10/**", "acnmp/ns/worker/ur5/w1",
+                "acnmp/ns/worker/ur10/w1/x", "acnmp/ns/worker/ur10/.."):
+        assert token_id(key, pattern) is None, key
