@@ -349,6 +349,14 @@ def trained_from(state: SkillState, demos: DemoSet) -> bool:
     return len(head) == len(demos) and DemoSet(head).content_hash() == demos.content_hash()
 
 
+def import_training_modules() -> None:
+    """Import what a first training needs beyond torch: the optimiser's constructor imports
+    torch._dynamo, which imports sympy; a thread blocked in that import sees no stop."""
+    import torch
+
+    torch.optim.Adam([torch.zeros(1, requires_grad=True)])
+
+
 @dataclass
 class LearnerConfig(Service):
     """The learner's options; :meth:`serve` runs it on an open session."""
@@ -378,6 +386,10 @@ class LearnerConfig(Service):
         import torch
 
         torch.set_num_threads(1)
+        # the first optimiser imports torch._dynamo and sympy (5-9 s measured on the busy 2-core
+        # machine without bytecode caches): on a thread, so the main one still sees a stop meanwhile
+        imported = threading.Thread(target=import_training_modules, name="import-training", daemon=True)
+        imported.start()
         state_dir = self.state_dir or f"runs/{self.session.namespace}/state"
         with LearnerService(session, Keyspace(self.session.namespace), state_dir, learner_id=self.learner_id,
                             wait_recorder=self.wait_recorder, chunk_timeout=self.chunk_timeout,
@@ -387,6 +399,9 @@ class LearnerConfig(Service):
             threading.Thread(target=lambda: (stop.wait(), learner.core.interrupt()), name="stop-watch",
                              daemon=True).start()
             try:
+                while self.demos and imported.is_alive():  # training would wait for the import anyway
+                    if stop.wait(0.1):
+                        raise InterruptedError("stopped before training")
                 booted = bootstrap(learner.core, self.demos, self.train_steps)
             except InterruptedError:
                 log.info("stopped while training the --demos skills; they are trained at the next start")

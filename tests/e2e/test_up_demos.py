@@ -3,13 +3,33 @@ model service serves SKILL (row 3: it was printed before, and a predict right af
 ``unknown_skill``); Ctrl-C then says what it stops before the deployment stops (row 10)."""
 from __future__ import annotations
 
+import contextlib
 import signal
+import subprocess
+import sys
 import uuid
+from pathlib import Path
 
 from acnmp_core.demo_io import save_demos
 from acnmp_core.tasks.viapoint import obstacle_demos
 from clients.client import ACNMPClient
 from services.learner.store import demo_set_to_arrays
+
+
+@contextlib.contextmanager
+def ctrl_c_at_the_end(proc: subprocess.Popen):
+    """Yield a list that holds, after the block, the rest of ``proc``'s output: at the block's end
+    ``proc`` gets SIGINT and must exit 0 (killed if it is still running when the block fails)."""
+    out: list[str] = []
+    try:
+        yield out
+        proc.send_signal(signal.SIGINT)
+        out.append(proc.communicate(timeout=60)[0])
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 0, out
 
 
 def test_up_with_demos_is_up_once_the_skill_is_served_and_ctrl_c_says_what_it_stops(tmp_path, acnmp_up):
@@ -19,18 +39,12 @@ def test_up_with_demos_is_up_once_the_skill_is_served_and_ctrl_c_says_what_it_st
     # enough steps that training outlasts the start of the other processes
     proc, lines = acnmp_up("--namespace", ns, "--workers", "0", "--demos", f"mine={demos}",
                            "--train-steps", "100", "--state-dir", str(tmp_path / "state"))
-    try:
+    with ctrl_c_at_the_end(proc) as out:
         assert any("waiting for the model service to serve skill 'mine'" in ln for ln in lines), lines
         with ACNMPClient(namespace=ns, role="client", timeout=10) as client:
             info = client.info("mine")  # at once: was unknown_skill for as long as the training took
         assert info["skill"] == "mine" and info["version"] == 0
-        proc.send_signal(signal.SIGINT)
-        out, _ = proc.communicate(timeout=60)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
-    assert proc.returncode == 0, out
+    out = out[0]
     stopping = [ln for ln in out.splitlines() if ln.startswith("acnmp up: stopping")]
     assert len(stopping) == 1 and "learner" in stopping[0] and "model" in stopping[0], out
     assert "deployment stopped" in out.splitlines()[-1]
@@ -40,25 +54,15 @@ def test_ctrl_c_while_the_learner_trains_stops_it_without_a_kill(tmp_path, acnmp
     """Row 10: `acnmp up` took 8-14 s to stop when its learner was training (the default skill at a
     first start, a train request, an assimilation): SIGTERM was not seen until the training ended,
     so the launcher SIGKILLed the learner after its stop timeout. Training now stops at its next step."""
-    import subprocess
-    import sys
-    from pathlib import Path
-
     root = Path(__file__).resolve().parents[2]
     proc = subprocess.Popen([sys.executable, "-m", "clients.cli", "up", "--namespace", f"t-{uuid.uuid4().hex[:8]}",
                              "--workers", "0", "--train-steps", "1000000", "--state-dir", str(tmp_path / "state")],
                             cwd=root, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    try:
+    with ctrl_c_at_the_end(proc) as out:
         for line in proc.stdout:  # the learner is live and trains the default skill
             if "waiting for the model service to serve skill 'e1'" in line:
                 break
-        proc.send_signal(signal.SIGINT)
-        out, _ = proc.communicate(timeout=60)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
-    assert proc.returncode == 0, out
+    out = out[0]
     last = out.strip().splitlines()[-1]
     assert last.startswith("deployment stopped:") and "learner=0" in last, out  # was learner=-9
     assert "stopped while training the --demos skills" in (tmp_path / "state" / "logs" / "learner.log").read_text()
