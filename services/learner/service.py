@@ -387,9 +387,11 @@ class LearnerConfig(Service):
 
         torch.set_num_threads(1)
         # the first optimiser imports torch._dynamo and sympy (5-9 s measured on the busy 2-core
-        # machine without bytecode caches): on a thread, so the main one still sees a stop meanwhile
+        # machine without bytecode caches): for --demos, on a thread, so the main one still sees a
+        # stop meanwhile (otherwise the first train request or job imports them)
         imported = threading.Thread(target=import_training_modules, name="import-training", daemon=True)
-        imported.start()
+        if self.demos:
+            imported.start()
         state_dir = self.state_dir or f"runs/{self.session.namespace}/state"
         with LearnerService(session, Keyspace(self.session.namespace), state_dir, learner_id=self.learner_id,
                             wait_recorder=self.wait_recorder, chunk_timeout=self.chunk_timeout,
@@ -399,7 +401,7 @@ class LearnerConfig(Service):
             threading.Thread(target=lambda: (stop.wait(), learner.core.interrupt()), name="stop-watch",
                              daemon=True).start()
             try:
-                while self.demos and imported.is_alive():  # training would wait for the import anyway
+                while imported.is_alive():  # training would wait for the import anyway
                     if stop.wait(0.1):
                         raise InterruptedError("stopped before training")
                 booted = bootstrap(learner.core, self.demos, self.train_steps)
