@@ -25,6 +25,25 @@ def acnmp(*argv: str, stdout=subprocess.PIPE) -> subprocess.CompletedProcess:
                           stderr=subprocess.PIPE, text=True, timeout=120)
 
 
+@pytest.fixture
+def cli(capsys):
+    """``cli(*argv)``: the ``acnmp`` command run in this process (no interpreter start-up and imports
+    per case) -> a CompletedProcess with its exit code, stdout and stderr. An exception escaping
+    ``main`` fails the test, as a traceback would."""
+    from clients.cli import main
+
+    def run(*argv: str) -> subprocess.CompletedProcess:
+        capsys.readouterr()
+        try:
+            code = main(list(argv))
+        except SystemExit as exc:  # argparse's refusals
+            code = exc.code if isinstance(exc.code, int) else 1
+        out = capsys.readouterr()
+        return subprocess.CompletedProcess(["acnmp", *argv], code, out.out, out.err)
+
+    return run
+
+
 def one_line_error(out: subprocess.CompletedProcess, *expected: str) -> str:
     """The failure's stderr, checked: nonzero exit, no traceback, one line of its own (argparse
     may print its usage first), containing every ``expected`` text."""
@@ -53,19 +72,19 @@ NO_SERVICE = ["--connect", loopback_endpoint(1), "--timeout", "1"]
     (["query", "info", "-s", "e1", "--mode", "client", *NO_SERVICE], ["cannot open zenoh session"]),
     (["query", "info", "-s", "e1", "--timeout", "0"], ["--timeout"]),
 ])
-def test_query_mistakes_are_one_line(argv, expected):
-    one_line_error(acnmp(*argv), *expected)
+def test_query_mistakes_are_one_line(cli, argv, expected):
+    one_line_error(cli(*argv), *expected)
 
 
-def test_steps_zero_is_refused_not_silently_100():
-    out = acnmp("query", "predict", "-s", "e1", "--obs", "0:0,0", "--steps", "0", *NO_SERVICE)
+def test_steps_zero_is_refused_not_silently_100(cli):
+    out = cli("query", "predict", "-s", "e1", "--obs", "0:0,0", "--steps", "0", *NO_SERVICE)
     assert out.returncode == 2  # refused while parsing: nothing was sent
     one_line_error(out, "--steps")
 
 
-def test_replay_of_a_directory_says_so(tmp_path):
-    one_line_error(acnmp("replay", str(tmp_path)), str(tmp_path), "is a directory")
-    one_line_error(acnmp("replay", str(tmp_path / "missing.rrd")), "no such file")
+def test_replay_of_a_directory_says_so(cli, tmp_path):
+    one_line_error(cli("replay", str(tmp_path)), str(tmp_path), "is a directory")
+    one_line_error(cli("replay", str(tmp_path / "missing.rrd")), "no such file")
 
 
 @pytest.mark.parametrize("experiment, option, path, expected", [
@@ -74,8 +93,8 @@ def test_replay_of_a_directory_says_so(tmp_path):
     ("push", "--json", "{tmp}", "is a directory"),
     ("wall", "--json", "/proc/nope/x.json", "cannot write there"),
 ])
-def test_experiment_output_is_checked_before_the_run_starts(tmp_path, experiment, option, path, expected):
-    out = acnmp("experiment", experiment, option, path.format(tmp=tmp_path))
+def test_experiment_output_is_checked_before_the_run_starts(cli, tmp_path, experiment, option, path, expected):
+    out = cli("experiment", experiment, option, path.format(tmp=tmp_path))
     one_line_error(out, option, expected)
     assert out.stdout == ""  # refused before any work was printed
 
