@@ -36,15 +36,27 @@ def e1_demos():
 
 
 @pytest.fixture(scope="session")
-def e1_model(e1_demos):
+def e1_model(e1_demos, tmp_path_factory):
     """A CNMP trained on the E1 demonstrations (3000 steps, seed 0). Tests must deep-copy before
-    changing it."""
+    changing it. Trained once per run: under pytest-xdist the first worker that needs it trains
+    and saves it (under a file lock in the run's shared temporary directory), the others load it."""
+    from filelock import FileLock
+
+    from acnmp_core.checkpoint import load_checkpoint, save_checkpoint
     from acnmp_core.cnmp import CNMP, CNMPConfig
     from acnmp_core.training import TrainConfig, train
 
-    model = CNMP(CNMPConfig(n_outputs=2), seed=0)
-    train(model, e1_demos, TrainConfig(steps=3000), seed=0, progress=False)
-    return model
+    base = tmp_path_factory.getbasetemp()
+    # this run's directory, the same for every xdist worker (each has its own basetemp inside it)
+    shared = base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base
+    path = shared / "e1_model_3000.pt"
+    with FileLock(str(path) + ".lock"):
+        if path.exists():
+            return load_checkpoint(path)[0]
+        model = CNMP(CNMPConfig(n_outputs=2), seed=0)
+        train(model, e1_demos, TrainConfig(steps=3000), seed=0, progress=False)
+        save_checkpoint(model, path)
+        return model
 
 
 @pytest.fixture(scope="session")

@@ -50,8 +50,8 @@ def test_wall_run_counts_executed_snaps_and_snapped_outputs_end_on_the_goal():
     from acnmp_core.experiments.wall import run_wall
 
     # a small budget keeps the adaptations that fail short
-    kw = dict(envs=4, seed=0, n_initial=12, n_test=50, eval_every=4, train_steps=300, assimilate_steps=30,
-              adapt_config=AdaptConfig(max_rollouts=60))
+    kw = dict(envs=2, seed=0, n_initial=12, n_test=20, eval_every=2, train_steps=300, assimilate_steps=10,
+              adapt_config=AdaptConfig(max_rollouts=40))
     snapped = run_wall(**kw, methods=("acnmp",))
     a = snapped["methods"]["acnmp"]
     solved = a["adaptations"] - a["adaptations_failed"]
@@ -61,7 +61,7 @@ def test_wall_run_counts_executed_snaps_and_snapped_outputs_end_on_the_goal():
     from acnmp_core.experiments.wall import PROMP_DEFAULTS
     from acnmp_core.promp_rl import PrompRLConfig
 
-    out = run_wall(**kw, snap_outputs=True, promp_config=PrompRLConfig(**{**PROMP_DEFAULTS, "max_rollouts": 60}))
+    out = run_wall(**kw, snap_outputs=True, promp_config=PrompRLConfig(**{**PROMP_DEFAULTS, "max_rollouts": 40}))
     for m in ("acnmp", "promp_rl"):
         assert out["methods"][m]["test_goal_error_mean"] < 1e-9
     assert out["config"]["snap_outputs"] is True
