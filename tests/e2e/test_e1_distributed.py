@@ -4,7 +4,7 @@ import json
 from clients.cli import main
 from services.recording.replay import summarize
 
-ARGS = ["--seed", "2", "--budget", "15", "--train-steps", "600", "--quiet"]
+ARGS = ["--seed", "2", "--budget", "10", "--train-steps", "300", "--quiet"]
 
 
 def test_distributed_e1_matches_in_process_and_records_every_rollout(tmp_path, verify_rrd):
