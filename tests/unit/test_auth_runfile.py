@@ -102,3 +102,19 @@ def test_run_files_are_found_by_namespace_and_stale_ones_ignored(monkeypatch, tm
         find("nope")
     live.remove()
     assert not live.path.exists()
+
+
+def test_every_session_refuses_messages_over_the_request_limit_at_the_transport(tmp_path):
+    """Issue 31: the router's config, every role's config and every session built by make_config cap
+    zenoh's rx message size at the request limit + 1 MiB (zenoh's default is 1 GiB)."""
+    from services.transport.session import MAX_MESSAGE_BYTES, make_config
+    from services.transport.wire import DEFAULT_MAX_BYTES
+
+    assert MAX_MESSAGE_BYTES == DEFAULT_MAX_BYTES + (1 << 20)
+    written = auth.write_router_deployment(tmp_path / "d", "tcp/0.0.0.0:7447", "tcp/router:7447")
+    for name in ("router.json5", "client.json5", "worker.json5"):
+        cfg = zenoh.Config.from_file(str(written[name]))
+        assert json.loads(cfg.get_json("transport/link/rx/max_message_size")) == MAX_MESSAGE_BYTES, name
+    for mode in ("peer", "client", "router"):
+        cfg = make_config(mode, listen=[] if mode != "peer" else None)
+        assert json.loads(cfg.get_json("transport/link/rx/max_message_size")) == MAX_MESSAGE_BYTES, mode
