@@ -29,8 +29,10 @@ from typing import Any
 import numpy as np
 
 #: Environment variables that change which BLAS / SIMD kernels run, hence the floats.
+#: (Thread counts are not among them: ``torch_threads`` records the count the runs used, whatever
+#: OMP_NUM_THREADS said; scripts/test.sh sets it, ``benchmarks/regression.py`` does not need to.)
 NUMERICS_ENV = ("MKL_CBWR", "MKL_ENABLE_INSTRUCTIONS", "ATEN_CPU_CAPABILITY", "OPENBLAS_CORETYPE",
-                "NPY_DISABLE_CPU_FEATURES", "OMP_NUM_THREADS", "MKL_NUM_THREADS", "DNNL_MAX_CPU_ISA")
+                "NPY_DISABLE_CPU_FEATURES", "DNNL_MAX_CPU_ISA")
 #: Fields of ``/proc/cpuinfo`` that identify a CPU's microarchitecture.
 CPU_FIELDS = {"vendor_id": "vendor", "cpu family": "family", "model": "model", "stepping": "stepping",
               "model name": "name"}
