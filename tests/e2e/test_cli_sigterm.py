@@ -17,8 +17,9 @@ ROOT = Path(__file__).resolve().parents[2]
 def test_sigterm_unwinds_an_experiment_and_removes_its_generated_files(tmp_path):
     env = dict(os.environ, PYTHONPATH=str(ROOT), RERUN_ANALYTICS="0", TMPDIR=str(tmp_path))
     env.pop("ACNMP_TRACEBACK", None)
-    # E2 builds its planar arm's URDF in a per-process directory before it trains for minutes
-    proc = subprocess.Popen([sys.executable, "-m", "clients.cli", "experiment", "push", "--seeds", "1"], cwd=ROOT,
+    # E4 builds its planar arms' URDFs in a per-process directory (within ~8 s, E2 takes ~19 s to get
+    # there) before it trains for minutes
+    proc = subprocess.Popen([sys.executable, "-m", "clients.cli", "experiment", "transfer", "--runs", "1"], cwd=ROOT,
                             env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     try:
         pattern = os.path.join(str(tmp_path), f"acnmp-urdf-{proc.pid}-*")
