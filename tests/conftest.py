@@ -35,23 +35,35 @@ def e1_demos():
     return obstacle_demos()
 
 
+def _run_dir(tmp_path_factory) -> Path:
+    """This run's temporary directory, the same for every pytest-xdist worker (each worker's own
+    basetemp is inside it; without xdist it is the basetemp)."""
+    base = tmp_path_factory.getbasetemp()
+    return base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base
+
+
+@contextlib.contextmanager
+def _once(path: Path):
+    """``with _once(path) as todo:`` build ``path`` when ``todo`` (no other worker of this run has):
+    the workers of one run take turns under a file lock, so a long fixture is built once per run."""
+    from filelock import FileLock
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with FileLock(str(path) + ".lock"):
+        yield not path.exists()
+
+
 @pytest.fixture(scope="session")
 def e1_model(e1_demos, tmp_path_factory):
     """A CNMP trained on the E1 demonstrations (3000 steps, seed 0). Tests must deep-copy before
-    changing it. Trained once per run: under pytest-xdist the first worker that needs it trains
-    and saves it (under a file lock in the run's shared temporary directory), the others load it."""
-    from filelock import FileLock
-
+    changing it. Trained once per run (the first xdist worker saves it, the others load it)."""
     from acnmp_core.checkpoint import load_checkpoint, save_checkpoint
     from acnmp_core.cnmp import CNMP, CNMPConfig
     from acnmp_core.training import TrainConfig, train
 
-    base = tmp_path_factory.getbasetemp()
-    # this run's directory, the same for every xdist worker (each has its own basetemp inside it)
-    shared = base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base
-    path = shared / "e1_model_3000.pt"
-    with FileLock(str(path) + ".lock"):
-        if path.exists():
+    path = _run_dir(tmp_path_factory) / "e1_model_3000.pt"
+    with _once(path) as todo:
+        if not todo:
             return load_checkpoint(path)[0]
         model = CNMP(CNMPConfig(n_outputs=2), seed=0)
         train(model, e1_demos, TrainConfig(steps=3000), seed=0, progress=False)
@@ -73,23 +85,27 @@ def small_model(e1_demos):
 
 @pytest.fixture(scope="session")
 def ur10_demo_file(tmp_path_factory):
-    """Path of the E5 demonstration set, generated once per session (~6 s) in a temporary folder
+    """Path of the E5 demonstration set, generated once per run (~6 s; shared by the xdist workers) in a temporary folder
     under its default name (with ``ACNMP_CACHE`` set to that folder, the default loads it)."""
     from acnmp_core.tasks.ur10_demos import default_demo_path, ur10_demos
 
-    path = tmp_path_factory.mktemp("ur10_demos") / Path(default_demo_path()).name
-    ur10_demos(path=str(path))
+    path = _run_dir(tmp_path_factory) / "ur10_demos" / Path(default_demo_path()).name
+    with _once(path) as todo:
+        if todo:
+            ur10_demos(path=str(path))
     return path
 
 
 @pytest.fixture(scope="session")
 def pour_demo_file(tmp_path_factory):
-    """Path of the E6 demonstration set, generated once per session (~15-25 s) in a temporary folder
+    """Path of the E6 demonstration set, generated once per run (~15-25 s; shared by the xdist workers) in a temporary folder
     under its default name (with ``ACNMP_CACHE`` set to that folder, the default loads it)."""
     from acnmp_core.tasks.pour_demos import default_demo_path, pour_demos
 
-    path = tmp_path_factory.mktemp("pour_demos") / Path(default_demo_path()).name
-    pour_demos(str(path))
+    path = _run_dir(tmp_path_factory) / "pour_demos" / Path(default_demo_path()).name
+    with _once(path) as todo:
+        if todo:
+            pour_demos(str(path))
     return path
 
 

@@ -122,12 +122,12 @@ def _without_timings(result):
 
 def test_seeds_in_parallel_processes_give_the_serial_result(pour_demo_file):
     """jobs=2: two seeds in two spawned processes, each on its own rig, same result as one after the other."""
-    kw = dict(train_steps=20, adapt_config=e6_adapt_config(3), assimilate_solution=False,
+    kw = dict(train_steps=20, adapt_config=e6_adapt_config(2), assimilate_solution=False,
               demo_path=str(pour_demo_file))
     serial, parallel = run_pour([1, 0], **kw), run_pour([1, 0], jobs=2, **kw)
     assert [r["seed"] for r in parallel["runs"]] == [1, 0]
-    per_rollout = serial["acnmp"]["errors_g_per_rollout"]  # the LfD roll-out and two noisy ones per seed
-    assert [len(e) for e in per_rollout] == [3, 3] and per_rollout[0] != per_rollout[1]  # the seeds differ ...
+    per_rollout = serial["acnmp"]["errors_g_per_rollout"]  # the LfD roll-out and a noisy one per seed
+    assert [len(e) for e in per_rollout] == [2, 2] and per_rollout[0] != per_rollout[1]  # the seeds differ ...
     assert _without_timings(parallel) == _without_timings(serial)  # ... and each is the serial one
     assert parallel["config"]["jobs"] == 2 and parallel["rollout_cpu_s_median"] > 0
 
