@@ -127,10 +127,10 @@ def fingerprint(with_canary: bool = True) -> dict[str, Any]:
 
 def fingerprint_differences(pinned: dict | None, here: dict) -> list[str]:
     """Why ``here`` is not provably the machine of ``pinned``: one ``"field: pinned -> here"`` per
-    differing field (``["its fingerprint (written before fingerprints)"]`` for a pin without one);
+    differing field (``["no fingerprint (written before fingerprints)"]`` for a pin without one);
     empty when every field is equal."""
     if not pinned:
-        return ["its fingerprint (written before fingerprints)"]
+        return ["no fingerprint (written before fingerprints)"]
     out = []
     for part in ("cpu", "software"):
         a, b = pinned.get(part, {}), here.get(part, {})

@@ -212,7 +212,12 @@ def compare(pins: dict[str, dict], measured: dict, here: dict, bands: dict | Non
         diff += [f"[{key}] {d}" for d in differences(pin["runs"], measured, leaves=STABLE_LEAVES)]
     diff += outside_bands(published_bands() if bands is None else bands, measured)
     closest = min(why, key=lambda k: len(why[k])) if why else None
-    reason = f"closest pin {closest!r} lacks or differs in {', '.join(why[closest])}" if closest else "no pin"
+    if closest is None:
+        reason = "no pin"
+    elif not pins[closest].get("fingerprint"):
+        reason = f"closest pin {closest!r} has no fingerprint (written before fingerprints)"
+    else:
+        reason = f"closest pin {closest!r} differs in {', '.join(why[closest])}"
     return Comparison(False, diff, "exact counts not compared (no pin from this machine: "
                       f"{reason}); successes and bands only")
 
