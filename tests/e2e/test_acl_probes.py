@@ -4,14 +4,13 @@ nothing and stall nothing (services/transport/acl.py, docs/PROTOCOL.md "Security
 from __future__ import annotations
 
 import time
-import uuid
 
 import numpy as np
 import pytest
 
 from acnmp_core.experiments.viapoint import make_setup
-from benchmarks.hostile_inputs import SMALL, served, valid_requests
-from services.launcher import LocalDeployment
+from benchmarks.hostile_acl import acl_deployment
+from benchmarks.hostile_inputs import SMALL, valid_requests
 from services.model.weights import encode_weights
 from services.recording.events import rollout_event
 from services.transport import call, encode, open_session
@@ -24,15 +23,7 @@ ROLES = ("client", "worker", "operator")
 def dep(tmp_path_factory):
     """An authenticated deployment (router + learner + model + one point2d worker + recorder) with
     skill ``e1`` trained (version 0) and served; its router session is the test's trusted side."""
-    tmp = tmp_path_factory.mktemp("aclp")
-    setup = make_setup()
-    with LocalDeployment(f"aclp-{uuid.uuid4().hex[:8]}", workers=1, secure=True, announce=False,
-                         record=tmp / "run.rrd", state_dir=tmp / "state", start_timeout=90,
-                         learner_args=["--max-train-steps", "50", "--max-rollouts", "4"]) as d:
-        train = {"times": np.stack([x.times for x in setup.demos]), "values": np.stack([x.values for x in setup.demos]),
-                 "model": SMALL, "train": {"steps": 20}}
-        assert call(d.session, d.keys.train("e1"), train, timeout=60)["version"] == 0
-        served(d)
+    with acl_deployment(tmp_path_factory.mktemp("aclp")) as d:
         yield d
 
 
