@@ -615,14 +615,14 @@ def pour_body():
     """The registry's description of the ``pour`` robot kind (:mod:`acnmp_core.robots.registry`).
 
     Joints: the one wrist joint (``"wrist"``, limits :attr:`PourConfig.wrist_limits` rad); drawing:
-    a :class:`~acnmp_core.robots.registry.PointSetDrawing` of the marbles (their radius, m), the cup
+    a :class:`~acnmp_core.robots.spec.PointSetDrawing` of the marbles (their radius, m), the cup
     turning about the wrist axis and the receiving cup;
     simulator: a :class:`PourSim` of the default rig loaded with :data:`TEST_WEIGHT_G` (the
     heaviest load of the experiments; :class:`PourTask` builds one world per load itself).
     """
     from functools import partial
 
-    from .registry import Joint, PointSetDrawing, RobotBody
+    from .spec import Joint, PointSetDrawing, RobotBody
 
     cfg = PourConfig()
     lo, hi = cfg.wrist_limits

@@ -392,13 +392,13 @@ def ur10_body():
 
     Joints: the six arm joints of :data:`~acnmp_core.robots.ur10_description.UR10_ARM_JOINTS` with
     their position limits (rad) read from the package's URDF; drawing: a
-    :class:`~acnmp_core.robots.registry.MeshChainDrawing` of the arm and gripper's collision shapes
+    :class:`~acnmp_core.robots.spec.MeshChainDrawing` of the arm and gripper's collision shapes
     with the default scene's layout (m);
     simulator: :class:`UR10Sim` with the default scene and gripper.
     """
     import xml.etree.ElementTree as ET
 
-    from .registry import Joint, MeshChainDrawing, RobotBody
+    from .spec import Joint, MeshChainDrawing, RobotBody
     from .ur10_description import ur10_source_urdf
 
     root = ET.parse(ur10_source_urdf()).getroot()

@@ -24,11 +24,21 @@ def register_task(name: str, credit: str = "step"):
     """
 
     def deco(factory):
-        _FACTORIES[name] = factory
-        _CREDITS[name] = credit
+        add_task(name, factory, credit)
         return factory
 
     return deco
+
+
+def add_task(name: str, factory: Callable[[dict[str, Any]], RolloutEvaluator], credit: str = "step") -> None:
+    """Register ``factory(params: dict) -> RolloutEvaluator`` under ``name`` with its ``credit``
+    ("step" or "future"); ValueError for a name already taken (a robot plugin cannot replace a task)."""
+    if name in _FACTORIES:
+        raise ValueError(f"task: {name!r} is already registered")
+    if credit not in ("step", "future"):
+        raise ValueError(f"credit: expected 'step' or 'future', got {credit!r}")
+    _FACTORIES[name] = factory
+    _CREDITS[name] = credit
 
 
 def task_credit(name: str) -> str:

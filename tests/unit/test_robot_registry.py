@@ -58,7 +58,7 @@ def test_unknown_kinds_and_bad_entries_are_refused():
     with pytest.raises(UnknownTaskError):
         register_robot(RobotSpec("juggler", "juggles", tasks={"juggle": {}}))
     with pytest.raises(InputError, match="already"):
-        register_robot(RobotSpec("point2d", "again", tasks={}))
+        register_robot(RobotSpec("point2d", "again", tasks={"viapoint": {}}))
 
 
 def test_a_new_robot_is_one_entry(monkeypatch):
@@ -67,6 +67,7 @@ def test_a_new_robot_is_one_entry(monkeypatch):
     import acnmp_core.robots.registry as registry
 
     monkeypatch.setattr(registry, "_ROBOTS", dict(registry._ROBOTS))
+    monkeypatch.setattr(registry, "_SOURCES", dict(registry._SOURCES))
     drawing = PlanarChainDrawing((0.2, 0.2))
     register_robot(RobotSpec("planar2", "2-DoF arm", tasks={"push": {"n_joints": 2}},
                              body=lambda: RobotBody(drawing=drawing)))
