@@ -208,11 +208,12 @@ def _private_runtime_dir(tmp_path_factory, monkeypatch):
 @pytest.fixture(scope="session")
 def acnmp_up():
     """``start(*args)``: run ``acnmp up ARGS`` as a child process (stdout piped, text) and read its
-    output until "deployment is up"; returns (Popen, lines read). The caller stops it (in a finally)."""
+    output until "deployment is up"; returns (Popen, lines read). The caller stops it (in a finally).
+    ``path``: directories put before the project's on PYTHONPATH (e.g. an installed plugin's)."""
     root = Path(__file__).resolve().parents[1]
 
-    def start(*args: str) -> tuple[subprocess.Popen, list[str]]:
-        env = dict(os.environ, PYTHONPATH=str(root), RERUN_ANALYTICS="0")
+    def start(*args: str, path: tuple[str, ...] = ()) -> tuple[subprocess.Popen, list[str]]:
+        env = dict(os.environ, PYTHONPATH=os.pathsep.join([*path, str(root)]), RERUN_ANALYTICS="0")
         proc = subprocess.Popen([sys.executable, "-m", "clients.cli", "up", *args], cwd=root, env=env,
                                 stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
         lines = []

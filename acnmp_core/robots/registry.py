@@ -101,13 +101,27 @@ def robot_source(kind: str) -> str:
     return _SOURCES[kind]
 
 
+def plugins_for_children() -> str:
+    """The value of ``ACNMP_ROBOT_PLUGINS`` for a child process: this process's own, plus every
+    plugin it loaded by reference, so that the child knows the same robot kinds."""
+    refs = [r.strip() for r in os.environ.get(PLUGINS_ENV, "").split(",") if r.strip()]
+    refs += [ref for ref in _REFERENCES if ref not in refs]
+    return ",".join(refs)
+
+
+#: the references loaded in this process (``robot("pkg.mod:attr")``), in order
+_REFERENCES: list[str] = []
+
+
 @functools.lru_cache(maxsize=None)
 def _reference(ref: str) -> RobotSpec:
     found = plugins.Found(ref, ref)
     specs = found.specs()
     if len(specs) != 1:
         raise plugins.PluginError(f"expected one RobotSpec, found {len(specs)}")
-    return register_robot(specs[0], found.source)
+    spec = register_robot(specs[0], found.source)
+    _REFERENCES.append(ref)
+    return spec
 
 
 def robot(kind: str) -> RobotSpec:

@@ -49,6 +49,7 @@ from typing import Callable, Sequence
 
 import zenoh
 
+from acnmp_core.robots.registry import PLUGINS_ENV, plugins_for_children
 from acnmp_core.robots.registry import robot as robot_spec
 from services.learner.store import DirectoryLock
 from services.recording.event_ids import marks_path
@@ -413,8 +414,12 @@ class LocalDeployment:
 def _popen(argv: list[str], log: Path) -> subprocess.Popen:
     """Start a child in its own session (a terminal's Ctrl-C reaches only the launcher), output to ``log``;
     it watches the launcher's pid (services.transport.lifetime.watch_parent)."""
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])),
+    # the launcher's directory too: a robot plugin named as module:attr is found from where it was named
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(ROOT), os.getcwd(), os.environ.get("PYTHONPATH")])),
                RERUN_ANALYTICS="0", OMP_NUM_THREADS="1", PYTHONUNBUFFERED="1")
+    # robot plugins this process loaded by reference reach every child (the learner validates jobs
+    # of the kind, the recorder draws it)
+    env[PLUGINS_ENV] = plugins_for_children()
     env[PARENT_PID_ENV] = str(os.getpid())  # children stop when the launcher dies (even by kill -9)
     env.pop("RERUN", None)  # RERUN=off would silence the recorder
     with open(log, "ab") as out:

@@ -228,9 +228,38 @@ def draw_point_set(rec: rr.RecordingStream, job: str, idx: int, msg: dict, color
             quaternions=_pitch_quats(_array(msg, "scene_pitch", (-1,))), colors=[(90, 90, 200)]))
 
 
+def draw_ee_path(rec: rr.RecordingStream, job: str, idx: int, msg: dict, color) -> None:
+    """Any robot by its end effector: ``ee_xyz`` (T, 3) m as a moving point and the roll-out's path;
+    with ``object_xyz`` (T, 3) m the handled object likewise; with ``goal_params`` (indices into
+    ``task_params``) the goal as a point (e.g. a Gymnasium arm's, acnmp_core/robots/gym_robot.py)."""
+    ee = _array(msg, "ee_xyz", (-1, 3))
+    steps = ee.shape[0]
+    if not 1 <= steps < STEP_STRIDE:
+        raise ValueError(f"ee_xyz: expected 1 <= T < {STEP_STRIDE} steps, got {steps}")
+    indexes = _indexes(idx, np.arange(steps, dtype=np.int64), msg)
+    parts = [("effector", ee, color, 0.012)]
+    if msg.get("object_xyz") is not None:
+        parts.append(("object", _array(msg, "object_xyz", (steps, 3)), (200, 40, 40), 0.025))
+    for name, path, colour, radius in parts:
+        rec.send_columns(f"arm/{job}/{name}", indexes=indexes, columns=rr.Points3D.columns(
+            positions=path.astype(np.float32), colors=[colour] * steps,
+            radii=np.full(steps, radius, np.float32)).partition(np.ones(steps, np.int64)))
+    _at_first_step(rec, idx)
+    for name, path, colour, _ in parts:
+        rec.log(f"arm/{job}/{name}_path", rr.LineStrips3D([path], colors=[colour], labels=[f"#{idx}"]))
+    goal = np.asarray(msg.get("goal_params", ()), dtype=np.int64).reshape(-1)
+    tp = msg.get("task_params")
+    if goal.size in (2, 3) and tp is not None and int(goal.max()) < np.asarray(tp).size:
+        xyz = np.zeros(3)
+        xyz[:goal.size] = np.asarray(tp, dtype=np.float64).reshape(-1)[goal]
+        if goal.size == 2:  # a goal on the ground: at the object's (or effector's) first height
+            xyz[2] = (parts[-1][1])[0, 2]
+        rec.log(f"arm/{job}/goal", rr.Points3D([xyz], radii=[0.02], colors=[(40, 120, 220)], labels=["goal"]))
+
+
 #: Drawing kind -> its function.
 DRAWERS: dict[str, Drawer] = {"planar_chain": draw_planar_chain, "mesh_chain": draw_mesh_chain,
-                              "point_set": draw_point_set}
+                              "point_set": draw_point_set, "ee_path": draw_ee_path}
 
 
 def drawer_for(msg: dict) -> Drawer | None:

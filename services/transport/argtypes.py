@@ -76,6 +76,27 @@ def key_name(kind: str):
     return parse
 
 
+def robot_kind(text: str) -> str:
+    """An argparse type: a registered robot kind, or a plugin ``package.module:attr`` (loaded and
+    registered, :mod:`acnmp_core.robots.registry`); returns the kind. The error is one line naming
+    the known kinds, or the plugin and why it could not be loaded."""
+    from acnmp_core.errors import UnknownRobotError
+    from acnmp_core.robots.registry import robot
+
+    try:
+        return robot(text).kind
+    except UnknownRobotError as exc:
+        raise argparse.ArgumentTypeError(str(exc).removeprefix("robot: ")) from None
+
+
+def robot_help(what: str) -> str:
+    """The ``--help`` text of a robot option: ``what``, the kinds known here, how to name a plugin."""
+    from acnmp_core.robots.registry import robot_kinds
+
+    return (f"{what}: one of {', '.join(robot_kinds())} (`acnmp robots` lists them), or a plugin "
+            f"package.module:attr")
+
+
 def endpoint(text: str) -> str:
     """An argparse type: a zenoh endpoint ``<protocol>/<address>`` as zenoh parses it (for the
     endpoints a command writes into config files rather than opening a session on)."""

@@ -17,7 +17,7 @@ Example (the worker's)::
     class WorkerConfig(Service):
         name: ClassVar[str] = "worker"
         summary: ClassVar[str] = "a roll-out worker of one robot kind"
-        robot: str = option("point2d", "robot kind", choices=robot_kinds)
+        robot: str = option("point2d", "robot kind", type=robot_kind)
         worker_id: str | None = option(None, "worker id (default: <robot>-<pid>)", flag="--id")
 
         def serve(self, session, stop, ready) -> int: ...

@@ -15,9 +15,8 @@ from typing import ClassVar
 
 import zenoh
 
-from acnmp_core.robots.registry import robot_kinds
 from services.transport import Keyspace, Ready, Service, declare_rpc, option, wait_until_stopped
-from services.transport.argtypes import seconds
+from services.transport.argtypes import robot_help, robot_kind, seconds
 
 from .core import Worker
 
@@ -31,8 +30,7 @@ class WorkerConfig(Service):
     name: ClassVar[str] = "worker"
     summary: ClassVar[str] = "a roll-out worker of one robot kind"
 
-    robot: str = option("point2d", "robot kind (acnmp_core/robots/registry.py; default: %(default)s)",
-                        choices=robot_kinds)
+    robot: str = option("point2d", robot_help("robot kind") + " (default: %(default)s)", type=robot_kind)
     worker_id: str | None = option(None, "worker id (default: <robot>-<pid>)", flag="--id", metavar="ID")
     delay: float = option(0.0, "sleep S seconds per roll-out, to simulate a slow robot (default: 0)", metavar="S",
                           type=seconds(zero=True))

@@ -1,0 +1,1 @@
+"""A robot plugin for ACNMP: a 2-link planar arm reaching a goal, as a Gymnasium environment."""
