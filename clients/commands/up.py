@@ -7,17 +7,15 @@ import sys
 
 def register(subparsers) -> None:
     """Add the ``up`` sub-command."""
-    from acnmp_core.robots.registry import robot_kinds
-
-    from services.transport.argtypes import int_at_least, key_name, non_empty
+    from services.transport.argtypes import int_at_least, key_name, non_empty, robot_help, robot_kind
 
     p = subparsers.add_parser("up", help="start a local deployment on 127.0.0.1 until Ctrl-C / SIGTERM",
                               description=__doc__.splitlines()[0].split(": ", 1)[1])
     p.add_argument("--namespace", "-n", type=key_name("namespace"), default="default",
                    help="key prefix acnmp/<namespace>/ (default: %(default)s)")
     p.add_argument("--workers", type=int_at_least(0), default=2, help="number of workers (default: %(default)s)")
-    p.add_argument("--robot", default=robot_kinds()[0], choices=robot_kinds(),
-                   help="robot kind of the workers (default: %(default)s)")
+    p.add_argument("--robot", default="point2d", type=robot_kind,
+                   help=robot_help("robot kind of the workers") + " (default: %(default)s)")
     p.add_argument("--record", type=non_empty, default=None, metavar="FILE.rrd", help="start a recorder writing this file")
     p.add_argument("--state-dir", type=non_empty, default=None, metavar="DIR",
                    help="learner checkpoints and process logs, locked while the deployment runs "
