@@ -177,6 +177,12 @@ class GymRolloutEvaluator:
                 env.close()
         self._env = self._vector = None
 
+    def __enter__(self) -> "GymRolloutEvaluator":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
     @property
     def dt(self) -> float:
         """Seconds per environment step (``env.unwrapped.dt`` or 1)."""

@@ -274,8 +274,10 @@ class RobotSpec:
 
         cfg = self.task_config(task, params)
         try:
+            if task in self.new_tasks:  # its own task (also before the robot is registered)
+                return self.new_tasks[task].build(cfg)
             return make_task(task, cfg)
         except InputError:
             raise
-        except ValueError as exc:  # the task registry's checks of the parameters
+        except (ValueError, TypeError, KeyError) as exc:  # the task's checks of its parameters
             raise InputError(str(exc)) from None

@@ -1,0 +1,133 @@
+"""Gymnasium environments as robots (issue 33): a trajectory (T, D) executed as one seeded episode
+through a PD or position controller; rewards, success, task parameters, early ends, vector envs;
+roll-outs recorded with the end effector's path. Uses examples/my_robot's ReachEnv (no MuJoCo) and
+a few small environments of its own."""
+from __future__ import annotations
+
+import dataclasses
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+gym = pytest.importorskip("gymnasium", reason="gymnasium is not installed (scripts/setup.sh installs it)")
+
+from acnmp_core.errors import InputError  # noqa: E402
+from acnmp_core.robots.gym_robot import GymRobotConfig, GymRolloutEvaluator, gym_robot  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "examples" / "my_robot"))
+from my_robot.env import START, ReachEnv, hand  # noqa: E402
+from my_robot.make_demos import demos  # noqa: E402
+
+CONFIG = GymRobotConfig(ReachEnv, joint_positions=lambda o: o[:2], kp=20.0, success="is_success",
+                        error=lambda ep: float(ep.final_info["distance"]),
+                        end_effector=lambda o: np.array([o[2], o[3], 0.0]), goal_params=(0, 1))
+
+
+def test_a_demonstration_tracked_by_pd_reaches_its_goal_and_the_episode_is_seeded():
+    d = demos()
+    ev = GymRolloutEvaluator(CONFIG)
+    batch = ev.evaluate(d.values, d.times[0], d.task_params[0])  # every roll-out aims at goal 0
+    assert batch.rewards.shape == (5, 50) and batch.states["joint_angles"].shape == (5, 50, 2)
+    assert batch.success.tolist() == [True, False, False, False, False]
+    assert batch.errors[0] < 0.03 and np.all(batch.rewards[:, :-1] == 0)
+    np.testing.assert_allclose(batch.rewards[:, -1], -batch.errors)
+    np.testing.assert_allclose(batch.states["ee_xyz"][0, -1, :2], hand(batch.states["joint_angles"][0, -1]))
+    again = ev.evaluate(d.values, d.times[0], d.task_params[0])
+    np.testing.assert_array_equal(again.rewards, batch.rewards)
+
+
+def test_position_control_sends_the_targets_and_a_setter_places_the_task():
+    seen = []
+
+    def set_goal(env, params):
+        seen.append(params.copy())
+        env.unwrapped.goal = params
+        return env.unwrapped._obs()
+
+    cfg = dataclasses.replace(CONFIG, control="position", set_task=set_goal)
+    targets = np.full((1, 4, 2), 0.5)
+    batch = GymRolloutEvaluator(cfg).evaluate(targets, np.arange(4), np.array([0.1, 0.2]))
+    np.testing.assert_array_equal(batch.states["actions"][0], np.full((4, 2), 0.5))
+    assert len(seen) == 1 and seen[0].tolist() == [0.1, 0.2]
+
+
+class _EndsEarly(gym.Env):
+    """1 joint moving at the commanded velocity; terminates after 3 steps; reward 1 per step."""
+
+    action_space = gym.spaces.Box(-1.0, 1.0, (1,), np.float32)
+    observation_space = gym.spaces.Box(-np.inf, np.inf, (1,), np.float64)
+    dt = 0.1
+
+    def reset(self, *, seed=None, options=None):
+        super().reset(seed=seed)
+        self.q, self.t = np.zeros(1), 0
+        return self.q.copy(), {}
+
+    def step(self, action):
+        self.q = self.q + np.asarray(action, dtype=np.float64) * self.dt
+        self.t += 1
+        return self.q.copy(), 1.0, self.t >= 3, False, {"t": self.t}
+
+
+def test_an_episode_that_ends_early_holds_its_last_state_and_earns_nothing_more():
+    cfg = GymRobotConfig(_EndsEarly, kp=5.0, success=lambda ep: ep.steps == 3,
+                         reward=lambda ep: float(ep.states["joint_angles"][-1, 0]))
+    batch = GymRolloutEvaluator(cfg).evaluate(np.ones((2, 6, 1)), np.arange(6))
+    q = batch.states["joint_angles"][0, :, 0]
+    assert np.all(q[3:] == q[2]) and q[2] > q[1] > q[0] > 0
+    assert batch.success.all()
+    # a trajectory-level reward (a float) goes to the last step taken
+    assert np.count_nonzero(batch.rewards[0]) == 1 and batch.rewards[0, 2] == pytest.approx(q[2])
+
+
+def test_a_batch_through_the_vector_api_gives_the_same_roll_outs():
+    d = demos()
+    one = GymRolloutEvaluator(CONFIG).evaluate(d.values, d.times[0], d.task_params[2])
+    with GymRolloutEvaluator(dataclasses.replace(CONFIG, vector_envs=2)) as ev:
+        two = ev.evaluate(d.values, d.times[0], d.task_params[2])  # 5 roll-outs: chunks of 2, 2, 1
+    np.testing.assert_allclose(two.rewards, one.rewards)
+    np.testing.assert_allclose(two.states["joint_angles"], one.states["joint_angles"])
+    assert two.success.tolist() == one.success.tolist()
+
+
+def test_wrong_inputs_are_one_line_errors():
+    ev = GymRolloutEvaluator(CONFIG)
+    with pytest.raises(InputError, match=r"actions are \(2,\), the trajectories have D=3"):
+        ev.evaluate(np.zeros((1, 5, 3)), np.arange(5), np.zeros(2))
+    with pytest.raises(InputError, match="expected \\(B, T, D\\)"):
+        ev.evaluate(np.zeros((5, 3)), np.arange(5))
+    with pytest.raises(InputError, match="Box"):
+        GymRobotConfig(lambda: gym.make("CartPole-v1")).make_env()
+    with pytest.raises(InputError, match="control"):
+        GymRobotConfig(ReachEnv, control="torque")
+    spec = gym_robot("reacher2", "test", CONFIG, task="reach_t")
+    factory = spec.new_tasks["reach_t"]
+    with pytest.raises(InputError, match="takes only 'seed'"):
+        factory.build({"goal": 1})
+    assert factory.build({"seed": 3}).config.seed == 3
+
+
+def test_a_gym_robot_is_recorded_with_its_end_effector_path(tmp_path, verify_rrd):
+    import rerun as rr
+
+    from services.recording.events import batch_rollout_events, decode_event
+    from services.recording.rrd_writer import RrdWriter
+    from services.transport import encode
+
+    spec = gym_robot("reacher3", "test", CONFIG, task="reach_r")
+    d = demos()
+    batch = spec.make_evaluator("reach_r").evaluate(d.values[:2], d.times[0], d.task_params[0])
+    events = batch_rollout_events("job-1", 0, d.values[:2], d.times[0], batch, task_params=d.task_params[0],
+                                  drawing=spec.drawing)
+    path = tmp_path / "gym.rrd"
+    with RrdWriter(path) as w:
+        for e in events:
+            assert e["drawing"] == "ee_path"
+            w.log_event(decode_event(encode(e)))
+    verify_rrd(path)
+    reader = rr.chunk.RrdReader(path)
+    entities = {c.entity_path for c in reader.stream(store=reader.recordings()[0])}
+    assert {"/arm/job-1/effector", "/arm/job-1/effector_path", "/arm/job-1/goal"} <= entities
+    assert START.shape == (2,)
