@@ -14,4 +14,4 @@ export PIP_DISABLE_PIP_VERSION_CHECK=1
 PIP_FLAGS=(-q --no-compile)
 # torch first and pinned: an unpinned torch may pull a multi-GB CUDA build.
 python -c "import torch" 2>/dev/null || pip install "${PIP_FLAGS[@]}" "torch==2.13.0"
-pip install "${PIP_FLAGS[@]}" -e ".[test]"
+pip install "${PIP_FLAGS[@]}" -e ".[test,gym]"
