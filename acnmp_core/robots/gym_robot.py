@@ -152,8 +152,10 @@ class GymRolloutEvaluator:
     """Executes trajectories (B, T, D) as episodes of a Gymnasium environment (a
     :class:`~acnmp_core.rollout.RolloutEvaluator`); see :class:`GymRobotConfig`."""
 
-    def __init__(self, config: GymRobotConfig):
+    def __init__(self, config: GymRobotConfig, credit: str = "step"):
         self.config = config
+        #: how the rewards depend on the actions, for :func:`~acnmp_core.adaptation.adapt`
+        self.credit = credit
         self._env = None
         self._vector = None
 
@@ -345,7 +347,7 @@ def gym_robot(kind: str, summary: str, config: GymRobotConfig | Callable[[], Gym
             if not isinstance(seed, int) or isinstance(seed, bool):
                 raise InputError(f"task_config.seed: expected an integer, got {seed!r}")
             cfg = _replace(cfg, seed=seed)
-        return GymRolloutEvaluator(cfg)
+        return GymRolloutEvaluator(cfg, credit)
 
     def body() -> RobotBody:
         cfg = resolve()

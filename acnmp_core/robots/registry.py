@@ -168,3 +168,5 @@ register_robot(RobotSpec("ur10", "UR10 with a two-finger gripper, pick and place
                          tasks={"pick_place": {}}, body=lambda: import_module(".ur10", __package__).ur10_body()))
 register_robot(RobotSpec("pour", "a wrist pouring marbles from a cup into another (PyBullet; E6)",
                          tasks={"pour": {}}, body=lambda: import_module(".pour", __package__).pour_body()))
+# through the Gymnasium adapter, as a plugin would (gymnasium is imported on first use only)
+register_robot(import_module(".pusher", __package__).PUSHER)
