@@ -133,3 +133,12 @@ def test_the_command_line_says_one_line_for_a_broken_plugin_and_serves_the_rest(
                             cwd=tmp_path, env=env, capture_output=True, text=True)
     assert served.returncode == 2 and "Traceback" not in served.stderr
     assert "argument --robot: plugin 'crash_bot:ROBOT': cannot import 'crash_bot'" in served.stderr
+
+
+def test_a_plugin_imports_the_robot_types_without_the_registry():
+    """The types (RobotSpec, RobotBody, Joint, TaskFactory, the drawings) live apart from the
+    registry: importing them loads neither the registry nor the built-in robots and tasks."""
+    code = ("import sys, acnmp_core.robots.spec as s, acnmp_core.robots.gym_robot; "
+            "print(sorted(m for m in sys.modules if m.startswith('acnmp_core.robots') or m.startswith('acnmp_core.tasks')))")
+    out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True).stdout
+    assert eval(out) == ["acnmp_core.robots", "acnmp_core.robots.gym_robot", "acnmp_core.robots.spec"]
