@@ -19,6 +19,8 @@ registry (:mod:`acnmp_core.robots.registry`) registers what they give and keeps 
 from __future__ import annotations
 
 import importlib
+import os
+import sys
 from dataclasses import dataclass
 from importlib import metadata
 from typing import Any
@@ -72,10 +74,14 @@ def installed() -> list[Found]:
 
 
 def _resolve(ref: str) -> Any:
-    """The object named by ``package.module:attr`` (attr may be dotted)."""
+    """The object named by ``package.module:attr`` (attr may be dotted); the module is looked for in
+    the current directory too (as ``python -m`` would), since a plugin named by reference is
+    usually a package one has not installed."""
     module_name, sep, attr = ref.partition(":")
     if not sep or not module_name.strip() or not attr.strip():
         raise PluginError(f"expected package.module:attr, got {ref!r}")
+    if os.getcwd() not in sys.path and "" not in sys.path:
+        sys.path.append(os.getcwd())
     try:
         obj = importlib.import_module(module_name.strip())
     except Exception as exc:  # noqa: BLE001 - whatever the plugin raises on import is its one-line reason

@@ -1,0 +1,93 @@
+"""Any robot, your demonstrations: LfD only against ACNMP at task parameters you name.
+
+The experiment a user runs on a robot of their own (a plugin, a Gymnasium environment): a CNMP is
+trained on a demonstration file (the project's .npz format) and, per seed and per test point
+(task parameters (P,)), its mean trajectory, conditioned on the demonstrations' start at t = 0,
+is executed once (LfD only) and then adapted by ACNMP until the task says success or the budget
+runs out, on the robot's task (:mod:`acnmp_core.robots.registry`). The per-case code is E2's
+(:mod:`acnmp_core.experiments.push`).
+"""
+from __future__ import annotations
+
+import copy
+import time
+from dataclasses import replace
+from typing import Callable, Sequence
+
+import numpy as np
+
+from ..adaptation import AdaptConfig
+from ..cnmp import CNMP, CNMPConfig
+from ..demo_io import DemoArrays
+from ..errors import InputError
+from ..rollout import RolloutEvaluator
+from ..training import TrainConfig, train
+from .push import PushSetup, _summarise, record_run, run_acnmp_case
+
+METHODS = ("lfd", "acnmp")
+
+
+def robot_task(kind: str, task: str | None) -> str:
+    """The task to run on robot ``kind``: ``task``, or the robot's only task; InputError otherwise."""
+    from ..robots.registry import robot
+
+    tasks = sorted(robot(kind).tasks)
+    if task is None:
+        if len(tasks) != 1:
+            raise InputError(f"task: robot {kind!r} runs {tasks}; name one")
+        return tasks[0]
+    if task not in tasks:
+        raise InputError(f"task: robot {kind!r} runs {tasks}, not {task!r}")
+    return task
+
+
+def run_own_robot(kind: str, demos: DemoArrays, points: Sequence[Sequence[float]], *, task: str | None = None,
+                  task_config: dict | None = None, seeds: int | list[int] = 1, train_steps: int = 3000,
+                  budget: int = 300, evaluator_factory: Callable[[str, int, int], RolloutEvaluator] | None = None,
+                  log: Callable[[str], None] | None = None) -> dict:
+    """LfD only and ACNMP at each test point (P,) of ``points`` on robot ``kind`` (see the module).
+
+    demos : N demonstrations, times (N, T), values (N, T, D), task parameters (N, P); every
+        demonstration's first row is taken as the start the model is conditioned on (their mean).
+    evaluator_factory : ``(method, seed, point index) -> RolloutEvaluator`` (e.g. remote workers);
+        default: one in-process evaluator of the task shared by every run.
+    Returns ``experiment`` "robot", ``robot``, ``task``, ``points``, ``seed_list``, ``wall_time_s``,
+    ``methods`` {method: summary over every seed and point}, ``runs`` (per seed, point and method).
+    """
+    from ..robots.registry import robot
+
+    task = robot_task(kind, task)
+    spec = robot(kind)
+    pts = [np.asarray(p, dtype=np.float64).reshape(-1) for p in points]
+    if not pts or any(p.shape != (demos.task_params.shape[1],) for p in pts):
+        raise InputError(f"points: expected at least one point of {demos.task_params.shape[1]} task parameters "
+                         f"(as the demonstrations have), got {[p.size for p in pts]}")
+    seed_list = list(range(seeds)) if isinstance(seeds, int) else [int(s) for s in seeds]
+    if not seed_list:
+        raise InputError("seeds: expected at least one seed")
+    if demos.lengths is not None and np.any(demos.lengths != demos.times.shape[1]):
+        raise InputError("demos: demonstrations of different lengths are not supported here")
+    t0 = time.perf_counter()
+    shared = None if evaluator_factory is not None else spec.make_evaluator(task, task_config)
+    cfg = AdaptConfig(max_rollouts=budget)
+    runs: list[dict] = []
+    try:
+        for seed in seed_list:
+            model = CNMP(CNMPConfig(n_outputs=demos.values.shape[2], n_task_params=demos.task_params.shape[1]), seed=seed)
+            train(model, demos.to_demo_set(), TrainConfig(steps=train_steps), seed=seed)
+            for i, point in enumerate(pts):
+                case = f"point{i}"
+                setup = PushSetup(demos=demos.to_demo_set(), targets={case: point}, times=demos.times[0].copy(),
+                                  q0=demos.values[:, 0].mean(axis=0), n_joints=demos.values.shape[2], tolerance=0.0)
+                for method, c in (("lfd", replace(cfg, max_rollouts=1)), ("acnmp", cfg)):
+                    ev = shared if shared is not None else evaluator_factory(method, seed, i)
+                    t1 = time.perf_counter()
+                    r = run_acnmp_case(copy.deepcopy(model), setup, case, ev, c, seed)
+                    record_run(runs, {**r, "point": point.tolist()}, seed, method, case, t1, log)
+    finally:
+        if shared is not None and hasattr(shared, "close"):
+            shared.close()
+    return {"experiment": "robot", "robot": kind, "task": task, "task_config": dict(task_config or {}),
+            "points": [p.tolist() for p in pts], "seeds": len(seed_list), "seed_list": seed_list,
+            "wall_time_s": round(time.perf_counter() - t0, 2), "budget": budget, "train_steps": train_steps,
+            "methods": {m: _summarise([r for r in runs if r["method"] == m]) for m in METHODS}, "runs": runs}

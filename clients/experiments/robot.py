@@ -1,0 +1,78 @@
+"""``acnmp experiment robot``: your robot and demonstrations: LfD only against ACNMP at task
+parameters you name (any registered robot kind or plugin)."""
+from __future__ import annotations
+
+from services.transport.argtypes import non_empty, robot_kind
+
+from .common import (add_deployment_arguments, add_output_arguments, add_size_arguments,
+                     check_deployment_arguments, sizes, write_json)
+
+
+def _point(text: str) -> list[float]:
+    import argparse
+    import math
+
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected comma-separated numbers, got {text!r}") from None
+    if not all(math.isfinite(v) for v in values):
+        raise argparse.ArgumentTypeError(f"expected finite numbers, got {text!r}")
+    return values
+
+
+def register(subparsers) -> None:
+    """Add the ``robot`` experiment parser."""
+    p = subparsers.add_parser(
+        "robot",
+        help="any robot kind (a plugin too): train on your demonstrations, then LfD only vs ACNMP at --at points",
+        description=(
+            "Train a CNMP on a demonstration file, then per seed and test point: execute its mean "
+            "trajectory (LfD only) and adapt it with ACNMP on the robot's task until success or the budget. "
+            "The robot is any kind `acnmp robots` lists, or a plugin package.module:attr."
+        ),
+    )
+    p.add_argument("--robot", required=True, type=robot_kind, help="robot kind or plugin package.module:attr")
+    p.add_argument("--task", default=None, help="the robot's task (default: its only one)")
+    p.add_argument("--demos", required=True, type=non_empty, metavar="FILE.npz", help="demonstrations (.npz)")
+    p.add_argument("--at", action="append", required=True, type=_point, metavar="P1,P2,...",
+                   help="task parameters of a test point (repeatable)")
+    add_size_arguments(p, seeds=1, train_steps=3000, budget=300, budget_help="ACNMP roll-out budget per point")
+    add_output_arguments(p, "write the final errors per point (PNG)")
+    add_deployment_arguments(p, "the roll-outs on workers of the robot")
+    p.add_argument("--quiet", action="store_true", help="no per-run lines")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    """Run it as asked by ``args`` and print one row per method; returns the exit code."""
+    import torch
+
+    from acnmp_core.demo_io import load_demos
+    from acnmp_core.experiments.own_robot import robot_task, run_own_robot
+
+    check_deployment_arguments(args)
+    if args.plot:
+        raise ValueError("--plot: this experiment writes no figure yet; use --json")
+    demos = load_demos(args.demos)
+    task = robot_task(args.robot, args.task)
+    train_steps, budget = sizes(args, 3000, 300)
+    torch.set_num_threads(1)
+    kwargs = dict(task=task, seeds=args.seeds, train_steps=train_steps, budget=budget,
+                  log=None if args.quiet else print)
+    if args.distributed:
+        from clients.distributed import remote_rollouts
+
+        with remote_rollouts(args.robot, task, workers=args.workers, record=args.record, prefix="robot",
+                             progress=not args.quiet, secure=not args.insecure) as make:
+            result = run_own_robot(args.robot, demos, args.at,
+                                   evaluator_factory=lambda m, s, i: make(f"{args.robot}-{m}-s{s}-p{i}", {}), **kwargs)
+    else:
+        result = run_own_robot(args.robot, demos, args.at, **kwargs)
+    print(f"robot {result['robot']}, task {result['task']}, {len(result['points'])} point(s) x {result['seeds']} "
+          f"seed(s), {result['wall_time_s']:.1f} s")
+    print(f"{'method':<8} {'success':>8} {'roll-outs (median)':>18} {'error (median)':>15}")
+    for m, s in result["methods"].items():
+        print(f"{m:<8} {100 * s['success_rate']:>7.0f}% {s['rollouts_median']:>18.0f} {s['final_error_median']:>15.4f}")
+    write_json(result, args.json)
+    return 0

@@ -1,0 +1,41 @@
+"""``acnmp experiment robot`` (issue 33): a plugin robot and its demonstrations, LfD only against
+ACNMP at named task parameters, in one process; wrong inputs are one line."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from clients.cli import main
+
+pytest.importorskip("gymnasium", reason="gymnasium is not installed (scripts/setup.sh installs it)")
+EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "my_robot"
+
+
+def test_a_plugin_robot_runs_lfd_and_acnmp_at_the_named_points(tmp_path, monkeypatch):
+    monkeypatch.syspath_prepend(str(EXAMPLE))
+    out = tmp_path / "r.json"
+    assert main(["experiment", "robot", "--robot", "my_robot.plugin:ROBOT", "--demos", str(EXAMPLE / "my_robot/demos.npz"),
+                 "--at", "0.6,0.45", "--at", "0.6,0.0", "--train-steps", "300", "--budget", "10", "--quiet",
+                 "--json", str(out)]) == 0
+    r = json.loads(out.read_text())
+    assert (r["robot"], r["task"], r["points"]) == ("my_arm", "reach", [[0.6, 0.45], [0.6, 0.0]])
+    assert [(x["method"], x["case"]) for x in r["runs"]] == [("lfd", "point0"), ("acnmp", "point0"),
+                                                              ("lfd", "point1"), ("acnmp", "point1")]
+    far = r["runs"][0]
+    assert not far["success"] and far["rollouts"] == 1 and far["final_error"] > 0.03  # 0.25 m beyond the demos
+    assert all(x["rollouts"] <= 10 for x in r["runs"])
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--at", "0.6"], "expected at least one point of 2 task parameters"),
+    (["--at", "0.6,x"], "argument --at: expected comma-separated numbers"),
+    (["--at", "0.6,0.1", "--task", "push"], "task: robot 'my_arm' runs ['reach'], not 'push'"),
+])
+def test_wrong_inputs_are_one_line(args, message, monkeypatch, capsys):
+    monkeypatch.syspath_prepend(str(EXAMPLE))
+    code = main(["experiment", "robot", "--robot", "my_robot.plugin:ROBOT", "--demos",
+                 str(EXAMPLE / "my_robot/demos.npz"), *args])
+    err = capsys.readouterr().err
+    assert code == 2 and message in err and "Traceback" not in err
