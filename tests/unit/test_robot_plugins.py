@@ -15,6 +15,7 @@ import acnmp_core.robots.registry as registry
 import acnmp_core.tasks.registry as tasks
 from acnmp_core.errors import UnknownRobotError
 from acnmp_core.robots.registry import plugin_problems, robot, robot_kinds, robot_source
+from services.worker.core import Worker, rollout_request
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -142,3 +143,19 @@ def test_a_plugin_imports_the_robot_types_without_the_registry():
             "print(sorted(m for m in sys.modules if m.startswith('acnmp_core.robots') or m.startswith('acnmp_core.tasks')))")
     out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True).stdout
     assert eval(out) == ["acnmp_core.robots", "acnmp_core.robots.gym_robot", "acnmp_core.robots.spec"]
+
+
+def test_a_worker_serves_a_built_in_kind_while_a_plugin_is_broken(fresh_registry, monkeypatch):
+    write_module(fresh_registry, "bad_spec", '''
+        from acnmp_core.robots.spec import RobotSpec
+        ROBOT = RobotSpec("fine", "x", tasks={})
+    ''')
+    monkeypatch.setenv(registry.PLUGINS_ENV, "bad_spec:ROBOT")
+    worker = Worker("point2d", "w1")
+    t = np.linspace(0, 1, 5)
+    reply = worker.handle(rollout_request("viapoint", {"t_v": 0.5, "point": [0.0, 0.0], "tolerance": 0.1},
+                                          np.zeros((2, 5, 2)), t))
+    assert reply["success"].tolist() == [True, True]
+    assert [p.reason for p in plugin_problems()] == [
+        "cannot import 'bad_spec': InputError: tasks: robot 'fine' must run at least one task "
+        "(a map name -> fixed parameters)"]
