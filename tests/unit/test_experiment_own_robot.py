@@ -13,6 +13,22 @@ pytest.importorskip("gymnasium", reason="gymnasium is not installed (scripts/set
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "my_robot"
 
 
+def test_a_failed_adaptation_reports_what_it_executed(tmp_path, monkeypatch, capsys):
+    """Issue 36 row 5: a failed run printed the error of a mean measured after the budget (inside
+    the tolerance, yet "success False") while its curve ended elsewhere. Now the row's error is the
+    last mean executed within the budget, the curve ends there, and the mean after the budget is
+    named as such."""
+    monkeypatch.syspath_prepend(str(EXAMPLE))
+    out = tmp_path / "r.json"
+    assert main(["experiment", "robot", "--robot", "my_robot.plugin:ROBOT", "--demos", str(EXAMPLE / "my_robot/demos.npz"),
+                 "--at", "0.6,0.45", "--train-steps", "300", "--budget", "5", "--json", str(out)]) == 0
+    run = json.loads(out.read_text())["runs"][1]
+    assert run["method"] == "acnmp" and not run["success"] and run["rollouts"] == 5
+    assert run["final_error"] == run["curve"][-1][1] and run["curve"][-1][0] <= 5
+    assert isinstance(run["after_budget_error"], float)
+    assert "the update after the budget, measured once and not counted" in capsys.readouterr().out
+
+
 def test_a_plugin_robot_runs_lfd_and_acnmp_at_the_named_points(tmp_path, monkeypatch):
     monkeypatch.syspath_prepend(str(EXAMPLE))
     out = tmp_path / "r.json"
