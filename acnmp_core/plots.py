@@ -162,7 +162,7 @@ def plot_transfer(result: dict, path) -> "object":
               "no_alignment": ("tab:orange", "control: no latent alignment"),
               "no_transfer": ("tab:red", "control: B's own LfD model")}
     runs = result["per_run"]
-    top = max(max(r["curve"][-1][0] for r in runs), max(transfer_exp.CHECKPOINTS))
+    top = max(r["curve"][-1][0] for r in runs)  # the iterations run, not more
     ks = np.arange(0, top + 1)
     for cond, (color, label) in styles.items():
         its = [r["iterations"] for r in runs if r["condition"] == cond]
@@ -173,7 +173,7 @@ def plot_transfer(result: dict, path) -> "object":
         dashed = cond == "no_alignment"
         ax.step(ks, 100 * np.asarray(share), where="post", color=color, lw=2, label=label,
                 ls="--" if dashed else "-", zorder=3 if dashed else 2)
-    paper = result["paper"]["success_by_iteration"]
+    paper = {k: v for k, v in result["paper"]["success_by_iteration"].items() if int(k) <= top}
     ax.plot([int(k) for k in paper], [100 * v for v in paper.values()], "ks", ms=7, mfc="none",
             label="paper (Akbulut et al. 2020)")
     ax.set_xlabel("RL iterations (2 roll-outs each)")

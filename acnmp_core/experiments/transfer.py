@@ -235,7 +235,8 @@ def run_condition(pairs: dict[str, TransferPair], setup: E4Setup, condition: str
 
 
 def summarise(runs: list[dict], checkpoints=CHECKPOINTS) -> dict:
-    """Success by iteration, medians of iterations and roll-outs to success (None when more than
+    """Success by iteration (None at a checkpoint beyond the iterations a run that never succeeded
+    had: not run), medians of iterations and roll-outs to success (None when more than
     half the runs never succeeded), the median initial error (m) and the mean number of iterations
     without a signal per run (``blind_iterations_mean``; None for runs recorded before it was counted)
     over ``runs`` of one condition."""
@@ -246,7 +247,10 @@ def summarise(runs: list[dict], checkpoints=CHECKPOINTS) -> dict:
         m = float(np.median(x))
         return None if not np.isfinite(m) else m
 
-    return {"success_by_iteration": {str(k): float(np.mean(iters <= k)) for k in checkpoints},
+    # a checkpoint some unfinished run never reached (a small budget) is not reported: None
+    reached = min((r["curve"][-1][0] for r in runs if not r["success"]), default=np.inf)
+    return {"success_by_iteration": {str(k): float(np.mean(iters <= k)) if k <= reached else None
+                                     for k in checkpoints},
             "iterations_median": med(iters), "rollouts_median": med(rolls),
             "success_rate": float(np.mean(np.isfinite(iters))),
             "initial_error_median": float(np.median([r["initial_error"] for r in runs])),
@@ -383,7 +387,8 @@ def run_transfer(
                      "time_s": round(time.perf_counter() - t1, 2)}
                 per_run.append(r)
                 if log:
-                    log(f"run {seed:>2} {cond:<12} iterations {str(r['iterations']):>4} success "
+                    ran = f"{r['iterations']:>4}" if r["iterations"] is not None else f"no success in {r['curve'][-1][0]}"
+                    log(f"run {seed:>2} {cond:<12} iterations {ran} success "
                         f"{str(r['success']):<5} error {r['initial_error']:.4f} -> {r['final_error']:.4f} m "
                         f"{r['time_s']:.1f} s")
     finally:

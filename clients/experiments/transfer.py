@@ -76,7 +76,8 @@ def run(args) -> int:
     print(f"{'paper':<13} " + " ".join(f"{100 * v:>8.0f}%" for v in paper.values()))
     for cond, s in result["conditions"].items():
         med = "-" if s["iterations_median"] is None else f"{s['iterations_median']:.0f}"
-        print(f"{cond:<13} " + " ".join(f"{100 * s['success_by_iteration'][k]:>8.0f}%" for k in paper)
+        print(f"{cond:<13} " + " ".join(f"{'not run':>9}" if s['success_by_iteration'][k] is None
+                                         else f"{100 * s['success_by_iteration'][k]:>8.0f}%" for k in paper)
               + f" {med:>20} {s['initial_error_median']:>18.4f}")
     a = result["authors_data"]
     if a:

@@ -152,3 +152,37 @@ def test_an_authors_data_directory_without_their_arrays_is_refused_before_any_tr
     assert main(["experiment", "transfer", "--runs", "1", "--authors-data", str(tmp_path)]) == 2
     err = capsys.readouterr().err
     assert f"--authors-data {tmp_path}: the authors' four E4 arrays are not all there" in err
+
+
+def test_checkpoints_beyond_the_iterations_run_are_not_reported(tmp_path):
+    """Issue 36 row 6: with --budget 6 (2 RL iterations) the table printed 0 % "after 7/11/19" and
+    the plot ran to iteration 19; a checkpoint no unfinished run reached is now None ("not run"),
+    and the plot ends at the last iteration run."""
+    from acnmp_core.experiments.transfer import summarise
+    from acnmp_core.plots import plot_transfer
+
+    def run(success_at, last):
+        return {"iterations": success_at, "success": success_at is not None, "rollouts": 2 * last + 1,
+                "initial_error": 0.05, "initial_rmse_to_expert": 0.1, "curve": [[i, 0.05] for i in range(last + 1)]}
+
+    short = summarise([run(None, 2), run(1, 1)])
+    assert short["success_by_iteration"] == {"3": None, "7": None, "11": None, "19": None}
+    full = summarise([run(None, 19), run(5, 5)])
+    assert full["success_by_iteration"] == {"3": 0.0, "7": 0.5, "11": 0.5, "19": 0.5}
+    result = {"runs": 2, "per_run": [{**run(None, 2), "condition": "transfer"}],
+              "paper": {"success_by_iteration": {"3": 0.23, "7": 0.73, "11": 0.9, "19": 1.0}}}
+    import matplotlib.pyplot as plt
+
+    shown = {}
+    real_savefig = plt.Figure.savefig
+
+    def savefig(self, *a, **k):
+        shown["xmax"] = max(max(line.get_xdata(), default=0) for line in self.axes[0].get_lines())
+        return real_savefig(self, *a, **k)
+
+    plt.Figure.savefig = savefig
+    try:
+        plot_transfer(result, tmp_path / "t.png")
+    finally:
+        plt.Figure.savefig = real_savefig
+    assert shown["xmax"] == 2
