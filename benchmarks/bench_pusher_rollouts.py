@@ -5,10 +5,11 @@ Measured in one run, so the ratios compare like with like on a shared machine:
 * ``raw_env_ms``: 100 ``env.step`` calls of Pusher-v5 with the expert's PD actions computed in a
   plain loop (the floor: what the simulator and Gymnasium cost);
 * ``adapter_ms``: one episode through ``GymRolloutEvaluator`` (reset, task placement, PD tracking,
-  states and rewards logged), batches of 20, one env in this process;
+  states and rewards logged), batches of 40, one env in this process;
 * ``vector_ms``: the same batches through Gymnasium's ``AsyncVectorEnv`` with 2 sub-processes;
 * ``workers``: roll-outs per second through a local deployment with 1 and 2 pusher workers
-  (batches of 20 sent by the learner's ``RemoteEvaluator``, which splits them across workers).
+  (batches of 40 sent by the learner's ``RemoteEvaluator``, which splits them across workers; timed
+  once every worker has built its environment).
 
 Writes benchmarks/results/bench_pusher_rollouts.json. Usage:
 ``python benchmarks/bench_pusher_rollouts.py [--batches N]``.
@@ -31,7 +32,7 @@ from acnmp_core.robots.pusher import TASK, pusher_config  # noqa: E402
 from acnmp_core.tasks.pusher_scene import PUSHER_KD, PUSHER_KP, pusher_expert, set_pusher_task, training_params  # noqa: E402
 from benchmarks._results import provenance, save_result  # noqa: E402
 
-BATCH = 20
+BATCH = 40
 
 
 def raw_env_ms(traj: np.ndarray, params: np.ndarray, n: int) -> float:
@@ -68,7 +69,9 @@ def workers_rate(n_workers: int, trajs: np.ndarray, times: np.ndarray, params: n
 
     with remote_rollouts("pusher", TASK, workers=n_workers, prefix="bench-pusher", progress=False) as make:
         ev = make("bench", {})
-        ev.evaluate(trajs, times, params)  # every worker has built its environment
+        # warm up until every worker has executed a chunk (and built its MuJoCo model, ~1 s)
+        while len(set(ev.evaluate(trajs, times, params).workers)) < n_workers:
+            pass
         t0 = time.perf_counter()
         for _ in range(batches):
             ev.evaluate(trajs, times, params)
