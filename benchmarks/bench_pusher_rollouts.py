@@ -85,6 +85,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "bench_pusher_rollouts.json"))
     args = ap.parse_args(argv)
     meta = provenance()
+    t0 = time.perf_counter()
     params = training_params()[0]
     traj = pusher_expert(params)
     trajs = np.repeat(traj[None], BATCH, axis=0)
@@ -101,6 +102,7 @@ def main(argv: list[str] | None = None) -> int:
         "vector_2_ms": round(vector, 2), "vector_2_speedup": round(adapter / vector, 3),
         "workers_rollouts_per_s": {k: round(v, 2) for k, v in rates.items()},
         "workers_2_over_1": round(rates["2"] / rates["1"], 3),
+        "wall_time_s": round(time.perf_counter() - t0, 2),
     }
     save_result(result, args.out, None, ("raw_env_ms", "adapter_ms", "vector_2_ms", "workers_rollouts_per_s"))
     return 0
