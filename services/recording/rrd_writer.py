@@ -20,7 +20,8 @@ entity                             archetype                       from event
 /arm/<job>/target                  Points3D                        rollout.task_params (x, y)
 /return/<job>                      Scalars                         rollout.return
 /reward/<job>                      BarChart (per-step reward)      rollout.reward
-/rollouts/<job>                    AnyValues (index, worker, ...)  rollout (one row each)
+/rollouts/<job>                    AnyValues (index, worker, ...,  rollout (one row each)
+                                   event_id)
 /best_return/<job>                 Scalars                         job_progress
 /progress/<job>                    AnyValues                       job_progress
 /latent/<skill>/<label>            BarChart                        latent
@@ -30,8 +31,8 @@ entity                             archetype                       from event
 /log/jobs, /log/models             TextLog                         job_progress, model_version
 /processes/<name>                  AnyValues (action, pid, ...)    process (a child restarted)
 /log/processes                     TextLog                         process
-/event_ids/<kind>                  AnyValues (event_id)            every event the recorder got
-                                                                   from an advanced publisher
+/event_ids/<kind>                  AnyValues (event_id)            every other event the recorder
+                                                                   got from an advanced publisher
 =================================  ==============================  ===========================
 
 Timelines: ``rollout`` (sequence: the roll-out index of a rollout event, the roll-out count of a
@@ -155,9 +156,15 @@ class RrdWriter:
                 raise RuntimeError("recording already closed")
             self.rec.reset_time()  # no timeline value leaks from the previous event
             self.rec.set_time("wall_time", timestamp=float(msg["t"]))
-            fn(msg)
-            if event_id is not None:
-                self.rec.log(f"/event_ids/{kind}", rr.AnyValues(event_id=event_id))
+            if kind == "rollout":
+                # the id goes in the roll-out's own row: the batcher writes entities' chunks in no
+                # fixed order, and a recorder killed between an id chunk and its row's chunk made the
+                # next recorder skip an event the file lacks (or record one it has, twice)
+                fn(msg, event_id)
+            else:
+                fn(msg)
+                if event_id is not None:
+                    self.rec.log(f"/event_ids/{kind}", rr.AnyValues(event_id=event_id))
             self.counts[kind] += 1
 
     def stats(self) -> dict:
@@ -167,7 +174,7 @@ class RrdWriter:
 
     # -- kinds -------------------------------------------------------------------------------
 
-    def _rollout(self, msg: dict) -> None:
+    def _rollout(self, msg: dict, event_id: str | None = None) -> None:
         job = _part(msg["job"])
         idx = int(msg["rollout_index"])
         self.rec.set_time("rollout", sequence=idx)
@@ -201,10 +208,11 @@ class RrdWriter:
                 self.rec.log(f"trajectory/time/{job}/condition", rr.Points2D(pts, radii=0.5 * _radius(traj)))
         self.rec.log(f"return/{job}", rr.Scalars(ret))
         self.rec.log(f"reward/{job}", rr.BarChart(np.asarray(msg["reward"], dtype=np.float32)))
-        self.rec.log(f"rollouts/{job}", rr.AnyValues(
-            rollout_index=idx, worker=str(msg.get("worker", "")), success=bool(msg.get("success")),
-            ret=ret, steps=int(traj.shape[0]),
-            iteration=-1 if msg.get("iteration") is None else int(msg["iteration"])))
+        row = dict(rollout_index=idx, worker=str(msg.get("worker", "")), success=bool(msg.get("success")),
+                   ret=ret, steps=int(traj.shape[0]), iteration=-1 if msg.get("iteration") is None else int(msg["iteration"]))
+        if event_id is not None:
+            row["event_id"] = event_id
+        self.rec.log(f"rollouts/{job}", rr.AnyValues(**row))
         draw = drawer_for(msg)
         if draw is not None:
             draw(self.rec, job, idx, msg, color)
