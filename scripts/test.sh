@@ -13,4 +13,6 @@ export OMP_NUM_THREADS=${OMP_NUM_THREADS:-1}
 unset PYTHONDONTWRITEBYTECODE
 # Turn Rerun analytics off for this user too: the machines are offline.
 .venv/bin/rerun analytics disable >/dev/null 2>&1 || true
-exec .venv/bin/python -m pytest -q -n auto --durations=5 "$@"
+# worksteal: a worker that runs out of tests takes queued ones from the other (the suite ends with a few
+# 20-30 s tests; plain load scheduling could leave one core idle behind them)
+exec .venv/bin/python -m pytest -q -n auto --dist worksteal --durations=5 "$@"

@@ -9,15 +9,25 @@ import numpy as np
 
 from acnmp_core import AdaptConfig, AdaptTarget
 from acnmp_core.adapt_job import AdaptJob
-from clients.client import ACNMPClient
+from acnmp_core.errors import InputError
+from clients.client import ACNMPClient, ClientError
 
-goal = np.array([float(v) for v in sys.argv[1:3]] or [0.6, 0.45])
-times = np.linspace(0.0, 1.0, 50)
-target = AdaptTarget(obs_times=np.array([0.0]), obs_values=np.array([[0.3, 1.2]]),  # the start posture
-                     task_params=goal, query_times=times)
-job = AdaptJob(target, task="reach", robot="my_arm", config=AdaptConfig(mode="acnmp", max_rollouts=300))
-with ACNMPClient(timeout=30) as client:
-    status = client.wait_job(client.adapt("reach", job), timeout=600)
-result = status["result"]
-print(f"goal {goal.tolist()}: adapted with {result['rollouts']} roll-outs on the workers, "
-      f"success {result['success']}")
+
+def main(argv: list[str]) -> int:
+    goal = np.array([float(v) for v in argv[:2]] or [0.6, 0.45])
+    times = np.linspace(0.0, 1.0, 50)
+    target = AdaptTarget(obs_times=np.array([0.0]), obs_values=np.array([[0.3, 1.2]]),  # the start posture
+                         task_params=goal, query_times=times)
+    job = AdaptJob(target, task="reach", robot="my_arm", config=AdaptConfig(mode="acnmp", max_rollouts=300))
+    with ACNMPClient(timeout=30) as client:
+        result = client.wait_job(client.adapt("reach", job), timeout=600)["result"]
+    print(f"goal {goal.tolist()}: adapted with {result['rollouts']} roll-outs on the workers, "
+          f"success {result['success']}")
+    return 0
+
+
+if __name__ == "__main__":
+    try:
+        sys.exit(main(sys.argv[1:]))
+    except (InputError, ClientError, ValueError) as exc:  # one line, as the acnmp command line does
+        sys.exit(f"adapt.py: {exc}")

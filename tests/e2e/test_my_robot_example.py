@@ -41,8 +41,8 @@ def test_the_example_plugin_from_install_to_an_adaptation_on_a_deployment(instal
     assert {"point2d", "ur10"} <= set(rows)
 
     demos = installed_example / "my_robot" / "demos.npz"
-    proc, lines = acnmp_up("--robot", "my_arm", "--workers", "2", "--no-default-skill", "--demos", f"reach={demos}",
-                           "--train-steps", "2000", "--state-dir", str(tmp_path / "state"),
+    proc, lines = acnmp_up("--robot", "my_arm", "--workers", "1", "--no-default-skill", "--demos", f"reach={demos}",
+                           "--train-steps", "800", "--state-dir", str(tmp_path / "state"),
                            path=(str(installed_example),))
     with ctrl_c_at_the_end(proc):
         run = subprocess.run([sys.executable, str(EXAMPLE / "adapt.py"), "0.6", "0.45"], cwd=tmp_path, env=env,
