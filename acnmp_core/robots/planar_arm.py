@@ -23,7 +23,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import pybullet as p
+from .quiet_pybullet import pybullet as p
 
 from ..rollout import RolloutBatch
 from ..validation import check_array

@@ -61,7 +61,7 @@ from collections import OrderedDict
 from dataclasses import dataclass, field
 
 import numpy as np
-import pybullet as p
+from .quiet_pybullet import pybullet as p
 
 from ..rollout import RolloutBatch
 from ..validation import check_array

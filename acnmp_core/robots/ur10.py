@@ -55,7 +55,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import pybullet as p
+from .quiet_pybullet import pybullet as p
 
 from ..validation import check_array
 from .physics import PhysicsClient

@@ -26,7 +26,7 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 import numpy as np
-import pybullet as p
+from ..robots.quiet_pybullet import pybullet as p
 
 from ..robots.planar_arm import PlanarArmSim, PlanarPushTask, PushObject, default_geometry
 from ..robots.urdf import ArmGeometry

@@ -159,3 +159,10 @@ def test_a_worker_serves_a_built_in_kind_while_a_plugin_is_broken(fresh_registry
     assert [p.reason for p in plugin_problems()] == [
         "cannot import 'bad_spec': InputError: tasks: robot 'fine' must run at least one task "
         "(a map name -> fixed parameters)"]
+
+
+def test_pybullet_is_imported_without_its_banner():
+    """Issue 36, a friction: every PyBullet run printed its build-time banner."""
+    out = subprocess.run([sys.executable, "-c", "import acnmp_core.robots.planar_arm, acnmp_core.tasks.transfer_scene, "
+                          "acnmp_core.robots.ur10, acnmp_core.robots.pour"], cwd=ROOT, capture_output=True, text=True)
+    assert out.returncode == 0 and "pybullet build time" not in out.stdout + out.stderr, out.stderr
