@@ -91,3 +91,39 @@ def run_own_robot(kind: str, demos: DemoArrays, points: Sequence[Sequence[float]
             "points": [p.tolist() for p in pts], "seeds": len(seed_list), "seed_list": seed_list,
             "wall_time_s": round(time.perf_counter() - t0, 2), "budget": budget, "train_steps": train_steps,
             "methods": {m: _summarise([r for r in runs if r["method"] == m]) for m in METHODS}, "runs": runs}
+
+
+def plot_own_robot(result: dict, path) -> "object":
+    """Write the figure of :func:`run_own_robot`'s result: per test point, the task's remaining
+    error after LfD only and after ACNMP (one marker per seed), and the roll-outs ACNMP used
+    (hollow: it did not succeed within the budget). Returns the path."""
+    from pathlib import Path
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 3.8))
+    for offset, (method, color, label) in zip((-0.1, 0.1), (("lfd", "tab:red", "LfD only"), ("acnmp", "tab:green", "ACNMP"))):
+        runs = [r for r in result["runs"] if r["method"] == method]
+        x = [int(r["case"].removeprefix("point")) + offset for r in runs]
+        ax1.plot(x, [r["final_error"] for r in runs], "o", color=color, label=label)
+        if method == "acnmp":
+            for xi, r in zip(x, runs):
+                ax2.plot(xi, r["rollouts"], "o", color=color, mfc=color if r["success"] else "none")
+    ticks = range(len(result["points"]))
+    labels = [", ".join(f"{v:g}" for v in p) for p in result["points"]]
+    for ax in (ax1, ax2):
+        ax.set_xticks(list(ticks), labels, fontsize=8)
+        ax.set_xlabel("test point (task parameters)")
+    ax1.set_ylabel("remaining error (the task's units)")
+    ax1.legend(fontsize=8)
+    ax2.set_ylabel(f"ACNMP roll-outs (budget {result['budget']}; hollow: failed)")
+    fig.suptitle(f"robot {result['robot']}, task {result['task']}, {result['seeds']} seed(s)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path

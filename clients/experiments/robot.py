@@ -38,7 +38,7 @@ def register(subparsers) -> None:
     p.add_argument("--at", action="append", required=True, type=_point, metavar="P1,P2,...",
                    help="task parameters of a test point (repeatable)")
     add_size_arguments(p, seeds=1, train_steps=3000, budget=300, budget_help="ACNMP roll-out budget per point")
-    add_output_arguments(p, "write the final errors per point (PNG)")
+    add_output_arguments(p, "write the remaining errors and ACNMP's roll-outs per point (PNG)")
     add_deployment_arguments(p, "the roll-outs on workers of the robot")
     p.add_argument("--quiet", action="store_true", help="no per-run lines")
     p.set_defaults(func=run)
@@ -49,11 +49,9 @@ def run(args) -> int:
     import torch
 
     from acnmp_core.demo_io import load_demos
-    from acnmp_core.experiments.own_robot import robot_task, run_own_robot
+    from acnmp_core.experiments.own_robot import plot_own_robot, robot_task, run_own_robot
 
     check_deployment_arguments(args)
-    if args.plot:
-        raise ValueError("--plot: this experiment writes no figure yet; use --json")
     demos = load_demos(args.demos)
     task = robot_task(args.robot, args.task)
     train_steps, budget = sizes(args, 3000, 300)
@@ -75,4 +73,6 @@ def run(args) -> int:
     for m, s in result["methods"].items():
         print(f"{m:<8} {100 * s['success_rate']:>7.0f}% {s['rollouts_median']:>18.0f} {s['final_error_median']:>15.4f}")
     write_json(result, args.json)
+    if args.plot:
+        print(f"wrote {plot_own_robot(result, args.plot)}", flush=True)
     return 0

@@ -34,7 +34,8 @@ def test_a_plugin_robot_runs_lfd_and_acnmp_at_the_named_points(tmp_path, monkeyp
     out = tmp_path / "r.json"
     assert main(["experiment", "robot", "--robot", "my_robot.plugin:ROBOT", "--demos", str(EXAMPLE / "my_robot/demos.npz"),
                  "--at", "0.6,0.45", "--at", "0.6,0.0", "--train-steps", "300", "--budget", "10", "--quiet",
-                 "--json", str(out)]) == 0
+                 "--json", str(out), "--plot", str(tmp_path / "r.png")]) == 0
+    assert (tmp_path / "r.png").stat().st_size > 0
     r = json.loads(out.read_text())
     assert (r["robot"], r["task"], r["points"]) == ("my_arm", "reach", [[0.6, 0.45], [0.6, 0.0]])
     assert [(x["method"], x["case"]) for x in r["runs"]] == [("lfd", "point0"), ("acnmp", "point0"),
