@@ -259,6 +259,12 @@ def test_a_query_whose_timeout_passed_in_the_queue_is_dropped_without_computing(
             with pytest.raises(WireError) as info:  # waits in the queue behind the first, gives up
                 call(client, key, {"i": 2}, timeout=0.3)
             assert info.value.code == "timeout"
+            # the server's deadline is its arrival + 0.3 s: release the first query only once the
+            # second is queued and that deadline has surely passed (on a loaded machine the query
+            # can arrive late; releasing at once then had it computed, in time by the server's clock)
+            _wait_until(lambda: rpc.waiting == 1)
+            queued_by = time.monotonic()
+            _wait_until(lambda: time.monotonic() > queued_by + 0.3)
             release.set()
             assert [r.ok is not None for r in first] == [True]
             _wait_until(lambda: rpc.expired == 1)
