@@ -70,14 +70,15 @@ def run_own_robot(kind: str, demos: DemoArrays, points: Sequence[Sequence[float]
     t0 = time.perf_counter()
     shared = None if evaluator_factory is not None else spec.make_evaluator(task, task_config)
     cfg = AdaptConfig(max_rollouts=budget)
+    demo_set = demos.to_demo_set()
     runs: list[dict] = []
     try:
         for seed in seed_list:
             model = CNMP(CNMPConfig(n_outputs=demos.values.shape[2], n_task_params=demos.task_params.shape[1]), seed=seed)
-            train(model, demos.to_demo_set(), TrainConfig(steps=train_steps), seed=seed)
+            train(model, demo_set, TrainConfig(steps=train_steps), seed=seed)
             for i, point in enumerate(pts):
                 case = f"point{i}"
-                setup = PushSetup(demos=demos.to_demo_set(), targets={case: point}, times=demos.times[0].copy(),
+                setup = PushSetup(demos=demo_set, targets={case: point}, times=demos.times[0].copy(),
                                   q0=demos.values[:, 0].mean(axis=0), n_joints=demos.values.shape[2], tolerance=0.0)
                 for method, c in (("lfd", replace(cfg, max_rollouts=1)), ("acnmp", cfg)):
                     ev = shared if shared is not None else evaluator_factory(method, seed, i)

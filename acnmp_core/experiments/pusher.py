@@ -32,7 +32,7 @@ from ..cnmp import CNMP, CNMPConfig
 from ..promp_rl import PrompRLConfig
 from ..rollout import RolloutEvaluator
 from ..training import TrainConfig, train
-from .push import PROMP_DEFAULTS, PushSetup, _summarise, record_run, run_acnmp_case, run_promp_case
+from .push import PROMP_DEFAULTS, PushSetup, _plain, _summarise, record_run, run_acnmp_case, run_promp_case
 
 METHODS = ("lfd", "acnmp", "promp_rl")
 CASE = "extrapolation"
@@ -136,8 +136,7 @@ def run_pusher(seeds: int | list[int] = 10, *, train_steps: int = TRAIN_STEPS, a
         "regions": {"training": vars(TRAINING_REGION), "extrapolation": vars(EXTRAPOLATION_REGION)},
         "methods": summary, "rollout_ratio_promp_over_acnmp": ratio,
         "config": {"train_steps": train_steps, "n_demos": int(demos.values.shape[0]),
-                   "acnmp": {k: (list(v) if isinstance(v, tuple) else v) for k, v in vars(acfg).items()},
-                   "promp_rl": {k: (list(v) if isinstance(v, tuple) else v) for k, v in vars(pcfg).items()}},
+                   "acnmp": _plain(vars(acfg)), "promp_rl": _plain(vars(pcfg))},
         "runs": runs,
     }
 

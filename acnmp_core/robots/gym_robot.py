@@ -25,6 +25,8 @@ roll-outs drawn as the end effector's path (:class:`~acnmp_core.robots.spec.EndE
 """
 from __future__ import annotations
 
+import dataclasses
+import functools
 from dataclasses import dataclass, field
 from typing import Any, Callable, Mapping, Sequence
 
@@ -120,10 +122,12 @@ class GymRobotConfig:
         env = gym.make(self.env, **dict(self.env_kwargs)) if isinstance(self.env, str) else self.env()
         if not isinstance(env.action_space, gym.spaces.Box):
             raise InputError(f"env: the action space must be a Box, got {type(env.action_space).__name__}")
-        return _TaskReset(env, self.set_task) if self.set_task is not None else env
+        return _task_reset_wrapper()(env, self.set_task) if self.set_task is not None else env
 
 
+@functools.lru_cache(maxsize=1)
 def _task_reset_wrapper():
+    """The wrapper class, built once on first use (gymnasium is imported only then)."""
     import gymnasium as gym
 
     class TaskReset(gym.Wrapper):
@@ -142,10 +146,6 @@ def _task_reset_wrapper():
             return obs, info
 
     return TaskReset
-
-
-def _TaskReset(env, set_task):  # noqa: N802 - builds the wrapper class on first use (gymnasium is optional)
-    return _task_reset_wrapper()(env, set_task)
 
 
 class GymRolloutEvaluator:
@@ -346,7 +346,7 @@ def gym_robot(kind: str, summary: str, config: GymRobotConfig | Callable[[], Gym
             seed = params["seed"]
             if not isinstance(seed, int) or isinstance(seed, bool):
                 raise InputError(f"task_config.seed: expected an integer, got {seed!r}")
-            cfg = _replace(cfg, seed=seed)
+            cfg = dataclasses.replace(cfg, seed=seed)
         return GymRolloutEvaluator(cfg, credit)
 
     def body() -> RobotBody:
@@ -372,9 +372,3 @@ def _once(config):
         return cache[0]
 
     return resolve
-
-
-def _replace(cfg: GymRobotConfig, **changes) -> GymRobotConfig:
-    import dataclasses
-
-    return dataclasses.replace(cfg, **changes)
