@@ -57,6 +57,7 @@ from .cnmp import CNMP, Query
 from .data import DemoSet
 from .exploration import CubicNoise, SmoothNoise
 from .optim_step import Stepper
+from .threads import with_training_threads
 from .rollout import RolloutBatch, RolloutEvaluator
 from .training import TrainConfig, make_sampler, nll_loss
 from .validation import check_positive_int
@@ -381,6 +382,7 @@ def _explore_std(cfg: AdaptConfig, std0: np.ndarray, scale: np.ndarray, err: flo
     return std0 * float(np.clip(ratio, cfg.explore_min, 1.0))
 
 
+@with_training_threads
 def adapt(
     model: CNMP,
     demos: DemoSet,

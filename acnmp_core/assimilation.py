@@ -30,6 +30,7 @@ from .adaptation import AdaptTarget
 from .cnmp import CNMP
 from .data import DemoSet, Demonstration, Episode
 from .optim_step import Stepper
+from .threads import with_training_threads
 from .training import TrainConfig, check_lr_final, check_stop, cosine_lr, make_sampler, nll_loss, set_lr
 from .validation import check_array, check_positive_int
 
@@ -69,6 +70,7 @@ class AssimilationConfig:
             raise ValueError(f"anchor_weight: expected a number >= 0, got {self.anchor_weight!r}")
 
 
+@with_training_threads
 def assimilate(model: CNMP, demos: DemoSet, solution: Demonstration, cfg: AssimilationConfig | None = None, *,
                conditions: AdaptTarget | None = None, seed: int = 0,
                optimizer: torch.optim.Optimizer | None = None,

@@ -13,6 +13,7 @@ from tqdm.auto import tqdm
 from .cnmp import CNMP
 from .data import DemoSet, Episode, EpisodeSampler
 from .optim_step import Stepper
+from .threads import with_training_threads
 from .validation import check_positive_int
 
 
@@ -129,6 +130,7 @@ def split_demos(demos: DemoSet, val_fraction: float, gen: torch.Generator) -> tu
     return demos.subset(sorted(perm[n_val:])), demos.subset(sorted(perm[:n_val]))
 
 
+@with_training_threads
 def train(
     model: CNMP,
     demos: DemoSet,

@@ -16,12 +16,11 @@ import sys
 import time
 from pathlib import Path
 
-import torch
-
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from acnmp_core.experiments.wall import run_wall  # noqa: E402
+from acnmp_core.threads import set_training_threads  # noqa: E402
 from benchmarks._results import provenance, save_result  # noqa: E402
 
 
@@ -45,7 +44,7 @@ def main(argv: list[str] | None = None) -> int:
     runs, first = [], None
     t0 = time.perf_counter()
     for threads in args.threads:
-        torch.set_num_threads(threads)
+        set_training_threads(threads)
         r = run_wall(args.envs, args.seed, eval_every=50, methods=("acnmp",))
         numbers = _numbers(r)
         first = first or numbers

@@ -43,10 +43,10 @@ def register(subparsers) -> None:
                         "'generated' (new and test environments) or 'all' (the adaptations' roll-outs too); "
                         "a measurement of what the end points cost, not the paper's method (default none)")
     p.add_argument("--threads", type=int_at_least(1), default=None,
-                   help="torch threads for the CNMP's training and adaptation (default: one per core). On "
-                        "the CPU measured (an AMD EPYC, bench_e3_threads.json) 1 and 2 threads give the same "
-                        "run bit for bit and 2 run E3 1.4x faster; on another CPU, run that benchmark first "
-                        "if the numbers must match a one-thread run")
+                   help="torch threads for the CNMP's training and adaptation (default: $ACNMP_TORCH_THREADS "
+                        "or 1). Measured (bench_thread_default.json): 2 threads run E3 faster only while no "
+                        "other process uses a core, and several times slower when one does; the numbers "
+                        "computed are the same")
     add_output_arguments(p, "write test error / success vs environments and trajectories (PNG)")
     add_deployment_arguments(p, "the roll-outs on point2d workers")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
@@ -70,12 +70,11 @@ def run(args) -> int:
         raise ValueError(f"--methods: expected a comma-separated subset of {', '.join(ALL_METHODS)}, got {args.methods!r}")
     if args.distributed and setting.name != "paper":
         raise ValueError("--setting authors: runs in-process only (the point2d workers score the paper's wall)")
-    import torch
-
     from acnmp_core.experiments.wall import run_wall
+    from acnmp_core.threads import set_training_threads
 
     if args.threads is not None:
-        torch.set_num_threads(args.threads)
+        set_training_threads(args.threads)
     kwargs = dict(n_initial=args.initial, n_test=args.test, eval_every=args.eval_every, setting=setting,
                   methods=methods,
                   **({} if args.assimilate_from is None else {"assimilate_from": args.assimilate_from}),
