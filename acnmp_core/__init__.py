@@ -7,11 +7,22 @@ import happens here: the library is usable in a notebook.
 
 The names below are imported on first use (PEP 562): importing a light submodule such as
 ``acnmp_core.errors`` or ``acnmp_core.robots.registry`` does not import torch, which takes seconds
-and would slow down every process that starts (a restarted worker or recorder, say).
+and would slow down every process that starts (a restarted worker or recorder, say). Type checkers
+and editors read the explicit imports under ``TYPE_CHECKING`` instead, and the package ships
+``py.typed`` (PEP 561), so they see every public name with its signature.
 """
 from __future__ import annotations
 
 import importlib
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # what a type checker sees; at run time the same names come from __getattr__
+    from .adaptation import AdaptConfig, AdaptResult, AdaptTarget, adapt
+    from .checkpoint import load_checkpoint, save_checkpoint
+    from .cnmp import CNMP, CNMPConfig, Prediction
+    from .data import Demonstration, DemoSet
+    from .rollout import RolloutBatch, RolloutEvaluator
+    from .training import TrainConfig, train
 
 #: public name -> submodule that defines it
 _EXPORTS = {
@@ -23,7 +34,9 @@ _EXPORTS = {
     "TrainConfig": "training", "train": "training",
 }
 
-__all__ = list(_EXPORTS)
+__all__ = ["AdaptConfig", "AdaptResult", "AdaptTarget", "adapt", "load_checkpoint", "save_checkpoint", "CNMP",
+           "CNMPConfig", "Prediction", "DemoSet", "Demonstration", "RolloutBatch", "RolloutEvaluator",
+           "TrainConfig", "train"]
 __version__ = "0.1.0"
 
 
