@@ -28,6 +28,19 @@ def pytest_collection_modifyitems(config, items):
             item.add_marker(pytest.mark.e2e)
 
 
+@pytest.fixture(scope="session", autouse=True)
+def _user_state_home(tmp_path_factory):
+    """Deployments started without --state-dir keep their state under this run's temporary
+    directory, never in the user's own ~/.local/state/acnmp."""
+    before = os.environ.get("XDG_STATE_HOME")
+    os.environ["XDG_STATE_HOME"] = str(tmp_path_factory.mktemp("xdg-state"))
+    yield
+    if before is None:
+        os.environ.pop("XDG_STATE_HOME", None)
+    else:
+        os.environ["XDG_STATE_HOME"] = before
+
+
 @pytest.fixture(scope="session")
 def e1_demos():
     from acnmp_core.tasks.viapoint import obstacle_demos

@@ -19,7 +19,8 @@ def register(subparsers) -> None:
     p.add_argument("--record", type=non_empty, default=None, metavar="FILE.rrd", help="start a recorder writing this file")
     p.add_argument("--state-dir", type=non_empty, default=None, metavar="DIR",
                    help="learner checkpoints and process logs, locked while the deployment runs "
-                        "(default: runs/<namespace>/state)")
+                        "(default: the user state directory, ~/.local/state/acnmp/<namespace> on Linux; "
+                        "./runs/<namespace>/state, the old default, while only it exists)")
     p.add_argument("--no-model", action="store_true", help="do not start the model service")
     p.add_argument("--demos", action="append", default=[], metavar="SKILL=FILE.npz",
                    help="have the learner train SKILL from a demonstration file at start (again when the "
@@ -48,6 +49,7 @@ def run(args) -> int:
     from services.learner.service import load_demos_spec, parse_demos_spec
     from services.learner.store import StateDirInUse
     from services.transport import install_shutdown_handlers
+    from services.transport.state_dir import default_state_dir
     from services.transport.argtypes import check_output_path
 
     for spec in args.demos:  # the learner would exit at its start, be restarted, and exit again
@@ -59,7 +61,7 @@ def run(args) -> int:
         print(f"acnmp up: {exc}", file=sys.stderr)
         return 1
     stop = install_shutdown_handlers()
-    state_dir = args.state_dir or f"runs/{args.namespace}/state"
+    state_dir = args.state_dir or str(default_state_dir(args.namespace))
     demos = list(args.demos)
     default_skill = not demos and not args.no_default_skill and not args.no_model
     if default_skill:

@@ -39,6 +39,7 @@ from services.transport import Keyspace, Ready, Service, WireError, declare_rpc,
 from services.transport.argtypes import int_at_least, seconds
 from services.transport.errors import wire_error
 from services.transport.keys import check_name, is_concrete, job_from_key, skill_from_key
+from services.transport.state_dir import default_state_dir
 from services.transport.wire import array_field, error_payload, field, require_payload
 from services.worker.remote import RemoteEvaluator
 
@@ -365,7 +366,8 @@ class LearnerConfig(Service):
     summary: ClassVar[str] = "the learner: trains skills, runs adaptation jobs, checkpoints"
 
     state_dir: str | None = option(None, "checkpoints of skills and jobs, locked while the learner runs "
-                                         "(default: runs/<namespace>/state)", metavar="DIR")
+                                         "(default: ~/.local/state/acnmp/<namespace> on Linux, the user state "
+                                         "directory; ./runs/<namespace>/state while only it exists)", metavar="DIR")
     learner_id: str | None = option(None, "learner id (default: learner-<pid>)", flag="--id", metavar="ID")
     demos: list[str] = option([], "train SKILL from a demonstration file at start unless it was trained from "
                                   "that file's demonstrations (a changed file retrains it; repeatable)",
@@ -392,7 +394,7 @@ class LearnerConfig(Service):
         imported = threading.Thread(target=import_training_modules, name="import-training", daemon=True)
         if self.demos:
             imported.start()
-        state_dir = self.state_dir or f"runs/{self.session.namespace}/state"
+        state_dir = self.state_dir or default_state_dir(self.session.namespace, say=log.warning)
         with LearnerService(session, Keyspace(self.session.namespace), state_dir, learner_id=self.learner_id,
                             wait_recorder=self.wait_recorder, chunk_timeout=self.chunk_timeout,
                             limits=LearnerLimits(max_train_steps=self.max_train_steps,
