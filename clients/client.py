@@ -16,7 +16,7 @@ from __future__ import annotations
 import contextlib
 import time
 from dataclasses import dataclass
-from typing import Any, Sequence
+from typing import Any, Callable, Sequence
 
 import numpy as np
 import zenoh
@@ -58,6 +58,38 @@ class PredictResult:
         """Build from one decoded predict reply map."""
         return cls(reply["skill"], reply["version"], reply["times"], reply["mean"], reply["std"],
                    reply["latent"], reply.get("samples"))
+
+
+@dataclass(frozen=True)
+class JobSummary:
+    """One job as the learner lists it (docs/PROTOCOL.md, ``jobs``).
+
+    job : id. kind : ``adapt`` or ``train_pair``. skill, task, robot : what it adapts and where.
+    state : ``queued``, ``running``, ``interrupted``, ``done``, ``failed`` or ``cancelled``.
+    rollouts : roll-outs used (training steps for ``train_pair``), of ``budget``. best_return :
+    best return seen (None before the first). success : the result's (None until it finished).
+    committed_version : the skill version holding its solution, if assimilated. created, updated :
+    wall time (s since the epoch).
+    """
+
+    job: str
+    kind: str
+    skill: str
+    task: str
+    robot: str
+    state: str
+    rollouts: int
+    budget: int | None
+    best_return: float | None
+    success: bool | None
+    committed_version: int | None
+    created: float
+    updated: float
+
+    @classmethod
+    def from_reply(cls, row: dict) -> "JobSummary":
+        """Build from one row of a ``jobs`` reply (extra fields of a newer learner are ignored)."""
+        return cls(**{name: row.get(name) for name in cls.__dataclass_fields__})
 
 
 def predict_request(obs_times, obs_values, task_params=None, query_times=None, *, n_steps: int | None = None,
@@ -225,17 +257,23 @@ class ACNMPClient:
         """The learner's status map of ``job`` (state, iteration, rollouts, ...)."""
         return self.request(self.keys.job_status(job), None, timeout)
 
+    def jobs(self, limit: int = 100, timeout: float | None = None) -> list[JobSummary]:
+        """The learner's newest ``limit`` (1..1000) jobs, newest first."""
+        reply = self.request(self.keys.jobs(), {"v": 1, "limit": int(limit)}, timeout)
+        return [JobSummary.from_reply(row) for row in reply["jobs"]]
+
     def cancel(self, job: str, timeout: float | None = None) -> dict:
         """Cancel ``job`` on the learner; returns its status map afterwards: ``cancelled`` for a job
         that was queued, ``running`` with ``cancel_requested`` for one that stops after its current
         iteration, its final state for a finished one. ClientError ``unknown_job`` if there is none."""
         return self.request(self.keys.job_cancel(job), None, timeout)
 
-    def wait_job(self, job: str, timeout: float = 600.0, *, poll: float = 0.5, progress: bool = True) -> dict:
+    def wait_job(self, job: str, timeout: float = 600.0, *, poll: float = 0.5, progress: bool = True,
+                 on_status: Callable[[dict], None] | None = None) -> dict:
         """Poll ``job`` until it is done, failed or cancelled; return its last status map.
 
         With ``progress`` a tqdm bar shows roll-outs used (out of the budget when the status has
-        one). While no learner answers (``unavailable``/``timeout``: it is restarting, say) polling
+        one); ``on_status`` is called with every status polled. While no learner answers (``unavailable``/``timeout``: it is restarting, say) polling
         goes on: the restarted learner resumes the job from its checkpoint and answers again.
         Raises ClientError ``timeout`` after ``timeout`` seconds.
         """
@@ -252,6 +290,8 @@ class ACNMPClient:
                     continue
                 if progress:
                     bar = _update_bar(bar, job, status)
+                if on_status is not None:
+                    on_status(status)
                 if status.get("state") in TERMINAL_JOB_STATES:
                     return status
                 if time.monotonic() > deadline:

@@ -1,4 +1,5 @@
-"""``acnmp query predict|transfer|info|skills|cancel``: ask a running deployment from the shell."""
+"""``acnmp query predict|transfer|info|skills|cancel`` (and ``train|adapt|jobs|watch``, clients/commands/jobs.py):
+ask a running deployment from the shell."""
 from __future__ import annotations
 
 import argparse
@@ -37,9 +38,9 @@ router) skips that.
 def register(subparsers) -> None:
     """Add ``query`` with the ``predict``, ``transfer``, ``info``, ``skills`` and ``cancel`` sub-commands."""
     parser = subparsers.add_parser(
-        "query", help="ask a running deployment (predict, transfer, info, skills; cancel a job)",
+        "query", help="ask a running deployment (predict, transfer, info, skills; train, adapt, jobs, watch, cancel)",
         description="Ask a running deployment over zenoh: its model service (predict, transfer, info,\n"
-                    "skills) or its learner (cancel a job).",
+                    "skills) or its learner (train a skill, adapt one, list, follow or cancel jobs).",
         epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = parser.add_subparsers(dest="query_command", metavar="WHAT", required=True)
 
@@ -74,6 +75,10 @@ def register(subparsers) -> None:
     _common(cancel, skill=False)
     cancel.add_argument("job", metavar="JOB", help="job id (as the adapt reply gave it)")
     cancel.set_defaults(func=_run_cancel)
+
+    from . import jobs  # train, adapt, jobs, watch: the learner's work
+
+    jobs.register(sub)
 
 
 def _prediction_arguments(parser: argparse.ArgumentParser, task_params: bool) -> None:

@@ -232,6 +232,12 @@ class LearnerCore:
                 raise UnknownJobError(f"no job {job_id!r}")
             return job.status()
 
+    def list_jobs(self, limit: int = 100) -> list[dict]:
+        """The newest ``limit`` jobs' summaries (:meth:`JobRecord.summary`), newest first."""
+        with self._lock:
+            jobs = sorted(self.jobs.values(), key=lambda j: j.created, reverse=True)[:limit]
+            return [job.summary() for job in jobs]
+
     def cancel(self, job_id: str) -> dict:
         """Cancel job ``job_id``; returns its status reply afterwards.
 

@@ -99,6 +99,15 @@ class JobRecord:
             values["result"] = None if d.get("result") is None else result_from_dict(d["result"])
         return cls(**values)
 
+    def summary(self) -> dict[str, Any]:
+        """One row of the job list (docs/PROTOCOL.md, ``jobs``): the status without the result's
+        arrays, with whether it succeeded and the wall times."""
+        status = self.status()
+        result = status.pop("result")
+        status.update(success=None if result is None else bool(result.get("success", False)),
+                      created=self.created, updated=self.updated)
+        return status
+
     def status(self) -> dict[str, Any]:
         """The job status reply (docs/PROTOCOL.md, ``job/<job>/status``)."""
         req = self.request
@@ -108,7 +117,8 @@ class JobRecord:
                   "committed_version": self.committed_version, "cancel_requested": self.cancel_requested,
                   "result": self._result_dict()}
         if isinstance(req, PairTrainJob):  # iteration counts training steps, of steps
-            status.update(task="train_pair", robot=req.robot_b, commit=True, steps=req.config.steps)
+            status.update(task="train_pair", robot=req.robot_b, commit=True, steps=req.config.steps,
+                          budget=req.config.steps)
         else:
-            status.update(task=req.task, robot=req.robot, commit=req.commit)
+            status.update(task=req.task, robot=req.robot, commit=req.commit, budget=req.config.max_rollouts)
         return status

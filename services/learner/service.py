@@ -55,6 +55,9 @@ RECORDED_WAIT = 4.0
 
 #: Bound on the demonstrations of one train request (N * T * D values).
 MAX_DEMO_VALUES = 10_000_000
+#: Jobs a ``jobs`` query lists when it does not say (``limit``), and at most.
+DEFAULT_JOB_LIST = 100
+MAX_JOB_LIST = 1000
 #: Model-architecture fields a train request may set (the rest come from the data).
 MODEL_FIELDS = ("encoder_widths", "decoder_widths", "std_floor")
 TRAIN_FIELDS = tuple(f.name for f in dataclasses.fields(TrainConfig))
@@ -155,6 +158,7 @@ class LearnerService:
             declare_rpc(session, keys.train_pair("*"), self._handle_train_pair, workers=1),
             declare_rpc(session, keys.job_status("*"), self._handle_status, workers=1),
             declare_rpc(session, keys.job_cancel("*"), self._handle_cancel, workers=1),
+            declare_rpc(session, keys.jobs(), self._handle_jobs, workers=1),
         ]
         self.refused_keys = 0  # weights/latest queries on other wildcards, dropped
         self._latest = session.declare_queryable(keys.weights_latest("*"), self._handle_latest)
@@ -223,6 +227,12 @@ class LearnerService:
 
     def _handle_status(self, _msg, query: zenoh.Query) -> dict:
         return self._job_reply(self.core.status, query)
+
+    def _handle_jobs(self, msg: dict | None, _query: zenoh.Query) -> dict:
+        limit = (msg or {}).get("limit", DEFAULT_JOB_LIST)
+        if isinstance(limit, bool) or not isinstance(limit, int) or not 1 <= limit <= MAX_JOB_LIST:
+            raise WireError("bad_request", f"field 'limit': expected an integer in 1..{MAX_JOB_LIST}, got {limit!r}")
+        return {"v": 1, "jobs": self.core.list_jobs(limit), "total": len(self.core.jobs)}
 
     def _handle_cancel(self, _msg, query: zenoh.Query) -> dict:
         return self._job_reply(self.core.cancel, query)

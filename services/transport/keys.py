@@ -136,6 +136,10 @@ class Keyspace:
         name = job if job == "*" else check_name("job", job)
         return f"{self.prefix}/job/{name}/status"
 
+    def jobs(self) -> str:
+        """``.../jobs``: the learner's queryable listing its jobs, newest first."""
+        return f"{self.prefix}/jobs"
+
     def job_cancel(self, job: str = "*") -> str:
         """``.../job/<job>/cancel``: cancel a job (``*``: the learner's queryable, for every job)."""
         name = job if job == "*" else check_name("job", job)

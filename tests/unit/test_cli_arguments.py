@@ -298,7 +298,7 @@ def test_query_help_names_every_sub_command(capsys):
     with pytest.raises(SystemExit):
         main(["--help"])
     out = " ".join(capsys.readouterr().out.split())
-    assert "query ask a running deployment (predict, transfer, info, skills; cancel a job)" in out
+    assert "query ask a running deployment (predict, transfer, info, skills; train, adapt, jobs, watch, cancel)" in out
 
 
 def test_query_seed_takes_what_the_wire_takes():

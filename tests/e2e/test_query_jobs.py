@@ -1,0 +1,86 @@
+"""``acnmp query train|adapt|jobs|watch`` and ``ACNMPClient.jobs`` against a live deployment
+(learner, model service, a point2d worker as child processes): a skill trained from a file, an
+adaptation queued and followed to its end, the job listed; wrong inputs are one line each."""
+from __future__ import annotations
+
+import json
+import time
+
+import numpy as np
+
+from acnmp_core.demo_io import save_demos
+from acnmp_core.experiments.viapoint import make_setup
+from clients.cli import main
+from clients.client import ACNMPClient, JobSummary
+from services.launcher import LocalDeployment
+from services.learner.store import demo_set_to_arrays
+
+NS = "qjobs"
+
+
+def cli(capsys, *argv, retry_unavailable: float = 30.0) -> tuple[int, str, str]:
+    """``acnmp ARGV`` in-process; again while a fresh session has not yet discovered the service."""
+    deadline = time.monotonic() + retry_unavailable
+    while True:
+        code = main(list(argv))
+        out, err = capsys.readouterr()
+        if "unavailable" not in err or time.monotonic() > deadline:
+            return code, out, err
+        time.sleep(0.2)
+
+
+def test_a_skill_is_trained_adapted_listed_and_watched_from_the_shell(tmp_path, capsys):
+    setup = make_setup()
+    demos = save_demos(tmp_path / "e1.npz", demo_set_to_arrays(setup.demos))
+    tg = setup.target
+    with LocalDeployment(NS, workers=1, state_dir=tmp_path / "state") as dep:
+        conn = ("-n", NS, "--connect", dep.anchor)
+        code, out, err = cli(capsys, "query", "train", "--skill", "e1", "--demos", str(demos), "--steps", "300",
+                             *conn)
+        assert code == 0, err
+        assert out.startswith("skill e1 version 0: trained on 6 demonstrations")
+
+        obs = [f"--obs={t}:{x},{y}" for t, (x, y) in zip(tg.obs_times, tg.obs_values)]
+        code, out, err = cli(capsys, "query", "adapt", "--skill", "e1", "--task", "viapoint", *obs,
+                             "--task-config", json.dumps(setup.task_config), "--budget", "30", "--commit",
+                             "--watch", *conn)
+        assert code in (0, 1), err  # done -> 0; the outcome line says what happened either way
+        job = out.split()[1]
+        assert out.splitlines()[0] == (f"job {job} queued on skill e1 (viapoint on point2d, budget 30 roll-outs)")
+        last = out.splitlines()[-1]
+        assert last.startswith(f"job {job}: done, success ") and "roll-outs" in last
+        assert f"job {job}: running" in err  # no terminal here: one progress line per change on stderr
+
+        with ACNMPClient(NS, session=dep.session, timeout=10) as client:
+            (row,) = client.jobs()
+            status = client.job_status(job)
+        assert isinstance(row, JobSummary) and row.job == job and row.state == "done" and row.budget == 30
+        assert row.rollouts == status["result"]["rollouts"] and row.success == status["result"]["success"]
+        assert row.task == "viapoint" and row.robot == "point2d" and row.created <= row.updated
+
+        code, out, _ = cli(capsys, "query", "jobs", *conn)
+        assert code == 0
+        header, line = out.splitlines()
+        assert header.split()[:5] == ["JOB", "KIND", "SKILL", "TASK", "STATE"]
+        assert line.split()[:6] == [job, "adapt", "e1", "viapoint", "done", f"{row.rollouts}/30"]
+        code, out, _ = cli(capsys, "query", "jobs", "--json", *conn)
+        assert code == 0 and [r["job"] for r in json.loads(out)] == [job]
+
+        code, out, _ = cli(capsys, "query", "watch", job, "--json", *conn)
+        assert code == 0 and json.loads(out)["state"] == "done"
+        np.testing.assert_array_equal(np.array(json.loads(out)["result"]["trajectory"]),
+                                      status["result"]["trajectory"])
+
+        # wrong inputs: one line each, nothing queued
+        for argv, exit_code, words in [
+            (("query", "watch", "e1-nothing"), 1, "unknown_job"),
+            (("query", "adapt", "--skill", "e1", "--task", "juggle", "--obs", "0:0,0"), 2, "juggle"),
+            (("query", "adapt", "--skill", "e1", "--task", "viapoint", "--obs", "0:0,0", "--task-config", "[1"),
+             2, "--task-config"),
+            (("query", "train", "--skill", "e1", "--demos", str(tmp_path / "none.npz")), 2, "none.npz"),
+            (("query", "jobs", "--limit", "0"), 2, "--limit"),
+        ]:
+            code, out, err = cli(capsys, *argv, *conn)
+            assert code == exit_code and len(err.strip().splitlines()) == 1 and words in err, (argv, err)
+        with ACNMPClient(NS, session=dep.session, timeout=10) as client:
+            assert [r.job for r in client.jobs()] == [job]
