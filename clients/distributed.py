@@ -29,16 +29,20 @@ import itertools
 import os
 import time
 from contextlib import contextmanager
+from dataclasses import dataclass
 from typing import Callable, Iterator, TypeVar
 
 import numpy as np
+import zenoh
 
 from acnmp_core.adapt_job import AdaptJob, result_from_dict
 from acnmp_core.adaptation import AdaptResult
 from acnmp_core.experiments.viapoint import ViaPointRun, ViaPointSetup, run_viapoint
 from clients.client import RETRY_CODES, ACNMPClient, ClientError
 from services.launcher import LocalDeployment
+from services.recording.publisher import EventPublisher
 from services.recording.recorded import RecordedEvaluator
+from services.transport import Keyspace, alive_tokens
 from services.worker.remote import RemoteEvaluator
 
 SKILL = "e1"
@@ -75,14 +79,20 @@ def experiment_deployment(prefix: str, *, secure: bool = True, **kwargs) -> Loca
 
 @contextmanager
 def remote_rollouts(robot: str, task: str, *, workers: int = 2, record: str | None = None,
-                    prefix: str = "exp", progress: bool = True, secure: bool = True) -> Iterator[Callable[..., object]]:
+                    prefix: str = "exp", progress: bool = True, secure: bool = True,
+                    namespace: str | None = None) -> Iterator[Callable[..., object]]:
     """Start ``workers`` workers of ``robot`` (and a recorder writing ``record`` when given) on a
-    fresh local deployment (authenticated unless ``secure`` is False, :func:`experiment_deployment`);
-    yield ``make(job, task_config=None, extra=None)``, which returns an
-    evaluator that executes roll-outs of ``task`` on those workers (with fail-over) and, when
-    recording, publishes every roll-out under the job name ``<job>-<n>`` (n counts the evaluators
-    made, so repeated runs of one method never share roll-out indices), with the fields ``extra``
-    added to each event. Everything stops when the block exits."""
+    fresh local deployment (authenticated unless ``secure`` is False, :func:`experiment_deployment`),
+    or, with ``namespace``, join the running deployment of that name (:func:`attach`: its
+    ``robot`` workers, its recorder if it has one); yield ``make(job, task_config=None, extra=None)``,
+    which returns an evaluator that executes roll-outs of ``task`` on those workers (with
+    fail-over) and, when recording, publishes every roll-out under the job name ``<job>-<n>`` (n
+    counts the evaluators made, so repeated runs of one method never share roll-out indices), with
+    the fields ``extra`` added to each event. A fresh deployment stops when the block exits."""
+    if namespace is not None:
+        with attach(namespace, robot, record=record, secure=secure, progress=progress) as joined:
+            yield evaluator_maker(joined, robot, task, record=joined.events is not None)
+        return
     with experiment_deployment(prefix, secure=secure, workers=workers, robot=robot, record=record,
                                model=False, learner=False) as dep:
         if progress:
@@ -90,15 +100,77 @@ def remote_rollouts(robot: str, task: str, *, workers: int = 2, record: str | No
         yield evaluator_maker(dep, robot, task, record=bool(record))
 
 
-def evaluator_maker(dep: LocalDeployment, robot: str, task: str, *, record: bool) -> Callable[..., object]:
-    """``make(job, task_config=None, extra=None)`` for a started deployment ``dep``: an evaluator
-    that executes roll-outs of ``task`` on its ``robot`` workers (with fail-over) and, with
-    ``record``, publishes every roll-out under the job name ``<job>-<n>`` (n counts the evaluators
-    made) with the fields ``extra`` added to each event. RuntimeError if its recorder is not up."""
+@dataclass
+class Attached:
+    """A running deployment this process joined as its operator (``--namespace``): the client and
+    its session, and the event publisher when the deployment has a recorder."""
+
+    namespace: str
+    client: ACNMPClient
+    events: EventPublisher | None
+
+    @property
+    def session(self) -> zenoh.Session:
+        return self.client.session
+
+    @property
+    def keys(self) -> Keyspace:
+        return self.client.keys
+
+
+@contextmanager
+def attach(namespace: str, robot: str, *, record: str | None = None, secure: bool = True,
+           progress: bool = True, discover: float = 10.0) -> Iterator[Attached]:
+    """Join the running deployment ``namespace`` (found by its run file, as ``acnmp query`` does)
+    with the operator's credentials, for an experiment's roll-outs on its ``robot`` workers.
+
+    ValueError, naming ``--namespace``, when no such deployment runs or it has no ``robot`` worker
+    (looked for up to ``discover`` seconds); also for ``record`` (its own recorder records, if it
+    has one) and ``secure=False`` (it keeps its own authentication). When it has no recorder, the
+    roll-outs run unrecorded and a line says so. Waits at exit until its recorder confirmed them.
+    """
+    from services.transport.runfile import DeploymentNotFound, find
+
+    if record:
+        raise ValueError(f"--record: with --namespace {namespace}, the deployment's own recorder records "
+                         "(`acnmp up --record`); drop one of them")
+    if not secure:
+        raise ValueError(f"--insecure: deployment {namespace!r} keeps its own authentication; drop --insecure")
+    try:
+        run = find(namespace)
+    except DeploymentNotFound:
+        raise ValueError(f"--namespace {namespace}: no such deployment is running (`acnmp status` lists them)") from None
+    with ACNMPClient(run.namespace, role="operator", timeout=30) as client:
+        deadline = time.monotonic() + discover
+        while not (workers := alive_tokens(client.session, client.keys.worker_token(robot), 2.0)):
+            if time.monotonic() > deadline:
+                raise ValueError(f"--namespace {namespace}: the deployment runs no {robot} workers "
+                                 f"(start one with `acnmp up --robot {robot}`)")
+        events = None
+        if alive_tokens(client.session, client.keys.tokens("recorder"), 2.0):
+            events = EventPublisher(client.session, client.keys)
+        if progress:
+            print(f"running on deployment {run.namespace!r} ({len(workers)} {robot} worker(s)); roll-outs "
+                  + ("recorded by its recorder" if events else "not recorded: it runs no recorder"), flush=True)
+        try:
+            yield Attached(run.namespace, client, events)
+        finally:
+            if events is not None:
+                if not events.wait_recorded(30.0):
+                    print(f"deployment {run.namespace!r}: its recorder did not confirm every roll-out", flush=True)
+                events.close()
+
+
+def evaluator_maker(dep: LocalDeployment | Attached, robot: str, task: str, *, record: bool) -> Callable[..., object]:
+    """``make(job, task_config=None, extra=None)`` for a started deployment ``dep`` (or one joined,
+    :class:`Attached`): an evaluator that executes roll-outs of ``task`` on its ``robot`` workers
+    (with fail-over) and, with ``record``, publishes every roll-out under the job name ``<job>-<n>``
+    (n counts the evaluators made) with the fields ``extra`` added to each event. RuntimeError if
+    its recorder is not up."""
     publisher = None
     if record:
         publisher = dep.events  # the deployment's: its stop() waits until the recorder has what it published
-        if not publisher.wait_for_recorder(timeout=30):
+        if publisher is None or not publisher.wait_for_recorder(timeout=30):
             raise RuntimeError(f"the recorder of deployment {dep.namespace!r} did not come up")
     counter = itertools.count()
 

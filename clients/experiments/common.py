@@ -35,8 +35,9 @@ def sizes(args, train_steps: int, budget: int) -> tuple[int, int]:
 
 
 def add_deployment_arguments(p, what: str) -> None:
-    """Add ``--distributed`` (help: ``what`` runs where), ``--workers N``, ``--record FILE.rrd``
-    and ``--insecure`` (as ``acnmp up --insecure``: the fresh deployment without authentication)."""
+    """Add ``--distributed`` (help: ``what`` runs where), ``--workers N``, ``--record FILE.rrd``,
+    ``--insecure`` (as ``acnmp up --insecure``: the fresh deployment without authentication) and
+    ``--namespace NS`` (a running deployment instead of a fresh one)."""
     p.add_argument("--distributed", action="store_true", help=f"run {what} on a local zenoh deployment")
     p.add_argument("--workers", type=int_at_least(1), default=2,
                    help="workers of the --distributed deployment (default 2)")
@@ -45,6 +46,9 @@ def add_deployment_arguments(p, what: str) -> None:
     p.add_argument("--insecure", action="store_true",
                    help="with --distributed: start the deployment without authentication, a zenoh peer mesh any "
                         "local process can join (as `acnmp up --insecure`; debugging only)")
+    p.add_argument("--namespace", "-n", default=None, metavar="NS",
+                   help="with --distributed: run on the running deployment of NS (`acnmp status` lists them; "
+                        "its workers and recorder) instead of a fresh one; --workers and --record do not apply")
 
 
 def check_deployment_arguments(args) -> None:
@@ -53,6 +57,8 @@ def check_deployment_arguments(args) -> None:
         raise ValueError("--record: only with --distributed (the recorder is a process of the deployment)")
     if args.insecure and not args.distributed:
         raise ValueError("--insecure: only with --distributed (it is about the deployment's authentication)")
+    if getattr(args, "namespace", None) is not None and not args.distributed:
+        raise ValueError("--namespace: only with --distributed (it names the deployment to run on)")
 
 
 def check_output_arguments(args) -> None:

@@ -30,8 +30,6 @@ def register(subparsers) -> None:
                    help="supervised training steps (default 3000)")
     add_output_arguments(p, "write Fig. 3-like PNG (and FILE_latents.png like Fig. 4)")
     add_deployment_arguments(p, "training and adaptation jobs on the learner, roll-outs on point2d workers")
-    p.add_argument("--namespace", "-n", default=None, metavar="NS",
-                   help="with --distributed: run on the running deployment of NS (`acnmp status` lists them)")
     p.add_argument("--fresh", action="store_true",
                    help="with --distributed: always start a fresh deployment, even when one is running")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
@@ -51,8 +49,8 @@ def run(args) -> int:
     kwargs = dict(seed=args.seed, variant=args.variant, budget=args.budget, train_steps=args.train_steps,
                   progress=not args.quiet)
     check_deployment_arguments(args)
-    if (args.namespace is not None or args.fresh) and not args.distributed:
-        raise ValueError("--namespace, --fresh: only with --distributed")
+    if args.fresh and not args.distributed:
+        raise ValueError("--fresh: only with --distributed")
     if args.namespace is not None and args.fresh:
         raise ValueError("--namespace and --fresh: choose a running deployment or a fresh one")
     if args.distributed:
