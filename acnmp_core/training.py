@@ -5,6 +5,7 @@ import copy
 import math
 import threading
 from dataclasses import dataclass, field
+from typing import Callable
 
 import numpy as np
 import torch
@@ -141,6 +142,7 @@ def train(
     progress: bool = True,
     optimizer: torch.optim.Optimizer | None = None,
     stop: threading.Event | None = None,
+    on_validation: Callable[[int, float, float], None] | None = None,
 ) -> TrainResult:
     """Train ``model`` in place on ``demos`` and leave it at its best validation checkpoint.
 
@@ -151,10 +153,12 @@ def train(
     demos : the demonstrations (raw units).
     cfg : hyper-parameters; defaults to :class:`TrainConfig`.
     seed : makes the run deterministic (sampling and validation split).
-    progress : show a tqdm progress bar.
+    progress : show a tqdm progress bar (on a terminal only).
     optimizer : continue with an existing optimizer (default: a new Adam).
     stop : when set (e.g. a service shutting down), InterruptedError at the next step; ``model``
         is then left part-trained, so the caller discards it.
+    on_validation : called after each validation but the first as ``(step, mean training loss
+        since the previous validation, validation loss)``: a service's loss curve.
 
     Returns a :class:`TrainResult`.
     """
@@ -186,7 +190,8 @@ def train(
             best_state.update(copy.deepcopy(model.state_dict()))
 
     validate(0)
-    bar = tqdm(range(1, cfg.steps + 1), desc="train", disable=not progress, leave=False)
+    # disable=None: tqdm draws only on a terminal (no bar lines in a log file or a pipe)
+    bar = tqdm(range(1, cfg.steps + 1), desc="train", disable=None if progress else True, leave=False)
     for step in bar:
         check_stop(stop, "training")
         loss = nll_loss(model, sampler.sample(cfg.batch_size, gen), cfg.beta)
@@ -199,6 +204,9 @@ def train(
         if step % cfg.val_every == 0 or step == cfg.steps:
             validate(step)
             bar.set_postfix(nll=f"{result.train_loss[-1]:.3f}", val=f"{result.val[-1][1]:.3f}")
+            if on_validation is not None:
+                since = result.train_loss[result.val[-2][0]:]
+                on_validation(step, float(np.mean(since)), result.val[-1][1])
     model.load_state_dict(best_state)
     model.eval()
     return result

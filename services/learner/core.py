@@ -56,6 +56,7 @@ from services.recording.events import (batch_rollout_events, job_progress_event,
                                        model_version_event, robot_drawing)
 
 from .jobs import TERMINAL, UNFINISHED, JobRecord
+from .metrics import MetricsReporter
 from .store import DirectoryLock, JobStore, SkillState, SkillStore
 
 log = logging.getLogger(__name__)
@@ -119,6 +120,7 @@ class LearnerCore:
         self.skill_store = SkillStore(state_dir)
         self.job_store = JobStore(state_dir)
         self.evaluator_for, self.publish, self.on_version = evaluator_for, publish, on_version
+        self.metrics = MetricsReporter(publish)
         self._lock = threading.RLock()  # guards skills and jobs
         self._train_lock = threading.Lock()  # one training at a time (the machine has few cores)
         try:
@@ -172,13 +174,22 @@ class LearnerCore:
         InterruptedError (nothing committed) once :meth:`interrupt` or :meth:`close` was called."""
         model = CNMP(spec.model_cfg, seed=spec.seed)
         with self._train_lock:
-            res = train(model, spec.demos, spec.train_cfg, seed=spec.seed, progress=False, stop=self._stop)
+            res = train(model, spec.demos, spec.train_cfg, seed=spec.seed, progress=False, stop=self._stop,
+                        on_validation=self._train_curve(skill, spec.train_cfg.steps))
         with self._lock:
             old = self.skills.get(skill)
             state = SkillState(skill, model, spec.demos, 0 if old is None else old.version + 1,
                                source_hash=spec.demos.content_hash())
             self._commit_skill(state, loss=res.best_val, note="trained")
         return state
+
+    def _train_curve(self, skill: str, steps: int) -> Callable[[int, float, float], None]:
+        """``on_validation`` of ``skill``'s training: its loss curve to the recording and stderr."""
+        def on_validation(step: int, nll: float, val: float) -> None:
+            self.metrics.report(skill, "train", step, {"nll": nll, "val_nll": val},
+                                f"skill {skill}: training step {step}/{steps}, nll {nll:.4f}, validation {val:.4f}",
+                                last=step == steps)
+        return on_validation
 
     def _commit_skill(self, state: SkillState, robots: tuple[str | None, str | None] = (None, None),
                       **extra) -> None:
@@ -396,6 +407,10 @@ class LearnerCore:
             ev = self._progress_event(job, "running")
             ev["loss"] = float(losses.nll_a[-1] + losses.nll_b[-1])
             self.publish(ev)
+            steps = job.request.config.steps
+            self.metrics.report(job.job, "train_pair", done, {"nll_a": losses.nll_a[-1], "nll_b": losses.nll_b[-1]},
+                                f"job {job.job}: pair training step {done}/{steps}, nll A {losses.nll_a[-1]:.4f}, "
+                                f"B {losses.nll_b[-1]:.4f}", last=done == steps)
 
         return on_step
 
@@ -424,6 +439,16 @@ class LearnerCore:
                 ev["attempt"] = int(job.attempt)
                 self.publish(ev)
             self.publish(self._progress_event(job, "running"))
+            std = float(np.mean(it_log.explore_std)) if len(it_log.explore_std) else None
+            self.metrics.report(
+                job.job, "adapt", it_log.iteration,
+                {"mean_return": it_log.mean_return, "best_return": job.best_return, "explore_std": std,
+                 "rollouts": it_log.rollouts, "mean_success": float(it_log.mean_success),
+                 "mean_error": it_log.mean_error},
+                f"job {job.job}: iteration {it_log.iteration}, {it_log.rollouts}/{job.request.config.max_rollouts} "
+                f"roll-outs, mean return {it_log.mean_return:.4g}, best {job.best_return:.4g}"
+                + ("" if std is None else f", exploration std {std:.3g}"),
+                last=bool(it_log.mean_success))
             if job.cancel_requested:  # this iteration's roll-outs are recorded; no further one runs
                 raise JobCancelled(job.job)
 

@@ -3,7 +3,7 @@
 Every event is a wire map (services/transport/wire.py) with ``"v": 1``, ``"kind"`` and ``"t"``
 (sender wall time, seconds since the epoch), published on ``acnmp/<ns>/event/<kind>/<id>``
 (:meth:`Keyspace.event`; :class:`~services.recording.publisher.EventPublisher` publishes).
-The five kinds and their fields (``?`` marks optional ones; ``T`` steps, ``D`` output dims):
+The six kinds and their fields (``?`` marks optional ones; ``T`` steps, ``D`` output dims):
 
 rollout       job str, rollout_index int>=0, trajectory (T,D) float, times (T,) float,
               reward (T,) float (per step), return float, success bool, worker str,
@@ -15,6 +15,10 @@ latent        skill str, version int, latent (L,) float, label? str, robot? str,
 model_version skill str, version int, loss? float, n_demos? int, note? str
 job_progress  job str, iteration int, rollouts int, best_return float|None,
               success_rate? float, state? "running"|"done"|"failed"|"cancelled"|"interrupted", skill? str
+metrics       source str (the skill being trained or the job), phase "train"|"adapt"|"train_pair",
+              step int>=0 (training step or adaptation iteration), and one float field per
+              metric (e.g. nll, val_nll; mean_return, best_return, explore_std): the learner's
+              loss and return curves
 process       process str (the launcher's child name), action "restarted"|"gave_up", pid int (the new
               process; the last one for gave_up), exit_code int (negative: killed by that signal),
               restarts int (within the restart window), delay float (s of backoff),
@@ -38,10 +42,13 @@ from services.transport.wire import WireError, array_field, decode, field
 
 #: Per-kind field that names the event's key chunk.
 _IDENT_FIELD = {"rollout": "job", "job_progress": "job", "latent": "skill", "model_version": "skill",
-                "process": "process"}
+                "process": "process", "metrics": "source"}
 
 JOB_STATES = ("running", "done", "failed", "cancelled", "interrupted")
 PROCESS_ACTIONS = ("restarted", "gave_up")
+METRIC_PHASES = ("train", "adapt", "train_pair")
+#: The fields of a metrics event that are not metrics.
+METRIC_BASE_FIELDS = ("v", "kind", "t", "source", "phase", "step")
 
 #: Longest trajectory / latent an event may carry; beyond that an event is surely a bug.
 MAX_STEPS = 100_000
@@ -154,6 +161,24 @@ def job_progress_event(job: str, iteration: int, rollouts: int, best_return: flo
     return validate_event(msg)
 
 
+def metrics_event(source: str, phase: str, step: int, values: dict[str, float], *, t: float | None = None) -> dict:
+    """Build and validate a ``metrics`` event: ``values`` ({name: finite float}) of ``source`` (a
+    skill or a job) at ``step`` of ``phase``; None values are left out."""
+    msg = _base("metrics", t)
+    msg.update(source=source, phase=phase, step=int(step))
+    for name, value in values.items():
+        if name in METRIC_BASE_FIELDS:
+            raise ValueError(f"metric name {name!r} clashes with a field of the event")
+        if value is not None:
+            msg[name] = float(value)
+    return validate_event(msg)
+
+
+def metric_values(msg: dict) -> dict[str, float]:
+    """The metrics of a validated ``metrics`` event, by name."""
+    return {k: float(v) for k, v in msg.items() if k not in METRIC_BASE_FIELDS and isinstance(v, float)}
+
+
 def process_event(process: str, action: str, *, pid: int, exit_code: int, restarts: int, delay: float,
                   live_after: float | None = None, t: float | None = None) -> dict:
     """Build and validate a ``process`` event: the launcher restarted a child (or gave up on it)."""
@@ -197,6 +222,14 @@ def validate_event(msg: dict) -> dict:
         state = field(msg, "state", str, default="running")
         if state not in JOB_STATES:
             raise WireError("bad_request", f"field 'state': {state!r} is not one of {JOB_STATES}")
+    elif kind == "metrics":
+        phase = field(msg, "phase", str)
+        if phase not in METRIC_PHASES:
+            raise WireError("bad_request", f"field 'phase': {phase!r} is not one of {METRIC_PHASES}")
+        _nonneg(msg, "step")
+        for key, value in msg.items():
+            if key not in METRIC_BASE_FIELDS and not (isinstance(value, float) and np.isfinite(value)):
+                raise WireError("bad_request", f"metric {key!r}: expected a finite float, got {value!r}")
     elif kind == "process":
         action = field(msg, "action", str)
         if action not in PROCESS_ACTIONS:

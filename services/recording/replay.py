@@ -125,9 +125,11 @@ def summarize(path: str | Path) -> dict:
 
     Returns ``{"path", "application_id", "recording_id", "footer", "writer" (:func:`writer_state`),
     "jobs": {job: {...}},
-    "skills": {skill: {"versions": [...], "latents": n}}, "processes": [...], "events": {kind: n}}``;
+    "skills": {skill: {"versions": [...], "latents": n}}, "processes": [...], "metrics": {...},
+    "events": {kind: n}}``;
     ``processes`` lists the launcher's restarts (``process`` events: process, action, pid,
-    exit_code, restarts); per job:
+    exit_code, restarts); ``metrics`` the learner's curves, ``{source: {"<phase>/<name>":
+    {"points", "first_step", "last_step", "first", "last", "min", "max"}}}``; per job:
     ``rollouts`` (rows logged), ``unique_rollouts`` (distinct indices), ``duplicates`` (indices
     logged more than once), ``mean_return``, ``best_return``, ``success_rate``, ``workers``
     ({worker: roll-outs}) and ``last_progress`` (the latest job_progress values).
@@ -152,11 +154,17 @@ def summarize(path: str | Path) -> dict:
     versions: dict[str, set] = defaultdict(set)
     latents: Counter = Counter()
     processes: list[dict] = []
+    metrics: dict[str, dict[str, list]] = defaultdict(lambda: defaultdict(list))
     for chunk in reader.stream(store=store):
         if chunk.is_static or chunk.is_empty:
             continue
         parts = chunk.entity_path.strip("/").split("/")
         head = parts[0]
+        if head == "metrics" and len(parts) == 4:
+            batch = chunk.to_record_batch()
+            series = metrics[parts[1]][f"{parts[2]}/{parts[3]}"]
+            series.extend(zip(_column(batch, "metric_step"), _column(batch, "Scalars:scalars")))
+            continue
         if head not in ("rollouts", "progress", "models", "latent", "processes") or len(parts) < 2:
             continue
         batch = chunk.to_record_batch()
@@ -211,11 +219,30 @@ def summarize(path: str | Path) -> dict:
         "jobs": jobs,
         "skills": skills,
         "processes": processes,
-        "events": {"process": len(processes),"rollout": sum(len(r) for r in rollouts.values()),
+        "metrics": {source: {name: _series(points) for name, points in sorted(by_name.items())}
+                    for source, by_name in sorted(metrics.items())},
+        "events": {"process": len(processes), "metrics": _metric_events(metrics),"rollout": sum(len(r) for r in rollouts.values()),
                    "job_progress": sum(len(p) for p in progress.values()),
                    "model_version": sum(len(v) for v in versions.values()),
                    "latent": sum(latents.values())},
     }
+
+
+def _series(points: list) -> dict:
+    """``{"points", "first_step", "last_step", "first", "last", "min", "max"}`` of one metric's
+    (step, value) points, in step order."""
+    points = sorted((int(step), float(value)) for step, value in points if step is not None and value is not None)
+    values = [v for _, v in points]
+    return {"points": len(points), "first_step": points[0][0] if points else None,
+            "last_step": points[-1][0] if points else None, "first": values[0] if values else None,
+            "last": values[-1] if values else None, "min": min(values, default=None),
+            "max": max(values, default=None)}
+
+
+def _metric_events(metrics: dict[str, dict[str, list]]) -> int:
+    """How many metrics events the series came from: one per (source, phase, step)."""
+    return len({(source, name.split("/")[0], step) for source, by_name in metrics.items()
+                for name, points in by_name.items() for step, _ in points})
 
 
 def format_summary(summary: dict) -> str:
@@ -255,6 +282,10 @@ def format_summary(summary: dict) -> str:
         lines.append(f"  skill {skill}: model versions {s['versions'] or '-'}, {s['latents']} latent vector(s)")
     for p in summary.get("processes", []):
         lines.append(f"  process {p['process']} {p['action']} (exit code {p['exit_code']}, pid {p['pid']})")
+    for source, by_name in summary.get("metrics", {}).items():
+        cells = [f"{name} {num(m['first'])} -> {num(m['last'])}" for name, m in by_name.items()]
+        steps = max(m["last_step"] or 0 for m in by_name.values())
+        lines.append(f"  learner metrics of {source} (to step {steps}): " + ", ".join(cells))
     lines.append(f"open it in the viewer:  rerun {summary['path']}   "
                  f"(or: python -m rerun {summary['path']})")
     return "\n".join(lines)

@@ -29,6 +29,7 @@ entity                             archetype                       from event
 /models/<skill>                    AnyValues (version, ...)        model_version
 /model_version/<skill>             Scalars                         model_version
 /log/jobs, /log/models             TextLog                         job_progress, model_version
+/metrics/<source>/<phase>/<name>   Scalars (on timeline metric_step) metrics (loss, return curves)
 /processes/<name>                  AnyValues (action, pid, ...)    process (a child restarted)
 /log/processes                     TextLog                         process
 /event_ids/<kind>                  AnyValues (event_id)            every other event the recorder
@@ -61,6 +62,7 @@ import rerun as rr
 import rerun.blueprint as rrb
 
 from .drawings import drawer_for
+from .events import metric_values
 
 APPLICATION_ID = "acnmp"
 
@@ -72,7 +74,8 @@ _FAIL = (215, 80, 60)
 
 
 def default_blueprint() -> rrb.Blueprint:
-    """The layout shipped with every recording: trajectories | returns, latents, rewards, log."""
+    """The layout shipped with every recording: trajectories | returns (and the learner's metrics),
+    latents, rewards, log."""
     trail = [rrb.VisibleTimeRange("rollout", start=rrb.TimeRangeBoundary.cursor_relative(seq=-TRAIL),
                                   end=rrb.TimeRangeBoundary.cursor_relative())]
     return rrb.Blueprint(
@@ -85,8 +88,11 @@ def default_blueprint() -> rrb.Blueprint:
                 rrb.Spatial2DView(name="Latent map", origin="/latent_map"),
             ),
             rrb.Vertical(
-                rrb.TimeSeriesView(name="Return per roll-out", origin="/",
-                                   contents=["/return/**", "/best_return/**"]),
+                rrb.Tabs(
+                    rrb.TimeSeriesView(name="Return per roll-out", origin="/",
+                                       contents=["/return/**", "/best_return/**"]),
+                    rrb.TimeSeriesView(name="Learner: loss and return", origin="/metrics"),
+                ),
                 rrb.BarChartView(name="Latent", origin="/latent"),
                 rrb.BarChartView(name="Per-step reward", origin="/reward"),
                 rrb.TextLogView(name="Models and jobs", origin="/log"),
@@ -148,7 +154,7 @@ class RrdWriter:
         (:func:`services.recording.replay.recorded_event_ids`)."""
         kind = msg.get("kind")
         fn = {"rollout": self._rollout, "latent": self._latent, "model_version": self._model_version,
-              "job_progress": self._job_progress, "process": self._process}.get(kind)
+              "job_progress": self._job_progress, "process": self._process, "metrics": self._metrics}.get(kind)
         if fn is None:
             raise ValueError(f"unknown event kind {kind!r}")
         with self._lock:
@@ -255,6 +261,12 @@ class RrdWriter:
         level = "ERROR" if state == "failed" else "INFO"
         self.rec.log("log/jobs", rr.TextLog(
             f"{msg['job']} it={msg['iteration']} rollouts={rollouts} best={best_txt} {state}", level=level))
+
+    def _metrics(self, msg: dict) -> None:
+        self.rec.set_time("metric_step", sequence=int(msg["step"]))
+        base = f"metrics/{_part(msg['source'])}/{_part(msg['phase'])}"
+        for name, value in metric_values(msg).items():
+            self.rec.log(f"{base}/{_part(name)}", rr.Scalars(value))
 
     def _process(self, msg: dict) -> None:
         name = str(msg["process"])
