@@ -54,6 +54,11 @@ def test_e1_job_end_to_end_is_recorded_exactly(tmp_path, verify_rrd):
     versions = summary["skills"]["e1"]["versions"]
     assert versions == ([0] if st["committed_version"] is None else [0, st["committed_version"]])
     assert summary["footer"] is not False
+    # the learner's curves: training loss at each validation (250, 400), the job's return per iteration
+    assert summary["metrics"]["e1"]["train/nll"]["last_step"] == 400
+    assert summary["metrics"]["e1"]["train/val_nll"]["points"] == 2
+    curve = summary["metrics"][job]["adapt/rollouts"]
+    assert curve["last"] == used and curve["points"] == len(st["result"]["history"])
     verify_rrd(rrd)
 
 
