@@ -179,17 +179,18 @@ def test_thread_count_changes_the_time_not_the_numbers():
     if machine_key(provenance()["machine"]) != measured_on:
         pytest.skip(f"1 and 2 threads were compared on {measured_on!r} only (benchmarks/bench_e3_threads.py)")
     assert all(run["identical_to_one_thread"] for run in bench["runs"])
-    before = torch.get_num_threads()
+    from acnmp_core.threads import set_training_threads
+
     kw = dict(envs=4, seed=2, n_initial=20, n_test=100, eval_every=2, train_steps=600, assimilate_steps=60,
               methods=("acnmp",))
     try:
         runs = []
         for threads in (1, 2):
-            torch.set_num_threads(threads)
+            set_training_threads(threads)
             r = E.run_wall(**kw)
             runs.append((r["methods"]["acnmp"], r["curves"]["acnmp"], r["rollouts_per_env"]["acnmp"]))
     finally:
-        torch.set_num_threads(before)
+        set_training_threads(None)
     (s1, c1, e1), (s2, c2, e2) = runs
     assert s1["adaptations"] >= 1  # the comparison covers adaptation and assimilation
     assert {k: v for k, v in s1.items() if k != "time_s"} == {k: v for k, v in s2.items() if k != "time_s"}
