@@ -162,11 +162,12 @@ def attach(namespace: str, robot: str, *, record: str | None = None, secure: boo
 
 
 def evaluator_maker(dep: LocalDeployment | Attached, robot: str, task: str, *, record: bool) -> Callable[..., object]:
-    """``make(job, task_config=None, extra=None)`` for a started deployment ``dep`` (or one joined,
-    :class:`Attached`): an evaluator that executes roll-outs of ``task`` on its ``robot`` workers
-    (with fail-over) and, with ``record``, publishes every roll-out under the job name ``<job>-<n>``
-    (n counts the evaluators made) with the fields ``extra`` added to each event. RuntimeError if
-    its recorder is not up."""
+    """``make(job, task_config=None, extra=None, *, method=, seed=)`` for a started deployment ``dep``
+    (or one joined, :class:`Attached`): an evaluator that executes roll-outs of ``task`` on its
+    ``robot`` workers (with fail-over) and, with ``record``, publishes a ``job`` event (the method,
+    task, its configuration and seed) and every roll-out under the job name ``<job>-<n>`` (n counts
+    the evaluators made) with the fields ``extra`` added to each event. RuntimeError if its
+    recorder is not up."""
     publisher = None
     if record:
         publisher = dep.events  # the deployment's: its stop() waits until the recorder has what it published
@@ -174,11 +175,13 @@ def evaluator_maker(dep: LocalDeployment | Attached, robot: str, task: str, *, r
             raise RuntimeError(f"the recorder of deployment {dep.namespace!r} did not come up")
     counter = itertools.count()
 
-    def make(job: str, task_config: dict | None = None, extra: dict | None = None):
+    def make(job: str, task_config: dict | None = None, extra: dict | None = None, *, method: str = "unknown",
+             seed: int | None = None):
         remote = RemoteEvaluator(dep.session, dep.keys, robot, task, task_config)
         if publisher is None:
             return remote
-        return RecordedEvaluator(remote, publisher, f"{job}-{next(counter)}", robot, extra)
+        about = {"method": method, "task": task, "seed": seed, "task_config": task_config or {}}
+        return RecordedEvaluator(remote, publisher, f"{job}-{next(counter)}", robot, extra, about=about)
 
     return make
 

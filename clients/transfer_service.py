@@ -116,7 +116,7 @@ def run_transfer_distributed(runs, *, workers: int = 2, record: str | None = Non
     reference = {"reference_joint_angles": setup.new_a,
                  "reference_link_lengths": np.asarray(robot(ROBOT_A).drawing.event_fields()["link_lengths"])}
     with transfer_deployment(workers, record, progress, secure, namespace) as (pairs, make):
-        result = run_transfer(runs, evaluator_factory=lambda cond: make(f"transfer-{cond}", task_config(), reference),
+        result = run_transfer(runs, evaluator_factory=lambda cond: make(f"transfer-{cond}", task_config(), reference, method=cond),
                               pair_trainer=pairs.train, first_attempt=pairs.first_attempt, setup=setup, **kwargs)
     result.update(distributed=True, workers=int(workers), recording=str(record) if record else None,
                   pair_jobs=dict(pairs.jobs), authenticated=bool(secure))

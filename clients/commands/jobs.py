@@ -29,7 +29,7 @@ examples:
 """
 
 
-def register(sub) -> None:
+def add_job_commands(sub) -> None:
     """Add ``train``, ``adapt``, ``jobs`` and ``watch`` to ``acnmp query``'s sub-commands."""
     fmt = argparse.RawDescriptionHelpFormatter
     train = sub.add_parser("train", help="train (or retrain) a skill on a demonstrations .npz, on the learner",

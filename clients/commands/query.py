@@ -78,7 +78,7 @@ def register(subparsers) -> None:
 
     from . import jobs  # train, adapt, jobs, watch: the learner's work
 
-    jobs.register(sub)
+    jobs.add_job_commands(sub)
 
 
 def _prediction_arguments(parser: argparse.ArgumentParser, task_params: bool) -> None:

@@ -1,27 +1,135 @@
-"""``acnmp replay FILE.rrd``: summarise a recording (roll-outs and rewards per job, model versions)."""
+"""``acnmp replay FILE.rrd``: summarise a recording (jobs by method and skill, roll-outs and rewards,
+model versions, the learner's curves); export it as Parquet tables; run its roll-outs again."""
 from __future__ import annotations
 
+import argparse
 import json
 import sys
+
+from services.transport.argtypes import int_at_least, non_empty
+
+EPILOG = """\
+examples:
+  acnmp replay run.rrd                          # what it holds: jobs by method and skill, curves
+  acnmp replay run.rrd --export tables/         # rollouts/jobs/latents/models/metrics.parquet
+  acnmp replay run.rrd --execute                # every roll-out again here: recorded vs now
+  acnmp replay run.rrd --execute --namespace lab --job e1-0123456789   # on a deployment's workers
+  acnmp replay old.rrd new.rrd --export t/      # a restarted recorder's files, each roll-out once
+
+In Python: services.recording.tables.read_recording("run.rrd") gives the same tables (pyarrow),
+.trajectories(job) a (N, T, D) numpy array; `acnmp demos from-recording` writes demonstrations.
+"""
 
 
 def register(subparsers) -> None:
     """Add the ``replay`` sub-command."""
-    parser = subparsers.add_parser("replay", help="summarise a recording written by the recorder",
-                                   description=__doc__.splitlines()[0].split(": ", 1)[1])
-    parser.add_argument("file", metavar="FILE.rrd", help="recording written by the recorder")
-    parser.add_argument("--json", action="store_true", help="print the summary as JSON")
+    parser = subparsers.add_parser(
+        "replay", help="summarise, export (Parquet) or re-execute a recording",
+        description=__doc__.splitlines()[0].split(": ", 1)[1] + "\n" + __doc__.splitlines()[1],
+        epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("files", nargs="+", metavar="FILE.rrd",
+                        help="recording(s) written by the recorder; several: one deployment's files, oldest first")
+    parser.add_argument("--json", action="store_true", help="print the summary (or the re-execution) as JSON")
+    parser.add_argument("--export", metavar="DIR", type=non_empty, default=None,
+                        help="write every roll-out, job, latent, model version and metric as Parquet tables "
+                             "in DIR (schemas: docs/PROTOCOL.md, 'Recordings as data')")
+    parser.add_argument("--execute", action="store_true",
+                        help="run the recorded roll-outs again and compare each return with the recorded one "
+                             "(exit 1 if any differs)")
+    parser.add_argument("--namespace", "-n", default=None, metavar="NS",
+                        help="with --execute: on the workers of the running deployment NS (default: in this process)")
+    parser.add_argument("--job", default=None, metavar="JOB", help="with --execute: only this job's roll-outs")
+    parser.add_argument("--limit", type=int_at_least(1), default=None, metavar="N",
+                        help="with --execute: at most N roll-outs per job")
     parser.set_defaults(func=run)
 
 
 def run(args) -> int:
-    """Print the summary of ``args.file``; exit code 0, or 1 if it cannot be read."""
+    """Print the summary of each file, export or re-execute; 0, or 1 if a file cannot be read or a
+    re-executed return differs."""
     from services.recording.replay import format_summary, summarize
 
+    if (args.namespace or args.job or args.limit) and not args.execute:
+        raise ValueError("--namespace, --job, --limit: only with --execute")
     try:
-        summary = summarize(args.file)
+        if args.export or args.execute:
+            from services.recording.tables import read_recording
+
+            tables = read_recording(args.files)
+        else:
+            summaries = [summarize(f) for f in args.files]
     except (OSError, ValueError) as exc:  # missing, a directory, unreadable, not a recording
         print(f"acnmp replay: {exc}", file=sys.stderr)
         return 1
-    print(json.dumps(summary, indent=2) if args.json else format_summary(summary))
+    if args.export:
+        paths = tables.write_parquet(args.export)
+        for name, path in paths.items():
+            print(f"wrote {path} ({getattr(tables, name).num_rows} rows)")
+        if not args.execute:
+            return 0
+    if args.execute:
+        return _execute(args, tables)
+    if args.json:
+        print(json.dumps(summaries[0] if len(summaries) == 1 else summaries, indent=2))
+    else:
+        print("\n".join(format_summary(s) for s in summaries))
     return 0
+
+
+def _execute(args, tables) -> int:
+    from tqdm import tqdm
+
+    from services.recording.reexecute import local_evaluator, reexecute
+
+    total = tables.rollouts.num_rows
+    with _evaluators(args) as evaluator_for, tqdm(total=total, unit="rollout", desc="re-executing",
+                                                  disable=None if not args.json else True) as bar:
+        results, skipped = reexecute(tables, job=args.job, limit=args.limit,
+                                     evaluator_for=evaluator_for or local_evaluator, on_done=lambda _r: bar.update())
+    differ = [r for r in results if not r.equal]
+    if args.json:
+        print(json.dumps({"rollouts": len(results), "equal": len(results) - len(differ),
+                          "differ": [vars(r) for r in differ], "skipped_jobs": skipped}, indent=2))
+    else:
+        jobs = sorted({r.job for r in results})
+        for job in jobs:
+            mine = [r for r in results if r.job == job]
+            worst = max(abs(r.return_now - r.recorded_return) for r in mine)
+            print(f"job {job}: {len(mine)} roll-outs again, {sum(r.equal for r in mine)} equal, "
+                  f"largest return difference {worst:.3g}")
+        for r in differ[:20]:
+            print(f"  differs: job {r.job} roll-out {r.rollout_index}: recorded return {r.recorded_return!r}, "
+                  f"now {r.return_now!r}; success {r.recorded_success} -> {r.success_now}")
+        for job, why in skipped.items():
+            print(f"job {job}: not re-executed ({why})")
+        print(f"{len(results)} roll-outs re-executed, {len(results) - len(differ)} with the recorded return")
+    return 1 if differ or not results else 0
+
+
+class _evaluators:
+    """``with _evaluators(args) as make``: None (in this process), or ``make(robot, task, task_config)``
+    giving remote evaluators on the running deployment ``--namespace`` (operator credentials)."""
+
+    def __init__(self, args):
+        self.args, self.client = args, None
+
+    def __enter__(self):
+        if self.args.namespace is None:
+            return None
+        from clients.client import ACNMPClient
+        from services.transport.runfile import DeploymentNotFound, find
+        from services.worker.remote import RemoteEvaluator
+
+        try:
+            run = find(self.args.namespace)
+        except DeploymentNotFound:
+            raise ValueError(f"--namespace {self.args.namespace}: no such deployment is running "
+                             "(`acnmp status` lists them)") from None
+        self.client = ACNMPClient(run.namespace, role="operator", timeout=30).__enter__()
+        client = self.client
+        return lambda robot, task, task_config: RemoteEvaluator(client.session, client.keys, robot, task, task_config)
+
+    def __exit__(self, *exc):
+        if self.client is not None:
+            self.client.__exit__(*exc)
+        return False

@@ -48,7 +48,7 @@ def run(args) -> int:
 
         with remote_rollouts("pour", "pour", workers=args.workers, record=args.record, prefix="e6",
                              progress=not args.quiet, secure=not args.insecure, namespace=args.namespace) as make:
-            result = run_pour(args.seeds, evaluator_factory=lambda: make("pour", {"tolerance_g": TOLERANCE_G}),
+            result = run_pour(args.seeds, evaluator_factory=lambda: make("pour", {"tolerance_g": TOLERANCE_G}, method="acnmp"),
                               **kwargs)
     else:
         result = run_pour(args.seeds, jobs=args.jobs, **kwargs)

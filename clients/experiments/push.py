@@ -72,7 +72,7 @@ def run(args) -> int:
         with remote_rollouts("planar3", "push", workers=args.workers, record=args.record, prefix="e2",
                              progress=not args.quiet, secure=not args.insecure, namespace=args.namespace) as make:
             result = run_push(args.seeds, evaluator_factory=lambda setup, method, case: make(
-                f"push-{method}-{case}", task_config(setup, method)), **kwargs)
+                f"push-{method}-{case}", task_config(setup, method), method=method), **kwargs)
     else:
         result = run_push(args.seeds, **kwargs)
     print(f"E2 push ({result['setting']} setting), {result['seeds']} seed(s), tolerance {result['tolerance']} m, {result['wall_time_s']:.1f} s")

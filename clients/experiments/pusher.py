@@ -54,7 +54,7 @@ def run(args) -> int:
 
         with remote_rollouts("pusher", "pusher_push", workers=args.workers, record=args.record, prefix="pusher",
                              progress=not args.quiet, secure=not args.insecure, namespace=args.namespace) as make:
-            result = run_pusher(seeds, evaluator_factory=lambda method, seed: make(f"pusher-{method}-s{seed}", {}),
+            result = run_pusher(seeds, evaluator_factory=lambda method, seed: make(f"pusher-{method}-s{seed}", {}, method=method, seed=seed),
                                 **kwargs)
     else:
         result = run_pusher(seeds, **kwargs)

@@ -64,7 +64,7 @@ def run(args) -> int:
         with remote_rollouts(args.robot, task, workers=args.workers, record=args.record, prefix="robot",
                              progress=not args.quiet, secure=not args.insecure, namespace=args.namespace) as make:
             result = run_own_robot(args.robot, demos, args.at,
-                                   evaluator_factory=lambda m, s, i: make(f"{args.robot}-{m}-s{s}-p{i}", {}), **kwargs)
+                                   evaluator_factory=lambda m, s, i: make(f"{args.robot}-{m}-s{s}-p{i}", {}, method=m, seed=s), **kwargs)
     else:
         result = run_own_robot(args.robot, demos, args.at, **kwargs)
     print(f"robot {result['robot']}, task {result['task']}, {len(result['points'])} point(s) x {result['seeds']} "

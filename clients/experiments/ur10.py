@@ -42,7 +42,7 @@ def run(args) -> int:
 
         with remote_rollouts("ur10", "pick_place", workers=args.workers, record=args.record, prefix="e5",
                              progress=not args.quiet, secure=not args.insecure, namespace=args.namespace) as make:
-            result = run_ur10(args.seeds, evaluator_factory=lambda case: make(f"ur10-{case}", {}), **kwargs)
+            result = run_ur10(args.seeds, evaluator_factory=lambda case: make(f"ur10-{case}", {}, method="acnmp"), **kwargs)
     else:
         result = run_ur10(args.seeds, **kwargs)
     print(f"E5 UR10, {result['seeds']} seed(s), {result['wall_time_s']:.1f} s; joint errors (deg, median over seeds) "

@@ -52,7 +52,7 @@ from acnmp_core.rollout import RolloutBatch, RolloutEvaluator
 from acnmp_core.training import TrainConfig, train
 from acnmp_core.transfer import PairTrainResult, TransferPair, latent_plane, train_pair
 from acnmp_core.transfer_job import PairJobResult, PairTrainJob
-from services.recording.events import (batch_rollout_events, job_progress_event, latent_event,
+from services.recording.events import (batch_rollout_events, job_event, job_progress_event, latent_event,
                                        model_version_event, robot_drawing)
 
 from .jobs import TERMINAL, UNFINISHED, JobRecord
@@ -350,7 +350,10 @@ class LearnerCore:
             return
         req = job.request
         if job.result is None:
-            on_iteration = self._recording(job)
+            self.publish(job_event(job.job, method=req.config.mode, robot=req.robot, task=req.task, skill=job.skill,
+                                   seed=req.seed, attempt=job.attempt, config=req.config.to_dict(),
+                                   task_config=req.task_config))
+            on_iteration = self._recording(job, start_version)
             job_result = adapt(model, demos, req.target, self.evaluator_for(req), req.config, seed=req.seed,
                                on_iteration=on_iteration)
             with self._lock:
@@ -371,6 +374,8 @@ class LearnerCore:
         gives the same pair), commit it as the skill's next version, mark the job done."""
         req: PairTrainJob = job.request
         if job.result is None:
+            self.publish(job_event(job.job, method="train_pair", robot=req.robot_b, task="train_pair", skill=job.skill,
+                                   seed=req.seed, attempt=job.attempt, config=req.config.to_dict()))
             pair = TransferPair(req.n_a, req.n_b, req.config, seed=req.seed)
             with self._train_lock:
                 losses = train_pair(pair, req.demos_a, req.demos_b, req.config, seed=req.seed,
@@ -414,9 +419,10 @@ class LearnerCore:
 
         return on_step
 
-    def _recording(self, job: JobRecord) -> Callable[[IterationLog, np.ndarray, RolloutBatch], None]:
-        """The ``on_iteration`` callback of ``job``'s adaptation: bookkeeping, then one rollout event
-        per executed trajectory and a progress event; raises InterruptedError once closing."""
+    def _recording(self, job: JobRecord, model_version: int) -> Callable[[IterationLog, np.ndarray, RolloutBatch], None]:
+        """The ``on_iteration`` callback of ``job``'s adaptation of the skill's ``model_version``:
+        bookkeeping, then one rollout event per executed trajectory and a progress event; raises
+        InterruptedError once closing."""
         target: AdaptTarget = job.request.target
         drawing = robot_drawing(job.request.robot)
         # a drawn robot shows its own states; a point robot shows the conditioning points instead
@@ -437,6 +443,7 @@ class LearnerCore:
                                            task_params=target.task_params, condition=condition,
                                            iteration=it_log.iteration, skill=job.skill, drawing=drawing):
                 ev["attempt"] = int(job.attempt)
+                ev["model_version"] = int(model_version)
                 self.publish(ev)
             self.publish(self._progress_event(job, "running"))
             std = float(np.mean(it_log.explore_std)) if len(it_log.explore_std) else None

@@ -3,7 +3,7 @@
 Every event is a wire map (services/transport/wire.py) with ``"v": 1``, ``"kind"`` and ``"t"``
 (sender wall time, seconds since the epoch), published on ``acnmp/<ns>/event/<kind>/<id>``
 (:meth:`Keyspace.event`; :class:`~services.recording.publisher.EventPublisher` publishes).
-The six kinds and their fields (``?`` marks optional ones; ``T`` steps, ``D`` output dims):
+The seven kinds and their fields (``?`` marks optional ones; ``T`` steps, ``D`` output dims):
 
 rollout       job str, rollout_index int>=0, trajectory (T,D) float, times (T,) float,
               reward (T,) float (per step), return float, success bool, worker str,
@@ -15,6 +15,9 @@ latent        skill str, version int, latent (L,) float, label? str, robot? str,
 model_version skill str, version int, loss? float, n_demos? int, note? str
 job_progress  job str, iteration int, rollouts int, best_return float|None,
               success_rate? float, state? "running"|"done"|"failed"|"cancelled"|"interrupted", skill? str
+job           job str, method str (e.g. "acnmp", "rl_only", "promp_rl"), robot str, task str,
+              skill? str, seed? int, attempt? int, config? str (JSON of the method's settings),
+              task_config? str (JSON of the task's parameters): what a job ran, once per attempt
 metrics       source str (the skill being trained or the job), phase "train"|"adapt"|"train_pair",
               step int>=0 (training step or adaptation iteration), and one float field per
               metric (e.g. nll, val_nll; mean_return, best_return, explore_std): the learner's
@@ -31,6 +34,7 @@ here: the learner core builds events without a session.
 """
 from __future__ import annotations
 
+import json
 import time
 from typing import Any
 
@@ -38,11 +42,11 @@ import numpy as np
 
 from acnmp_core.robots.registry import robot
 from services.transport.keys import EVENT_KINDS, Keyspace, check_name
-from services.transport.wire import WireError, array_field, decode, field
+from services.transport.wire import WireError, array_field, decode, field, jsonable
 
 #: Per-kind field that names the event's key chunk.
 _IDENT_FIELD = {"rollout": "job", "job_progress": "job", "latent": "skill", "model_version": "skill",
-                "process": "process", "metrics": "source"}
+                "process": "process", "metrics": "source", "job": "job"}
 
 JOB_STATES = ("running", "done", "failed", "cancelled", "interrupted")
 PROCESS_ACTIONS = ("restarted", "gave_up")
@@ -161,6 +165,22 @@ def job_progress_event(job: str, iteration: int, rollouts: int, best_return: flo
     return validate_event(msg)
 
 
+def job_event(job: str, *, method: str, robot: str, task: str, skill: str | None = None, seed: int | None = None,
+              attempt: int | None = None, config: dict | None = None, task_config: dict | None = None,
+              t: float | None = None) -> dict:
+    """Build and validate a ``job`` event: what job ``job`` runs (published before its roll-outs).
+    ``config`` and ``task_config`` travel as JSON text (events carry no nested maps)."""
+    msg = _base("job", t)
+    msg.update(job=job, method=method, robot=robot, task=task)
+    for key, value in (("skill", skill), ("seed", seed), ("attempt", attempt)):
+        if value is not None:
+            msg[key] = value
+    for key, value in (("config", config), ("task_config", task_config)):
+        if value is not None:
+            msg[key] = json.dumps(jsonable(dict(value)), sort_keys=True)
+    return validate_event(msg)
+
+
 def metrics_event(source: str, phase: str, step: int, values: dict[str, float], *, t: float | None = None) -> dict:
     """Build and validate a ``metrics`` event: ``values`` ({name: finite float}) of ``source`` (a
     skill or a job) at ``step`` of ``phase``; None values are left out."""
@@ -222,6 +242,14 @@ def validate_event(msg: dict) -> dict:
         state = field(msg, "state", str, default="running")
         if state not in JOB_STATES:
             raise WireError("bad_request", f"field 'state': {state!r} is not one of {JOB_STATES}")
+    elif kind == "job":
+        for key in ("method", "robot", "task"):
+            field(msg, key, str)
+        for key in ("skill", "config", "task_config"):
+            field(msg, key, str, default=None)
+        for key in ("seed", "attempt"):
+            if msg.get(key) is not None:
+                _nonneg(msg, key)
     elif kind == "metrics":
         phase = field(msg, "phase", str)
         if phase not in METRIC_PHASES:

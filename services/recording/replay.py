@@ -131,8 +131,9 @@ def summarize(path: str | Path) -> dict:
     exit_code, restarts); ``metrics`` the learner's curves, ``{source: {"<phase>/<name>":
     {"points", "first_step", "last_step", "first", "last", "min", "max"}}}``; per job:
     ``rollouts`` (rows logged), ``unique_rollouts`` (distinct indices), ``duplicates`` (indices
-    logged more than once), ``mean_return``, ``best_return``, ``success_rate``, ``workers``
-    ({worker: roll-outs}) and ``last_progress`` (the latest job_progress values).
+    logged more than once), ``mean_return``, ``best_return``, ``success_rate``, ``method``,
+    ``skill``, ``robot``, ``task``, ``seed`` (from its ``job`` event; None for a recording without
+    one), ``workers`` ({worker: roll-outs}) and ``last_progress`` (the latest job_progress values).
     Raises FileNotFoundError, IsADirectoryError or ValueError (not a readable recording).
     """
     path = Path(path)
@@ -155,6 +156,7 @@ def summarize(path: str | Path) -> dict:
     latents: Counter = Counter()
     processes: list[dict] = []
     metrics: dict[str, dict[str, list]] = defaultdict(lambda: defaultdict(list))
+    about: dict[str, dict] = {}  # job -> its job event's method, robot, task, skill, seed
     for chunk in reader.stream(store=store):
         if chunk.is_static or chunk.is_empty:
             continue
@@ -165,9 +167,14 @@ def summarize(path: str | Path) -> dict:
             series = metrics[parts[1]][f"{parts[2]}/{parts[3]}"]
             series.extend(zip(_column(batch, "metric_step"), _column(batch, "Scalars:scalars")))
             continue
-        if head not in ("rollouts", "progress", "models", "latent", "processes") or len(parts) < 2:
+        if head not in ("rollouts", "progress", "models", "latent", "processes", "jobs") or len(parts) < 2:
             continue
         batch = chunk.to_record_batch()
+        if head == "jobs":
+            cols = {c: _column(batch, c) for c in ("method", "robot", "task", "skill", "seed")}
+            for i in range(batch.num_rows):
+                about[parts[1]] = {c: cols[c][i] for c in cols}
+            continue
         if head == "rollouts":
             cols = {c: _column(batch, c) for c in ("rollout_index", "ret", "success", "worker")}
             for i in range(batch.num_rows):
@@ -198,7 +205,10 @@ def summarize(path: str | Path) -> dict:
             # state, then to the later row.
             last = max(enumerate(progress[job]), key=lambda ip: (
                 ip[1]["rollouts"] or 0, ip[1]["iteration"] or 0, ip[1].get("state") in ("done", "failed"), ip[0]))[1]
+        described = about.get(job, {})
         jobs[job] = {
+            "method": described.get("method"), "skill": described.get("skill"), "robot": described.get("robot"),
+            "task": described.get("task"), "seed": None if described.get("seed") in (None, -1) else described["seed"],
             "rollouts": len(rows),
             "unique_rollouts": len(idx),
             "duplicates": sorted(i for i, n in idx.items() if n > 1),
@@ -266,10 +276,21 @@ def format_summary(summary: dict) -> str:
         lines.append("  warning: no footer (the writer did not shut down cleanly); data read by streaming")
     if not summary["jobs"]:
         lines.append("  no adaptation jobs recorded")
-    for job, j in summary["jobs"].items():
+    def group(item):
+        j = item[1]
+        return (j.get("method") or "~", j.get("skill") or "", item[0])
+
+    shown = None
+    for job, j in sorted(summary["jobs"].items(), key=group):
+        heading = (j.get("method"), j.get("skill"))
+        if heading != shown and j.get("method"):
+            shown = heading
+            lines.append(f"  method {j['method']}" + (f", skill {j['skill']}" if j.get("skill") else "")
+                         + f" ({j['robot']}/{j['task']}):")
+        seed = "" if j.get("seed") is None else f", seed {j['seed']}"
         lines.append(f"  job {job}: {j['rollouts']} roll-outs ({j['unique_rollouts']} distinct), "
                      f"mean return {num(j['mean_return'])}, best {num(j['best_return'])}, "
-                     f"success {num(j['success_rate'])}")
+                     f"success {num(j['success_rate'])}{seed}")
         if j["duplicates"]:
             lines.append(f"    duplicated roll-out indices: {j['duplicates'][:20]}")
         if j["workers"]:

@@ -21,7 +21,10 @@ entity                             archetype                       from event
 /return/<job>                      Scalars                         rollout.return
 /reward/<job>                      BarChart (per-step reward)      rollout.reward
 /rollouts/<job>                    AnyValues (index, worker, ...,  rollout (one row each)
-                                   event_id)
+                                   event_id; times, values,
+                                   reward, task_params at float64)
+/jobs/<job>                        AnyValues (method, robot, task, job (once per attempt)
+                                   skill, seed, config, ...)
 /best_return/<job>                 Scalars                         job_progress
 /progress/<job>                    AnyValues                       job_progress
 /latent/<skill>/<label>            BarChart                        latent
@@ -154,7 +157,8 @@ class RrdWriter:
         (:func:`services.recording.replay.recorded_event_ids`)."""
         kind = msg.get("kind")
         fn = {"rollout": self._rollout, "latent": self._latent, "model_version": self._model_version,
-              "job_progress": self._job_progress, "process": self._process, "metrics": self._metrics}.get(kind)
+              "job_progress": self._job_progress, "process": self._process, "metrics": self._metrics,
+              "job": self._job}.get(kind)
         if fn is None:
             raise ValueError(f"unknown event kind {kind!r}")
         with self._lock:
@@ -215,7 +219,16 @@ class RrdWriter:
         self.rec.log(f"return/{job}", rr.Scalars(ret))
         self.rec.log(f"reward/{job}", rr.BarChart(np.asarray(msg["reward"], dtype=np.float32)))
         row = dict(rollout_index=idx, worker=str(msg.get("worker", "")), success=bool(msg.get("success")),
-                   ret=ret, steps=int(traj.shape[0]), iteration=-1 if msg.get("iteration") is None else int(msg["iteration"]))
+                   ret=ret, steps=int(traj.shape[0]), iteration=-1 if msg.get("iteration") is None else int(msg["iteration"]),
+                   # the data back at full precision (the drawings above are float32): recordings as data
+                   dims=int(dims), times=np.asarray(msg["times"], dtype=np.float64),
+                   values=np.asarray(msg["trajectory"], dtype=np.float64).reshape(-1),
+                   reward=np.asarray(msg["reward"], dtype=np.float64))
+        if msg.get("task_params") is not None:
+            row["task_params"] = np.asarray(msg["task_params"], dtype=np.float64).reshape(-1)
+        for key in ("skill", "attempt", "model_version"):
+            if msg.get(key) is not None:
+                row[key] = msg[key]
         if event_id is not None:
             row["event_id"] = event_id
         self.rec.log(f"rollouts/{job}", rr.AnyValues(**row))
@@ -261,6 +274,16 @@ class RrdWriter:
         level = "ERROR" if state == "failed" else "INFO"
         self.rec.log("log/jobs", rr.TextLog(
             f"{msg['job']} it={msg['iteration']} rollouts={rollouts} best={best_txt} {state}", level=level))
+
+    def _job(self, msg: dict) -> None:
+        values = {k: msg[k] for k in ("method", "robot", "task", "skill", "config", "task_config")
+                  if msg.get(k) is not None}
+        values.update(seed=int(msg.get("seed", -1)), attempt=int(msg.get("attempt", -1)))
+        self.rec.log(f"jobs/{_part(msg['job'])}", rr.AnyValues(**values))
+        self.rec.log("log/jobs", rr.TextLog(
+            f"{msg['job']}: {msg['method']} on {msg['robot']}/{msg['task']}"
+            + (f", skill {msg['skill']}" if msg.get("skill") else "")
+            + (f", seed {msg['seed']}" if msg.get("seed") is not None else ""), level="INFO"))
 
     def _metrics(self, msg: dict) -> None:
         self.rec.set_time("metric_step", sequence=int(msg["step"]))

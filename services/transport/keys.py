@@ -17,7 +17,7 @@ DEFAULT_NAMESPACE = "default"
 _NAME = re.compile(r"^[A-Za-z0-9_.\-]{1,64}$")
 
 #: Event kinds (see services/recording/events.py); each is published under ``Keyspace.event``.
-EVENT_KINDS = ("rollout", "latent", "model_version", "job_progress", "process", "metrics")
+EVENT_KINDS = ("rollout", "latent", "model_version", "job_progress", "process", "metrics", "job")
 
 
 def check_name(kind: str, value: str) -> str:

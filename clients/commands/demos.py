@@ -1,0 +1,50 @@
+"""``acnmp demos from-recording FILE.rrd -o demos.npz``: demonstrations out of what a deployment
+recorded, in the format ``acnmp up --demos SKILL=demos.npz`` trains on."""
+from __future__ import annotations
+
+import argparse
+import sys
+
+from services.transport.argtypes import non_empty
+
+EPILOG = """\
+examples:
+  acnmp demos from-recording run.rrd --successful --best-per-job -o found.npz
+  acnmp up --demos reach=found.npz        # a skill trained on what the deployment found
+"""
+
+
+def register(subparsers) -> None:
+    """Add ``demos`` with its ``from-recording`` sub-command."""
+    parser = subparsers.add_parser("demos", help="make demonstration files (from a recording)",
+                                   description="Make demonstration files.")
+    sub = parser.add_subparsers(dest="demos_command", metavar="WHAT", required=True)
+    rec = sub.add_parser("from-recording", help="the recorded roll-outs as a demonstrations .npz",
+                         description=__doc__.split(": ", 1)[1].replace("\n", " "), epilog=EPILOG,
+                         formatter_class=argparse.RawDescriptionHelpFormatter)
+    rec.add_argument("files", nargs="+", metavar="FILE.rrd", help="recording(s) of one deployment, oldest first")
+    rec.add_argument("-o", "--output", required=True, type=non_empty, metavar="DEMOS.npz", help="file to write")
+    rec.add_argument("--job", default=None, metavar="JOB", help="only this job's roll-outs")
+    rec.add_argument("--successful", action="store_true", help="only successful roll-outs")
+    rec.add_argument("--best-per-job", action="store_true",
+                     help="one roll-out per job: its highest return (the successful ones with --successful)")
+    rec.set_defaults(func=_run_from_recording)
+
+
+def _run_from_recording(args) -> int:
+    from acnmp_core.demo_io import save_demos
+    from services.recording.tables import read_recording
+    from services.transport.argtypes import check_output_path
+
+    check_output_path(args.output, "--output")
+    try:
+        tables = read_recording(args.files)
+    except (OSError, ValueError) as exc:
+        print(f"acnmp demos: {exc}", file=sys.stderr)
+        return 1
+    demos = tables.demonstrations(job=args.job, successful=args.successful, best_per_job=args.best_per_job)
+    path = save_demos(args.output, demos)
+    n, t, d = demos.values.shape
+    print(f"wrote {path}: {n} demonstrations of up to {t} steps x {d} dims, {demos.task_params.shape[1]} task "
+          f"parameters (train a skill on it: acnmp up --demos SKILL={path})")
+    return 0
