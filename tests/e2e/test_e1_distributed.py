@@ -1,20 +1,35 @@
-"""E1 across a real local deployment gives the in-process numbers and a valid, complete recording."""
+"""E1 across a real local deployment gives the in-process numbers and a valid, complete recording,
+and the recording is data: its export holds exactly the run's roll-outs per method, the in-process
+solutions among them bit for bit; its roll-outs run again give the recorded returns; its best
+roll-out, as a demonstrations file, trains a skill that reproduces it within E1's tolerance."""
 import json
 
+import numpy as np
+import pyarrow.parquet as pq
+import torch
+
+from acnmp_core.cnmp import CNMP, CNMPConfig
+from acnmp_core.demo_io import load_demos
+from acnmp_core.experiments.viapoint import make_setup, run_viapoint
+from acnmp_core.training import TrainConfig, train
 from clients.cli import main
 from services.recording.replay import summarize
+from services.recording.tables import read_recording
 
-ARGS = ["--seed", "2", "--budget", "10", "--train-steps", "300", "--quiet"]
+SEED, BUDGET, STEPS = 2, 10, 300
+ARGS = ["--seed", str(SEED), "--budget", str(BUDGET), "--train-steps", str(STEPS), "--quiet"]
+METHODS = ("lfd_only", "rl_only", "acnmp")
 
 
-def test_distributed_e1_matches_in_process_and_records_every_rollout(tmp_path, verify_rrd):
-    local, dist, rrd = tmp_path / "local.json", tmp_path / "dist.json", tmp_path / "e1.rrd"
-    assert main(["experiment", "viapoint", *ARGS, "--json", str(local)]) == 0
+def test_distributed_e1_matches_in_process_and_its_recording_is_data(tmp_path, verify_rrd, capsys):
+    dist, rrd = tmp_path / "dist.json", tmp_path / "e1.rrd"
+    torch.set_num_threads(1)
+    local = run_viapoint(seed=SEED, budget=BUDGET, train_steps=STEPS, progress=False)
     assert main(["experiment", "viapoint", *ARGS, "--distributed", "--workers", "2",
                  "--record", str(rrd), "--json", str(dist)]) == 0
-    a, b = json.loads(local.read_text()), json.loads(dist.read_text())
+    a, b = json.loads(json.dumps(local.summary)), json.loads(dist.read_text())
     assert b["authenticated"] is True  # the deployment it started is authenticated, as `acnmp up` is
-    for m in ("lfd_only", "rl_only", "acnmp"):
+    for m in METHODS:
         for k in ("rollouts", "success", "error", "shape_error"):
             assert a["methods"][m][k] == b["methods"][m][k], (m, k)
     # the model service serves the learner's LfD model: it reproduces the demos as the local one does
@@ -22,8 +37,47 @@ def test_distributed_e1_matches_in_process_and_records_every_rollout(tmp_path, v
     # the recording is finalised and holds exactly the roll-outs each job used
     verify_rrd(rrd)
     summary = summarize(rrd)
-    by_job = {j: s for j, s in summary["jobs"].items()}
-    for m in ("lfd_only", "rl_only", "acnmp"):
-        job = b["methods"][m]["job"]
-        assert by_job[job]["rollouts"] == b["methods"][m]["rollouts"]
-        assert by_job[job]["unique_rollouts"] == by_job[job]["rollouts"] and not by_job[job]["duplicates"]
+    for m in METHODS:
+        job = summary["jobs"][b["methods"][m]["job"]]
+        assert job["rollouts"] == job["unique_rollouts"] == b["methods"][m]["rollouts"] and not job["duplicates"]
+        assert (job["method"], job["skill"], job["robot"], job["task"]) == (m, "e1", "point2d", "viapoint")
+
+    # export: the counts per method are the JSON's, the solutions are among the roll-outs bit for bit
+    capsys.readouterr()
+    assert main(["replay", str(rrd), "--export", str(tmp_path / "tables")]) == 0
+    assert f"wrote {tmp_path / 'tables' / 'rollouts.parquet'}" in capsys.readouterr().out
+    rollouts = pq.read_table(tmp_path / "tables" / "rollouts.parquet").to_pylist()
+    tables = read_recording(rrd)
+    for m in METHODS:
+        mine = [r for r in rollouts if r["method"] == m]
+        assert len(mine) == b["methods"][m]["rollouts"]
+        assert {r["job"] for r in mine} == {b["methods"][m]["job"]} and {r["model_version"] for r in mine} == {0}
+        recorded = tables.trajectories(b["methods"][m]["job"])
+        if a["methods"][m]["success"] or m == "lfd_only":  # an executed solution (LfD executes its one mean)
+            assert any(np.array_equal(x, local.trajectories[m]) for x in recorded), m
+    assert {"train/nll", "train/val_nll"} <= set(summary["metrics"]["e1"])
+
+    # re-execution: every roll-out again, the recorded return each time
+    assert main(["replay", str(rrd), "--execute", "--json"]) == 0
+    audit = json.loads(capsys.readouterr().out)
+    assert audit["rollouts"] == audit["equal"] == sum(b["methods"][m]["rollouts"] for m in METHODS)
+    assert audit["differ"] == [] and audit["skipped_jobs"] == {}
+
+    # demonstrations from the recording: a new skill trained on the best roll-out ACNMP's job found
+    # reproduces it within E1's tolerance when conditioned on E1's query
+    out = tmp_path / "found.npz"
+    assert main(["demos", "from-recording", str(rrd), "--job", b["methods"]["acnmp"]["job"], "--best-per-job",
+                 "-o", str(out)]) == 0
+    found = load_demos(out)
+    best = max(tables.rollout_rows(b["methods"]["acnmp"]["job"]), key=lambda r: r["return"])
+    assert found.values.shape[0] == 1 and np.array_equal(found.values[0], best["trajectory"])
+    setup = make_setup()
+    model = CNMP(CNMPConfig(n_outputs=2, encoder_widths=(64, 64), decoder_widths=(64, 64)), seed=0)
+    train(model, found.to_demo_set(), TrainConfig(steps=1500), seed=0, progress=False)
+    tg = setup.target
+    # conditioned where E1's query conditions, on the roll-out's own values there
+    at = np.array([np.interp(t, best["times"], best["trajectory"][:, d]) for t in tg.obs_times for d in range(2)])
+    again = model.predict(tg.obs_times, at.reshape(-1, 2), query_times=best["times"]).mean
+    # a roll-out carries exploration noise the skill smooths: compared over the whole path (RMSE)
+    gap = np.sqrt(np.mean(np.sum((again - best["trajectory"]) ** 2, axis=1)))
+    assert gap <= max(setup.task.tolerance), gap

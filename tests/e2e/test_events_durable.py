@@ -14,6 +14,7 @@ from services.launcher.supervision import RestartPolicy
 from services.recording.events import rollout_event
 from services.recording.publisher import EventPublisher
 from services.recording.replay import recorded_event_ids, summarize
+from services.recording.tables import read_recording
 from services.transport import call, open_session
 from services.transport.runfile import RunFile
 
@@ -73,10 +74,15 @@ def test_events_published_while_the_recorder_is_down_are_recorded_once(tmp_path,
                 intruder.close()
             first, second = dep.recordings
             ids = [recorded_event_ids(first), recorded_event_ids(second)]
+            # exported as data: the killed recorder's file, without footer, holds what it flushed
+            killed = read_recording(first).rollouts.to_pylist()
+            assert len([r for r in killed if r["job"] == JOB]) == summarize(first)["jobs"][JOB]["rollouts"] >= 1
             pub.close()
             small.close()
         dep.stop()
     assert not ids[0] & ids[1]  # no event in both files
+    merged = read_recording(rrd).rollouts.to_pylist()
+    assert sorted(r["rollout_index"] for r in merged if r["job"] == JOB) == list(range(30))
     summary = summarize(rrd)  # the merged recording: both files
     job = summary["jobs"][JOB]
     assert job["rollouts"] == job["unique_rollouts"] == 30 and job["duplicates"] == [], job

@@ -15,7 +15,7 @@ def _entities(path) -> set[str]:
     return {c.entity_path for c in reader.stream(store=reader.recordings()[0])}
 
 
-def test_ur10_cli_distributed_records_every_rollout(tmp_path, monkeypatch, ur10_demo_file, verify_rrd):
+def test_ur10_cli_distributed_records_every_rollout(tmp_path, monkeypatch, ur10_demo_file, verify_rrd, capsys):
     monkeypatch.setenv("ACNMP_CACHE", str(ur10_demo_file.parent))
     rrd, out = tmp_path / "e5.rrd", tmp_path / "e5.json"
     assert main(["experiment", "ur10", "--seeds", "1", "--train-steps", "100", "--budget", "2", "--distributed",
@@ -30,6 +30,11 @@ def test_ur10_cli_distributed_records_every_rollout(tmp_path, monkeypatch, ur10_
         extra = 0 if run["success"] else 1  # a failed run executes its final mean once more
         assert jobs[f"ur10-{case}-{n + 2}"]["rollouts"] == run["rollouts"] + extra
     assert any(e.startswith("/arm/ur10-9_11-3/robot/") for e in _entities(rrd))
+    # the recording audits itself: every UR10 roll-out run again in this process, the same return
+    capsys.readouterr()
+    assert main(["replay", str(rrd), "--execute", "--json"]) == 0
+    audit = json.loads(capsys.readouterr().out)
+    assert audit["rollouts"] == audit["equal"] == sum(j["rollouts"] for j in jobs.values()) and not audit["skipped_jobs"]
 
 
 def test_pour_cli_distributed_records_every_rollout(tmp_path, monkeypatch, pour_demo_file, verify_rrd):

@@ -1,0 +1,115 @@
+"""A recording as data (services/recording/tables.py): the roll-outs back at float64 with their job's
+method, robot and task; Parquet; demonstrations; re-execution that catches a changed result."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pyarrow.parquet as pq
+import pytest
+
+from acnmp_core.demo_io import load_demos
+from acnmp_core.experiments.viapoint import make_setup
+from clients.cli import main
+from services.recording.events import batch_rollout_events, job_event, validate_event
+from services.recording.reexecute import reexecute
+from services.recording.rrd_writer import RrdWriter
+from services.recording.tables import read_recording
+from services.transport import WireError
+
+JOB = "e1-0123456789"
+
+
+def _record(path, setup, trajectories, *, first_index=0, job_event_too=True, tamper=None):
+    """Execute ``trajectories`` (B, T, 2) on E1's task and record them as the learner does."""
+    writer = RrdWriter(path)
+    if job_event_too:
+        writer.log_event(job_event(JOB, method="acnmp", robot="point2d", task="viapoint", skill="e1", seed=5,
+                                   attempt=0, config={"max_rollouts": 9}, task_config=setup.task_config))
+    times = setup.target.query_times
+    batch = setup.task.evaluate(trajectories, times, None)
+    for ev in batch_rollout_events(JOB, first_index, trajectories, times, batch, skill="e1", iteration=0):
+        ev["attempt"] = 0
+        if tamper is not None and ev["rollout_index"] == tamper:
+            ev["return"] += 1e-9
+        writer.log_event(ev)
+    writer.close()
+    return batch
+
+
+@pytest.fixture(scope="module")
+def setup():
+    return make_setup()
+
+
+def _paths(setup, n=4, seed=0):
+    rng = np.random.default_rng(seed)
+    base = np.stack([d.values for d in setup.demos])[:, :: max(1, setup.demos[0].values.shape[0] // 101)]
+    t = len(setup.target.query_times)
+    return np.stack([np.interp(setup.target.query_times, np.linspace(0, 1, base.shape[1]), base[i % len(base), :, d])
+                     for i in range(n) for d in range(2)]).reshape(n, 2, t).transpose(0, 2, 1) \
+        + rng.normal(scale=1e-3, size=(n, t, 2)) * np.pi  # float64 digits float32 would lose
+
+
+def test_rollouts_come_back_at_float64_with_their_jobs_method(tmp_path, setup):
+    paths = _paths(setup)
+    batch = _record(tmp_path / "r.rrd", setup, paths)
+    t = read_recording(tmp_path / "r.rrd")
+    assert t.rollouts.num_rows == 4 and t.jobs.num_rows == 1
+    np.testing.assert_array_equal(t.trajectories(JOB), paths)  # bit for bit
+    row = t.rollout_rows(JOB)[2]
+    assert (row["method"], row["robot"], row["task"], row["skill"], row["attempt"]) == ("acnmp", "point2d", "viapoint",
+                                                                                         "e1", 0)
+    np.testing.assert_array_equal(row["reward"], batch.rewards[2])
+    np.testing.assert_array_equal(row["times"], setup.target.query_times)
+    assert json.loads(t.jobs.to_pylist()[0]["task_config"]) == json.loads(json.dumps(setup.task_config))
+
+
+def test_parquet_tables_and_a_roll_out_in_two_files_once(tmp_path, setup):
+    paths = _paths(setup, n=3)
+    _record(tmp_path / "a.rrd", setup, paths)
+    _record(tmp_path / "b.rrd", setup, paths[1:], first_index=1, job_event_too=False)  # 1, 2 again
+    written = read_recording([tmp_path / "a.rrd", tmp_path / "b.rrd"]).write_parquet(tmp_path / "out")
+    rollouts = pq.read_table(written["rollouts"])
+    assert sorted(rollouts.column("rollout_index").to_pylist()) == [0, 1, 2]
+    assert np.asarray(rollouts.column("trajectory").to_pylist()[0]).shape == (len(setup.target.query_times), 2)
+    assert set(written) == {"rollouts", "jobs", "latents", "models", "metrics"}
+
+
+def test_demonstrations_from_a_recording(tmp_path, setup, capsys):
+    paths = _paths(setup)
+    batch = _record(tmp_path / "r.rrd", setup, paths)
+    out = tmp_path / "d.npz"
+    assert main(["demos", "from-recording", str(tmp_path / "r.rrd"), "--best-per-job", "-o", str(out)]) == 0
+    assert "1 demonstrations" in capsys.readouterr().out
+    best = int(np.argmax(batch.rewards.sum(axis=1)))
+    np.testing.assert_array_equal(load_demos(out).values[0], paths[best])
+    # none succeeded (noisy copies of demonstrations miss the extrapolated via-point): one line, exit 2
+    assert not batch.success.any()
+    assert main(["demos", "from-recording", str(tmp_path / "r.rrd"), "--successful", "-o", str(out)]) == 2
+    assert "none succeeded" in capsys.readouterr().err
+
+
+def test_reexecution_gives_the_recorded_returns_and_catches_a_changed_one(tmp_path, setup, capsys):
+    paths = _paths(setup)
+    _record(tmp_path / "r.rrd", setup, paths)
+    results, skipped = reexecute(read_recording(tmp_path / "r.rrd"))
+    assert len(results) == 4 and all(r.equal for r in results) and skipped == {}
+    _record(tmp_path / "t.rrd", setup, paths, tamper=2)
+    assert main(["replay", str(tmp_path / "t.rrd"), "--execute"]) == 1
+    out = capsys.readouterr().out
+    assert f"job {JOB}: 4 roll-outs again, 3 equal" in out and "differs: job" in out
+    _record(tmp_path / "n.rrd", setup, paths, job_event_too=False)
+    results, skipped = reexecute(read_recording(tmp_path / "n.rrd"))
+    assert results == [] and "no job event" in skipped[JOB]
+
+
+def test_wrong_uses_are_one_line(tmp_path, capsys):
+    assert main(["replay", str(tmp_path / "none.rrd"), "--export", str(tmp_path / "o")]) == 1
+    assert len(capsys.readouterr().err.strip().splitlines()) == 1
+    assert main(["replay", str(tmp_path / "none.rrd"), "--job", "x"]) == 2
+    assert "--namespace, --job, --limit: only with --execute" in capsys.readouterr().err
+    for bad in ({"method": 3}, {"seed": -1}, {"config": {"nested": 1}}):
+        ev = job_event(JOB, method="acnmp", robot="point2d", task="viapoint")
+        with pytest.raises(WireError):
+            validate_event({**ev, **bad})
