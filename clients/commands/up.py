@@ -17,6 +17,9 @@ def register(subparsers) -> None:
     p.add_argument("--robot", default="point2d", type=robot_kind,
                    help=robot_help("robot kind of the workers") + " (default: %(default)s)")
     p.add_argument("--record", type=non_empty, default=None, metavar="FILE.rrd", help="start a recorder writing this file")
+    p.add_argument("--viewer", action="store_true",
+                   help="with --record: also stream the recording live (Rerun gRPC server and web viewer on "
+                        "127.0.0.1; the addresses are printed) to watch the deployment while it runs")
     p.add_argument("--state-dir", type=non_empty, default=None, metavar="DIR",
                    help="learner checkpoints and process logs, locked while the deployment runs "
                         "(default: the user state directory, ~/.local/state/acnmp/<namespace> on Linux; "
@@ -55,6 +58,8 @@ def run(args) -> int:
     for spec in args.demos:  # the learner would exit at its start, be restarted, and exit again
         load_demos_spec(spec)
     check_output_path(args.record, "--record")  # the recorder would exit before going live
+    if args.viewer and not args.record:
+        raise ValueError("--viewer: only with --record FILE.rrd (the viewer shows what the recorder records)")
     try:  # before the default skill's demonstrations are written into the state directory
         check_namespace_free(args.namespace)
     except NamespaceInUse as exc:
@@ -77,7 +82,7 @@ def run(args) -> int:
     served = False
     dep = LocalDeployment(args.namespace, args.workers, args.robot, record=args.record, state_dir=state_dir,
                           model=not args.no_model, learner_args=learner_args, secure=not args.insecure,
-                          announce=True, report=report)
+                          announce=True, report=report, viewer=args.viewer)
     try:
         try:
             dep.start()

@@ -43,6 +43,7 @@ import tempfile
 import threading
 import time
 import uuid
+from urllib.parse import quote
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Sequence
@@ -106,7 +107,9 @@ class LocalDeployment:
 
     Attributes once started: ``session`` (the launcher's open session, usable by clients),
     ``anchor`` (endpoint to ``--connect`` to), ``children`` ({name: Child}), ``supervisor``
-    (None without supervision), ``recordings`` (the recorder's files, first one first).
+    (None without supervision), ``recordings`` (the recorder's files, first one first),
+    ``viewer_url`` and ``web_viewer_url`` (with ``viewer``: the recorder also streams live over
+    Rerun's gRPC server and hosts the web viewer, both on 127.0.0.1).
     """
 
     def __init__(self, namespace: str = "default", workers: int = 2, robot: str = "point2d",
@@ -115,7 +118,7 @@ class LocalDeployment:
                  start_timeout: float = 60.0, stop_timeout: float = 8.0, log_dir: str | os.PathLike | None = None,
                  learner_args: Sequence[str] = (), secure: bool = False, announce: bool | None = None,
                  supervise: bool = True, restart_policy: RestartPolicy | None = None,
-                 report: Callable[[str], None] | None = None):
+                 report: Callable[[str], None] | None = None, viewer: bool = False):
         self.robot = robot_spec(robot).kind  # UnknownRobotError (a ValueError) for a kind not registered
         if workers < 0:
             raise ValueError(f"workers: expected >= 0, got {workers}")
@@ -123,6 +126,11 @@ class LocalDeployment:
         self.namespace = namespace
         self.n_workers = int(workers)
         self.record = None if record is None else Path(record).resolve()  # children run in ROOT
+        if viewer and record is None:
+            raise ValueError("viewer: the live viewer shows what the recorder records; give record too")
+        self.viewer = viewer
+        self.viewer_url: str | None = None  # rerun --connect takes it, once started with viewer=True
+        self.web_viewer_url: str | None = None
         self._tmp = None
         if state_dir is None:
             self._tmp = tempfile.TemporaryDirectory(prefix="acnmp-state-")
@@ -209,8 +217,14 @@ class LocalDeployment:
             keys = self.keys
             if self.record is not None:
                 self.record.parent.mkdir(parents=True, exist_ok=True)
+                live = []
+                if self.viewer:
+                    grpc_port, web_port = free_port(), free_port()
+                    live = ["--serve-grpc", str(grpc_port), "--web-viewer", str(web_port)]
+                    self.viewer_url = f"rerun+http://127.0.0.1:{grpc_port}/proxy"
+                    self.web_viewer_url = f"http://127.0.0.1:{web_port}/?url={quote(self.viewer_url, safe='')}"
                 rec = self._spawn("recorder", entry_module("recorder"),
-                                  ["--out", str(self.record), "--recording-id", self.recording_id],
+                                  ["--out", str(self.record), "--recording-id", self.recording_id, *live],
                                   keys.tokens("recorder"), [keys.events() + " (subscriber)", keys.recorder_status()])
                 self._wait_live([rec])
             started = []
@@ -247,6 +261,8 @@ class LocalDeployment:
                  f"multicast off); state {self.state_dir}"]
         if self.record is not None:
             lines.append(f"recording to {self.record}")
+        if self.viewer_url is not None:
+            lines.append(f"live viewer: rerun --connect {self.viewer_url}   or in a browser: {self.web_viewer_url}")
         lines.append(f"  {'process':<18} {'pid':>7}  liveliness / keys")
         lines.append(f"  {'launcher':<18} {os.getpid():>7}  {self.anchor} (anchor)")
         for c in self.children.values():

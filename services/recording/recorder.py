@@ -41,12 +41,14 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import ClassVar, Sequence
+from urllib.parse import quote
 
+import rerun as rr
 import zenoh
 import zenoh.ext as zext
 
 from services.transport import Keyspace, Ready, Service, WireError, declare_rpc, option
-from services.transport.argtypes import check_output_path, non_empty
+from services.transport.argtypes import check_output_path, int_at_least, non_empty
 from services.transport.auth import write_private
 from services.transport.keys import is_concrete
 
@@ -78,12 +80,20 @@ class RecorderConfig(Service):
     seen: list[str] = option([], "a file an earlier recorder of this deployment wrote (repeatable, oldest first): "
                                  "its events are not recorded again when the publishers' caches replay them",
                              metavar="FILE.rrd")
+    serve_grpc: int | None = option(None, "also stream what is recorded live over Rerun's gRPC server on "
+                                          "127.0.0.1:PORT (viewers: rerun --connect rerun+http://127.0.0.1:PORT/proxy)",
+                                    metavar="PORT", type=int_at_least(1, hi=65535))
+    web_viewer: int | None = option(None, "with --serve-grpc: also host Rerun's web viewer on 127.0.0.1:PORT, "
+                                          "connected to that stream", metavar="PORT", type=int_at_least(1, hi=65535))
     final: dict = field(default_factory=dict, init=False, repr=False)
 
     def serve(self, session: zenoh.Session, stop: threading.Event, ready: Ready) -> int:
         check_output_path(self.out, "--out")  # one line, not rerun's error and its warning at exit
+        if self.web_viewer is not None and self.serve_grpc is None:
+            raise ValueError("--web-viewer: only with --serve-grpc (the web viewer shows that stream)")
         self.final = record(session, Keyspace(self.session.namespace), self.out, stop, ready,
-                            recording_id=self.recording_id, seen=self.seen)
+                            recording_id=self.recording_id, seen=self.seen, grpc_port=self.serve_grpc,
+                            web_port=self.web_viewer)
         return 0
 
 
@@ -143,12 +153,15 @@ def earlier_events(seen: Sequence[str | Path]) -> SeenEvents:
 
 
 def record(session: zenoh.Session, keys: Keyspace, path: str, stop: threading.Event, ready: Ready, *,
-           recording_id: str | None = None, seen: list[str] | tuple[str, ...] = ()) -> dict:
+           recording_id: str | None = None, seen: list[str] | tuple[str, ...] = (), grpc_port: int | None = None,
+           web_port: int | None = None) -> dict:
     """Record the events of ``keys``' namespace into ``path`` until ``stop`` is set; returns the
     final counts. ``ready`` gets one line once the recorder is live (its token is declared).
     ``recording_id``: the Rerun recording id (None: a new one). ``seen``: files earlier recorders
     of this deployment wrote (oldest first); events they hold are not written again. Writes the
-    marks file of ``path`` before subscribing (:func:`write_marks`)."""
+    marks file of ``path`` before subscribing (:func:`write_marks`). ``grpc_port``: also serve the
+    stream live on 127.0.0.1 (the ready line gives the viewer's address), ``web_port`` with Rerun's
+    web viewer connected to it."""
     events: queue.Queue = queue.Queue(maxsize=QUEUE_SIZE)
     rejected, duplicates = [0], [0]
     ids = earlier_events(seen)
@@ -197,7 +210,13 @@ def record(session: zenoh.Session, keys: Keyspace, path: str, stop: threading.Ev
         # restarted one would miss the events lost while it was down; the count comes from ids
         log.warning("missed %d event(s) of publisher %s", miss.nb, miss.source)
 
-    writer = RrdWriter(path, recording_id=recording_id)  # creates the file's directory
+    writer = RrdWriter(path, recording_id=recording_id, grpc_port=grpc_port)  # creates the file's directory
+    live = ""
+    if writer.grpc_url is not None:
+        live = f"; live: rerun --connect {writer.grpc_url}"
+        if web_port is not None:
+            rr.serve_web_viewer(web_port=web_port, open_browser=False, connect_to=writer.grpc_url)
+            live += f" or http://127.0.0.1:{web_port}/?url={quote(writer.grpc_url, safe='')}"
     try:
         write_marks(path, ids)  # before any event: the next recorder starts from these plus this file's ids
         sub = zext.declare_advanced_subscriber(
@@ -211,7 +230,7 @@ def record(session: zenoh.Session, keys: Keyspace, path: str, stop: threading.Ev
         token_key = keys.recorder_token(str(session.zid()))
         token = session.liveliness().declare_token(token_key)
         log.info("recording %s into %s", keys.events(), path)
-        ready(f"recorder live as {token_key}, writing {path}")
+        ready(f"recorder live as {token_key}, writing {path}{live}")
         while not stop.is_set():
             _drain(events, writer, timeout=0.2)
         misses.undeclare()

@@ -123,11 +123,13 @@ class RrdWriter:
 
     Thread-safe (a lock serialises log calls, since Rerun's time cursor is per thread and per
     stream). :meth:`close` flushes and disconnects the file sink, which writes the footer that
-    ``rerun rrd verify`` checks; it is idempotent.
+    ``rerun rrd verify`` checks; it is idempotent. With ``grpc_port`` the stream is also served
+    live over Rerun's gRPC server on ``grpc_bind`` (``grpc_url``: what ``rerun --connect`` takes).
     """
 
     def __init__(self, path: str | Path, *, application_id: str = APPLICATION_ID,
-                 recording_id: str | None = None, blueprint: rrb.Blueprint | None = None):
+                 recording_id: str | None = None, blueprint: rrb.Blueprint | None = None,
+                 grpc_port: int | None = None, grpc_bind: str = "127.0.0.1"):
         self.path = Path(path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
         # an explicit RecordingStream (not rr.init): no global state, no viewer spawned, nothing bound
@@ -140,7 +142,15 @@ class RrdWriter:
         # truncates an existing file and keeps its mode
         os.close(os.open(self.path, os.O_WRONLY | os.O_CREAT, 0o600))
         os.chmod(self.path, 0o600)
-        self.rec.save(str(self.path), default_blueprint=blueprint or default_blueprint())
+        self.grpc_url = None
+        if grpc_port is None:
+            self.rec.save(str(self.path), default_blueprint=blueprint or default_blueprint())
+        else:
+            # live viewing: the same stream also goes to a gRPC server that viewers connect to (it
+            # keeps what was logged for viewers that connect late, up to its memory limit)
+            self.rec.set_sinks(rr.FileSink(str(self.path)), rr.GrpcServerSink(grpc_bind, int(grpc_port)))
+            self.rec.send_blueprint(blueprint or default_blueprint(), make_active=True, make_default=True)
+            self.grpc_url = f"rerun+http://{grpc_bind}:{int(grpc_port)}/proxy"
         self.rec.send_recording_name(f"acnmp {self.path.stem}")
         self.counts: Counter = Counter()
         self.rollouts_per_job: Counter = Counter()
