@@ -1,10 +1,13 @@
 """E1 across a real local deployment gives the in-process numbers and a valid, complete recording,
-and the recording is data: its export holds exactly the run's roll-outs per method, the in-process
+also with its recorder killed -9 mid-run, and the recording is data: its export holds exactly the run's roll-outs per method, the in-process
 solutions among them bit for bit; its roll-outs run again give the recorded returns; its best
 roll-out, as a demonstrations file, trains a skill that reproduces it within E1's tolerance."""
 import json
+import os
+import signal
 
 import numpy as np
+import psutil
 import pyarrow.parquet as pq
 import torch
 
@@ -13,6 +16,7 @@ from acnmp_core.demo_io import load_demos
 from acnmp_core.experiments.viapoint import make_setup, run_viapoint
 from acnmp_core.training import TrainConfig, train
 from clients.cli import main
+from clients.distributed import DeployedSkill
 from services.recording.replay import summarize
 from services.recording.tables import read_recording
 
@@ -21,12 +25,31 @@ ARGS = ["--seed", str(SEED), "--budget", str(BUDGET), "--train-steps", str(STEPS
 METHODS = ("lfd_only", "rl_only", "acnmp")
 
 
-def test_distributed_e1_matches_in_process_and_its_recording_is_data(tmp_path, verify_rrd, capsys):
+def _kill_the_recorder() -> int:
+    (recorder,) = [p for p in psutil.Process().children(recursive=True)
+                   if "--recording-id" in p.cmdline()]  # the recorder's own option
+    os.kill(recorder.pid, signal.SIGKILL)
+    return recorder.pid
+
+
+def test_distributed_e1_matches_in_process_and_its_recording_is_data(tmp_path, verify_rrd, capsys, monkeypatch):
     dist, rrd = tmp_path / "dist.json", tmp_path / "e1.rrd"
     torch.set_num_threads(1)
+    # the recorder is killed with -9 mid-run, after LfD's roll-out and before RL's and ACNMP's: the
+    # launcher restarts it on a new file, the publishers' caches give it what it missed, and the
+    # recording (its files merged at the end) still holds every roll-out, each once
+    real_adapt, killed = DeployedSkill.adapt, []
+
+    def adapt(self, setup, method, cfg, seed, assimilation):
+        if method == "rl_only":
+            killed.append(_kill_the_recorder())
+        return real_adapt(self, setup, method, cfg, seed, assimilation)
+
+    monkeypatch.setattr(DeployedSkill, "adapt", adapt)
     local = run_viapoint(seed=SEED, budget=BUDGET, train_steps=STEPS, progress=False)
     assert main(["experiment", "viapoint", *ARGS, "--distributed", "--workers", "2",
                  "--record", str(rrd), "--json", str(dist)]) == 0
+    assert len(killed) == 1
     a, b = json.loads(json.dumps(local.summary)), json.loads(dist.read_text())
     assert b["authenticated"] is True  # the deployment it started is authenticated, as `acnmp up` is
     for m in METHODS:
