@@ -140,13 +140,15 @@ def test_the_bands_span_the_published_seeds_widened():
 
 def test_a_changed_default_fails_the_check_on_a_machine_without_a_pin(here, e1_measured, monkeypatch):
     """Item 3 of issue 32: a pin from another machine (another fingerprint) lets this machine's
-    unchanged E1 pass, and E1's roll-out budget default lowered from 100 to 20 makes it fail."""
+    unchanged E1 pass, and E1's defaults lowered (training steps 3000 -> 50, roll-out budget
+    100 -> 20: changes that also make the mutated run short) make it fail."""
     from acnmp_core.experiments import viapoint
 
     foreign = {k: {**pin, "fingerprint": {**here, "canary": "another machine"}}
                for k, pin in regression.load_pins().items()}
     unchanged = regression.compare(foreign, e1_measured, here)
     assert not unchanged.exact and unchanged.differences == []
+    monkeypatch.setitem(viapoint.run_viapoint.__kwdefaults__, "train_steps", 50)
     monkeypatch.setitem(viapoint.run_viapoint.__kwdefaults__, "budget", 20)
     changed = regression.compare(foreign, _measure(regression.QUICK), here)
     assert not changed.exact and "e1_seed0/acnmp/success: True -> False" in " ".join(changed.differences)
