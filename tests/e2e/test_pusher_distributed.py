@@ -13,7 +13,7 @@ from services.recording.replay import summarize
 
 pytest.importorskip("gymnasium", reason="gymnasium is not installed (scripts/setup.sh installs it)")
 
-SMALL = ["--seeds", "1", "--train-steps", "200", "--budget", "20", "--promp-budget", "20", "--quiet"]
+SMALL = ["--seeds", "1", "--train-steps", "100", "--budget", "8", "--promp-budget", "8", "--quiet"]
 
 
 def test_pusher_distributed_equals_one_process_and_records_every_rollout(tmp_path, verify_rrd):

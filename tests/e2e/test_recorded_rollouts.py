@@ -53,10 +53,10 @@ def test_distributed_wall_loop_matches_in_process_and_records_what_it_counts(tmp
     from acnmp_core.experiments.wall import run_wall
 
     torch.set_num_threads(1)
-    # small: 2 environments, ACNMP's budget 40 (not 1000), short training; what is compared is
+    # small: 2 environments, ACNMP's budget 16 (not 1000), short training; what is compared is
     # that the distributed loop counts and records what the in-process one does
     kw = dict(envs=2, seed=4, n_initial=10, n_test=20, eval_every=2, train_steps=200, assimilate_steps=20,
-              adapt_config=AdaptConfig(max_rollouts=40))
+              adapt_config=AdaptConfig(max_rollouts=16))
     local = run_wall(**kw)
     path = tmp_path / "wall.rrd"
     with remote_rollouts("point2d", "wall", workers=2, record=str(path), prefix="t-wall", progress=False) as make:
