@@ -59,7 +59,11 @@ def make_task(name: str, params: dict[str, Any] | None = None) -> RolloutEvaluat
         raise ValueError(f"task: unknown task {name!r}; known tasks: {', '.join(task_names())}")
     try:
         return _FACTORIES[name](dict(params or {}))
-    except (TypeError, KeyError) as exc:
+    except KeyError as exc:
+        doc = (_FACTORIES[name].__doc__ or "").strip().splitlines()
+        needs = f" ({' '.join(line.strip() for line in doc)})" if doc else ""
+        raise ValueError(f"params: task {name!r} needs the parameter {exc.args[0]!r}{needs}") from None
+    except TypeError as exc:
         raise ValueError(f"params: bad parameters for task {name!r}: {exc}") from None
 
 

@@ -62,7 +62,10 @@ def add_job_commands(sub) -> None:
     adapt.add_argument("--robot", default="point2d", type=non_empty,
                        help="the robot kind whose workers run the roll-outs (default: %(default)s)")
     adapt.add_argument("--task-params", metavar="P1,P2,...", help="task parameters, comma-separated")
-    adapt.add_argument("--task-config", metavar="JSON", default=None, help="the task's settings as a JSON object")
+    adapt.add_argument("--task-config", metavar="JSON", default=None,
+                       help="the task's settings as a JSON object, e.g. for viapoint "
+                            "'{\"t_v\": [0.25], \"point\": [[0.25, 0.6]], \"tolerance\": [0.02]}' (the times, "
+                            "points and tolerances to pass through; acnmp_core/tasks/registry.py lists each task's)")
     when = adapt.add_mutually_exclusive_group()
     when.add_argument("--steps", type=int_at_least(2), default=None, metavar="N",
                       help="N query times over the skill's trained time range (default: 100)")
@@ -101,7 +104,10 @@ def add_job_commands(sub) -> None:
 def _run_train(args) -> int:
     from acnmp_core.demo_io import load_demos
 
-    arrays = load_demos(args.demos)  # ValueError: one line naming the file
+    try:
+        arrays = load_demos(args.demos)
+    except ValueError as exc:
+        raise ValueError(f"--demos {args.demos}: {str(exc).removeprefix('path: ')}") from None
     lengths = np.asarray(arrays.lengths if arrays.lengths is not None else [arrays.values.shape[1]])
     if len(set(lengths.tolist())) > 1:
         raise ValueError(f"--demos {args.demos}: demonstrations of different lengths; a train request takes "

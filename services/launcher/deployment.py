@@ -235,7 +235,7 @@ class LocalDeployment:
                     args += ["--wait-recorder", "20"]
                 started.append(self._spawn(
                     "learner", entry_module("learner"), args, keys.learner_token("learner"),
-                    [keys.train("*"), keys.adapt("*"), keys.job_status("*"), keys.weights_latest("*")]))
+                    [keys.train("*"), keys.adapt("*"), keys.job_status("*"), keys.jobs(), keys.weights_latest("*")]))
             if self.with_model:
                 started.append(self._spawn("model", entry_module("model"), [], keys.model_service_token("*"),
                                            [keys.predict("*"), keys.info("*")]))

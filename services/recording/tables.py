@@ -108,6 +108,9 @@ class RecordingTables:
         ``successful``). ValueError when nothing is left, or the roll-outs differ in dimensions or
         task parameters."""
         rows = [r for r in self.rollout_rows(job) if r["trajectory"] is not None]
+        if job is not None and not rows:
+            jobs = sorted(set(self.rollouts.column("job").to_pylist()))
+            raise ValueError(f"--job {job}: no roll-out of that job in the recording (jobs: {', '.join(jobs) or 'none'})")
         if successful:
             rows = [r for r in rows if r["success"]]
         if best_per_job:

@@ -74,3 +74,13 @@ def test_a_new_robot_is_one_entry(monkeypatch):
     assert "planar2" in robot_kinds()
     assert robot("planar2").task_config("push") == {"n_joints": 2}
     assert robot("planar2").drawing is drawing
+
+
+def test_a_missing_task_parameter_is_named_with_what_the_task_takes():
+    """Was: "bad parameters for task 'viapoint': 't_v'" from a job submitted without --task-config."""
+    import pytest
+
+    from acnmp_core.tasks.registry import make_task
+
+    with pytest.raises(ValueError, match=r"task 'viapoint' needs the parameter 't_v' \(params: t_v \(float or K"):
+        make_task("viapoint", {})
