@@ -19,8 +19,6 @@ Writes ``benchmarks/results/bench_recordings.json``. Usage::
 from __future__ import annotations
 
 import argparse
-import signal
-import subprocess
 import sys
 import tempfile
 import threading
@@ -78,7 +76,7 @@ def bench_live(n_events: int, tmp: Path) -> dict:
     from acnmp_core.experiments.viapoint import make_setup
     from services.launcher import LocalDeployment
     from services.recording.events import rollout_event
-    from services.transport import free_port
+    from services.recording.live_client import saving_client
 
     setup = make_setup()
     times = setup.target.query_times
@@ -86,10 +84,7 @@ def bench_live(n_events: int, tmp: Path) -> dict:
     latencies = []
     with LocalDeployment("benchlive", workers=0, model=False, learner=False, record=tmp / "live.rrd",
                          viewer=True, state_dir=tmp / "state") as dep:
-        client = subprocess.Popen([str(Path(sys.executable).with_name("rerun")), dep.viewer_url, "--save", str(saved),
-                                   "--bind", "127.0.0.1", "--port", str(free_port())],
-                                  stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        try:
+        with saving_client(dep.viewer_url, saved):
             grown = threading.Event()
             size = [0]
 
@@ -119,12 +114,6 @@ def bench_live(n_events: int, tmp: Path) -> dict:
                 time.sleep(0.05)  # one at a time: each publication's own arrival
             stopped.set()
             watcher.join()
-        finally:
-            client.send_signal(signal.SIGINT)
-            try:
-                client.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                client.kill()
     ms = np.asarray(latencies) * 1e3
     return {"events": n_events, "received": len(latencies), "latency_ms_p50": round(float(np.median(ms)), 2),
             "latency_ms_p99": round(float(np.percentile(ms, 99)), 2), "latency_ms_max": round(float(ms.max()), 2),

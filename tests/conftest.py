@@ -41,6 +41,27 @@ def _user_state_home(tmp_path_factory):
         os.environ["XDG_STATE_HOME"] = before
 
 
+@pytest.fixture
+def run_cli(capsys):
+    """``run_cli(*argv, retry_unavailable=30.0) -> (exit code, stdout, stderr)``: ``acnmp ARGV`` in
+    this process, run again while it answers ``unavailable`` (a fresh session may query before it
+    has discovered the service's queryable), for up to ``retry_unavailable`` seconds."""
+    import time
+
+    from clients.cli import main
+
+    def run(*argv: str, retry_unavailable: float = 30.0) -> tuple[int, str, str]:
+        deadline = time.monotonic() + retry_unavailable
+        while True:
+            code = main(list(argv))
+            out, err = capsys.readouterr()
+            if "unavailable" not in err or time.monotonic() > deadline:
+                return code, out, err
+            time.sleep(0.2)
+
+    return run
+
+
 @pytest.fixture(scope="session")
 def e1_demos():
     from acnmp_core.tasks.viapoint import obstacle_demos

@@ -17,7 +17,7 @@ from clients.client import JobSummary
 from services.transport import jsonable
 from services.transport.argtypes import int_at_least, non_empty, seconds
 
-from .query import _ask, _client, _common, _fail, _floats, _skill, parse_obs, parse_obs_json
+from .query import _ask, _client, _common, _fail, _floats, _skill, condition_arguments, parse_obs, parse_obs_json
 
 EPILOG = """\
 examples:
@@ -53,31 +53,22 @@ def add_job_commands(sub) -> None:
                                        "Needs the operator's credentials.",
                            epilog=EPILOG, formatter_class=fmt)
     _common(adapt)
-    obs = adapt.add_mutually_exclusive_group(required=True)
-    obs.add_argument("--obs", action="append", metavar="T:V1,V2,...",
-                     help="an observation to condition on (as for predict; _ = not observed). Repeatable")
-    obs.add_argument("--obs-json", metavar="JSON", help="observations as JSON [[t, [v1, ...]], ...], or @FILE")
+    condition_arguments(adapt, task_params=True, required=True, verb="adapt")
     adapt.add_argument("--task", required=True, type=non_empty,
                        help="the task that scores roll-outs (`acnmp robots` lists each robot's)")
     adapt.add_argument("--robot", default="point2d", type=non_empty,
                        help="the robot kind whose workers run the roll-outs (default: %(default)s)")
-    adapt.add_argument("--task-params", metavar="P1,P2,...", help="task parameters, comma-separated")
     adapt.add_argument("--task-config", metavar="JSON", default=None,
                        help="the task's settings as a JSON object, e.g. for viapoint "
                             "'{\"t_v\": [0.25], \"point\": [[0.25, 0.6]], \"tolerance\": [0.02]}' (the times, "
                             "points and tolerances to pass through; acnmp_core/tasks/registry.py lists each task's)")
-    when = adapt.add_mutually_exclusive_group()
-    when.add_argument("--steps", type=int_at_least(2), default=None, metavar="N",
-                      help="N query times over the skill's trained time range (default: 100)")
-    when.add_argument("--times", metavar="T1,T2,...", help="the query times")
     adapt.add_argument("--budget", type=int_at_least(1), default=None, metavar="N",
                        help="roll-out budget (default: AdaptConfig's, 200)")
     adapt.add_argument("--seed", type=int_at_least(0), default=0, help="exploration seed (default 0)")
     adapt.add_argument("--commit", action="store_true",
                        help="assimilate a successful solution into the skill (a new version is served)")
     adapt.add_argument("--watch", action="store_true", help="follow the job until it ends (as `watch`)")
-    adapt.add_argument("--wait-timeout", type=seconds(), default=3600.0, metavar="S",
-                       help="with --watch: give up after S seconds (default: %(default)s)")
+    _wait_timeout(adapt, "with --watch: ")
     adapt.set_defaults(func=_run_adapt)
 
     jobs = sub.add_parser("jobs", help="list the learner's jobs, newest first",
@@ -96,9 +87,13 @@ def add_job_commands(sub) -> None:
                            epilog=EPILOG, formatter_class=fmt)
     _common(watch, skill=False)
     watch.add_argument("job", metavar="JOB", help="job id (as `adapt` or `jobs` gave it)")
-    watch.add_argument("--wait-timeout", type=seconds(), default=3600.0, metavar="S",
-                       help="give up after S seconds (default: %(default)s)")
+    _wait_timeout(watch)
     watch.set_defaults(func=_run_watch)
+
+
+def _wait_timeout(parser, prefix: str = "") -> None:
+    parser.add_argument("--wait-timeout", type=seconds(), default=3600.0, metavar="S",
+                        help=f"{prefix}give up after S seconds (default: %(default)s)")
 
 
 def _run_train(args) -> int:

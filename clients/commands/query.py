@@ -81,10 +81,12 @@ def register(subparsers) -> None:
     jobs.add_job_commands(sub)
 
 
-def _prediction_arguments(parser: argparse.ArgumentParser, task_params: bool) -> None:
-    """The options of ``predict`` and ``transfer``: observations, query times, samples."""
-    _common(parser)
-    what = parser.add_mutually_exclusive_group()  # --obs-json would silently win over --obs
+def condition_arguments(parser: argparse.ArgumentParser, task_params: bool, *, required: bool = False,
+                        verb: str = "predict") -> None:
+    """``--obs``/``--obs-json`` (one of them; ``required`` or not), ``--task-params`` when
+    ``task_params``, ``--steps``/``--times``: the conditioning and the query times of a predict,
+    a transfer or an adaptation (``verb`` names it in the help)."""
+    what = parser.add_mutually_exclusive_group(required=required)  # --obs-json would silently win over --obs
     what.add_argument("--obs", action="append", default=[], metavar="T:V1,V2,...",
                       help="one observation: time, then a value per output dimension (_ = not observed). Repeatable")
     what.add_argument("--obs-json", metavar="JSON",
@@ -93,8 +95,14 @@ def _prediction_arguments(parser: argparse.ArgumentParser, task_params: bool) ->
         parser.add_argument("--task-params", metavar="P1,P2,...", help="task parameters, comma-separated")
     when = parser.add_mutually_exclusive_group()
     when.add_argument("--steps", type=int_at_least(2), default=None, metavar="N",
-                      help="predict at N >= 2 times spread over the trained time range (default: 100)")
-    when.add_argument("--times", metavar="T1,T2,...", help="predict at these times")
+                      help=f"{verb} at N >= 2 times spread over the trained time range (default: 100)")
+    when.add_argument("--times", metavar="T1,T2,...", help=f"{verb} at these times")
+
+
+def _prediction_arguments(parser: argparse.ArgumentParser, task_params: bool) -> None:
+    """The options of ``predict`` and ``transfer``: observations, query times, samples."""
+    _common(parser)
+    condition_arguments(parser, task_params)
     parser.add_argument("--samples", type=int_at_least(0), default=None, metavar="S",
                         help="also draw S sampled trajectories")
     parser.add_argument("--seed", type=int_at_least(0, hi=2**64 - 1), default=None,  # the wire's uint64

@@ -4,13 +4,11 @@ completes; a running job is cancelled through the client and the command line.""
 from __future__ import annotations
 
 import json
-import time
 
 import numpy as np
 import pytest
 
 from acnmp_core.experiments.viapoint import make_setup
-from clients.cli import main
 from clients.client import ACNMPClient
 from services.launcher import LocalDeployment
 from services.model.weights import decode_weights
@@ -84,7 +82,7 @@ def test_learner_survives_kill_9_with_skill_dataset_and_job(tmp_path, wait_job):
         assert st["result"]["trajectory"].shape == (len(setup.target.query_times), 2)
 
 
-def test_a_running_job_is_cancelled_by_the_client_and_the_cli_reports_it(tmp_path, wait_job, capsys):
+def test_a_running_job_is_cancelled_by_the_client_and_the_cli_reports_it(tmp_path, wait_job, run_cli):
     setup = make_setup()
     with LocalDeployment(NS, workers=1, model=False, worker_delay=0.25, state_dir=tmp_path) as dep, \
             ACNMPClient(NS, session=dep.session, timeout=10) as client:
@@ -97,21 +95,9 @@ def test_a_running_job_is_cancelled_by_the_client_and_the_cli_reports_it(tmp_pat
         st = client.wait_job(job, timeout=60, progress=False)
         assert st["state"] == "cancelled" and st["rollouts"] < 200 and st["result"] is None
         # the shell: a finished job answers its state; an unknown one is a one-line error
-        code, out, _ = _cli_once_discovered(capsys, "query", "cancel", job, "-n", NS, "--connect", dep.anchor)
+        code, out, _ = run_cli("query", "cancel", job, "-n", NS, "--connect", dep.anchor)
         assert code == 0 and out.strip() == f"job {job}: cancelled"
-        code, _, err = _cli_once_discovered(capsys, "query", "cancel", "e1-nothing", "-n", NS, "--connect", dep.anchor)
+        code, _, err = run_cli("query", "cancel", "e1-nothing", "-n", NS, "--connect", dep.anchor)
         assert code == 1 and len(err.strip().splitlines()) == 1 and err.startswith("acnmp query: unknown_job"), err
     record = json.loads((tmp_path / "jobs" / f"{job}.json").read_text())
     assert record["state"] == "cancelled"
-
-
-def _cli_once_discovered(capsys, *argv, timeout: float = 30.0) -> tuple[int, str, str]:
-    """Run ``acnmp`` in-process; again while it answers ``unavailable``: a fresh peer session may
-    query before it has discovered the learner's queryable (issue 12, discovery, is another item)."""
-    deadline = time.monotonic() + timeout
-    while True:
-        code = main(list(argv))
-        out, err = capsys.readouterr()
-        if "unavailable" not in err or time.monotonic() > deadline:
-            return code, out, err
-        time.sleep(0.2)

@@ -5,9 +5,7 @@ Chromium."""
 from __future__ import annotations
 
 import shutil
-import signal
 import subprocess
-import sys
 import time
 import urllib.request
 from pathlib import Path
@@ -18,10 +16,10 @@ import rerun as rr
 
 from acnmp_core.experiments.viapoint import make_setup
 from services.launcher import LocalDeployment
-from services.transport import call, free_port
+from services.recording.live_client import saving_client
+from services.transport import call
 
 NS = "live"
-RERUN = Path(sys.executable).with_name("rerun")
 
 
 def _entities(path: Path) -> set[str]:
@@ -41,9 +39,7 @@ def test_a_rerun_client_receives_the_rollouts_while_the_job_runs(tmp_path):
     with LocalDeployment(NS, workers=1, model=False, record=tmp_path / "run.rrd", viewer=True,
                          state_dir=tmp_path / "state") as dep:
         assert dep.viewer_url.startswith("rerun+http://127.0.0.1:") and "live viewer" in dep.describe()
-        client = subprocess.Popen([str(RERUN), dep.viewer_url, "--save", str(saved), "--bind", "127.0.0.1",
-                                   "--port", str(free_port())], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-        try:
+        with saving_client(dep.viewer_url, saved) as client:
             demos = setup.demos
             call(dep.session, dep.keys.train("e1"), {
                 "times": np.stack([d.times for d in demos]), "values": np.stack([d.values for d in demos]),
@@ -56,7 +52,7 @@ def test_a_rerun_client_receives_the_rollouts_while_the_job_runs(tmp_path):
             while f"/rollouts/{job}" not in (seen := _entities(saved)):
                 assert client.poll() is None and time.monotonic() < deadline, (seen, client.stderr.read1(4000))
                 time.sleep(0.2)
-            assert f"/metrics/e1/train/nll" in seen and f"/jobs/{job}" in seen
+            assert "/metrics/e1/train/nll" in seen and f"/jobs/{job}" in seen
             page = urllib.request.urlopen(dep.web_viewer_url, timeout=10).read().decode()
             assert "Rerun" in page and "<html" in page
             chromium = shutil.which("chromium") or shutil.which("chromium-browser")
@@ -65,12 +61,5 @@ def test_a_rerun_client_receives_the_rollouts_while_the_job_runs(tmp_path):
                                       "--virtual-time-budget=5000", "--dump-dom", dep.web_viewer_url],
                                      capture_output=True, text=True, timeout=60)
                 assert dom.returncode == 0 and "<canvas" in dom.stdout, dom.stderr[-2000:]
-        finally:
-            client.send_signal(signal.SIGINT)
-            try:
-                client.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                client.kill()
-                client.wait()
     if shutil.which("chromium") is None and shutil.which("chromium-browser") is None:
         pytest.skip("the gRPC stream was received; no chromium here to load the web viewer headless")

@@ -4,13 +4,11 @@ adaptation queued and followed to its end, the job listed; wrong inputs are one 
 from __future__ import annotations
 
 import json
-import time
 
 import numpy as np
 
 from acnmp_core.demo_io import save_demos
 from acnmp_core.experiments.viapoint import make_setup
-from clients.cli import main
 from clients.client import ACNMPClient, JobSummary
 from services.launcher import LocalDeployment
 from services.learner.store import demo_set_to_arrays
@@ -18,30 +16,19 @@ from services.learner.store import demo_set_to_arrays
 NS = "qjobs"
 
 
-def cli(capsys, *argv, retry_unavailable: float = 30.0) -> tuple[int, str, str]:
-    """``acnmp ARGV`` in-process; again while a fresh session has not yet discovered the service."""
-    deadline = time.monotonic() + retry_unavailable
-    while True:
-        code = main(list(argv))
-        out, err = capsys.readouterr()
-        if "unavailable" not in err or time.monotonic() > deadline:
-            return code, out, err
-        time.sleep(0.2)
-
-
-def test_a_skill_is_trained_adapted_listed_and_watched_from_the_shell(tmp_path, capsys):
+def test_a_skill_is_trained_adapted_listed_and_watched_from_the_shell(tmp_path, run_cli):
     setup = make_setup()
     demos = save_demos(tmp_path / "e1.npz", demo_set_to_arrays(setup.demos))
     tg = setup.target
     with LocalDeployment(NS, workers=1, state_dir=tmp_path / "state") as dep:
         conn = ("-n", NS, "--connect", dep.anchor)
-        code, out, err = cli(capsys, "query", "train", "--skill", "e1", "--demos", str(demos), "--steps", "300",
+        code, out, err = run_cli("query", "train", "--skill", "e1", "--demos", str(demos), "--steps", "300",
                              *conn)
         assert code == 0, err
         assert out.startswith("skill e1 version 0: trained on 6 demonstrations")
 
         obs = [f"--obs={t}:{x},{y}" for t, (x, y) in zip(tg.obs_times, tg.obs_values)]
-        code, out, err = cli(capsys, "query", "adapt", "--skill", "e1", "--task", "viapoint", *obs,
+        code, out, err = run_cli("query", "adapt", "--skill", "e1", "--task", "viapoint", *obs,
                              "--task-config", json.dumps(setup.task_config), "--budget", "30", "--commit",
                              "--watch", *conn)
         assert code in (0, 1), err  # done -> 0; the outcome line says what happened either way
@@ -58,15 +45,15 @@ def test_a_skill_is_trained_adapted_listed_and_watched_from_the_shell(tmp_path, 
         assert row.rollouts == status["result"]["rollouts"] and row.success == status["result"]["success"]
         assert row.task == "viapoint" and row.robot == "point2d" and row.created <= row.updated
 
-        code, out, _ = cli(capsys, "query", "jobs", *conn)
+        code, out, _ = run_cli("query", "jobs", *conn)
         assert code == 0
         header, line = out.splitlines()
         assert header.split()[:5] == ["JOB", "KIND", "SKILL", "TASK", "STATE"]
         assert line.split()[:6] == [job, "adapt", "e1", "viapoint", "done", f"{row.rollouts}/30"]
-        code, out, _ = cli(capsys, "query", "jobs", "--json", *conn)
+        code, out, _ = run_cli("query", "jobs", "--json", *conn)
         assert code == 0 and [r["job"] for r in json.loads(out)] == [job]
 
-        code, out, _ = cli(capsys, "query", "watch", job, "--json", *conn)
+        code, out, _ = run_cli("query", "watch", job, "--json", *conn)
         assert code == 0 and json.loads(out)["state"] == "done"
         np.testing.assert_array_equal(np.array(json.loads(out)["result"]["trajectory"]),
                                       status["result"]["trajectory"])
@@ -80,7 +67,7 @@ def test_a_skill_is_trained_adapted_listed_and_watched_from_the_shell(tmp_path, 
             (("query", "train", "--skill", "e1", "--demos", str(tmp_path / "none.npz")), 2, "none.npz"),
             (("query", "jobs", "--limit", "0"), 2, "--limit"),
         ]:
-            code, out, err = cli(capsys, *argv, *conn)
+            code, out, err = run_cli(*argv, *conn)
             assert code == exit_code and len(err.strip().splitlines()) == 1 and words in err, (argv, err)
         with ACNMPClient(NS, session=dep.session, timeout=10) as client:
             assert [r.job for r in client.jobs()] == [job]
