@@ -33,6 +33,10 @@ def test_push_runs_on_a_running_deployments_workers_and_recorder(tmp_path, capsy
         assert main(["experiment", "wall", "--envs", "1", "--distributed", "--namespace", NS]) == 2
         err = capsys.readouterr().err.strip()
         assert "the deployment runs no point2d workers (start one with `acnmp up --robot point2d`)" in err
+        # the recording so far (still being written) audits itself on the deployment's own workers
+        assert main(["replay", str(rrd), "--execute", "--namespace", NS, "--limit", "2", "--json"]) == 0
+        audit = json.loads(capsys.readouterr().out)
+        assert audit["rollouts"] == audit["equal"] >= 2 and audit["differ"] == []
     verify_rrd(rrd)
     jobs = summarize(rrd)["jobs"]
     result = json.loads(out.read_text())
