@@ -49,7 +49,7 @@ def _e1_target(result: dict) -> tuple[str, bool | None]:
 STEPS = (
     Step("E1", "viapoint", "2-D via-point beyond the demonstrations (Fig. 3, 4)",
          "ACNMP reaches the extrapolated via-point keeping the demonstrations' shape; RL alone distorts it",
-         ("--seed", "0"), ("--seed", "0", "--train-steps", "400", "--budget", "20"), _e1_target),
+         ("--seed", "0"), ("--seed", "0", "--train-steps", "200", "--budget", "10"), _e1_target),
     Step("E2", "push", "planar 3-DoF push, interpolation and extrapolation (Fig. 5 a-c)",
          "ACNMP needs about 9x fewer roll-outs than ProMP + RL", (), ("--quick", "--seeds", "1")),
     Step("E3", "wall", "self-improvement over wall-with-a-hole environments (Fig. 5 d, e)",
