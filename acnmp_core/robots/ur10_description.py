@@ -25,15 +25,13 @@ The gripper, in the ``tool0`` frame (z out of the flange, towards the object whe
 """
 from __future__ import annotations
 
-import hashlib
 import importlib.metadata
-import os
 import re
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
 
-from .urdf import urdf_cache_dir
+from .urdf import cached_urdf
 
 #: The six arm joints in chain order, as the URDF names them.
 UR10_ARM_JOINTS = ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint",
@@ -179,11 +177,4 @@ def ur10_gripper_urdf(gripper: GripperGeometry | None = None, *, visuals: bool =
 def write_ur10_gripper_urdf(gripper: GripperGeometry | None = None, *, visuals: bool = False) -> Path:
     """Write :func:`ur10_gripper_urdf` into :func:`~acnmp_core.robots.urdf.urdf_cache_dir` (named by
     its content hash) and return the path."""
-    text = ur10_gripper_urdf(gripper, visuals=visuals)
-    digest = hashlib.sha256(text.encode()).hexdigest()[:16]
-    path = urdf_cache_dir() / f"ur10_gripper_{digest}.urdf"
-    if not path.exists():
-        tmp = path.with_suffix(".tmp")
-        tmp.write_text(text)
-        os.replace(tmp, path)  # atomic: a concurrent reader never sees half a file
-    return path
+    return cached_urdf("ur10_gripper", ur10_gripper_urdf(gripper, visuals=visuals))

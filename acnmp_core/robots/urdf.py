@@ -8,11 +8,8 @@ only with the paddle (the links pass above the objects).
 """
 from __future__ import annotations
 
-import atexit
 import hashlib
 import os
-import shutil
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -124,26 +121,32 @@ def planar_arm_urdf(geom: ArmGeometry) -> str:
     return "".join(parts)
 
 
-_CACHE_DIR: Path | None = None
-
-
 def urdf_cache_dir() -> Path:
-    """A directory private to this process for generated URDFs (created on first use, removed at exit)."""
-    global _CACHE_DIR
-    if _CACHE_DIR is None or not _CACHE_DIR.is_dir():
-        _CACHE_DIR = Path(tempfile.mkdtemp(prefix=f"acnmp-urdf-{os.getpid()}-"))
-        # PyBullet parses a URDF when it is loaded, so the files are not needed after this process.
-        atexit.register(shutil.rmtree, _CACHE_DIR, ignore_errors=True)
-    return _CACHE_DIR
+    """Where generated URDFs are kept: ``$ACNMP_CACHE/urdf`` or ``~/.cache/acnmp/urdf`` (created).
+
+    Shared by every process and named by content, so the few geometries the project builds are
+    written once. (A directory per process, removed at exit, was left behind by every process that
+    ended without running its exit handlers: killed workers, and the commands that skip the
+    interpreter's teardown; 266 such directories had piled up in /tmp.)
+    """
+    root = os.environ.get("ACNMP_CACHE") or os.path.join(os.path.expanduser("~"), ".cache", "acnmp")
+    path = Path(root) / "urdf"
+    path.mkdir(parents=True, exist_ok=True)
+    return path
+
+
+def cached_urdf(stem: str, text: str) -> Path:
+    """The path of URDF ``text`` in :func:`urdf_cache_dir`, as ``<stem>_<content hash>.urdf``,
+    written (atomically, a temporary file per process) if it is not there yet."""
+    digest = hashlib.sha256(text.encode()).hexdigest()[:16]
+    path = urdf_cache_dir() / f"{stem}_{digest}.urdf"
+    if not path.exists():
+        tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp")
+        tmp.write_text(text)
+        os.replace(tmp, path)  # atomic: a concurrent reader never sees half a file
+    return path
 
 
 def write_planar_arm_urdf(geom: ArmGeometry) -> Path:
     """Write the URDF of ``geom`` into :func:`urdf_cache_dir` (named by its content hash) and return the path."""
-    text = planar_arm_urdf(geom)
-    digest = hashlib.sha256(text.encode()).hexdigest()[:16]
-    path = urdf_cache_dir() / f"planar_arm_{geom.n_joints}dof_{digest}.urdf"
-    if not path.exists():
-        tmp = path.with_suffix(".tmp")
-        tmp.write_text(text)
-        os.replace(tmp, path)  # atomic: a concurrent reader never sees half a file
-    return path
+    return cached_urdf(f"planar_arm_{geom.n_joints}dof", planar_arm_urdf(geom))
