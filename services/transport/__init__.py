@@ -23,7 +23,7 @@ module                  one job
 from .errors import wire_error
 from .keys import DEFAULT_NAMESPACE, Keyspace, check_name
 from .lifetime import install_shutdown_handlers, wait_until_stopped
-from .liveliness import alive_tokens, wait_for_liveliness
+from .liveliness import alive_tokens, wait_for_liveliness, wait_for_liveliness_gone
 from .rpc import RpcQueryable, call, declare_rpc
 from .service import Ready, Service, main, option, run_service
 from .session import SessionOptions, free_port, loopback_endpoint, make_config, open_session
@@ -31,7 +31,7 @@ from .wire import ERROR_CODES, SCHEMA_VERSION, WireError, decode, encode, jsonab
 
 __all__ = [
     "wire_error", "DEFAULT_NAMESPACE", "Keyspace", "check_name", "install_shutdown_handlers", "wait_until_stopped",
-    "alive_tokens", "wait_for_liveliness", "RpcQueryable", "call", "declare_rpc", "Ready", "Service", "main",
+    "alive_tokens", "wait_for_liveliness", "wait_for_liveliness_gone", "RpcQueryable", "call", "declare_rpc", "Ready", "Service", "main",
     "option", "run_service", "SessionOptions", "free_port", "loopback_endpoint", "make_config", "open_session",
     "ERROR_CODES", "SCHEMA_VERSION", "WireError", "decode", "encode", "jsonable",
 ]

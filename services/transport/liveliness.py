@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import threading
+import time
 
 import zenoh
 
@@ -49,3 +50,26 @@ def alive_tokens(session: zenoh.Session, key_expr: str, timeout: float = 2.0) ->
             found.add(str(reply.ok.key_expr))
     return sorted(found)
 
+
+
+def wait_for_liveliness_gone(session: zenoh.Session, key_expr: str, timeout: float = 10.0) -> None:
+    """Wait until no liveliness token matching ``key_expr`` is alive (e.g. until the router has
+    dropped a killed process's token). Raises TimeoutError (listing what is alive) after ``timeout``.
+
+    Asks the router what is alive, again after each token change it reports (or every 0.5 s): a
+    subscriber alone cannot tell "gone" from "history not delivered yet"."""
+    changed = threading.Event()
+    sub = session.liveliness().declare_subscriber(key_expr, lambda _sample: changed.set())
+    deadline = time.monotonic() + timeout
+    try:
+        while True:
+            changed.clear()
+            found = alive_tokens(session, key_expr, timeout=min(2.0, timeout))
+            if not found:
+                return
+            left = deadline - time.monotonic()
+            if left <= 0:
+                raise TimeoutError(f"liveliness token(s) for {key_expr} still alive after {timeout}s: {found}")
+            changed.wait(min(0.5, left))
+    finally:
+        sub.undeclare()

@@ -15,13 +15,15 @@ from services.recording.events import rollout_event
 from services.recording.publisher import EventPublisher
 from services.recording.replay import recorded_event_ids, summarize
 from services.recording.tables import read_recording
-from services.transport import call, open_session
+from services.transport import call, open_session, wait_for_liveliness_gone
 from services.transport.runfile import RunFile
 
 JOB = "durable-1"
 #: A job published with a cache of SMALL_CACHE events: more are published while no recorder runs.
 SHORT, SMALL_CACHE = "short-1", 3
 TIMES = np.linspace(0.0, 1.0, 20)
+#: The first restart waits 3 s: time enough to publish while no recorder runs, on a loaded machine too.
+POLICY = RestartPolicy(max_restarts=2, window=60.0, first_delay=3.0, max_delay=3.0)
 
 
 def _publish(pub: EventPublisher, first: int, n: int, job: str = JOB) -> None:
@@ -44,7 +46,7 @@ def _wait_status(dep, done, timeout: float = 60.0) -> dict:
 def test_events_published_while_the_recorder_is_down_are_recorded_once(tmp_path, verify_rrd):
     rrd = tmp_path / "durable.rrd"
     with LocalDeployment("durable", workers=1, model=False, learner=False, record=rrd, state_dir=tmp_path / "state",
-                         secure=True, restart_policy=RestartPolicy(max_restarts=2, window=60.0)) as dep:
+                         secure=True, restart_policy=POLICY) as dep:
         run = RunFile.read(dep.announcement.directory / "run.json")
         with open_session(None, config_file=run.operator_credentials) as operator:
             pub = EventPublisher(operator, dep.keys)
@@ -56,7 +58,10 @@ def test_events_published_while_the_recorder_is_down_are_recorded_once(tmp_path,
             dep.kill("recorder")  # SIGKILL: its file keeps what reached it, no footer
             _publish(pub, 10, 10)  # no recorder runs: only the publisher's cache holds these
             _publish(small, 5, 8, SHORT)  # ... of these only the last 3 (10..12): 5..9 are gone
-            assert not list(operator.liveliness().get(dep.keys.tokens("recorder"), timeout=1.0))
+            # no recorder was live meanwhile: the router dropped the killed one's token, the restart is
+            # still in its backoff (POLICY.first_delay); the short job's ``missed`` below proves it too
+            wait_for_liveliness_gone(operator, dep.keys.tokens("recorder"), timeout=10)
+            assert not [r for r in dep.supervisor.restarts if r.name == "recorder"], "restarted too early"
             dep.supervisor.wait_restarts("recorder", 1, timeout=60)
             _publish(pub, 20, 10)
             # the new recorder writes what the first file lacks and skips (duplicates) what it has

@@ -10,7 +10,7 @@ import zenoh
 
 from acnmp_core.errors import ShapeError
 from services.transport import (Keyspace, SessionOptions, WireError, alive_tokens, call, declare_rpc, encode,
-                                free_port, loopback_endpoint, open_session, wait_for_liveliness)
+                                free_port, loopback_endpoint, open_session, wait_for_liveliness, wait_for_liveliness_gone)
 from services.transport.router import RouterConfig
 from services.transport.wire import array_field, field
 
@@ -126,10 +126,10 @@ def test_liveliness_wait_sees_tokens_before_and_after(anchor):
             later.join()
         assert found == ["acnmp/test/worker/planar3/w1", "acnmp/test/worker/planar3/w2"]
         t1.undeclare()
-        deadline = time.monotonic() + 5
-        while "acnmp/test/worker/planar3/w1" in alive_tokens(session, pattern) and time.monotonic() < deadline:
-            time.sleep(0.05)
+        wait_for_liveliness_gone(session, KEYS.worker_token("planar3", "w1"), timeout=10)
         assert alive_tokens(session, pattern) == ["acnmp/test/worker/planar3/w2"]
+        with pytest.raises(TimeoutError, match="still alive"):
+            wait_for_liveliness_gone(session, pattern, timeout=0.5)
     with pytest.raises(TimeoutError):
         wait_for_liveliness(session, pattern, count=1, timeout=0.5)
 
