@@ -115,6 +115,13 @@ def test_cli_snap_options_reach_the_run(tmp_path, capsys):
                  "--json", str(out)]) == 0
     cfg = json.loads(out.read_text())["config"]
     assert (cfg["snap_outputs"], cfg["snap_rollouts"], cfg["snap_solutions"]) == (True, True, False)
+    common = ["experiment", "wall", "--envs", "1", "--initial", "10", "--test", "20", "--methods", "promp_rl", "--quiet"]
+    for flags, snapped, heading in (([], True, "boundary conditions enforced"),
+                                    (["--snap-paths", "none"], False, "paths as generated (the paper's variant)")):
+        capsys.readouterr()
+        assert main([*common, *flags, "--json", str(out)]) == 0
+        assert json.loads(out.read_text())["config"]["snap_outputs"] is snapped
+        assert heading in capsys.readouterr().out
     assert main(["experiment", "wall", "--snap-paths", "ends"]) == 2
     assert len(capsys.readouterr().err.strip().splitlines()) == 1
     assert main(["experiment", "wall", "--threads", "0"]) == 2
