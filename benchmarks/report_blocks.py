@@ -397,25 +397,40 @@ def e3_row() -> list[str]:
 # --------------------------------------------------------------------------------------------------
 # README
 # --------------------------------------------------------------------------------------------------
+def e4_row() -> list[str]:
+    r = load("e4_transfer")
+    t, scratch = r["conditions"]["transfer"], r["conditions"]["no_transfer"]
+    paper = r["paper"]["success_by_iteration"]
+    return [f"E4 transfer 3 → 4 DoF ({r['runs']} runs)", "success " + "/".join(pct(v) for v in paper.values())
+            + f" after {'/'.join(paper)} it.",
+            "success " + "/".join(pct(t["success_by_iteration"][k]) for k in paper) + "; from scratch "
+            + "/".join(pct(scratch["success_by_iteration"][k]) for k in paper)]
+
+
+def e5_row() -> list[str]:
+    r = load("e5_ur10")
+    n, c = r["seeds"], r["cases"]["9_11"]
+    wrist = r["joint_names"].index("wrist_1_joint")
+    return [f"E5 UR10 (9, 11) cm ({n} seeds)", "wrist 1 14.89 → 1.51°, LfD fails",
+            f"LfD-only {frac(c['lfd_only']['success_rate'], n)}, ACNMP {frac(c['acnmp']['success_rate'], n)} in median "
+            f"{fmt(c['acnmp']['rollouts_median'])} roll-outs; wrist 1 {c['lfd_only']['joint_error_deg'][wrist]:.2f} → "
+            f"{c['acnmp']['joint_error_deg'][wrist]:.2f}° (physics, PyBullet)"]
+
+
+def e6_row() -> list[str]:
+    r = load("e6_pour")
+    n, a = r["seeds"], r["acnmp"]
+    return [f"E6 pouring ({n} seeds)", "LfD 600 g off → 27 g after 18 roll-outs",
+            f"LfD-only {r['lfd_only']['error_g']:.0f} g off; ACNMP within 30 g in {frac(a['success_rate'], n)}, "
+            f"median {fmt(a['rollouts_median'])} roll-outs ({frac(a['success_within_20_rate'], n)} within 20)"]
+
+
 @renderer("readme-results")
 def readme_results() -> str:
-    rows = [e1_row(), e2_row(), e3_row()]
+    rows = [e1_row(), e2_row(), e3_row(), e4_row(), e5_row(), e6_row()]
     p = load("bench_predict")
-    rows.append(["predict latency", "–", f"p50 {p['latency']['predict_zenoh']['p50_ms']:.2f} ms over zenoh = "
-                 f"{p['p50_ratio']:.2f}x (in-process + empty query), target ≤ {p['target_ratio']}x"])
-    if "modes" in p:
-        on, off = p["modes"]["on"], p["modes"]["off"]
-        top = max(on["scaling_vs_1"], key=int)
-        rows.append(["predict throughput", "–",
-                     f"{top} clients: {on['scaling_vs_1'][top]:.2f}x one client with dynamic batching "
-                     f"({on['predicts_per_s_median'][top]:.0f}/s), {off['scaling_vs_1'][top]:.2f}x without "
-                     f"({off['predicts_per_s_median'][top]:.0f}/s); target ≥ 3x; medians of {p['reps']} runs, 2 shared cores"
-                     + (f"; CPU ceiling {on['scaling_ceiling']:.2f}x (both cores busy at the CPU per predict of "
-                        f"{top} clients)" if "scaling_ceiling" in on else "")])
-    h = load("bench_hostile")
-    rows.append(["hostile input", "–",
-                 f"{h['requests']:,} generated requests: {h['documented_pct']:.0f} % documented codes, "
-                 f"{h['crashes']} crashes, model-service peak RSS {h['model_peak_rss_mib']:.0f} MiB (bound 1 GiB)"])
+    rows.append(["predict over zenoh", "–", f"p50 {p['latency']['predict_zenoh']['p50_ms']:.2f} ms "
+                 f"({p['p50_ratio']:.2f}x in-process + empty query)"])
     return table(["experiment", "paper", "measured here (JSON in `benchmarks/results/`)"], rows)
 
 
