@@ -19,7 +19,7 @@ and ends at rest):
 9. retreat ``RETREAT`` straight up.
 
 Demonstrations: :data:`TRAIN_HEIGHTS`, h_obj in {2, 6} cm x h_obs in {2, 4, 6, 8} cm (8 rows, role
-"train"), and the same expert at :data:`TEST_HEIGHTS` (8, 10) and (9, 11) cm (role
+"train"), and the same expert at :data:`TEST_HEIGHTS` (8, 10), (9, 11) and (10, 12) cm (role
 "extrapolation"), the ground truth the paper compares against. 625 rows each, times = phase
 ``linspace(0, 1, 625)``, values = the six arm joints (rad).
 """
@@ -52,9 +52,9 @@ PLACE_GAP = 0.003
 RETREAT = 0.08
 #: (h_obj, h_obs) in metres of the training demonstrations and of the extrapolation tests.
 TRAIN_HEIGHTS = tuple((o, b) for o in (0.02, 0.06) for b in (0.02, 0.04, 0.06, 0.08))
-TEST_HEIGHTS = ((0.08, 0.10), (0.09, 0.11))
+TEST_HEIGHTS = ((0.08, 0.10), (0.09, 0.11), (0.10, 0.12))
 #: Bump when the scene, the robot or the expert changes, so stale cached demonstrations are not read.
-DEMO_VERSION = 1
+DEMO_VERSION = 2  # 2: the expert at (10, 12) cm too
 
 
 def _min_jerk(n: int) -> np.ndarray:
@@ -162,7 +162,7 @@ def default_demo_path() -> str:
 
 
 def ur10_demos(path: str | None = None, *, regenerate: bool = False) -> DemoArrays:
-    """The E5 demonstration set (8 "train" + 2 "extrapolation" rows), loaded from ``path`` (default
+    """The E5 demonstration set (8 "train" + 3 "extrapolation" rows), loaded from ``path`` (default
     :func:`default_demo_path`) or generated with :func:`make_ur10_demos` and saved there first.
 
     Raises RuntimeError if a generated demonstration fails in physics (the expert is then broken

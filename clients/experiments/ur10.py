@@ -14,11 +14,14 @@ def register(subparsers) -> None:
         description=(
             "Train a CNMP on 8 UR10 pick-and-place demonstrations (task parameters: object and obstacle "
             "heights, 2-6 and 2-8 cm), then execute its LfD trajectory and adapt it with ACNMP at "
-            "(8, 10) and (9, 11) cm in PyBullet, over several seeds. Prints per-joint errors (deg) "
+            "the paper's (8, 10) and (9, 11) cm and at (10, 12) cm in PyBullet, over several seeds. Prints "
+            "per-joint errors (deg) "
             "against the expert at the test heights; --json and --plot save results."
         ),
     )
     add_size_arguments(p, seeds=5, train_steps=3000, budget=60, budget_help="ACNMP roll-out budget per case")
+    p.add_argument("--cases", default=None, metavar="8_10,9_11",
+                   help="comma-separated test cases, object_obstacle heights in cm (default: 8_10,9_11,10_12)")
     add_output_arguments(p, "write the per-joint trajectories of the first seed (PNG)")
     add_deployment_arguments(p, "the roll-outs on ur10 PyBullet workers")
     p.add_argument("--quiet", action="store_true", help="no per-run lines")
@@ -30,12 +33,16 @@ def run(args) -> int:
     import torch
 
     from acnmp_core.adaptation import AdaptConfig
-    from acnmp_core.experiments.ur10 import BUDGET, TRAIN_STEPS, plot_ur10, run_ur10
+    from acnmp_core.experiments.ur10 import BUDGET, CASES, TRAIN_STEPS, plot_ur10, run_ur10
 
+    cases = tuple(CASES) if args.cases is None else tuple(c.strip() for c in args.cases.split(",") if c.strip())
+    unknown = [c for c in cases if c not in CASES]
+    if unknown or not cases:
+        raise ValueError(f"--cases: expected a comma-separated subset of {','.join(CASES)}, got {args.cases!r}")
     train_steps, budget = sizes(args, TRAIN_STEPS, BUDGET)
     check_deployment_arguments(args)
     torch.set_num_threads(1)  # the CNMP is small; threads only contend with the simulator
-    kwargs = dict(train_steps=train_steps, adapt_config=AdaptConfig(max_rollouts=budget),
+    kwargs = dict(train_steps=train_steps, adapt_config=AdaptConfig(max_rollouts=budget), cases=cases,
                   log=None if args.quiet else print)
     if args.distributed:
         from clients.distributed import remote_rollouts

@@ -18,7 +18,7 @@ def _entities(path) -> set[str]:
 def test_ur10_cli_distributed_records_every_rollout(tmp_path, monkeypatch, ur10_demo_file, verify_rrd, capsys):
     monkeypatch.setenv("ACNMP_CACHE", str(ur10_demo_file.parent))
     rrd, out = tmp_path / "e5.rrd", tmp_path / "e5.json"
-    assert main(["experiment", "ur10", "--seeds", "1", "--train-steps", "100", "--budget", "2", "--distributed",
+    assert main(["experiment", "ur10", "--seeds", "1", "--train-steps", "100", "--budget", "2", "--cases", "8_10,9_11", "--distributed",
                  "--workers", "2", "--record", str(rrd), "--json", str(out), "--quiet"]) == 0
     verify_rrd(rrd)
     r = json.loads(out.read_text())
