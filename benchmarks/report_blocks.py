@@ -188,9 +188,8 @@ def _e3_row(label: str, s: dict, time_s: float) -> list:
             f"{s['adaptations']} ({s['adaptations_failed']} failed)", f"{time_s:.0f}"]
 
 
-@renderer("e3-results")
-def e3_results() -> str:
-    r = load("e3_wall")
+def _e3_results_block(name: str) -> str:
+    r = load(name)
     rows = []
     for m, label in TWO_LABELS.items():
         s = r["methods"][m]
@@ -200,33 +199,56 @@ def e3_results() -> str:
         table(["method", "test success", "mean test error", "mean goal error", "trajectories", "max per env",
                "adaptations", "time (s)"], rows),
         "",
-        f"* {r['envs']} new environments after {r['n_initial']} demonstrated ones; {r['n_test']} test environments.",
+        f"* Seed {r['seed']}: {r['envs']} new environments after {r['n_initial']} demonstrated ones; {r['n_test']} test "
+        f"environments; {_e3_paths(r)}.",
         "* ProMP + RL / ACNMP trajectories in total: " + ("-" if ratio is None else f"{ratio:.2f}x") + ".",
         "",
-        source(r, "e3_wall"),
+        source(r, name),
     ]
     return "\n".join(lines)
 
 
-def _e3_seed_runs() -> tuple[dict, dict, dict]:
-    """(e3_wall.json, e3_seeds.json, {seed: {method: summary}}) for the ten default seeds."""
-    full, more = load("e3_wall"), load("e3_seeds")
-    if full["envs"] != more["envs"]:
-        raise ValueError("e3_wall.json and e3_seeds.json differ in envs")
+def _e3_paths(r: dict) -> str:
+    """How a run executed its generated paths, from its config."""
+    c = r["config"]
+    if c.get("snap_rollouts"):
+        return "every executed path moved onto its start and goal"
+    return ("boundary conditions enforced (generated paths moved onto their start and goal, the default)"
+            if c.get("snap_outputs") else "paths as generated (the paper's variant)")
+
+
+@renderer("e3-results")
+def e3_results() -> str:
+    """Seed 0 at the default, boundary conditions enforced (e3_wall.json)."""
+    return _e3_results_block("e3_wall")
+
+
+@renderer("e3-results-paper-paths")
+def e3_results_paper_paths() -> str:
+    """Seed 0 with paths as generated, the paper's variant (e3_wall_paper_paths.json)."""
+    return _e3_results_block("e3_wall_paper_paths")
+
+
+def _e3_seed_runs(wall: str = "e3_wall", seeds: str = "e3_seeds") -> tuple[dict, dict, dict]:
+    """(seed 0's JSON ``wall``, seeds 1-9's ``seeds``, {seed: {method: summary}}) for ten seeds: by
+    default those at the default settings."""
+    full, more = load(wall), load(seeds)
+    if full["envs"] != more["envs"] or bool(full["config"].get("snap_outputs")) != bool(
+            more["defaults"].get("snap_outputs", full["config"].get("snap_outputs"))):
+        raise ValueError(f"{wall}.json and {seeds}.json differ in envs or paths")
     runs = {str(full["seed"]): full["methods"]}
     for seed, variants in more["seeds"].items():
         if seed in runs:
-            raise ValueError(f"e3_seeds.json repeats seed {seed} of e3_wall.json")
+            raise ValueError(f"{seeds}.json repeats seed {seed} of {wall}.json")
         w = variants["baseline"]
         runs[seed] = {"acnmp": w["summary"], **{m: o["summary"] for m, o in w.get("others", {}).items()}}
     return full, more, runs
 
 
-@renderer("e3-per-env")
-def e3_per_env() -> str:
+def _e3_per_env(wall: str, seeds: str) -> str:
     """The largest number of trajectories one environment took, seed 0 and over the ten seeds, and
     the adaptations that ran to their budget (from the same JSON as the ten-seed table)."""
-    full, _, runs = _e3_seed_runs()
+    full, _, runs = _e3_seed_runs(wall, seeds)
     a0 = full["methods"]["acnmp"]
     top = max(runs[s]["acnmp"]["trajectories_per_env_max"] for s in runs)
     failed = {s: runs[s]["acnmp"]["adaptations_failed"] for s in sorted(runs, key=int)
@@ -239,12 +261,32 @@ def e3_per_env() -> str:
             + (f" (budget {budget} roll-outs)" if budget else "") + ".")
 
 
+@renderer("e3-per-env")
+def e3_per_env() -> str:
+    return _e3_per_env("e3_wall", "e3_seeds")
+
+
+@renderer("e3-per-env-paper-paths")
+def e3_per_env_paper_paths() -> str:
+    return _e3_per_env("e3_wall_paper_paths", "e3_seeds_paper_paths")
+
+
 @renderer("e3-seeds")
 def e3_seeds() -> str:
     """Both methods at the defaults over ten seeds: seed 0 from e3_wall.json (the Results table), seeds
     1-9 from e3_seeds.json (``e3_budget.py --candidates baseline --methods acnmp promp_rl``, one file
     per seed, combined). One row per seed, then the mean over the seeds."""
-    full, more, runs = _e3_seed_runs()
+    return _e3_seeds("e3_wall", "e3_seeds")
+
+
+@renderer("e3-seeds-paper-paths")
+def e3_seeds_paper_paths() -> str:
+    """The same with paths as generated (the paper's variant; the default before issue 37)."""
+    return _e3_seeds("e3_wall_paper_paths", "e3_seeds_paper_paths")
+
+
+def _e3_seeds(wall: str, seeds_file: str) -> str:
+    full, more, runs = _e3_seed_runs(wall, seeds_file)
     seeds = sorted(runs, key=int)
     rows = []
     for seed in seeds:
@@ -272,16 +314,59 @@ def e3_seeds() -> str:
                "ACNMP max per env", "ACNMP adaptations"], rows),
         "",
         f"* {full['envs']} new environments after {full['n_initial']} demonstrated ones, {full['n_test']} test "
-        "environments, the defaults; "
-        "both methods in one run per seed. Seeds 1-9 ran two at a time (two processes, one torch thread each).",
+        f"environments, {_e3_paths(full)}; both methods in one run per seed, one torch thread.",
         f"* ACNMP at 95 % test success or more: {at_target} of {len(seeds)} seeds; its mean test error is "
         f"{error_ratio:.1f}x ProMP + RL's (means over the seeds); ProMP + RL executes {traj_ratio:.2f}x as many "
         "trajectories.",
         "",
-        source(full, "e3_wall"),
+        source(full, wall),
         "",
-        source(more, "e3_seeds"),
+        source(more, seeds_file),
     ])
+
+
+@renderer("e3-targets")
+def e3_targets() -> str:
+    """Issue 37's E3 targets at the default over the ten seeds (e3_wall.json + e3_seeds.json), each
+    with the measured value and whether it is met."""
+    full, _, runs = _e3_seed_runs()
+    seeds = sorted(runs, key=int)
+
+    def mean(m: str, key: str) -> float:
+        return float(np.mean([runs[s][m][key] for s in seeds]))
+
+    times = [runs[s]["acnmp"]["time_s"] for s in seeds]
+    top = max(runs[s]["acnmp"]["trajectories_per_env_max"] for s in seeds)
+    a_err, p_err = mean("acnmp", "test_error_mean"), mean("promp_rl", "test_error_mean")
+    rows = [["mean test success (10 seeds)", "≥ 95 %", pct(mean("acnmp", "test_success_rate"), 1),
+             mean("acnmp", "test_success_rate") >= 0.95],
+            ["mean test error", "≤ ProMP + RL's", f"{fmt(a_err)} against {fmt(p_err)}", a_err <= p_err],
+            ["ACNMP's time per seed", "≤ 120 s", f"median {np.median(times):.0f} s, at most {max(times):.0f} s",
+             max(times) <= 120],
+            ["trajectories for any one environment", "≤ 1400", f"at most {top}", top <= 1400]]
+    return "\n".join([table(["target (issue 37)", "asked", "measured", "met"],
+                             [[*r[:3], "yes" if r[3] else "**no**"] for r in rows]),
+                      "",
+                      f"*Seed 0 from `benchmarks/results/e3_wall.json`, seeds 1-9 from `e3_seeds.json` "
+                      f"({len(seeds)} seeds, {full['envs']} environments each, {_e3_paths(full)}).*"])
+
+
+@renderer("e3-paper-paths-summary")
+def e3_paper_paths_summary() -> str:
+    """One paragraph: the ten seeds with paths as generated (the paper's variant) beside the default."""
+    _, _, runs = _e3_seed_runs("e3_wall_paper_paths", "e3_seeds_paper_paths")
+    seeds = sorted(runs, key=int)
+
+    def mean(m: str, key: str) -> float:
+        return float(np.mean([runs[s][m][key] for s in seeds]))
+
+    top = max(runs[s]["acnmp"]["trajectories_per_env_max"] for s in seeds)
+    return (f"With paths as generated (the paper's variant, `--snap-paths none`), over the same {len(seeds)} seeds: "
+            f"ACNMP's mean test success {pct(mean('acnmp', 'test_success_rate'), 1)} against ProMP + RL's "
+            f"{pct(mean('promp_rl', 'test_success_rate'), 1)}, its mean test error {fmt(mean('acnmp', 'test_error_mean'))} "
+            f"against {fmt(mean('promp_rl', 'test_error_mean'))} (the CNMP's goal error), at most {top} trajectories for "
+            f"one environment, ACNMP {mean('acnmp', 'time_s'):.0f} s per seed "
+            "(`e3_wall_paper_paths.json`, `e3_seeds_paper_paths.json`).")
 
 
 SNAP_LABELS = {"snap_outputs": "generated paths snapped", "snap_outputs_rollouts": "all executed paths snapped"}
@@ -291,9 +376,9 @@ SNAP_LABELS = {"snap_outputs": "generated paths snapped", "snap_outputs_rollouts
 def e3_snap_outputs() -> str:
     """Both methods with their paths snapped onto start and goal (e3_snap_outputs.json: generated
     paths only, or every executed path) beside the full run as generated (e3_wall.json)."""
-    full, snap = load("e3_wall"), load("e3_snap_outputs")
+    full, snap = load("e3_wall_paper_paths"), load("e3_snap_outputs")
     if (full["envs"], full["seed"]) != (snap["envs"], snap["seed"]):
-        raise ValueError("e3_wall.json and e3_snap_outputs.json differ in envs or seed")
+        raise ValueError("e3_wall_paper_paths.json and e3_snap_outputs.json differ in envs or seed")
     rows = []
     for m, label in TWO_LABELS.items():
         rows.append(_e3_row(f"{label}, as generated", full["methods"][m], full["methods"][m]["time_s"]))
@@ -310,7 +395,7 @@ def e3_snap_outputs() -> str:
         "and goal before it is executed or scored, the adaptations' roll-outs are not; \"all executed paths "
         "snapped\": the adaptations' roll-outs too. The two variants ran side by side (two processes).",
         "",
-        source(full, "e3_wall"),
+        source(full, "e3_wall_paper_paths"),
         "",
         source(snap, "e3_snap_outputs"),
     ])
@@ -329,7 +414,7 @@ def e3_compare() -> str:
     files = ["e3_compare_paper", "e3_compare_authors"]
     files += [f for f in ("e3_compare_paper_snapped", "e3_compare_authors_snapped") if (RESULTS / f"{f}.json").exists()]
     runs = {f: load(f) for f in files}
-    default_from = load("e3_wall")["config"]["assimilate_from"]
+    default_from = load("e3_wall_paper_paths")["config"]["assimilate_from"]
     notes = []
     for file, r in runs.items():
         snapped = r["config"].get("snap_rollouts", False)
@@ -423,6 +508,22 @@ def e6_row() -> list[str]:
     return [f"E6 pouring ({n} seeds)", "LfD 600 g off → 27 g after 18 roll-outs",
             f"LfD-only {r['lfd_only']['error_g']:.0f} g off; ACNMP within 30 g in {frac(a['success_rate'], n)}, "
             f"median {fmt(a['rollouts_median'])} roll-outs ({frac(a['success_within_20_rate'], n)} within 20)"]
+
+
+@renderer("experiments-table")
+def experiments_table() -> str:
+    """docs/EXPERIMENTS.md's table, from the experiments' catalog (clients/experiments/catalog.py)."""
+    from clients.experiments.catalog import CATALOG
+
+    rows = []
+    for e in CATALOG:
+        if e.page is None:
+            continue
+        rows.append([e.ident or e.name, f"[{e.page}](experiments/{e.page}) ([studies](studies/{e.page}))"
+                     if (RESULTS.parents[1] / "docs" / "studies" / e.page).exists() else f"[{e.page}](experiments/{e.page})",
+                     f"`acnmp experiment {e.name}`", e.title or e.help, ", ".join(f"`{b.strip()}`" for b in
+                                                                                 (e.benchmark or "").split(",") if b.strip())])
+    return table(["id", "page", "command", "what", "benchmark"], rows)
 
 
 @renderer("readme-results")
@@ -982,15 +1083,15 @@ def e3_targets_obs() -> str:
 def e3_targets_obs_1500() -> str:
     """The same at 1500 environments: the defaults from e3_wall.json (seed 0) and e3_snap_1500.json
     (seeds 1, 2) against e3_targets_obs_1500.json (seeds 0-2)."""
-    full, snap, cand = load("e3_wall"), load("e3_snap_1500"), load("e3_targets_obs_1500")
+    full, snap, cand = load("e3_wall_paper_paths"), load("e3_snap_1500"), load("e3_targets_obs_1500")
     if not full["envs"] == snap["envs"] == cand["envs"]:
-        raise ValueError("e3_wall.json, e3_snap_1500.json and e3_targets_obs_1500.json differ in envs")
+        raise ValueError("e3_wall_paper_paths.json, e3_snap_1500.json and e3_targets_obs_1500.json differ in envs")
     seed0 = {"provenance": full["provenance"], "config": full["config"], "curve": full["curves"]["acnmp"],
              "summary": full["methods"]["acnmp"]}
     defaults = {str(full["seed"]): seed0, **{s: v["snap"] for s, v in snap["seeds"].items()}}
     seeds = {s: {"default (snap)": defaults[s], **cand["seeds"][s]} for s in cand["seeds"] if s in defaults}
     return _optimizer_table("e3_targets_obs_1500", {"envs": cand["envs"], "seeds": seeds},
-                            sources=[(full, "e3_wall"), (snap, "e3_snap_1500"), (cand, "e3_targets_obs_1500")])
+                            sources=[(full, "e3_wall_paper_paths"), (snap, "e3_snap_1500"), (cand, "e3_targets_obs_1500")])
 
 
 @renderer("e3-consolidate")

@@ -1,34 +1,33 @@
-"""``acnmp experiment <name>``: run one of the paper's experiments (modules in clients.experiments)."""
+"""``acnmp experiment <name>``: run one of the experiments :data:`clients.experiments.catalog.CATALOG`
+declares (their options and runs in the modules of clients.experiments)."""
 from __future__ import annotations
 
 import contextlib
 import functools
 import importlib
-import pkgutil
 import signal
 import sys
 import threading
 
-from clients import experiments
+from clients.experiments.catalog import CATALOG
 from clients.experiments.common import check_output_arguments
 
 
 def register(subparsers) -> None:
-    """Add ``experiment`` with one sub-command per module of :mod:`clients.experiments`."""
+    """Add ``experiment`` with one sub-command per entry of the catalog, in its order."""
     parser = subparsers.add_parser(
         "experiment",
-        help="reproduce one of the paper's experiments (E1 viapoint, E2 push, E3 wall, E4 transfer, E5 ur10, E6 pour)",
+        help="reproduce one of the paper's experiments ("
+             + ", ".join(f"{e.ident} {e.name}" for e in CATALOG if e.ident) + "), or run your robot's",
         description="Reproduce one of the paper's experiments in simulation; --json and --plot save results.",
     )
     sub = parser.add_subparsers(dest="experiment", metavar="NAME", required=True)
-    for info in sorted(pkgutil.iter_modules(experiments.__path__), key=lambda m: m.name):
-        module = importlib.import_module(f"{experiments.__name__}.{info.name}")
-        if hasattr(module, "register"):
-            module.register(sub)
-    for parser_ in sub.choices.values():  # every experiment checks where it will write before it runs
-        run = parser_.get_default("func")
-        if run is not None:
-            parser_.set_defaults(func=functools.partial(_checked, run))
+    for entry in CATALOG:
+        p = sub.add_parser(entry.name, help=entry.help, description=entry.description)
+        module = importlib.import_module(entry.module)
+        module.add_arguments(p)
+        # every experiment checks where it will write before it runs
+        p.set_defaults(func=functools.partial(_checked, module.run))
 
 
 def _checked(run, args) -> int:

@@ -8,18 +8,8 @@ from .common import (add_deployment_arguments, add_output_arguments, add_size_ar
                      check_deployment_arguments, sizes, write_json)
 
 
-def register(subparsers) -> None:
-    """Add the ``pour`` experiment parser."""
-    p = subparsers.add_parser(
-        "pour",
-        help="E6: pour a target amount of marbles from a cup heavier than any demonstrated one",
-        description=(
-            "Train a CNMP on 16 pouring demonstrations (task parameters: initial cup weight 650-1200 g "
-            "and poured amount), then execute its LfD trajectory and adapt it with ACNMP for a 1400 g "
-            "cup and a 1322 g target in PyBullet, assimilate the solution and check it without RL, "
-            "over several seeds. --json and --plot save results."
-        ),
-    )
+def add_arguments(p) -> None:
+    """Add the ``pour`` experiment's options to its parser ``p`` (made from its catalog entry)."""
     add_size_arguments(p, seeds=5, train_steps=3000, budget=60, budget_help="ACNMP roll-out budget")
     p.add_argument("--no-assimilation", action="store_true", help="skip the assimilation and its checks")
     add_output_arguments(p, "write the error of every roll-out per seed (PNG)")
@@ -27,7 +17,6 @@ def register(subparsers) -> None:
     p.add_argument("--jobs", type=int_at_least(1, 64), default=1,
                    help="seeds run in this many processes at once, same result (not with --distributed; default 1)")
     p.add_argument("--quiet", action="store_true", help="no per-seed lines")
-    p.set_defaults(func=run)
 
 
 def run(args) -> int:

@@ -11,17 +11,8 @@ QUICK = dict(train_steps=1500, acnmp_budget=60, promp_budget=150)
 TRAIN_STEPS = 3000
 
 
-def register(subparsers) -> None:
-    """Add the ``push`` experiment parser."""
-    p = subparsers.add_parser(
-        "push",
-        help="E2: planar arm pushes a cylinder to an interpolated and an extrapolated target",
-        description=(
-            "Train a CNMP on 9 pushing demonstrations (task parameter: target x, y), then run ACNMP "
-            "and adaptive ProMP + RL (REPS) side by side on a held-out interpolation target and an "
-            "extrapolation target, over several seeds. Prints a table; --json and --plot save results."
-        ),
-    )
+def add_arguments(p) -> None:
+    """Add the ``push`` experiment's options to its parser ``p`` (made from its catalog entry)."""
     p.add_argument("--seeds", type=int_at_least(1), default=3, help="number of seeds 0..N-1 (default 3)")
     p.add_argument("--setting", choices=("paper", "authors"), default="paper",
                    help="task setting: 'paper' (default) or 'authors' (the authors' targets, scaled to "
@@ -38,7 +29,6 @@ def register(subparsers) -> None:
     add_output_arguments(p, "write learning curves like the paper's Fig. 5(b) (PNG)")
     add_deployment_arguments(p, "the roll-outs on planar3 PyBullet workers")
     p.add_argument("--quiet", action="store_true", help="no per-run lines, no progress bars")
-    p.set_defaults(func=run)
 
 
 def run(args) -> int:

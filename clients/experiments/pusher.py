@@ -11,18 +11,8 @@ from .common import (add_deployment_arguments, add_output_arguments, add_size_ar
 QUICK = dict(seeds=2, train_steps=1500, budget=100, promp_budget=150)
 
 
-def register(subparsers) -> None:
-    """Add the ``pusher`` experiment parser."""
-    p = subparsers.add_parser(
-        "pusher",
-        help="Gymnasium Pusher-v5 (MuJoCo): a 7-DoF arm pushes a cylinder at positions beyond the demos",
-        description=(
-            "Train a CNMP on 12 scripted Pusher-v5 pushes (task parameters: object and goal x, y), then, "
-            "per seed, at one position 0.20-0.25 m beyond the demonstrations: execute its LfD trajectory, "
-            "adapt it with ACNMP, and run ProMP + RL from the nearest demonstration. Success: the object "
-            "ends within 0.05 m of the goal. docs/experiments/pusher.md explains it."
-        ),
-    )
+def add_arguments(p) -> None:
+    """Add the ``pusher`` experiment's options to its parser ``p`` (made from its catalog entry)."""
     add_size_arguments(p, seeds=10, train_steps=3000, budget=400, budget_help="ACNMP roll-out budget per position")
     p.add_argument("--promp-budget", type=int_at_least(3), default=None,
                    help="ProMP + RL roll-out budget per position (default 1500)")
@@ -32,7 +22,6 @@ def register(subparsers) -> None:
     add_output_arguments(p, "write the final distances and roll-outs per seed (PNG)")
     add_deployment_arguments(p, "the roll-outs on pusher (MuJoCo) workers")
     p.add_argument("--quiet", action="store_true", help="no per-run lines")
-    p.set_defaults(func=run)
 
 
 def run(args) -> int:

@@ -21,17 +21,8 @@ def _point(text: str) -> list[float]:
     return values
 
 
-def register(subparsers) -> None:
-    """Add the ``robot`` experiment parser."""
-    p = subparsers.add_parser(
-        "robot",
-        help="any robot kind (a plugin too): train on your demonstrations, then LfD only vs ACNMP at --at points",
-        description=(
-            "Train a CNMP on a demonstration file, then per seed and test point: execute its mean "
-            "trajectory (LfD only) and adapt it with ACNMP on the robot's task until success or the budget. "
-            "The robot is any kind `acnmp robots` lists, or a plugin package.module:attr."
-        ),
-    )
+def add_arguments(p) -> None:
+    """Add the ``robot`` experiment's options to its parser ``p`` (made from its catalog entry)."""
     p.add_argument("--robot", required=True, type=robot_kind, help="robot kind or plugin package.module:attr")
     p.add_argument("--task", default=None, help="the robot's task (default: its only one)")
     p.add_argument("--demos", required=True, type=non_empty, metavar="FILE.npz", help="demonstrations (.npz)")
@@ -41,7 +32,6 @@ def register(subparsers) -> None:
     add_output_arguments(p, "write the remaining errors and ACNMP's roll-outs per point (PNG)")
     add_deployment_arguments(p, "the roll-outs on workers of the robot")
     p.add_argument("--quiet", action="store_true", help="no per-run lines")
-    p.set_defaults(func=run)
 
 
 def run(args) -> int:

@@ -8,19 +8,8 @@ from services.transport.argtypes import int_at_least
 from .common import add_deployment_arguments, add_output_arguments, check_deployment_arguments, write_json
 
 
-def register(subparsers) -> None:
-    """Add the ``transfer`` experiment parser."""
-    p = subparsers.add_parser(
-        "transfer",
-        help="E4: transfer a cube-pushing skill from a 3-DoF to a 4-DoF planar arm through a shared latent space",
-        description=(
-            "Train two CNMPs (3-DoF and 4-DoF arm) on 12 paired proxy demonstrations with a latent "
-            "alignment loss, encode the 3-DoF arm's demonstration of a new skill (pushing a cube "
-            "through a gap between two walls) and decode it for the 4-DoF arm, then refine it by RL "
-            "in the 4-DoF arm (its decoder only). Controls in the same run: no alignment term, and "
-            "RL from the 4-DoF arm's own LfD model. Prints success after 3/7/11/19 RL iterations."
-        ),
-    )
+def add_arguments(p) -> None:
+    """Add the ``transfer`` experiment's options to its parser ``p`` (made from its catalog entry)."""
     p.add_argument("--runs", type=int_at_least(1), default=30, help="runs (seeds 0..N-1, default 30)")
     p.add_argument("--pair-steps", type=int_at_least(1), default=None,
                    help="training steps of each transfer pair on our task (default 6000)")
@@ -35,7 +24,6 @@ def register(subparsers) -> None:
     add_deployment_arguments(p, "the pairs trained by the learner, the 4-DoF arm's first attempt from the model "
                                 "service's transfer query, its roll-outs on planar4 PyBullet workers")
     p.add_argument("--quiet", action="store_true", help="no per-run lines")
-    p.set_defaults(func=run)
 
 
 def run(args) -> int:

@@ -6,26 +6,14 @@ from .common import (add_deployment_arguments, add_output_arguments, add_size_ar
                      check_deployment_arguments, sizes, write_json)
 
 
-def register(subparsers) -> None:
-    """Add the ``ur10`` experiment parser."""
-    p = subparsers.add_parser(
-        "ur10",
-        help="E5: UR10 pick and place over an obstacle at object/obstacle heights outside the demos",
-        description=(
-            "Train a CNMP on 8 UR10 pick-and-place demonstrations (task parameters: object and obstacle "
-            "heights, 2-6 and 2-8 cm), then execute its LfD trajectory and adapt it with ACNMP at "
-            "the paper's (8, 10) and (9, 11) cm and at (10, 12) cm in PyBullet, over several seeds. Prints "
-            "per-joint errors (deg) "
-            "against the expert at the test heights; --json and --plot save results."
-        ),
-    )
+def add_arguments(p) -> None:
+    """Add the ``ur10`` experiment's options to its parser ``p`` (made from its catalog entry)."""
     add_size_arguments(p, seeds=5, train_steps=3000, budget=60, budget_help="ACNMP roll-out budget per case")
     p.add_argument("--cases", default=None, metavar="8_10,9_11",
                    help="comma-separated test cases, object_obstacle heights in cm (default: 8_10,9_11,10_12)")
     add_output_arguments(p, "write the per-joint trajectories of the first seed (PNG)")
     add_deployment_arguments(p, "the roll-outs on ur10 PyBullet workers")
     p.add_argument("--quiet", action="store_true", help="no per-run lines")
-    p.set_defaults(func=run)
 
 
 def run(args) -> int:

@@ -11,17 +11,8 @@ from services.transport.argtypes import int_at_least
 from .common import add_deployment_arguments, add_output_arguments, check_deployment_arguments, write_json
 
 
-def register(subparsers) -> None:
-    """Add the ``viapoint`` experiment parser."""
-    p = subparsers.add_parser(
-        "viapoint",
-        help="E1: 2D obstacle avoidance, via-point outside the demonstrations",
-        description=(
-            "Train a CNMP on 6 demonstrations, condition it on a via-point outside them, then run "
-            "LfD-only, RL-only and ACNMP (RL with simultaneous supervised learning) side by side, and "
-            "assimilate the ACNMP solution. Prints a table; --json and --plot save the results."
-        ),
-    )
+def add_arguments(p) -> None:
+    """Add the ``viapoint`` experiment's options to its parser ``p`` (made from its catalog entry)."""
     p.add_argument("--seed", type=int_at_least(0), default=0, help="seed of training and exploration (default 0)")
     p.add_argument("--variant", choices=("2d", "1d"), default="2d",
                    help="2d paths around obstacles (default) or the authors' 1-D two-bump function")
@@ -33,7 +24,6 @@ def register(subparsers) -> None:
     p.add_argument("--fresh", action="store_true",
                    help="with --distributed: always start a fresh deployment, even when one is running")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
-    p.set_defaults(func=run)
 
 
 def run(args) -> int:

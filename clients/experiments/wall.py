@@ -7,18 +7,8 @@ from services.transport.argtypes import int_at_least
 from .common import add_deployment_arguments, add_output_arguments, check_deployment_arguments, write_json
 
 
-def register(subparsers) -> None:
-    """Add the ``wall`` experiment parser."""
-    p = subparsers.add_parser(
-        "wall",
-        help="E3: 2D wall with a hole; self-improvement over many environments, ACNMP vs ProMP + RL",
-        description=(
-            "Learn from 30 demonstrated environments, then draw new ones: generate a trajectory, adapt "
-            "it when it fails (ACNMP: RL with simultaneous SL; baseline: task-conditional ProMP + REPS), "
-            "assimilate the solution, go on. Test success and error on 1000 fixed environments are "
-            "printed as learning proceeds; --json and --plot save the result and the Fig. 5 d, e curves."
-        ),
-    )
+def add_arguments(p) -> None:
+    """Add the ``wall`` experiment's options to its parser ``p`` (made from its catalog entry)."""
     p.add_argument("--envs", type=int_at_least(1), default=100, help="new environments in the loop (default 100)")
     p.add_argument("--seed", type=int_at_least(0), default=0, help="seed of environments, training, exploration (default 0)")
     p.add_argument("--initial", type=int_at_least(1), default=30, help="demonstrated environments (default 30)")
@@ -51,7 +41,6 @@ def register(subparsers) -> None:
     add_output_arguments(p, "write test error / success vs environments and trajectories (PNG)")
     add_deployment_arguments(p, "the roll-outs on point2d workers")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
-    p.set_defaults(func=run)
 
 
 def run(args) -> int:
