@@ -510,6 +510,102 @@ def e6_row() -> list[str]:
             f"median {fmt(a['rollouts_median'])} roll-outs ({frac(a['success_within_20_rate'], n)} within 20)"]
 
 
+E5_CASE_LABELS = {"8_10": "(8, 10)", "9_11": "(9, 11)", "10_12": "(10, 12)"}
+
+
+@renderer("e5-results")
+def e5_results() -> str:
+    """E5 per case and method: per-joint errors (deg, medians over the seeds), success in physics,
+    roll-outs, with the paper's two published entries at (9, 11) (e5_ur10.json)."""
+    r = load("e5_ur10")
+    n = r["seeds"]
+    rows = []
+    for case, methods in r["cases"].items():
+        for m, label in (("lfd_only", "LfD only"), ("acnmp", "ACNMP")):
+            s = methods[m]
+            rows.append([E5_CASE_LABELS.get(case, case), label, *(f"{e:.2f}" for e in s["joint_error_deg"]),
+                         frac(s["success_rate"], n), fmt(s["rollouts_median"])])
+        if case == "9_11":
+            rows += [["(9, 11)", "paper, LfD", "", "", "17.98", "14.89", "", "", "fails", ""],
+                     ["(9, 11)", "paper, ACNMP", "", "", "1.78", "1.51", "", "", "succeeds", ""]]
+    per_seed = {case: [x["acnmp"]["rollouts"] for x in r["runs"] if x["case"] == case] for case in r["cases"]}
+    within = {case: sum(x["acnmp"]["success"] and max(x["acnmp"]["joint_error_deg"]) <= 2.0
+                        for x in r["runs"] if x["case"] == case) for case in r["cases"]}
+    return "\n".join([
+        table(["case (cm)", "method", "shoulder pan", "shoulder lift", "elbow", "wrist 1", "wrist 2", "wrist 3",
+               "success", "roll-outs"], rows),
+        "",
+        "* Per-joint error: mean |executed - expert executed| over the 625 rows (deg), median over the seeds; "
+        "success in physics; roll-outs: median.",
+        "* ACNMP roll-outs per seed: " + "; ".join(f"{E5_CASE_LABELS.get(c, c)} {', '.join(map(str, v))}"
+                                                   for c, v in per_seed.items()) + ".",
+        "* ACNMP succeeding with every joint within 2 deg: " + "; ".join(
+            f"{E5_CASE_LABELS.get(c, c)} {k}/{n}" for c, k in within.items()) + ".",
+        "",
+        source(r, "e5_ur10"),
+    ])
+
+
+@renderer("e6-results")
+def e6_results() -> str:
+    """E6 against the paper's Table 2 (right): LfD's error, ACNMP's roll-outs to 30 g, the
+    assimilation's checks, per seed and summed up (e6_pour.json)."""
+    r = load("e6_pour")
+    n, a = r["seeds"], r["acnmp"]
+    runs = r["runs"]
+    assim = [x for x in runs if x.get("assimilation")]
+    within50 = sum(max(x["assimilation"]["demo_errors_g"]) <= 50 for x in assim)
+    kept = sum(x["assimilation"]["demos_within_30g"] >= x["lfd_demos_within_30g"] for x in assim)
+    per = lambda key: ", ".join(fmt(x) for x in key)  # noqa: E731
+    rows = [
+        ["LfD-only error at (1400 g, 1322 g)", "591 g", f"{fmt(r['lfd_only']['error_g'])} g ({per(r['lfd_only']['errors_g'])})"],
+        ["ACNMP: first roll-out within 30 g", "18", f"{frac(a['success_rate'], n)} seeds within the budget of "
+         f"{r['config']['adapt']['max_rollouts']}, at roll-out {per(a['first_success_rollout'])}"],
+        ["ACNMP within 20 roll-outs", "yes", frac(a["success_within_20_rate"], n)],
+        ["error of the solution", "27 g", f"{fmt(a['final_error_g_median'])} g (median)"],
+        ["after assimilation, the test without RL", "solved",
+         f"{sum(x['assimilation']['error_g_no_rl'] <= 30 for x in assim)}/{len(assim)} within 30 g"],
+        ["after assimilation, demonstrations within 30 g (of 16)", "–",
+         f"{per(x['assimilation']['demos_within_30g'] for x in assim)}; LfD-only before adapting "
+         f"{per(x['lfd_demos_within_30g'] for x in assim)}: no fewer in {kept}/{len(assim)} seeds"],
+        ["after assimilation, all 16 within 50 g", "–", f"{within50}/{len(assim)} seeds"],
+    ]
+    return "\n".join([table(["", "paper (real rig)", f"here (PyBullet, {n} seeds)"], rows), "",
+                      f"* CPU per roll-out {fmt(r['rollout_cpu_s_median'])} s (median); the assimilation trains "
+                      f"{_assimilation_text(r['config']['assimilation'])}.", "", source(r, "e6_pour")])
+
+
+def _assimilation_text(cfg: dict) -> str:
+    """'1000 steps at 0.0001 from the adapted model' from an E6 result's assimilation config."""
+    start = {"skill": "the model before the adaptation", "adapted": "the adapted model"}[cfg.get("start", "adapted")]
+    rate = fmt(cfg["lr"]) + ("" if cfg.get("lr_final") is None else f" decaying to {fmt(cfg['lr_final'])}")
+    return f"{cfg['steps']} steps at {rate} from {start}"
+
+
+@renderer("e6-assimilation")
+def e6_assimilation() -> str:
+    """The assimilation candidates of benchmarks/e6_assimilation.py, each on the same solution per
+    seed: issue 37's reproduction checks and the test poured without RL (e6_assimilation.json)."""
+    r = load("e6_assimilation")
+    rows = []
+    for name, s in r["summary"].items():
+        c = r["candidates"][name]
+        rows.append([name, _assimilation_text({**c["config"], "start": c["start"]}), f"{s['all_within_50g']}/{s['seeds']}",
+                     f"{s['no_fewer_within_30g']}/{s['seeds']}", f"{s['test_within_30g_no_rl']}/{s['seeds']}",
+                     fmt(s["demos_within_30g_median"])])
+    solved = [x for x in r["runs"] if x["success"]]
+    return "\n".join([
+        table(["candidate", "assimilation", "all 16 within 50 g", "no fewer within 30 g than LfD-only",
+               "test within 30 g without RL", "within 30 g (median of 16)"], rows),
+        "",
+        f"* Seeds {', '.join(str(x['seed']) for x in solved)} of {r['seeds']} found a solution (the others have "
+        "nothing to assimilate); the LfD-only model reproduced "
+        + ", ".join(str(x["lfd_demos_within_30g"]) for x in solved) + " of 16 within 30 g in them.",
+        "",
+        source(r, "e6_assimilation"),
+    ])
+
+
 @renderer("experiments-table")
 def experiments_table() -> str:
     """docs/EXPERIMENTS.md's table, from the experiments' catalog (clients/experiments/catalog.py)."""

@@ -52,7 +52,7 @@ PAPER_ERRORS_G = (591, 447, 435, 175, 511, 604, 305, 42, 417, 284, 144, 194, 367
 def e6_adapt_config(max_rollouts: int = BUDGET) -> AdaptConfig:
     """E6's adaptation settings: the library's defaults except these (candidate "S" of
     ``benchmarks/e6_settings.py``, the best on the tuning seeds 100-115, not the reported 0-4;
-    docs/experiments/e6_pour.md says how it was found). Its predecessor "F" (``lr`` 1e-3,
+    docs/studies/e6_pour.md says how it was found). Its predecessor "F" (``lr`` 1e-3,
     ``max_reuse`` 50) was tuned on the rig with the pour wall flared 25 deg (seeds 100-103);
     on the 35 deg rig F solves the tuning seeds within 20 roll-outs (4 of 4) and six
     alternatives (wider std, lr 3e-3, 6 or 9 noisy roll-outs, temperature 0.02;

@@ -52,7 +52,7 @@ is steeper), the pour is far steadier: 12-14 of the 16
 replays changed by 0.01-0.5 deg or by one row pour within 30 g, 9 of 16 under every such change,
 median spread 50 g (``pour_sensitivity_flare35.json``). Damping, friction, rolling friction,
 solver iterations, a finer time step and a longer initial settling did not help
-(docs/experiments/e6_pour.md). Past ~120 deg the outcome is stable; at 1400 g, tilting 150 deg or
+(docs/studies/e6_pour.md). Past ~120 deg the outcome is stable; at 1400 g, tilting 150 deg or
 more pours all 53 marbles (1325 g). A swing much faster than the expert's throws marbles past the receiving cup.
 """
 from __future__ import annotations

@@ -1,0 +1,41 @@
+"""The product's front stays short (issue 37): the README within 6 KB with a results row for each
+of the paper's six experiments, and each experiment page's first screen saying what it is, the
+command that runs it, its generated results table and its figure; the rest is in docs/studies/."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from clients.experiments.catalog import CATALOG, PAPER
+
+ROOT = Path(__file__).resolve().parents[2]
+#: What a first screen holds: the page's opening lines, up to the end of its first results block.
+FIRST_SCREEN_LINES = 40
+
+
+def test_the_readme_is_at_most_6_kb_and_has_a_row_per_experiment():
+    readme = (ROOT / "README.md").read_text()
+    assert len(readme.encode()) <= 6 * 1024
+    rows = [line for line in readme.splitlines() if line.startswith("| E")]
+    assert [row.split()[1] for row in rows] == [e.ident for e in PAPER]
+
+
+@pytest.mark.parametrize("entry", PAPER, ids=lambda e: e.ident)
+def test_each_experiment_page_opens_with_its_command_results_and_figure(entry):
+    lines = (ROOT / "docs" / "experiments" / entry.page).read_text().splitlines()
+    head = "\n".join(lines[:FIRST_SCREEN_LINES])
+    assert lines[0].startswith(f"# {entry.ident}: ")
+    assert f"acnmp experiment {entry.name}" in head
+    assert "<!-- BEGIN report:" in head  # a table generated from the JSON
+    block_end = next(i for i, line in enumerate(lines) if line.startswith("<!-- END report:"))
+    after = "\n".join(lines[:block_end + 6])
+    assert "![" in after and "](../../benchmarks/results/" in after  # the figure, right after the table
+
+
+@pytest.mark.parametrize("entry", [e for e in CATALOG if e.page], ids=lambda e: e.name)
+def test_every_page_and_study_the_catalog_names_exists(entry):
+    assert (ROOT / "docs" / "experiments" / entry.page).exists()
+    for script in (entry.benchmark or "").split(","):
+        if script.strip():
+            assert (ROOT / script.strip()).exists(), script
