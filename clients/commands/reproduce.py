@@ -18,7 +18,7 @@ import time
 from pathlib import Path
 
 from clients.experiments.catalog import PAPER, Experiment
-from services.transport.argtypes import non_empty
+from services.transport.argtypes import int_at_least, non_empty
 
 
 #: The paper's six experiments, as clients/experiments/catalog.py declares them (sizes, targets).
@@ -37,6 +37,9 @@ def register(subparsers) -> None:
     p.add_argument("--only", default=None, metavar="E1,E3", help="these experiments only (default: all six)")
     p.add_argument("--quick", action="store_true", help="smaller sizes (minutes); the report says so")
     p.add_argument("--force", action="store_true", help="run again the experiments whose results are in DIR")
+    p.add_argument("--jobs", type=int_at_least(1), default=1,
+                   help="experiments run at once, each in its own process (default 1; E6 already uses two "
+                        "processes at the full size)")
     p.set_defaults(func=run)
 
 
@@ -52,23 +55,35 @@ def _chosen(only: str | None) -> list[Experiment]:
 
 
 def run(args) -> int:
-    """Run the chosen experiments (those without results in ``--out`` unless ``--force``), then
-    write the report; 1 when an experiment failed (the report says which)."""
+    """Run the chosen experiments (those without results in ``--out`` unless ``--force``), ``--jobs``
+    at once, then write the report; 1 when an experiment failed (the report says which)."""
+    from concurrent.futures import ThreadPoolExecutor
+
     from tqdm import tqdm
 
     steps = _chosen(args.only)
     out = Path(args.out).resolve()
     out.mkdir(parents=True, exist_ok=True)
+    todo = []
+    for step in steps:
+        done = out / f"{step.ident}.json"
+        if done.exists() and not args.force:
+            print(f"{step.ident}: kept {done} (--force runs it again)", flush=True)
+        else:
+            todo.append(step)
     failed = []
-    with tqdm(steps, desc="reproduce", unit="experiment", disable=None) as bar:
-        for step in bar:
-            bar.set_postfix(now=step.ident)
-            done = out / f"{step.ident}.json"
-            if done.exists() and not args.force:
-                print(f"{step.ident}: kept {done} (--force runs it again)", flush=True)
-                continue
-            if not _run_step(step, out, args.quick):
+    t0 = time.perf_counter()
+    with tqdm(total=len(todo), desc="reproduce", unit="experiment", disable=None, position=0) as whole, \
+            ThreadPoolExecutor(max_workers=args.jobs) as pool:
+        futures = {pool.submit(_run_step, step, out, args.quick, row + 1): step for row, step in enumerate(todo)}
+        for future, step in futures.items():
+            if not future.result():
                 failed.append(step.ident)
+            whole.update(1)
+    if todo:
+        (out / "reproduce.meta.json").write_text(json.dumps(
+            {"experiments": [s.ident for s in todo], "jobs": args.jobs, "quick": args.quick,
+             "wall_time_s": round(time.perf_counter() - t0, 1)}, indent=2) + "\n")
     report = write_report(out, steps, quick=args.quick)
     print(f"wrote {report} and {report.with_suffix('.html')}")
     if failed:
@@ -76,17 +91,28 @@ def run(args) -> int:
     return 1 if failed else 0
 
 
-def _run_step(step: Experiment, out: Path, quick: bool) -> bool:
-    """Run one experiment in a child process; its table goes to ``<id>.txt``, its time to ``<id>.meta.json``."""
+def _run_step(step: Experiment, out: Path, quick: bool, position: int = 1) -> bool:
+    """Run one experiment in a child process; its output goes to ``<id>.txt`` (and its last line to
+    a progress bar of its own on a terminal), its time to ``<id>.meta.json``."""
+    from tqdm import tqdm
+
     argv = [sys.executable, "-m", "clients.cli", "experiment", step.name, *(step.quick if quick else step.full),
             "--json", str(out / f"{step.ident}.json"), "--plot", str(out / f"{step.ident}.png")]
     print(f"{step.ident}: acnmp {' '.join(argv[3:])}", flush=True)
     t0 = time.perf_counter()
-    with open(out / f"{step.ident}.txt", "w") as log:
-        code = subprocess.run(argv, stdout=log, stderr=subprocess.STDOUT).returncode
+    with open(out / f"{step.ident}.txt", "w") as log, \
+            tqdm(desc=step.ident, bar_format="{desc}: {elapsed} {postfix}", disable=None, position=position,
+                 leave=False) as bar:
+        child = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, bufsize=1)
+        for line in child.stdout:
+            log.write(line)
+            if line.strip():
+                bar.set_postfix_str(line.strip()[:70], refresh=True)
+        code = child.wait()
     meta = {"command": "acnmp " + " ".join(argv[3:]), "wall_time_s": round(time.perf_counter() - t0, 1),
             "quick": quick, "exit_code": code}
     (out / f"{step.ident}.meta.json").write_text(json.dumps(meta, indent=2) + "\n")
+    print(f"{step.ident}: {'done' if code == 0 else f'failed (exit {code})'} in {meta['wall_time_s']} s", flush=True)
     if code != 0:
         (out / f"{step.ident}.json").unlink(missing_ok=True)  # not kept: the next run tries again
     return code == 0
@@ -94,7 +120,7 @@ def _run_step(step: Experiment, out: Path, quick: bool) -> bool:
 
 def write_report(out: Path, steps: list[Experiment], *, quick: bool) -> Path:
     """``OUT/report.md`` and ``OUT/report.html`` from the results in ``out``; returns the .md path."""
-    sections_md, sections_html = [], []
+    sections_md, sections_html, summary = [], [], []
     for step in steps:
         result_path, meta_path = out / f"{step.ident}.json", out / f"{step.ident}.meta.json"
         table = (out / f"{step.ident}.txt").read_text() if (out / f"{step.ident}.txt").exists() else ""
@@ -107,7 +133,8 @@ def write_report(out: Path, steps: list[Experiment], *, quick: bool) -> Path:
             status = (f"{verdict}: {target}. {meta.get('wall_time_s', '?')} s; commit "
                       f"{str(prov.get('commit', '?'))[:10]}{' (quick)' if meta.get('quick') else ''}")
         else:
-            status = "not run (or failed: see its log)"
+            status, verdict = "not run (or failed: see its log)", "not run"
+        summary.append((step.ident, step.title, verdict, meta.get("wall_time_s")))
         png = out / f"{step.ident}.png"
         sections_md.append(f"## {step.ident}: {step.title}\n\nPaper: {step.paper}.\n\n{status}\n\n"
                            f"`{meta.get('command', 'acnmp experiment ' + step.name)}`\n\n```\n{table.strip()}\n```\n"
@@ -118,10 +145,20 @@ def write_report(out: Path, steps: list[Experiment], *, quick: bool) -> Path:
                              f"<p>Paper: {html.escape(step.paper)}.</p><p>{html.escape(status)}</p>"
                              f"<pre>{html.escape(table.strip())}</pre>{image}")
     title = "ACNMP: the paper reproduced" + (" (quick sizes)" if quick else "")
+    whole = out / "reproduce.meta.json"
+    last = json.loads(whole.read_text()) if whole.exists() else None
+    lead = ("" if last is None else f"The last run: {', '.join(last['experiments'])} in {last['wall_time_s']:.0f} s "
+            f"({last['jobs']} at once{', quick sizes' if last['quick'] else ''}).\n\n")
+    rows = "".join(f"| {i} | {t} | {v} | {'-' if w is None else f'{w:.0f} s'} |\n" for i, t, v, w in summary)
     md = out / "report.md"
-    md.write_text(f"# {title}\n\n" + "\n".join(sections_md))
+    md.write_text(f"# {title}\n\n{lead}| id | experiment | decided target | time |\n| --- | --- | --- | --- |\n{rows}\n"
+                  + "\n".join(sections_md))
     md.with_suffix(".html").write_text(
         f"<!doctype html><html><head><meta charset='utf-8'><title>{html.escape(title)}</title>"
         f"<style>body{{font-family:sans-serif;max-width:60em;margin:auto}}img{{max-width:100%}}</style></head>"
-        f"<body><h1>{html.escape(title)}</h1>{''.join(sections_html)}</body></html>\n")
+        f"<body><h1>{html.escape(title)}</h1><p>{html.escape(lead.strip())}</p><table border=1 cellpadding=4>"
+        "<tr><th>id</th><th>experiment</th><th>decided target</th><th>time</th></tr>"
+        + "".join(f"<tr><td>{i}</td><td>{html.escape(t)}</td><td>{v}</td><td>{'-' if w is None else f'{w:.0f} s'}</td></tr>"
+                  for i, t, v, w in summary)
+        + f"</table>{''.join(sections_html)}</body></html>\n")
     return md

@@ -14,6 +14,8 @@ def test_reproduce_quick_e1_writes_the_report_and_resumes(tmp_path, capsys):
     result = json.loads((out / "E1.json").read_text())
     md = (out / "report.md").read_text()
     assert md.startswith("# ACNMP: the paper reproduced (quick sizes)")
+    assert "| E1 | 2-D via-point beyond the demonstrations (Fig. 3, 4) | PASS |" in md or "| FAIL |" in md
+    assert "The last run: E1 in" in md and "(1 at once, quick sizes)" in md
     shape = result["methods"]["acnmp"]["shape_error"]
     assert f"ACNMP shape error <= 0.05 m: {shape:.3f} m" in md and ("PASS" if shape <= 0.05 else "FAIL") in md
     assert "lfd_only" in md and "![E1](E1.png)" in md  # the command's own table and its figure
