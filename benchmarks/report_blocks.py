@@ -125,6 +125,26 @@ def e2_row() -> list[str]:
             + ("" if ratio is None else f": {ratio:.1f}x")]
 
 
+@renderer("e2-machines")
+def e2_machines() -> str:
+    """E2's ten seeds on two machines (e2_push.json and e2_push_second_machine.json): the same code
+    and seeds, per-seed counts that differ, the medians and the ratio side by side."""
+    rows = []
+    files = ("e2_push", "e2_push_second_machine")
+    for name in files:
+        r = load(name)
+        m, mach = r["methods"], r["provenance"]["machine"]
+        a, p = m["acnmp"]["extrapolation"], m["promp_rl"]["extrapolation"]
+        rows.append([f"{mach['cpu']}, {mach.get('torch_cpu_capability', '?')} (`{name}.json`)",
+                     f"{fmt(a['rollouts_median'])} ({', '.join(map(str, a['rollouts']))})",
+                     f"{fmt(p['rollouts_median'])} ({', '.join(map(str, p['rollouts']))})",
+                     f"{frac(a['success_rate'], r['seeds'])} / {frac(p['success_rate'], r['seeds'])}",
+                     f"{r['rollout_ratio_promp_over_acnmp']['extrapolation']:.2f}x"])
+    return "\n".join([table(["machine", "ACNMP roll-outs, median (per seed 0-9)", "ProMP + RL roll-outs, median (per seed)",
+                              "success ACNMP / ProMP + RL", "ProMP + RL / ACNMP"], rows),
+                      "", *[source(load(n), n) + "\n" for n in files]]).rstrip()
+
+
 BASELINE_LABELS = {"acnmp": "ACNMP", "promp_scratch": "ProMP + REPS, from scratch",
                    "promp_similar": "ProMP + REPS, most similar effect",
                    "promp_mixture": "ProMP + REPS, similarity-weighted mixture",
