@@ -514,12 +514,16 @@ def e4_row() -> list[str]:
 
 def e5_row() -> list[str]:
     r = load("e5_ur10")
-    n, c = r["seeds"], r["cases"]["9_11"]
+    n, cases = r["seeds"], r["cases"]
     wrist = r["joint_names"].index("wrist_1_joint")
-    return [f"E5 UR10 (9, 11) cm ({n} seeds)", "wrist 1 14.89 → 1.51°, LfD fails",
-            f"LfD-only {frac(c['lfd_only']['success_rate'], n)}, ACNMP {frac(c['acnmp']['success_rate'], n)} in median "
-            f"{fmt(c['acnmp']['rollouts_median'])} roll-outs; wrist 1 {c['lfd_only']['joint_error_deg'][wrist]:.2f} → "
-            f"{c['acnmp']['joint_error_deg'][wrist]:.2f}° (physics, PyBullet)"]
+    c = cases["9_11"]
+    far = [k for k in cases if k not in ("8_10", "9_11")]
+    head = "; ".join(f"{E5_CASE_LABELS.get(k, k)} cm: LfD-only {frac(cases[k]['lfd_only']['success_rate'], n)}, "
+                     f"ACNMP {frac(cases[k]['acnmp']['success_rate'], n)}" for k in far)
+    return [f"E5 UR10 ({n} seeds)", "(9, 11) cm: wrist 1 14.89 → 1.51°, LfD fails",
+            (head + "; " if head else "") + f"(9, 11): {frac(c['lfd_only']['success_rate'], n)} → "
+            f"{frac(c['acnmp']['success_rate'], n)}, wrist 1 {c['lfd_only']['joint_error_deg'][wrist]:.2f} → "
+            f"{c['acnmp']['joint_error_deg'][wrist]:.2f}° (PyBullet)"]
 
 
 def e6_row() -> list[str]:
@@ -528,6 +532,30 @@ def e6_row() -> list[str]:
     return [f"E6 pouring ({n} seeds)", "LfD 600 g off → 27 g after 18 roll-outs",
             f"LfD-only {r['lfd_only']['error_g']:.0f} g off; ACNMP within 30 g in {frac(a['success_rate'], n)}, "
             f"median {fmt(a['rollouts_median'])} roll-outs ({frac(a['success_within_20_rate'], n)} within 20)"]
+
+
+def _targets_block(name: str, target) -> str:
+    """Issue 37's decided targets of one experiment, checked on its published JSON by the same
+    function ``acnmp reproduce`` uses (clients/experiments/targets.py): one bullet per check."""
+    text, passed = target(load(name))
+    scope, _, checks = text.partition(": ")
+    bullets = [f"* {c.replace('[ok]', '**met**:').replace('[missed]', '**missed**:')}" for c in checks.split("; ")]
+    verdict = {True: "all met", False: "not all met", None: "not checked"}[passed]
+    return "\n".join([f"Issue 37's targets, {scope} (`benchmarks/results/{name}.json`), {verdict}:", "", *bullets])
+
+
+@renderer("e5-targets")
+def e5_targets() -> str:
+    from clients.experiments.targets import e5_target
+
+    return _targets_block("e5_ur10", e5_target)
+
+
+@renderer("e6-targets")
+def e6_targets() -> str:
+    from clients.experiments.targets import e6_target
+
+    return _targets_block("e6_pour", e6_target)
 
 
 E5_CASE_LABELS = {"8_10": "(8, 10)", "9_11": "(9, 11)", "10_12": "(10, 12)"}
