@@ -630,6 +630,23 @@ def _assimilation_text(cfg: dict) -> str:
     return f"{cfg['steps']} steps at {rate} from {start}"
 
 
+@renderer("e6-machines")
+def e6_machines() -> str:
+    """E6's five seeds on the two machines that ran it (e6_pour.json, e6_pour_first_machine.json)."""
+    rows = []
+    for name in ("e6_pour", "e6_pour_first_machine"):
+        r = load(name)
+        n, a, mach = r["seeds"], r["acnmp"], r["provenance"]["machine"]
+        rows.append([f"{mach['cpu']}, {mach.get('torch_cpu_capability', '?')} (`{name}.json`)",
+                     ", ".join(fmt(e) for e in r["lfd_only"]["errors_g"]),
+                     ", ".join("-" if f is None else str(f) for f in a["first_success_rollout"]),
+                     frac(a["success_within_20_rate"], n), fmt(r["assimilation"]["demos_reproduced_within_30g"]),
+                     fmt(r["assimilation"]["lfd_demos_reproduced_within_30g"])])
+    return table(["machine", "LfD-only error per seed (g)", "ACNMP's first roll-out within 30 g, per seed",
+                  "within 20 roll-outs", "demos within 30 g after assimilation (median)",
+                  "LfD-only's (median)"], rows)
+
+
 @renderer("e6-assimilation")
 def e6_assimilation() -> str:
     """The assimilation candidates of benchmarks/e6_assimilation.py, each on the same solution per

@@ -52,8 +52,12 @@ def test_the_targets_follow_from_the_published_json():
         r["acnmp"]["success"] = True
     assert _step("E5").target(e5)[1] is True
     text, passed = _step("E6").target(e6)
-    assert passed is False and "[ok] within 30 g in <= 20 roll-outs in 4/5" in text
+    within20 = round(e6["acnmp"]["success_within_20_rate"] * e6["seeds"])
+    assert passed is False and f"within 30 g in <= 20 roll-outs in {within20}/5" in text
+    e6["acnmp"]["success_within_20_rate"] = 1.0
     for r in e6["runs"]:
+        if not r.get("assimilation"):
+            r["assimilation"], r["lfd_demos_within_30g"] = {"demo_errors_g": [], "demos_within_30g": 16}, 16
         r["assimilation"]["demo_errors_g"] = [0.0] * 16
         r["assimilation"]["demos_within_30g"] = 16
     assert _step("E6").target(e6)[1] is True
