@@ -649,7 +649,7 @@ def e6_machines() -> str:
 
 @renderer("e6-assimilation")
 def e6_assimilation() -> str:
-    """The assimilation candidates of benchmarks/e6_assimilation.py, each on the same solution per
+    """The assimilation candidates of benchmarks/studies/e6_assimilation.py, each on the same solution per
     seed: issue 37's reproduction checks and the test poured without RL (e6_assimilation.json)."""
     r = load("e6_assimilation")
     rows = []
@@ -803,7 +803,7 @@ def e3_assimilate_from_full() -> str:
         table(["ACNMP, assimilation from", "test success", "mean test error", "mean goal error", "trajectories",
                "max per env", "adaptations", "time (s)"], rows),
         "",
-        f"* {runs['skill']['envs']} new environments, the full `benchmarks/e3_wall.py` run for each variant, on one "
+        f"* {runs['skill']['envs']} new environments, the full `benchmarks/experiments/e3_wall.py` run for each variant, on one "
         f"machine ({runs['skill']['provenance']['machine']['cpu']}); ProMP + RL in the same runs: "
         f"{pct(p['test_success_rate'])} test success, mean test error {fmt(p['test_error_mean'])}, "
         f"{p['trajectories_total']} trajectories.",
@@ -1039,7 +1039,7 @@ def e4_sweep() -> str:
                      + " rad RMSE) have 4-DoF partners " + ", ".join(fmt(y) for _, y in near)
                      + " rad from the 4-DoF truth.")
     commits = sorted({(v.get("provenance") or {}).get("commit", "unknown")[:10] for v in variants.values()})
-    lines += ["", f"*From `benchmarks/results/e4_sweep.json`: `benchmarks/e4_sweep.py` (transfer condition only; "
+    lines += ["", f"*From `benchmarks/results/e4_sweep.json`: `benchmarks/studies/e4_sweep.py` (transfer condition only; "
                   f"pairs of the pair seeds shared by the variants with the same pair settings), commits "
                   f"{', '.join(commits)}.*"]
     return "\n".join(lines)
@@ -1159,7 +1159,7 @@ def _predict_rows(r: dict, run: str) -> list[list]:
 
 def _predict_source(r: dict, file: str) -> str:
     p = r["provenance"]
-    return (f"*From `benchmarks/results/{file}.json`: `benchmarks/bench_predict.py --reps {r['reps']}` at commit "
+    return (f"*From `benchmarks/results/{file}.json`: `benchmarks/performance/bench_predict.py --reps {r['reps']}` at commit "
             f"{p['commit'][:10]}{' (dirty tree)' if p.get('dirty') else ''}, {p['machine']['cpu']}, "
             f"{p['machine']['cpu_count']} cores, {r['duration_s']:g} s per throughput point.*")
 

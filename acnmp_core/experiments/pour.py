@@ -17,7 +17,7 @@ upright start at t = 0. At the test (:data:`TEST`: 1400 g, pour 1322 g, outside 
   conditioned on the test pours without RL, and each demonstration is reproduced (conditioned on
   its own weight and poured amount, executed, error against that amount).
 
-``acnmp experiment pour`` and ``benchmarks/e6_pour.py`` are thin adapters around :func:`run_pour`,
+``acnmp experiment pour`` and ``benchmarks/experiments/e6_pour.py`` are thin adapters around :func:`run_pour`,
 whose result is a JSON-ready dict.
 """
 from __future__ import annotations
@@ -51,7 +51,7 @@ PAPER_ERRORS_G = (591, 447, 435, 175, 511, 604, 305, 42, 417, 284, 144, 194, 367
 
 def e6_adapt_config(max_rollouts: int = BUDGET) -> AdaptConfig:
     """E6's adaptation settings: the library's defaults except these (candidate "S" of
-    ``benchmarks/e6_settings.py``, the best on the tuning seeds 100-115, not the reported 0-4;
+    ``benchmarks/studies/e6_settings.py``, the best on the tuning seeds 100-115, not the reported 0-4;
     docs/studies/e6_pour.md says how it was found). Its predecessor "F" (``lr`` 1e-3,
     ``max_reuse`` 50) was tuned on the rig with the pour wall flared 25 deg (seeds 100-103);
     on the 35 deg rig F solves the tuning seeds within 20 roll-outs (4 of 4) and six

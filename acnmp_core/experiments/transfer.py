@@ -24,7 +24,7 @@ Per run (seed):
 The authors' data check (:func:`authors_data_check`) trains one pair on the authors' proxy arrays
 and maps their 3-DoF button press to the 4-DoF arm.
 
-Everything here is library code; ``acnmp experiment transfer`` and ``benchmarks/e4_transfer.py``
+Everything here is library code; ``acnmp experiment transfer`` and ``benchmarks/experiments/e4_transfer.py``
 are thin adapters around :func:`run_transfer`.
 """
 from __future__ import annotations

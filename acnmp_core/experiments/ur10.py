@@ -18,10 +18,10 @@ in the same simulator; success in physics (grasped, carried over the obstacle wi
 placed within 2 cm); roll-outs used.
 
 Credit: the task's reward comes at two steps (grasp, crossing); :class:`UR10PickPlaceTask` keeps the
-default per-step credit (compared with "future" credit by benchmarks/e5_credit.py; see
+default per-step credit (compared with "future" credit by benchmarks/studies/e5_credit.py; see
 docs/studies/e5_ur10.md).
 
-``acnmp experiment ur10`` and ``benchmarks/e5_ur10.py`` are thin adapters around :func:`run_ur10`,
+``acnmp experiment ur10`` and ``benchmarks/experiments/e5_ur10.py`` are thin adapters around :func:`run_ur10`,
 whose result is a JSON-ready dict.
 """
 from __future__ import annotations

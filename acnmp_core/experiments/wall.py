@@ -29,7 +29,7 @@ roll-out; an adaptation adds every trajectory it executes (its first mean roll-o
 generated one and is counted again, because it is executed again). Test evaluations execute
 nothing and cost no roll-outs. Demonstrations are given, not sampled.
 
-Library code only: ``acnmp experiment wall`` and ``benchmarks/e3_wall.py`` are thin adapters around
+Library code only: ``acnmp experiment wall`` and ``benchmarks/experiments/e3_wall.py`` are thin adapters around
 :func:`run_wall`, whose result is a JSON-ready dict.
 """
 from __future__ import annotations

@@ -44,7 +44,7 @@ per control step; with one 8 ms step the held box slips out), 20 solver iteratio
 the box, 20 leave a margin), box collision shapes for the gripper, PyBullet's convex hulls of the
 arm's STL meshes, the arm's COLLADA visuals not loaded, the base link's contact with the table
 filtered out. A 625-step roll-out (1250 physics steps) takes about 0.1-0.2 s on the development
-machine; ``benchmarks/bench_ur10_rollout.py`` measures it.
+machine; ``benchmarks/performance/bench_ur10_rollout.py`` measures it.
 
 Determinism: the world is reset before every roll-out by restoring a saved state (positions,
 velocities and the contact cache), then setting the arm to the trajectory's first row, so a roll-out

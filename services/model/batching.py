@@ -34,7 +34,7 @@ log = logging.getLogger(__name__)
 #: Predicts of one skill run in one forward pass at most (the service's ``--batch-max`` default).
 DEFAULT_BATCH_MAX = 16
 #: Seconds a batcher thread waits for more predicts once it has one (``--batch-window``, default 0:
-#: it takes what is waiting, so a lone predict is never delayed; see benchmarks/bench_predict.py).
+#: it takes what is waiting, so a lone predict is never delayed; see benchmarks/performance/bench_predict.py).
 DEFAULT_BATCH_WINDOW = 0.0
 #: Observation plus query points (N + T) of one pass at most, beyond which a pass is split: the
 #: decoder's activations of a much larger pass fall out of the cache and cost more per row than

@@ -1,13 +1,13 @@
 """Issue 31's generated hostile suite, short: hypothesis writes (role, message kind, key expression,
 payload) cases against an authenticated deployment; nothing changes outside the access table and
-every process answers afterwards (benchmarks/hostile_acl.py; 10,000 cases: benchmarks/bench_acl.py)."""
+every process answers afterwards (benchmarks/performance/hostile_acl.py; 10,000 cases: benchmarks/performance/bench_acl.py)."""
 from __future__ import annotations
 
 import os
 
 import pytest
 
-from benchmarks.hostile_acl import acl_deployment, run_cases
+from benchmarks.performance.hostile_acl import acl_deployment, run_cases
 
 CASES = int(os.environ.get("ACNMP_ACL_CASES", "400"))
 

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from acnmp_core.experiments.viapoint import make_setup
-from benchmarks.hostile_acl import acl_deployment
-from benchmarks.hostile_inputs import SMALL, valid_requests
+from benchmarks.performance.hostile_acl import acl_deployment
+from benchmarks.performance.hostile_inputs import SMALL, valid_requests
 from services.model.weights import encode_weights
 from services.recording.events import rollout_event
 from services.transport import call, encode, open_session

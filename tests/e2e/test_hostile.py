@@ -12,7 +12,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 
 from acnmp_core.experiments.viapoint import make_setup
-from benchmarks.hostile_inputs import (MODEL_RSS_BOUND, SMALL, hostile_deployment, payloads, peak_rss,
+from benchmarks.performance.hostile_inputs import (MODEL_RSS_BOUND, SMALL, hostile_deployment, payloads, peak_rss,
                                        queryables, served)
 from services.transport import ERROR_CODES, WireError, call, encode
 from services.transport.wire import error_from_payload
@@ -93,7 +93,7 @@ def test_train_and_adapt_requests_over_the_learners_limits_are_too_large(deploym
 
 # ------------------------------------------------------------------------ generated hostile input
 #
-# Requests written by hypothesis (benchmarks/hostile_inputs.py, shared with benchmarks/bench_hostile.py,
+# Requests written by hypothesis (benchmarks/performance/hostile_inputs.py, shared with benchmarks/performance/bench_hostile.py,
 # which sends 10,000), through a real zenoh session to every queryable of the deployment. Every
 # answer must be a success or a documented code other than `internal`, and every process must be
 # alive and small afterwards. ACNMP_FUZZ_EXAMPLES sets the number per queryable: 120 in the default

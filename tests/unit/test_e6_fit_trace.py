@@ -1,4 +1,4 @@
-"""benchmarks/e6_fit_trace.py: tracing the policy updates leaves the adaptation exactly as it was,
+"""benchmarks/studies/e6_fit_trace.py: tracing the policy updates leaves the adaptation exactly as it was,
 and the trace says what each update did (one entry per update, its reuse steps and why it stopped)."""
 import copy
 
@@ -8,7 +8,7 @@ import pytest
 from acnmp_core import adaptation
 from acnmp_core.adaptation import AdaptConfig, adapt
 from acnmp_core.experiments.viapoint import make_setup
-from benchmarks.e6_fit_trace import traced_update
+from benchmarks.studies.e6_fit_trace import traced_update
 
 
 @pytest.fixture(scope="module")

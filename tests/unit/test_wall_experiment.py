@@ -1,5 +1,5 @@
 """E3 (wall with a hole): a CNMP learns from demonstrations that are not time-aligned, and the
-self-improvement loop raises test success. Small, seeded versions of benchmarks/e3_wall.py."""
+self-improvement loop raises test success. Small, seeded versions of benchmarks/experiments/e3_wall.py."""
 from __future__ import annotations
 
 import numpy as np
@@ -162,8 +162,8 @@ def test_consolidation_comes_after_the_stream(steps):
 
 
 def test_thread_count_changes_the_time_not_the_numbers():
-    """`acnmp experiment wall --threads N` and `benchmarks/e3_wall.py --threads N` promise the same
-    run for 1 and 2 threads on the CPUs where benchmarks/bench_e3_threads.py measured it: the whole
+    """`acnmp experiment wall --threads N` and `benchmarks/experiments/e3_wall.py --threads N` promise the same
+    run for 1 and 2 threads on the CPUs where benchmarks/performance/bench_e3_threads.py measured it: the whole
     loop (training, adaptations, assimilations, test curve) must agree bit for bit there. Elsewhere
     the BLAS may split its sums differently by thread count, as runs already differ across CPUs
     (benchmarks/regression.py), so the check is skipped until that benchmark has run on the CPU."""
@@ -177,7 +177,7 @@ def test_thread_count_changes_the_time_not_the_numbers():
                         / "bench_e3_threads.json").read_text())
     measured_on = machine_key(bench["provenance"]["machine"])
     if machine_key(provenance()["machine"]) != measured_on:
-        pytest.skip(f"1 and 2 threads were compared on {measured_on!r} only (benchmarks/bench_e3_threads.py)")
+        pytest.skip(f"1 and 2 threads were compared on {measured_on!r} only (benchmarks/performance/bench_e3_threads.py)")
     assert all(run["identical_to_one_thread"] for run in bench["runs"])
     from acnmp_core.threads import set_training_threads
 

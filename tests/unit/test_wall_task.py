@@ -216,7 +216,7 @@ def test_wall_task_is_a_rollout_evaluator_and_batches_agree():
 
 def test_scoring_1000_environments_in_one_batch():
     """The demonstrations of the whole test set succeed when scored in one vectorised batch (its
-    speed is measured by benchmarks/bench_tasks.py)."""
+    speed is measured by benchmarks/performance/bench_tasks.py)."""
     params = W.test_environments()
     _, values, _ = W.make_demo_set(1000, np.random.default_rng(7), task_params=params)
     batch = W.WallTask().evaluate_batch(values, np.linspace(0, 1, 200), params)
