@@ -488,15 +488,15 @@ def e3_row() -> list[str]:
     def mean(m: str, key: str) -> float:
         return float(np.mean([runs[s][m][key] for s in runs]))
 
-    return [f"E3 wall ({r['envs']} envs)", "≤ 1.4K per env, ProMP+RL ~14x more",
-            f"seed 0: ACNMP test success {pct(a['test_success_rate_initial'], 1)} → {pct(a['test_success_rate'], 1)}, max "
-            f"{a['trajectories_per_env_max']} per env, {a['trajectories_total']} in all, {a['time_s']:.0f} s; "
-            f"ProMP+RL {pct(p['test_success_rate'], 1)}, {p['trajectories_total']}"
-            + ("" if ratio is None else f": {ratio:.1f}x")
-            + f". {len(runs)} seeds: ACNMP {pct(mean('acnmp', 'test_success_rate'), 1)} against "
+    snapped = ", ends enforced" if r["config"].get("snap_outputs") else ""
+    return [f"E3 wall ({r['envs']} envs{snapped})", "≤ 1.4K per env, ProMP+RL ~14x more",
+            f"seed 0: ACNMP {pct(a['test_success_rate_initial'], 1)} → {pct(a['test_success_rate'], 1)} test success, "
+            f"max {a['trajectories_per_env_max']} per env, {a['trajectories_total']} in all"
+            + ("" if ratio is None else f" (ProMP+RL {ratio:.1f}x)")
+            + f", {a['time_s']:.0f} s. {len(runs)} seeds: {pct(mean('acnmp', 'test_success_rate'), 1)} against "
               f"{pct(mean('promp_rl', 'test_success_rate'), 1)}, max "
-              f"{max(runs[s]['acnmp']['trajectories_per_env_max'] for s in runs)} per env, mean test error "
-              f"{mean('acnmp', 'test_error_mean') / mean('promp_rl', 'test_error_mean'):.1f}x ProMP+RL's"]
+              f"{max(runs[s]['acnmp']['trajectories_per_env_max'] for s in runs)} per env, test error "
+              f"{mean('acnmp', 'test_error_mean') / mean('promp_rl', 'test_error_mean'):.2f}x ProMP+RL's"]
 
 
 # --------------------------------------------------------------------------------------------------
