@@ -14,7 +14,7 @@ def test_e3_budget_refuses_a_missing_or_broken_result_in_one_line(tmp_path, flag
     src = tmp_path / "earlier.json"
     if content is not None:
         src.write_text(content)
-    out = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "e3_budget.py"), flag, str(src),
+    out = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "experiments" / "e3_budget.py"), flag, str(src),
                           "--out", str(tmp_path / "merged.json")], capture_output=True, text=True, timeout=120)
     assert out.returncode == 1
     assert out.stderr.strip().startswith("e3_budget.py: cannot read an earlier result:")

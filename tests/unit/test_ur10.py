@@ -47,10 +47,11 @@ def test_joint_limits_and_meshes_come_from_the_urdf(task):
 
 
 def test_demo_set_layout_and_expert(demos, task):
-    assert demos.values.shape == (10, N_STEPS, 6) and demos.times.shape == (10, N_STEPS)
+    n = len(TRAIN_HEIGHTS) + len(TEST_HEIGHTS)  # 8 demonstrations, the expert at 3 test cases
+    assert n == 11 and demos.values.shape == (n, N_STEPS, 6) and demos.times.shape == (n, N_STEPS)
     np.testing.assert_allclose(demos.task_params, np.array(TRAIN_HEIGHTS + TEST_HEIGHTS))
-    assert list(demos.roles) == ["train"] * 8 + ["extrapolation"] * 2
-    np.testing.assert_allclose(demos.values[:, 0], np.tile(np.deg2rad(START_POSE_DEG), (10, 1)))
+    assert list(demos.roles) == ["train"] * 8 + ["extrapolation"] * 3
+    np.testing.assert_allclose(demos.values[:, 0], np.tile(np.deg2rad(START_POSE_DEG), (n, 1)))
     # the expert stays below the URDF's joint velocity limits (the simulator does not enforce them)
     speed = np.abs(np.diff(demos.values, axis=1)).max(axis=(0, 1)) / task.sim.control_dt
     assert np.all(speed < 0.9 * task.sim.velocity_limits), speed
