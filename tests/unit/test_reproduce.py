@@ -10,7 +10,7 @@ from clients.cli import main
 
 def test_reproduce_quick_e1_writes_the_report_and_resumes(tmp_path, capsys):
     out = tmp_path / "paper"
-    assert main(["reproduce", "-o", str(out), "--quick", "--only", "E1"]) == 0
+    assert main(["reproduce", "-o", str(out), "--quick", "--only", "E1", "--jobs", "1"]) == 0
     result = json.loads((out / "E1.json").read_text())
     md = (out / "report.md").read_text()
     assert md.startswith("# ACNMP: the paper reproduced (quick sizes)")
