@@ -92,6 +92,13 @@ def run(args) -> int:
     return 1 if failed else 0
 
 
+def _say(line: str) -> None:
+    """One whole line on stdout (experiments run on several threads; ``print`` writes the line and
+    its newline separately, so two could interleave)."""
+    sys.stdout.write(line + "\n")
+    sys.stdout.flush()
+
+
 def _run_step(step: Experiment, out: Path, quick: bool, position: int = 1) -> bool:
     """Run one experiment in a child process; its output goes to ``<id>.txt`` (and its last line to
     a progress bar of its own on a terminal), its time to ``<id>.meta.json``."""
@@ -99,7 +106,7 @@ def _run_step(step: Experiment, out: Path, quick: bool, position: int = 1) -> bo
 
     argv = [sys.executable, "-m", "clients.cli", "experiment", step.name, *(step.quick if quick else step.full),
             "--json", str(out / f"{step.ident}.json"), "--plot", str(out / f"{step.ident}.png")]
-    print(f"{step.ident}: acnmp {' '.join(argv[3:])}", flush=True)
+    _say(f"{step.ident}: acnmp {' '.join(argv[3:])}")
     t0 = time.perf_counter()
     with open(out / f"{step.ident}.txt", "w") as log, \
             tqdm(desc=step.ident, bar_format="{desc}: {elapsed} {postfix}", disable=None, position=position,
@@ -113,7 +120,7 @@ def _run_step(step: Experiment, out: Path, quick: bool, position: int = 1) -> bo
     meta = {"command": "acnmp " + " ".join(argv[3:]), "wall_time_s": round(time.perf_counter() - t0, 1),
             "quick": quick, "exit_code": code}
     (out / f"{step.ident}.meta.json").write_text(json.dumps(meta, indent=2) + "\n")
-    print(f"{step.ident}: {'done' if code == 0 else f'failed (exit {code})'} in {meta['wall_time_s']} s", flush=True)
+    _say(f"{step.ident}: {'done' if code == 0 else f'failed (exit {code})'} in {meta['wall_time_s']} s")
     if code != 0:
         (out / f"{step.ident}.json").unlink(missing_ok=True)  # not kept: the next run tries again
     return code == 0
