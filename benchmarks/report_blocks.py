@@ -336,7 +336,7 @@ def _e3_seeds(wall: str, seeds_file: str) -> str:
         f"* {full['envs']} new environments after {full['n_initial']} demonstrated ones, {full['n_test']} test "
         f"environments, {_e3_paths(full)}; both methods in one run per seed, one torch thread.",
         f"* ACNMP at 95 % test success or more: {at_target} of {len(seeds)} seeds; its mean test error is "
-        f"{error_ratio:.1f}x ProMP + RL's (means over the seeds); ProMP + RL executes {traj_ratio:.2f}x as many "
+        f"{error_ratio:.2f}x ProMP + RL's (means over the seeds); ProMP + RL executes {traj_ratio:.2f}x as many "
         "trajectories.",
         "",
         source(full, wall),
