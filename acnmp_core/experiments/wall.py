@@ -69,7 +69,10 @@ PROMP_DEFAULTS = dict(method="reps", n_samples=10, max_rollouts=1000, init="cond
 #: Supervised steps of the first training (batch_size episodes of n_targets points) and of each
 #: assimilation (assimilate_batch_size episodes of assimilate_targets points, the anchor weighted
 #: assimilate_anchor_weight).
-TRAIN_DEFAULTS = dict(train_steps=3000, assimilate_steps=300, assimilate_lr=3e-4, batch_size=32, n_targets=10,
+# assimilate_steps 150 (300 until issue 37): with the boundary conditions enforced, half the steps
+# kept seed 0's test success (98.7 % against 98.9 %) and cut ACNMP's time from 175 s to about 120 s
+# (e3_time.json); the assimilation was half of that time (e3_profile_default.json).
+TRAIN_DEFAULTS = dict(train_steps=3000, assimilate_steps=150, assimilate_lr=3e-4, batch_size=32, n_targets=10,
                       assimilate_batch_size=32, assimilate_targets=10, assimilate_anchor_weight=1.0,
                       assimilate_from="skill", assimilate_lr_final=3e-5, keep_optimizer=True,
                       snap_solutions=True, targets_include_obs=False, consolidate_steps=0,
