@@ -253,14 +253,16 @@ def _e3_seed_runs(wall: str = "e3_wall", seeds: str = "e3_seeds") -> tuple[dict,
     """(seed 0's JSON ``wall``, seeds 1-9's ``seeds``, {seed: {method: summary}}) for ten seeds: by
     default those at the default settings."""
     full, more = load(wall), load(seeds)
-    if full["envs"] != more["envs"] or bool(full["config"].get("snap_outputs")) != bool(
-            more["defaults"].get("snap_outputs", full["config"].get("snap_outputs"))):
-        raise ValueError(f"{wall}.json and {seeds}.json differ in envs or paths")
+    if full["envs"] != more["envs"]:
+        raise ValueError(f"{wall}.json and {seeds}.json differ in envs")
+    snapped = full["config"].get("snap_outputs", False)  # runs from before the option had none
     runs = {str(full["seed"]): full["methods"]}
     for seed, variants in more["seeds"].items():
         if seed in runs:
             raise ValueError(f"{seeds}.json repeats seed {seed} of {wall}.json")
         w = variants["baseline"]
+        if w["config"].get("snap_outputs", False) != snapped:
+            raise ValueError(f"{seeds}.json seed {seed} and {wall}.json differ in how they execute paths")
         runs[seed] = {"acnmp": w["summary"], **{m: o["summary"] for m, o in w.get("others", {}).items()}}
     return full, more, runs
 
@@ -604,7 +606,10 @@ def e6_results() -> str:
     assim = [x for x in runs if x.get("assimilation")]
     within50 = sum(max(x["assimilation"]["demo_errors_g"]) <= 50 for x in assim)
     kept = sum(x["assimilation"]["demos_within_30g"] >= x["lfd_demos_within_30g"] for x in assim)
-    per = lambda key: ", ".join(fmt(x) for x in key)  # noqa: E731
+
+    def per(values) -> str:
+        return ", ".join(fmt(x) for x in values)
+
     rows = [
         ["LfD-only error at (1400 g, 1322 g)", "591 g", f"{fmt(r['lfd_only']['error_g'])} g ({per(r['lfd_only']['errors_g'])})"],
         ["ACNMP: first roll-out within 30 g", "18", f"{frac(a['success_rate'], n)} seeds within the budget of "
