@@ -80,17 +80,18 @@ def experiment_deployment(prefix: str, *, secure: bool = True, **kwargs) -> Loca
 @contextmanager
 def remote_rollouts(robot: str, task: str, *, workers: int = 2, record: str | None = None,
                     prefix: str = "exp", progress: bool = True, secure: bool = True,
-                    namespace: str | None = None) -> Iterator[Callable[..., object]]:
+                    namespace: str | None = None, config: str | None = None) -> Iterator[Callable[..., object]]:
     """Start ``workers`` workers of ``robot`` (and a recorder writing ``record`` when given) on a
     fresh local deployment (authenticated unless ``secure`` is False, :func:`experiment_deployment`),
-    or, with ``namespace``, join the running deployment of that name (:func:`attach`: its
+    or, with ``namespace``, join the running deployment of that name (:func:`attach`, through the
+    zenoh ``config`` file when given: its
     ``robot`` workers, its recorder if it has one); yield ``make(job, task_config=None, extra=None)``,
     which returns an evaluator that executes roll-outs of ``task`` on those workers (with
     fail-over) and, when recording, publishes every roll-out under the job name ``<job>-<n>`` (n
     counts the evaluators made, so repeated runs of one method never share roll-out indices), with
     the fields ``extra`` added to each event. A fresh deployment stops when the block exits."""
     if namespace is not None:
-        with attach(namespace, robot, record=record, secure=secure, progress=progress) as joined:
+        with attach(namespace, robot, record=record, secure=secure, progress=progress, config=config) as joined:
             yield evaluator_maker(joined, robot, task, record=joined.events is not None)
         return
     with experiment_deployment(prefix, secure=secure, workers=workers, robot=robot, record=record,
@@ -120,27 +121,21 @@ class Attached:
 
 @contextmanager
 def attach(namespace: str, robot: str, *, record: str | None = None, secure: bool = True,
-           progress: bool = True, discover: float = 10.0) -> Iterator[Attached]:
-    """Join the running deployment ``namespace`` (found by its run file, as ``acnmp query`` does)
-    with the operator's credentials, for an experiment's roll-outs on its ``robot`` workers.
+           progress: bool = True, discover: float = 10.0, config: str | None = None) -> Iterator[Attached]:
+    """Join the running deployment ``namespace`` with the operator's credentials
+    (:func:`operator_client`), for an experiment's roll-outs on its ``robot`` workers.
 
     ValueError, naming ``--namespace``, when no such deployment runs or it has no ``robot`` worker
     (looked for up to ``discover`` seconds); also for ``record`` (its own recorder records, if it
     has one) and ``secure=False`` (it keeps its own authentication). When it has no recorder, the
     roll-outs run unrecorded and a line says so. Waits at exit until its recorder confirmed them.
     """
-    from services.transport.runfile import DeploymentNotFound, find
-
     if record:
         raise ValueError(f"--record: with --namespace {namespace}, the deployment's own recorder records "
                          "(`acnmp up --record`); drop one of them")
     if not secure:
         raise ValueError(f"--insecure: deployment {namespace!r} keeps its own authentication; drop --insecure")
-    try:
-        run = find(namespace)
-    except DeploymentNotFound:
-        raise ValueError(f"--namespace {namespace}: no such deployment is running (`acnmp status` lists them)") from None
-    with ACNMPClient(run.namespace, role="operator", timeout=30) as client:
+    with operator_client(namespace, config) as client:
         deadline = time.monotonic() + discover
         while not (workers := alive_tokens(client.session, client.keys.worker_token(robot), 2.0)):
             if time.monotonic() > deadline:
@@ -150,15 +145,34 @@ def attach(namespace: str, robot: str, *, record: str | None = None, secure: boo
         if alive_tokens(client.session, client.keys.tokens("recorder"), 2.0):
             events = EventPublisher(client.session, client.keys)
         if progress:
-            print(f"running on deployment {run.namespace!r} ({len(workers)} {robot} worker(s)); roll-outs "
+            print(f"running on deployment {client.namespace!r} ({len(workers)} {robot} worker(s)); roll-outs "
                   + ("recorded by its recorder" if events else "not recorded: it runs no recorder"), flush=True)
         try:
-            yield Attached(run.namespace, client, events)
+            yield Attached(client.namespace, client, events)
         finally:
             if events is not None:
                 if not events.wait_recorded(30.0):
-                    print(f"deployment {run.namespace!r}: its recorder did not confirm every roll-out", flush=True)
+                    print(f"deployment {client.namespace!r}: its recorder did not confirm every roll-out", flush=True)
                 events.close()
+
+
+def operator_client(namespace: str, config: str | None = None, timeout: float = 30.0) -> ACNMPClient:
+    """An operator's client of the running deployment ``namespace``: through the zenoh ``config``
+    file when given (``acnmp credentials``' ``operator.json5``: a deployment on other hosts, whose
+    router that file connects to), else found by its run file on this machine (``acnmp up``).
+    ValueError naming the option when there is no such deployment or its router cannot be reached."""
+    from services.transport.runfile import DeploymentNotFound, find
+
+    if config is not None:
+        try:
+            return ACNMPClient(namespace, config_file=config, role="operator", timeout=timeout)
+        except ConnectionError as exc:
+            raise ValueError(f"--config {config}: {exc}") from None
+    try:
+        run = find(namespace)
+    except DeploymentNotFound:
+        raise ValueError(f"--namespace {namespace}: no such deployment is running (`acnmp status` lists them)") from None
+    return ACNMPClient(run.namespace, role="operator", timeout=timeout)
 
 
 def evaluator_maker(dep: LocalDeployment | Attached, robot: str, task: str, *, record: bool) -> Callable[..., object]:

@@ -85,15 +85,17 @@ class DeployedPairs:
 
 @contextmanager
 def transfer_deployment(workers: int = 2, record: str | None = None, progress: bool = True,
-                        secure: bool = True, namespace: str | None = None) -> Iterator[tuple[DeployedPairs, object]]:
+                        secure: bool = True, namespace: str | None = None,
+                        config: str | None = None) -> Iterator[tuple[DeployedPairs, object]]:
     """A fresh local deployment for E4 (learner, model service, ``workers`` planar4 workers, a
     recorder writing ``record`` when given; authenticated unless ``secure`` is False,
     :func:`clients.distributed.experiment_deployment`), or the running one of ``namespace``
-    (:func:`clients.distributed.attach`; it needs planar4 workers, a learner and a model service);
+    (:func:`clients.distributed.attach`, through the zenoh ``config`` file when given; it needs
+    planar4 workers, a learner and a model service);
     yields (:class:`DeployedPairs`, ``make(job, task_config, extra)``, the evaluator maker of
     :func:`clients.distributed.evaluator_maker`)."""
     if namespace is not None:
-        with attach(namespace, ROBOT_B, record=record, secure=secure, progress=progress) as joined:
+        with attach(namespace, ROBOT_B, record=record, secure=secure, progress=progress, config=config) as joined:
             yield DeployedPairs(joined.client), evaluator_maker(joined, ROBOT_B, "cube_gap",
                                                                 record=joined.events is not None)
         return
@@ -105,7 +107,8 @@ def transfer_deployment(workers: int = 2, record: str | None = None, progress: b
 
 
 def run_transfer_distributed(runs, *, workers: int = 2, record: str | None = None, progress: bool = True,
-                             secure: bool = True, namespace: str | None = None, **kwargs) -> dict:
+                             secure: bool = True, namespace: str | None = None, config: str | None = None,
+                             **kwargs) -> dict:
     """:func:`~acnmp_core.experiments.transfer.run_transfer` on a fresh deployment (see the module
     docstring; authenticated unless ``secure`` is False); ``kwargs`` go to it (``cfg``, ``authors_data``, ``log``, ...). Every roll-out of
     robot B is recorded with robot A's demonstration of the new skill drawn beside it. Returns its
@@ -115,7 +118,7 @@ def run_transfer_distributed(runs, *, workers: int = 2, record: str | None = Non
     setup = make_setup()
     reference = {"reference_joint_angles": setup.new_a,
                  "reference_link_lengths": np.asarray(robot(ROBOT_A).drawing.event_fields()["link_lengths"])}
-    with transfer_deployment(workers, record, progress, secure, namespace) as (pairs, make):
+    with transfer_deployment(workers, record, progress, secure, namespace, config) as (pairs, make):
         result = run_transfer(runs, evaluator_factory=lambda cond: make(f"transfer-{cond}", task_config(), reference, method=cond),
                               pair_trainer=pairs.train, first_attempt=pairs.first_attempt, setup=setup, **kwargs)
     result.update(distributed=True, workers=int(workers), recording=str(record) if record else None,

@@ -1,4 +1,5 @@
-"""``acnmp status``: the deployments running on this machine, their processes and health."""
+"""``acnmp status``: the deployments running on this machine, their processes and health; with
+``--config``, a deployment on other hosts: every process that answers, and its host."""
 from __future__ import annotations
 
 import json
@@ -16,6 +17,9 @@ def register(subparsers) -> None:
     p.add_argument("--timeout", type=seconds(zero=True), default=2.0,
                    help="seconds to wait for liveliness (default: %(default)s)")
     p.add_argument("--json", action="store_true", help="print the status as JSON")
+    p.add_argument("--config", default=None, metavar="FILE",
+                   help="ask the deployment this zenoh config reaches (`acnmp credentials`' client.json5: a router "
+                        "on another host) for its processes and their hosts, instead of this machine's run files")
     p.set_defaults(func=run)
 
 
@@ -27,6 +31,7 @@ class ProcessHealth:
     pid: int
     running: bool
     live: bool
+    host: str = ""
 
     @property
     def health(self) -> str:
@@ -42,7 +47,8 @@ def process_health(run, timeout: float) -> list[ProcessHealth]:
     import zenoh
 
     from clients.discovery import resolve
-    from services.transport import alive_tokens, open_session
+    from services.transport import Keyspace, alive_tokens, open_session
+    from services.transport.about import list_processes
     from services.transport.runfile import pid_alive
 
     target = resolve(run.namespace, [run.anchor], run.credentials or None, None if run.credentials else "peer")
@@ -51,24 +57,45 @@ def process_health(run, timeout: float) -> list[ProcessHealth]:
             # one liveliness query per kind of token: the access table grants each family, never acnmp/<ns>/**
             tokens = [zenoh.KeyExpr(t) for family in sorted({p.token for p in run.processes})
                       for t in alive_tokens(session, family, timeout)]
+            hosts = {a.pid: a.host for a in list_processes(session, Keyspace(run.namespace), timeout)}
     except ConnectionError:
-        tokens = []
-    return [ProcessHealth(p.name, p.pid, pid_alive(p.pid), any(zenoh.KeyExpr(p.token).intersects(t) for t in tokens))
+        tokens, hosts = [], {}
+    return [ProcessHealth(p.name, p.pid, pid_alive(p.pid), any(zenoh.KeyExpr(p.token).intersects(t) for t in tokens),
+                          hosts.get(p.pid, ""))
             for p in run.processes]
+
+
+def remote_status(namespace: str, config: str, timeout: float) -> list:
+    """The :class:`~services.transport.about.ProcessAbout` of every process of ``namespace`` that
+    answers through the zenoh ``config`` file within ``timeout`` s. ValueError naming ``--config``
+    when its router cannot be reached or the file is not a zenoh config."""
+    from services.transport import Keyspace, open_session
+    from services.transport.about import list_processes
+
+    try:
+        with open_session(None, None, None, config, open_timeout=max(timeout, 1.0)) as session:
+            return list_processes(session, Keyspace(namespace), timeout)
+    except ConnectionError as exc:
+        raise ValueError(f"--config {config}: {exc}") from None
 
 
 def run(args) -> int:
     """Print every running deployment (or the one of ``--namespace``): anchor, launcher pid, state
-    directory, and per process its pid and health. Exit 0; 1 when none runs."""
+    directory, and per process its pid, host and health; with ``--config``, every process of
+    ``--namespace`` (default: default) that answers: service, host, pid, what it serves. Exit 0;
+    1 when none runs (none answers)."""
     from services.transport.runfile import running, runtime_dir
 
+    if args.config is not None:
+        return _remote(args)
     runs = [r for r in running() if args.namespace is None or r.namespace == args.namespace]
     report = []
     for r in runs:
         procs = process_health(r, args.timeout)
         report.append({"namespace": r.namespace, "anchor": r.anchor, "pid": r.pid, "state_dir": r.state_dir,
                        "secured": bool(r.credentials), "credentials": r.credentials,
-                       "processes": [{"name": p.name, "pid": p.pid, "health": p.health} for p in procs]})
+                       "processes": [{"name": p.name, "pid": p.pid, "host": p.host, "health": p.health}
+                                     for p in procs]})
     if args.json:
         print(json.dumps(report, indent=2))
     elif not report:
@@ -79,5 +106,28 @@ def run(args) -> int:
         print(f"deployment '{d['namespace']}': anchor {d['anchor']}, launcher pid {d['pid']}, {auth}")
         print(f"  state {d['state_dir']}")
         for p in d["processes"]:
-            print(f"  {p['name']:<18} {p['pid']:>7}  {p['health']}")
+            print(f"  {p['name']:<18} {p['pid']:>7}  {p['host'] or '?':<20} {p['health']}")
     return 0 if report else 1
+
+
+def _remote(args) -> int:
+    """``acnmp status --config FILE``: the processes of ``--namespace`` that answer, by host."""
+    from dataclasses import asdict
+
+    from services.transport.keys import DEFAULT_NAMESPACE
+
+    namespace = args.namespace or DEFAULT_NAMESPACE
+    procs = remote_status(namespace, args.config, args.timeout)
+    if args.json:
+        print(json.dumps([{"namespace": namespace, "config": args.config,
+                           "processes": [asdict(p) for p in procs]}], indent=2))
+    elif not procs:
+        print(f"no process of deployment {namespace!r} answered through {args.config} within {args.timeout} s",
+              file=sys.stderr)
+    else:
+        print(f"deployment '{namespace}' through {args.config}: {len(procs)} processes on "
+              f"{len({p.host for p in procs})} hosts")
+        print(f"  {'service':<10} {'host':<20} {'pid':>7}  live as")
+        for p in procs:
+            print(f"  {p.service:<10} {p.host:<20} {p.pid:>7}  {p.live}")
+    return 0 if procs else 1

@@ -37,7 +37,8 @@ def sizes(args, train_steps: int, budget: int) -> tuple[int, int]:
 def add_deployment_arguments(p, what: str) -> None:
     """Add ``--distributed`` (help: ``what`` runs where), ``--workers N``, ``--record FILE.rrd``,
     ``--insecure`` (as ``acnmp up --insecure``: the fresh deployment without authentication) and
-    ``--namespace NS`` (a running deployment instead of a fresh one)."""
+    ``--namespace NS`` (a running deployment instead of a fresh one) and ``--config FILE`` (the zenoh
+    config that reaches it when it runs on other hosts)."""
     p.add_argument("--distributed", action="store_true", help=f"run {what} on a local zenoh deployment")
     p.add_argument("--workers", type=int_at_least(1), default=2,
                    help="workers of the --distributed deployment (default 2)")
@@ -49,6 +50,10 @@ def add_deployment_arguments(p, what: str) -> None:
     p.add_argument("--namespace", "-n", default=None, metavar="NS",
                    help="with --distributed: run on the running deployment of NS (`acnmp status` lists them; "
                         "its workers and recorder) instead of a fresh one; --workers and --record do not apply")
+    p.add_argument("--config", type=non_empty, default=None, metavar="FILE",
+                   help="with --namespace: join NS through this zenoh config (the operator.json5 of `acnmp "
+                        "credentials`) instead of this machine's run file: a deployment whose router runs on "
+                        "another host")
 
 
 def check_deployment_arguments(args) -> None:
@@ -59,6 +64,8 @@ def check_deployment_arguments(args) -> None:
         raise ValueError("--insecure: only with --distributed (it is about the deployment's authentication)")
     if getattr(args, "namespace", None) is not None and not args.distributed:
         raise ValueError("--namespace: only with --distributed (it names the deployment to run on)")
+    if getattr(args, "config", None) is not None and getattr(args, "namespace", None) is None:
+        raise ValueError("--config: only with --distributed --namespace NS (it is how to reach NS)")
 
 
 def check_output_arguments(args) -> None:

@@ -36,7 +36,7 @@ def run(args) -> int:
         from clients.distributed import remote_rollouts
 
         with remote_rollouts("pour", "pour", workers=args.workers, record=args.record, prefix="e6",
-                             progress=not args.quiet, secure=not args.insecure, namespace=args.namespace) as make:
+                             progress=not args.quiet, secure=not args.insecure, namespace=args.namespace, config=args.config) as make:
             result = run_pour(args.seeds, evaluator_factory=lambda: make("pour", {"tolerance_g": TOLERANCE_G}, method="acnmp"),
                               **kwargs)
     else:

@@ -60,7 +60,7 @@ def run(args) -> int:
         from clients.distributed import remote_rollouts
 
         with remote_rollouts("planar3", "push", workers=args.workers, record=args.record, prefix="e2",
-                             progress=not args.quiet, secure=not args.insecure, namespace=args.namespace) as make:
+                             progress=not args.quiet, secure=not args.insecure, namespace=args.namespace, config=args.config) as make:
             result = run_push(args.seeds, evaluator_factory=lambda setup, method, case: make(
                 f"push-{method}-{case}", task_config(setup, method), method=method), **kwargs)
     else:

@@ -42,7 +42,7 @@ def run(args) -> int:
         from clients.distributed import remote_rollouts
 
         with remote_rollouts("pusher", "pusher_push", workers=args.workers, record=args.record, prefix="pusher",
-                             progress=not args.quiet, secure=not args.insecure, namespace=args.namespace) as make:
+                             progress=not args.quiet, secure=not args.insecure, namespace=args.namespace, config=args.config) as make:
             result = run_pusher(seeds, evaluator_factory=lambda method, seed: make(f"pusher-{method}-s{seed}", {}, method=method, seed=seed),
                                 **kwargs)
     else:

@@ -52,7 +52,7 @@ def run(args) -> int:
         from clients.distributed import remote_rollouts
 
         with remote_rollouts(args.robot, task, workers=args.workers, record=args.record, prefix="robot",
-                             progress=not args.quiet, secure=not args.insecure, namespace=args.namespace) as make:
+                             progress=not args.quiet, secure=not args.insecure, namespace=args.namespace, config=args.config) as make:
             result = run_own_robot(args.robot, demos, args.at,
                                    evaluator_factory=lambda m, s, i: make(f"{args.robot}-{m}-s{s}-p{i}", {}, method=m, seed=s), **kwargs)
     else:

@@ -51,7 +51,7 @@ def run(args) -> int:
 
         result = run_transfer_distributed(args.runs, workers=args.workers, record=args.record,
                                           progress=not args.quiet, secure=not args.insecure,
-                                          namespace=args.namespace, **kwargs)
+                                          namespace=args.namespace, config=args.config, **kwargs)
         diffs = [r["first_attempt_diff"] for r in result["per_run"] if r.get("first_attempt_diff") is not None]
         print(f"pairs trained by the learner ({len(result['pair_jobs'])} train_pair jobs); robot B's first "
               f"attempt from the model service's transfer query, largest difference from the RL's start "

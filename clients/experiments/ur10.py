@@ -36,7 +36,7 @@ def run(args) -> int:
         from clients.distributed import remote_rollouts
 
         with remote_rollouts("ur10", "pick_place", workers=args.workers, record=args.record, prefix="e5",
-                             progress=not args.quiet, secure=not args.insecure, namespace=args.namespace) as make:
+                             progress=not args.quiet, secure=not args.insecure, namespace=args.namespace, config=args.config) as make:
             result = run_ur10(args.seeds, evaluator_factory=lambda case: make(f"ur10-{case}", {}, method="acnmp"), **kwargs)
     else:
         result = run_ur10(args.seeds, **kwargs)

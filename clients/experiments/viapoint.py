@@ -75,28 +75,29 @@ def run(args) -> int:
 
 @contextlib.contextmanager
 def _running_deployment(args):
-    """An operator client of the running deployment ``--distributed`` uses (``--namespace``, or
-    the one `acnmp up` runs), or None for a fresh deployment (``--fresh``, or none running).
-    ValueError when ``--namespace`` names none, or ``--record`` asks a running one to record."""
-    from clients.client import ACNMPClient
+    """An operator client of the running deployment ``--distributed`` uses (``--namespace``, reached
+    through ``--config`` when given, or the one `acnmp up` runs), or None for a fresh deployment
+    (``--fresh``, or none running). ValueError when ``--namespace`` names none, or ``--record`` asks
+    a running one to record."""
+    from clients.distributed import operator_client
     from services.transport.runfile import DeploymentNotFound, find
 
     if args.fresh:
         yield None
         return
-    try:
-        run = find(args.namespace)
-    except DeploymentNotFound:
-        if args.namespace is not None:
-            raise ValueError(f"--namespace {args.namespace}: no such deployment is running (`acnmp status`)") from None
-        yield None
-        return
+    if args.namespace is None:
+        try:
+            args.namespace = find(None).namespace
+        except DeploymentNotFound:
+            yield None
+            return
     if args.record:
-        raise ValueError(f"--record: deployment {run.namespace!r} is running; its recorder (acnmp up --record) "
+        raise ValueError(f"--record: deployment {args.namespace!r} is running; its recorder (acnmp up --record) "
                          "records, or use --fresh")
     if args.insecure:
-        raise ValueError(f"--insecure: deployment {run.namespace!r} is running and keeps its own authentication; "
+        raise ValueError(f"--insecure: deployment {args.namespace!r} is running and keeps its own authentication; "
                          "use --fresh to start an unauthenticated one")
-    print(f"running E1 on deployment {run.namespace!r} (anchor {run.anchor}); --fresh starts a new one", flush=True)
-    with ACNMPClient(run.namespace, role="operator", timeout=30) as client:
+    with operator_client(args.namespace, args.config) as client:
+        where = f"through {args.config}" if args.config else "found by its run file"
+        print(f"running E1 on deployment {client.namespace!r} ({where}); --fresh starts a new one", flush=True)
         yield client

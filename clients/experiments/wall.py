@@ -76,7 +76,7 @@ def run(args) -> int:
         from clients.distributed import remote_rollouts
 
         with remote_rollouts("point2d", "wall", workers=args.workers, record=args.record, prefix="e3",
-                             progress=not args.quiet, secure=not args.insecure, namespace=args.namespace) as make:
+                             progress=not args.quiet, secure=not args.insecure, namespace=args.namespace, config=args.config) as make:
             result = run_wall(args.envs, args.seed, evaluator_factory=lambda method: make(f"wall-{method}", method=method, seed=args.seed),
                               **kwargs)
     else:

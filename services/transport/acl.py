@@ -61,8 +61,8 @@ GRANTS: tuple[Grant, ...] = (
           ("acnmp/*/skill/*/predict", "acnmp/*/skill/*/info", "acnmp/*/skill/*/transfer"),
           "predict, info, transfer"),
     Grant("ask-status", ("client", "operator"), ("query",),
-          ("acnmp/*/job/*/status", "acnmp/*/jobs", "acnmp/*/recorder/status"),
-          "a job's status, the job list, the recorder's counts (`acnmp status`)"),
+          ("acnmp/*/job/*/status", "acnmp/*/jobs", "acnmp/*/recorder/status", "acnmp/*/process/**"),
+          "a job's status, the job list, the recorder's counts, each process's host (`acnmp status`)"),
     Grant("start-jobs", ("operator",), ("query",),
           ("acnmp/*/skill/*/train", "acnmp/*/skill/*/train_pair", "acnmp/*/skill/*/adapt", "acnmp/*/job/*/cancel"),
           "train, adapt, cancel"),
@@ -101,6 +101,8 @@ GRANTS: tuple[Grant, ...] = (
     Grant("serve-recorder", ("recorder",), ("declare_queryable", "reply"), ("acnmp/*/recorder/status",),
           "answer the recorder's status"),
     Grant("recorder-token", ("recorder",), ("liveliness_token",), ("acnmp/*/recorder/*",), "say the recorder is live"),
+    Grant("about-process", ("launcher", "learner", "model", "worker", "recorder"), ("declare_queryable", "reply"),
+          ("acnmp/*/process/*/*",), "say on which host and pid the process runs"),
 )
 
 #: What the router may send out, to every role (see the module docstring).

@@ -178,6 +178,15 @@ class Keyspace:
         """``.../router/<zid>``: a router started with a namespace is live."""
         return self.token("router", zid)
 
+    # ----- processes ----------------------------------------------------------------------------
+    def process(self, service: str, zid: str) -> str:
+        """``.../process/<service>/<zid>``: the ``about`` queryable of one process (services/transport/about.py)."""
+        return f"{self.prefix}/process/{check_name('service', service)}/{check_name('zid', zid)}"
+
+    def processes(self) -> str:
+        """``.../process/**``: what ``acnmp status`` asks to learn every process's host."""
+        return f"{self.prefix}/process/**"
+
     # ----- workers ------------------------------------------------------------------------------
     def worker_token(self, robot: str, worker_id: str = "*") -> str:
         """``.../worker/<robot>/<id>``: a worker of robot kind ``robot`` (``*``: every one)."""

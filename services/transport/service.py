@@ -8,7 +8,8 @@ is set. Everything else is done here, once for every service:
 * :func:`add_arguments` builds the ``acnmp serve <name>`` parser from the fields,
   :func:`from_args` builds the config back from the parsed arguments;
 * :func:`run_service` installs the SIGTERM/SIGINT handlers (and the launcher watch), opens the
-  session, calls ``serve`` and closes the session whatever happens;
+  session, declares the process's ``about`` queryable (its host, pid and ready line;
+  services/transport/about.py), calls ``serve`` and closes the session whatever happens;
 * :func:`main` is the ``python -m services.<wing>`` entry point of each wing's ``__main__.py``.
 
 Example (the worker's)::
@@ -137,8 +138,20 @@ def run_service(config: Service, *, stop: threading.Event | None = None, ready: 
     if ready is None:
         def ready(line: str) -> None:
             print(line, flush=True)
+    from .about import AboutQueryable
+    from .keys import Keyspace
+
     with config.session.open(config.default_mode) as session:
-        return int(config.serve(session, stop, ready) or 0)
+        about = AboutQueryable(session, Keyspace(config.session.namespace), config.name)
+
+        def said(line: str) -> None:
+            about.live = line
+            ready(line)
+
+        try:
+            return int(config.serve(session, stop, said) or 0)
+        finally:
+            about.undeclare()
 
 
 def parser_for(cls: type[Service], prog: str | None = None) -> argparse.ArgumentParser:

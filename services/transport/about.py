@@ -1,0 +1,84 @@
+"""Where each process runs: its ``about`` queryable and the lookup ``acnmp status`` makes.
+
+Every service (services/transport/service.py) answers on ``acnmp/<ns>/process/<service>/<zid>``
+with one map: ``{"v": 1, "service", "zid", "host", "pid", "started" (UNIX s), "live" (its ready
+line)}``. ``host`` is ``$ACNMP_HOST`` when set (the multi-host harness names each network namespace
+so; services/launcher/multihost.py), else the machine's host name (a container's own).
+
+It answers only a query whose key expression lies within ``acnmp/<ns>/process/**`` (so a get on
+``acnmp/**`` is still answered by nobody, docs/PROTOCOL.md), and it only reads: the query's payload
+is ignored.
+"""
+from __future__ import annotations
+
+import os
+import socket
+import time
+from dataclasses import dataclass
+
+import zenoh
+
+from .keys import Keyspace, check_name
+from .wire import WireError, decode, encode
+
+HOST_ENV = "ACNMP_HOST"
+
+
+def host_name() -> str:
+    """This process's host: ``$ACNMP_HOST`` when set and not empty, else ``socket.gethostname()``."""
+    return os.environ.get(HOST_ENV) or socket.gethostname()
+
+
+@dataclass(frozen=True)
+class ProcessAbout:
+    """One process as its ``about`` reply describes it."""
+
+    service: str
+    zid: str
+    host: str
+    pid: int
+    started: float
+    live: str
+
+    @classmethod
+    def from_reply(cls, msg: dict) -> "ProcessAbout":
+        """The map of an ``about`` reply (ValueError/KeyError when it is not one)."""
+        return cls(str(msg["service"]), str(msg["zid"]), str(msg["host"]), int(msg["pid"]), float(msg["started"]),
+                   str(msg.get("live", "")))
+
+
+class AboutQueryable:
+    """The ``about`` queryable of one process (declared by :func:`declare_about`); ``live`` is set
+    once the service said its ready line."""
+
+    def __init__(self, session: zenoh.Session, keys: Keyspace, service: str) -> None:
+        self.zid = str(session.zid())
+        self.key = keys.process(check_name("service", service), self.zid)
+        self.scope = zenoh.KeyExpr(keys.processes())
+        self.service, self.live, self.started = service, "", time.time()
+        self._queryable = session.declare_queryable(self.key, self._on_query)
+
+    def _on_query(self, query: zenoh.Query) -> None:
+        if not self.scope.includes(query.key_expr):  # acnmp/** and the like: not asked of it
+            return
+        body = {"v": 1, "service": self.service, "zid": self.zid, "host": host_name(), "pid": os.getpid(),
+                "started": self.started, "live": self.live}
+        query.reply(self.key, encode(body))
+
+    def undeclare(self) -> None:
+        """Stop answering."""
+        self._queryable.undeclare()
+
+
+def list_processes(session: zenoh.Session, keys: Keyspace, timeout: float = 2.0) -> list[ProcessAbout]:
+    """Every process of namespace ``keys`` that answers within ``timeout`` seconds, sorted by
+    service then host; a reply that does not decode is skipped."""
+    found = []
+    for reply in session.get(keys.processes(), timeout=timeout):
+        if reply.ok is None:
+            continue
+        try:
+            found.append(ProcessAbout.from_reply(decode(reply.ok.payload.to_bytes())))
+        except (WireError, ValueError, KeyError, TypeError):
+            continue
+    return sorted(found, key=lambda p: (p.service, p.host, p.zid))
