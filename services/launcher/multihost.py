@@ -34,6 +34,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Sequence
 
+from services.transport.about import HOST_ENV
 from services.transport.auth import write_router_deployment
 from services.transport.lifetime import PARENT_PID_ENV
 
@@ -41,8 +42,6 @@ from .netns import HostNetwork
 from .processes import entry_module
 
 ROOT = Path(__file__).resolve().parents[2]
-#: The environment variable that names a process's host (services/transport/about.py).
-HOST_ENV = "ACNMP_HOST"
 PORT = 7447
 
 
@@ -68,13 +67,15 @@ class MultiHostDeployment:
     ``record`` (.rrd file of the recorder; None: no recorder host), ``state_dir`` (the learner's;
     default a temporary directory), ``chunk_timeout`` (seconds a worker's chunk may take before the
     learner re-sends it), ``start_timeout``/``stop_timeout`` (seconds), ``work_dir`` (certificates,
-    configs and logs; default a temporary directory removed at stop).
+    configs and logs; default a temporary directory removed at stop). ``one_host``: every process
+    on the router's host, so the same processes, configs and TLS talk over that namespace's
+    loopback: the baseline a benchmark compares the links against.
     """
 
     def __init__(self, namespace: str = "default", *, workers: int = 2, robot: str = "point2d",
                  record: str | os.PathLike | None = None, state_dir: str | os.PathLike | None = None,
                  chunk_timeout: float = 60.0, start_timeout: float = 60.0, stop_timeout: float = 8.0,
-                 work_dir: str | os.PathLike | None = None) -> None:
+                 work_dir: str | os.PathLike | None = None, one_host: bool = False) -> None:
         if workers < 1:
             raise ValueError(f"workers: expected >= 1, got {workers}")
         self.namespace, self.robot, self.n_workers = namespace, robot, int(workers)
@@ -88,7 +89,8 @@ class MultiHostDeployment:
                                                   self.work_dir / "logs")
         names = ["router", *(["recorder"] if self.record is not None else []), "learner", "model",
                  *[f"worker-{i}" for i in range(self.n_workers)], "client"]
-        self.network = HostNetwork(names)
+        self.one_host = bool(one_host)
+        self.network = HostNetwork(["router", "client"] if self.one_host else names)
         self.processes: dict[str, HostProcess] = {}
         self._tees: list[threading.Thread] = []
 
@@ -124,7 +126,7 @@ class MultiHostDeployment:
         env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])),
                    RERUN_ANALYTICS="0", OMP_NUM_THREADS="1", PYTHONUNBUFFERED="1")
         env[PARENT_PID_ENV] = str(os.getpid())
-        env[HOST_ENV] = host
+        env[HOST_ENV] = self.host(host).name
         env.pop("RERUN", None)
         return env
 
@@ -134,7 +136,7 @@ class MultiHostDeployment:
 
     def _spawn(self, name: str, process: str, role: str, args: Sequence[str]) -> HostProcess:
         self.log_dir.mkdir(parents=True, exist_ok=True)
-        argv = self.network.hosts[name].exec_argv(
+        argv = self.host(name).exec_argv(
             [sys.executable, "-m", entry_module(process), "--config", str(self.config(role)),
              "--namespace", self.namespace, *args])
         log = self.log_dir / f"{name}.log"
@@ -176,9 +178,14 @@ class MultiHostDeployment:
                                    f"log {child.log}:\n{_tail(child.log)}")
 
     # ----- using -------------------------------------------------------------------------------
+    def host(self, name: str):
+        """The :class:`~services.launcher.netns.Host` process or host ``name`` runs on (the router's
+        for every process with ``one_host``, the client host included)."""
+        return self.network.hub if self.one_host else self.network.hosts[name]
+
     def client_argv(self, argv: Sequence[str], *, host: str = "client") -> list[str]:
         """``argv`` (e.g. ``[python, -m, clients.cli, query, skills, --config, ...]``) run on ``host``."""
-        return self.network.hosts[host].exec_argv(argv)
+        return self.host(host).exec_argv(argv)
 
     def acnmp(self, *args: str, role: str = "operator", host: str = "client", timeout: float = 120.0,
               config: str | os.PathLike | None = None) -> subprocess.CompletedProcess:

@@ -148,6 +148,7 @@ class HostNetwork:
                 _ip("-n", hub, "link", "set", host.hub_link, "up")
                 _ip("-n", host.namespace, "addr", "add", f"{host.address}/24", "dev", "eth0")
                 _ip("-n", host.namespace, "link", "set", "eth0", "up")
+            for host in self.hosts.values():
                 etc = NETNS_ETC / host.namespace
                 etc.mkdir(parents=True, exist_ok=True)
                 (etc / "hosts").write_text(f"127.0.0.1 localhost\n{HUB_ADDRESS} {self.hub_name}\n")

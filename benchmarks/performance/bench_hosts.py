@@ -1,0 +1,167 @@
+"""What spreading the deployment over hosts costs: predict latency and throughput, and E1's time.
+
+Two layouts of the same secured deployment (services/launcher/multihost.py: TLS, a password per
+role, the ACL; router, recorder, learner, model service, two point-mass workers), one after the
+other in one run:
+
+* ``hosts``: every process on a network namespace of its own, joined to the router's by veth links
+  (the client on a seventh); every message crosses two links (client -> router -> model);
+* ``loopback``: the same processes, configs and certificates, all in the router's namespace: the
+  same path through the router, over that namespace's loopback.
+
+In each: E1 run from the client host (``acnmp experiment viapoint --distributed --namespace
+--config``, ``--train-steps`` and ``--budget``), its own ``wall_time_s`` and the command's time;
+then, on the skill E1 trained, ``--n`` predicts one at a time (p50, p99 in ms) and the predicts per
+second of 1, 4 and 16 concurrent clients (threads of one process, a session each, ``--duration`` s
+each) from the client host. Reported: each number per layout and the ratio hosts / loopback.
+
+    python benchmarks/performance/bench_hosts.py [--n 300] [--out benchmarks/results/bench_hosts.json]
+
+Needs root (network namespaces). ``--probe`` is the client-side part, run inside the client host.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
+
+from benchmarks._results import provenance, save_result  # noqa: E402
+
+SKILL = "e1"
+
+
+def probe(args) -> dict:
+    """The client's measurements (run inside the client host): latency of ``args.n`` predicts one
+    at a time after ``args.warmup``, then throughput per number of clients."""
+    from acnmp_core.experiments.viapoint import make_setup
+    from clients.client import ACNMPClient
+
+    target = make_setup().target
+    obs_t, obs_v, query = target.obs_times, target.obs_values, target.query_times
+
+    def predict(client):
+        client.predict(SKILL, obs_t, obs_v, None, query)
+
+    with ACNMPClient(args.namespace, config_file=args.config, role="client", timeout=30) as client:
+        for _ in range(args.warmup):
+            predict(client)
+        times = []
+        for _ in range(args.n):
+            t0 = time.perf_counter()
+            predict(client)
+            times.append(time.perf_counter() - t0)
+    ms = np.array(times) * 1e3
+    out = {"latency": {"p50_ms": float(np.percentile(ms, 50)), "p99_ms": float(np.percentile(ms, 99)), "n": args.n},
+           "throughput": []}
+    for n_clients in args.clients:
+        counts, errors = [0] * n_clients, [0] * n_clients
+        start, stop = threading.Barrier(n_clients + 1), threading.Event()
+
+        def worker(i: int) -> None:
+            with ACNMPClient(args.namespace, config_file=args.config, role="client", timeout=30) as c:
+                predict(c)
+                start.wait()
+                while not stop.is_set():
+                    try:
+                        predict(c)
+                        counts[i] += 1
+                    except Exception:
+                        errors[i] += 1
+
+        threads = [threading.Thread(target=worker, args=(i,)) for i in range(n_clients)]
+        for t in threads:
+            t.start()
+        start.wait()
+        t0 = time.perf_counter()
+        time.sleep(args.duration)  # the measuring window
+        stop.set()
+        for t in threads:
+            t.join()
+        elapsed = time.perf_counter() - t0
+        out["throughput"].append({"clients": n_clients, "predicts": sum(counts), "errors": sum(errors),
+                                  "predicts_per_s": sum(counts) / elapsed})
+    return out
+
+
+def measure_layout(layout: str, args, work: Path) -> dict:
+    """E1 and the probe on one layout (``hosts`` or ``loopback``); returns their numbers."""
+    from services.launcher.multihost import MultiHostDeployment
+
+    with MultiHostDeployment(f"bench-{layout}", workers=2, one_host=layout == "loopback",
+                             work_dir=work / layout) as dep:
+        e1_json = work / f"{layout}_e1.json"
+        t0 = time.perf_counter()
+        e1 = dep.acnmp("experiment", "viapoint", "--seed", str(args.seed), "--budget", str(args.budget),
+                       "--train-steps", str(args.train_steps), "--quiet", "--distributed", "--json", str(e1_json),
+                       timeout=3600)
+        command_s = time.perf_counter() - t0
+        if e1.returncode != 0:
+            raise RuntimeError(f"E1 on {layout}: {e1.stderr or e1.stdout}")
+        summary = json.loads(e1_json.read_text())
+        probe_argv = [sys.executable, str(Path(__file__).resolve()), "--probe", "--namespace", dep.namespace,
+                      "--config", str(dep.config("client")), "--n", str(args.n), "--warmup", str(args.warmup),
+                      "--duration", str(args.duration), "--clients", ",".join(map(str, args.clients))]
+        p = dep.popen(probe_argv, stdout=__import__("subprocess").PIPE, text=True)
+        out, _ = p.communicate(timeout=3600)
+        if p.returncode != 0:
+            raise RuntimeError(f"the probe on {layout} exited {p.returncode}")
+        measured = json.loads(out.strip().splitlines()[-1])
+    return {"e1": {"wall_time_s": summary["wall_time_s"], "command_s": command_s,
+                   "rollouts": {m: r["rollouts"] for m, r in summary["methods"].items()},
+                   "success": {m: r["success"] for m, r in summary["methods"].items()}},
+            **measured}
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--n", type=int, default=300, help="predicts one at a time (default %(default)s)")
+    parser.add_argument("--warmup", type=int, default=20)
+    parser.add_argument("--duration", type=float, default=3.0, help="seconds per throughput point")
+    parser.add_argument("--clients", type=lambda s: [int(x) for x in s.split(",")], default=[1, 4, 16])
+    parser.add_argument("--seed", type=int, default=0, help="E1's seed")
+    parser.add_argument("--train-steps", type=int, default=3000)
+    parser.add_argument("--budget", type=int, default=100)
+    parser.add_argument("--out", default="benchmarks/results/bench_hosts.json")
+    parser.add_argument("--probe", action="store_true", help=argparse.SUPPRESS)
+    parser.add_argument("--namespace", help=argparse.SUPPRESS)
+    parser.add_argument("--config", help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.probe:
+        print(json.dumps(probe(args)), flush=True)
+        return 0
+    import tempfile
+
+    from services.launcher.netns import unavailable_reason
+
+    why = unavailable_reason()
+    if why is not None:
+        print(f"bench_hosts: {why}", file=sys.stderr)
+        return 1
+    result = {"provenance": provenance(sys.argv), "config": {k: v for k, v in vars(args).items()
+                                                             if k not in ("probe", "namespace", "config")}}
+    with tempfile.TemporaryDirectory(prefix="bench-hosts-") as tmp:
+        for layout in ("loopback", "hosts"):
+            result[layout] = measure_layout(layout, args, Path(tmp))
+            print(layout, json.dumps(result[layout]), flush=True)
+    lo, hi = result["loopback"], result["hosts"]
+    result["ratios_hosts_over_loopback"] = {
+        "predict_p50": hi["latency"]["p50_ms"] / lo["latency"]["p50_ms"],
+        "predict_p99": hi["latency"]["p99_ms"] / lo["latency"]["p99_ms"],
+        **{f"throughput_{a['clients']}_clients": a["predicts_per_s"] / b["predicts_per_s"]
+           for a, b in zip(hi["throughput"], lo["throughput"])},
+        "e1_wall_time": hi["e1"]["wall_time_s"] / lo["e1"]["wall_time_s"],
+        "e1_command_time": hi["e1"]["command_s"] / lo["e1"]["command_s"]}
+    result["e1_same_counts"] = lo["e1"]["rollouts"] == hi["e1"]["rollouts"] and lo["e1"]["success"] == hi["e1"]["success"]
+    save_result(result, args.out, headline=("ratios_hosts_over_loopback", "e1_same_counts"))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
