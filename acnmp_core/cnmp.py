@@ -189,17 +189,36 @@ class CNMP(nn.Module):
                 f"demos: expected {self.config.n_task_params} task parameters, got {demos.n_task_params}"
             )
 
+    # ----- device ---------------------------------------------------------------------------------
+    @property
+    def device(self) -> torch.device:
+        """Where the encoder and decoder run (acnmp_core/device.py)."""
+        return next(self.encoder.parameters()).device
+
+    def to_device(self, device: str | torch.device) -> "CNMP":
+        """Move the encoder and decoder to ``device`` (``cpu``, ``cuda``, ``auto``:
+        :func:`acnmp_core.device.resolve_device`), once; the normalisers stay on the CPU. Returns
+        self. Make optimisers after the move (theirs are the parameters moved)."""
+        from .device import resolve_device
+
+        target = resolve_device(device)
+        self.encoder.to(target)
+        self.decoder.to(target)
+        return self
+
     # ----- network -------------------------------------------------------------------------------
     def encode(self, obs_x: torch.Tensor, obs_mask: torch.Tensor) -> torch.Tensor:
-        """Observations (B, N, 1+P+2D) with mask (B, N) -> latent (B, L), the masked mean."""
-        h = self.encoder(obs_x)
-        m = obs_mask.to(h.dtype)[..., None]
+        """Observations (B, N, 1+P+2D) with mask (B, N) -> latent (B, L), the masked mean; on the
+        networks' device (inputs are moved there; a no-op on the CPU)."""
+        device = self.device
+        h = self.encoder(obs_x.to(device))
+        m = obs_mask.to(device=device, dtype=h.dtype)[..., None]
         return (h * m).sum(1) / m.sum(1).clamp_min(1.0)
 
     def decode(self, latent: torch.Tensor, tgt_x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """Latent (B, L) and targets (B, M, 1+P) -> mean, std (B, M, D) in normalised units."""
         r = latent[:, None, :].expand(-1, tgt_x.shape[1], -1)
-        return self._head(torch.cat([r, tgt_x], dim=-1))
+        return self._head(torch.cat([r, tgt_x.to(latent.device)], dim=-1))
 
     def _head(self, dec_x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """Decoder inputs (..., L+1+P) -> mean, std (..., D) in normalised units."""
@@ -350,9 +369,9 @@ class CNMP(nn.Module):
         """Run a prepared :class:`Query` without gradients; returns raw units."""
         with torch.no_grad():
             mean, std, latent = self(query.obs_x, query.obs_mask, query.tgt_x)
-            mean = self.value_norm.denormalize(mean[0].double())
-            std = self.value_norm.denormalize_std(std[0].double())
-        return Prediction(query.times.copy(), mean.numpy(), std.numpy(), latent[0].double().numpy())
+            mean = self.value_norm.denormalize(mean[0].cpu().double())
+            std = self.value_norm.denormalize_std(std[0].cpu().double())
+        return Prediction(query.times.copy(), mean.numpy(), std.numpy(), latent[0].cpu().double().numpy())
 
     def predict_queries(self, queries: Sequence[Query]) -> list[Prediction]:
         """Several prepared single queries (B = 1 each, any N and T) in one forward pass.
@@ -369,15 +388,16 @@ class CNMP(nn.Module):
             return [self.predict_query(q) for q in queries]
         n_obs = [q.obs_x.shape[1] for q in queries]
         n_tgt = [q.tgt_x.shape[1] for q in queries]
+        device = self.device
         with torch.no_grad():
-            h = self.encoder(torch.cat([q.obs_x[0] for q in queries]))
+            h = self.encoder(torch.cat([q.obs_x[0] for q in queries]).to(device))
             # the same masked mean as encode() on each query (its mask is all ones)
             latents = [part.sum(0) / float(n) for part, n in zip(h.split(n_obs), n_obs)]
-            r = torch.stack(latents).repeat_interleave(torch.tensor(n_tgt), dim=0)  # (sum T, L)
-            mean, std = self._head(torch.cat([r, torch.cat([q.tgt_x[0] for q in queries])], dim=-1))
-            mean = self.value_norm.denormalize(mean.double())
-            std = self.value_norm.denormalize_std(std.double())
-        return [Prediction(q.times.copy(), m.numpy(), s.numpy(), lat.double().numpy())
+            r = torch.stack(latents).repeat_interleave(torch.tensor(n_tgt, device=device), dim=0)  # (sum T, L)
+            mean, std = self._head(torch.cat([r, torch.cat([q.tgt_x[0] for q in queries]).to(device)], dim=-1))
+            mean = self.value_norm.denormalize(mean.cpu().double())
+            std = self.value_norm.denormalize_std(std.cpu().double())
+        return [Prediction(q.times.copy(), m.numpy(), s.numpy(), lat.cpu().double().numpy())
                 for q, m, s, lat in zip(queries, mean.split(n_tgt), std.split(n_tgt), latents)]
 
     def predict_batch(self, obs_times, obs_values, task_params=None, query_times=None, *,
@@ -391,9 +411,9 @@ class CNMP(nn.Module):
         q = self.make_batch_query(obs_times, obs_values, task_params, query_times, obs_dims_mask=obs_dims_mask)
         with torch.no_grad():
             mean, std, latent = self(q.obs_x, q.obs_mask, q.tgt_x)
-            mean = self.value_norm.denormalize(mean.double())
-            std = self.value_norm.denormalize_std(std.double())
-        return Prediction(q.times.copy(), mean.numpy(), std.numpy(), latent.double().numpy())
+            mean = self.value_norm.denormalize(mean.cpu().double())
+            std = self.value_norm.denormalize_std(std.cpu().double())
+        return Prediction(q.times.copy(), mean.numpy(), std.numpy(), latent.cpu().double().numpy())
 
     def predict(
         self,
@@ -417,12 +437,13 @@ class CNMP(nn.Module):
         )
 
     def mean_normalized(self, query: Query) -> torch.Tensor:
-        """Differentiable mean (T, D) in normalised units for a query (used by adaptation)."""
+        """Differentiable mean (T, D) in normalised units for a query (used by adaptation), on the
+        CPU whatever the networks' device (the gradient flows back through the copy)."""
         mean, _, _ = self(query.obs_x, query.obs_mask, query.tgt_x)
-        return mean[0]
+        return mean[0].cpu()
 
     def encode_demo(self, times, values, task_params=None) -> np.ndarray:
         """Latent (L,) of a whole trajectory: times (T,), values (T, D) used as observations."""
         q = self.make_query(times, values, task_params, np.asarray(times, dtype=np.float64)[:1])
         with torch.no_grad():
-            return self.encode(q.obs_x, q.obs_mask)[0].double().numpy()
+            return self.encode(q.obs_x, q.obs_mask)[0].cpu().double().numpy()

@@ -104,7 +104,7 @@ def nll_loss(model: CNMP, ep: Episode, beta: float = 0.0) -> torch.Tensor:
     """
     mean, std, _ = model(ep.obs_x, ep.obs_mask, ep.tgt_x)
     var = std**2
-    nll = 0.5 * (torch.log(2 * math.pi * var) + (ep.tgt_y - mean) ** 2 / var)
+    nll = 0.5 * (torch.log(2 * math.pi * var) + (ep.tgt_y.to(mean.device) - mean) ** 2 / var)
     if beta > 0:
         nll = nll * var.detach() ** beta
     return nll.mean()
@@ -143,6 +143,7 @@ def train(
     optimizer: torch.optim.Optimizer | None = None,
     stop: threading.Event | None = None,
     on_validation: Callable[[int, float, float], None] | None = None,
+    device: str | torch.device | None = None,
 ) -> TrainResult:
     """Train ``model`` in place on ``demos`` and leave it at its best validation checkpoint.
 
@@ -159,10 +160,16 @@ def train(
         is then left part-trained, so the caller discards it.
     on_validation : called after each validation but the first as ``(step, mean training loss
         since the previous validation, validation loss)``: a service's loss curve.
+    device : move ``model``'s networks there first (``cpu``, ``cuda``, ``auto``; acnmp_core/device.py);
+        None trains where they are. Not with ``optimizer`` (its state belongs to the old place).
 
     Returns a :class:`TrainResult`.
     """
     cfg = cfg or TrainConfig()
+    if device is not None:
+        if optimizer is not None and model.device != torch.device(str(device)):
+            raise ValueError("device: give the optimizer of a model already on its device, or no optimizer")
+        model.to_device(device)
     if fit_normalization:
         model.fit_normalization(demos)
     gen = torch.Generator().manual_seed(seed)

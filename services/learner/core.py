@@ -110,11 +110,17 @@ class LearnerCore:
     evaluator_for : ``job -> RolloutEvaluator`` that executes the job's roll-outs.
     publish : ``event -> None``; every event the learner emits (versions, latents, roll-outs, progress).
     on_version : ``SkillState -> None``; called after a new version is checkpointed, before its events.
+    device : where the skills' networks train, adapt and assimilate (``cpu``, ``cuda``, ``auto``;
+        acnmp_core/device.py): a skill loaded from the state directory or newly trained is moved
+        there once; its checkpoints load on any device.
     """
 
     def __init__(self, state_dir: str | os.PathLike, *, evaluator_for: Callable[[AdaptJob], RolloutEvaluator],
                  publish: Callable[[dict], None] = lambda _event: None,
-                 on_version: Callable[[SkillState], None] = lambda _state: None):
+                 on_version: Callable[[SkillState], None] = lambda _state: None, device: str = "cpu"):
+        from acnmp_core.device import resolve_device
+
+        self.device = resolve_device(device)  # before anything is locked: a bad device changes nothing
         # one learner per state directory: a second one would restart the first one's jobs
         self._dir_lock = DirectoryLock(state_dir, "learner.lock", "learner").acquire()
         self.skill_store = SkillStore(state_dir)
@@ -125,6 +131,10 @@ class LearnerCore:
         self._train_lock = threading.Lock()  # one training at a time (the machine has few cores)
         try:
             self.skills: dict[str, SkillState] = self.skill_store.load_all()
+            for state in self.skills.values():
+                for model in (state.model, state.partner):
+                    if model is not None:
+                        model.to_device(self.device)
             self.jobs: dict[str, JobRecord] = self.job_store.load_all()
         except BaseException:
             self._dir_lock.release()
@@ -175,7 +185,7 @@ class LearnerCore:
         model = CNMP(spec.model_cfg, seed=spec.seed)
         with self._train_lock:
             res = train(model, spec.demos, spec.train_cfg, seed=spec.seed, progress=False, stop=self._stop,
-                        on_validation=self._train_curve(skill, spec.train_cfg.steps))
+                        on_validation=self._train_curve(skill, spec.train_cfg.steps), device=self.device)
         with self._lock:
             old = self.skills.get(skill)
             state = SkillState(skill, model, spec.demos, 0 if old is None else old.version + 1,
@@ -380,6 +390,9 @@ class LearnerCore:
             with self._train_lock:
                 losses = train_pair(pair, req.demos_a, req.demos_b, req.config, seed=req.seed,
                                     on_step=self._pair_progress(job))
+            # a pair trains on the CPU (acnmp_core/transfer.py); served and adapted where the skills are
+            pair.model_a.to_device(self.device)
+            pair.model_b.to_device(self.device)
             with self._lock:
                 old = self.skills.get(job.skill)
                 state = SkillState(job.skill, pair.model_a, req.demos_a, 0 if old is None else old.version + 1,

@@ -36,7 +36,7 @@ from acnmp_core.transfer_job import PairTrainJob
 from services.model.weights import encode_weights
 from services.recording.publisher import EventPublisher
 from services.transport import Keyspace, Ready, Service, WireError, declare_rpc, option, wait_until_stopped
-from services.transport.argtypes import int_at_least, seconds
+from services.transport.argtypes import device, int_at_least, seconds
 from services.transport.errors import wire_error
 from services.transport.keys import check_name, is_concrete, job_from_key, skill_from_key
 from services.transport.state_dir import default_state_dir
@@ -142,7 +142,7 @@ class LearnerService:
 
     def __init__(self, session: zenoh.Session, keys: Keyspace, state_dir: str | os.PathLike, *,
                  learner_id: str | None = None, wait_recorder: float = 0.0, chunk_timeout: float = 60.0,
-                 limits: LearnerLimits = LearnerLimits()):
+                 limits: LearnerLimits = LearnerLimits(), device: str = "cpu"):
         self.session, self.keys = session, keys
         self.limits = limits
         self.learner_id = check_name("learner id", learner_id or f"learner-{os.getpid()}")
@@ -151,7 +151,7 @@ class LearnerService:
         self.chunk_timeout = float(chunk_timeout)
         self._recorder_checked = wait_recorder <= 0
         self.core = LearnerCore(state_dir, evaluator_for=self._evaluator, publish=self._publish,
-                                on_version=self._put_weights)
+                                on_version=self._put_weights, device=device)
         self._rpcs = [
             declare_rpc(session, keys.train("*"), self._handle_train, workers=1),
             declare_rpc(session, keys.adapt("*"), self._handle_adapt, workers=1),
@@ -387,6 +387,8 @@ class LearnerConfig(Service):
                                   metavar="S", type=seconds(zero=True))
     chunk_timeout: float = option(60.0, "seconds a worker may take for its share of a batch (default: %(default)s)",
                                   metavar="S", type=seconds())
+    device: str = option("cpu", "where skills train, adapt and assimilate: cpu, cuda or auto (cuda when present) "
+                                "(default: %(default)s)", type=device)
     max_train_steps: int = option(LearnerLimits.max_train_steps,
                                   "refuse train requests (and assimilations) of more steps (default: %(default)s)",
                                   metavar="N", type=int_at_least(1))
@@ -408,7 +410,7 @@ class LearnerConfig(Service):
         with LearnerService(session, Keyspace(self.session.namespace), state_dir, learner_id=self.learner_id,
                             wait_recorder=self.wait_recorder, chunk_timeout=self.chunk_timeout,
                             limits=LearnerLimits(max_train_steps=self.max_train_steps,
-                                                 max_rollouts=self.max_rollouts)) as learner:
+                                                 max_rollouts=self.max_rollouts), device=self.device) as learner:
             # a stop interrupts what the core runs at once (training included), not after it
             threading.Thread(target=lambda: (stop.wait(), learner.core.interrupt()), name="stop-watch",
                              daemon=True).start()

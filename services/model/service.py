@@ -31,7 +31,7 @@ import zenoh
 
 from acnmp_core.checkpoint import load_checkpoint
 from services.transport import Keyspace, Ready, Service, declare_rpc, option, wait_until_stopped
-from services.transport.argtypes import int_at_least, seconds
+from services.transport.argtypes import device, int_at_least, seconds
 from services.transport.auth import authenticated_user
 from services.transport.keys import check_name, is_concrete, skill_from_key
 from services.transport.wire import WireError
@@ -78,13 +78,18 @@ class ModelService:
     batch_threads : batcher threads (default 1); each takes the predicts waiting and computes them.
         More than one only fight over the GIL on 2 cores (mode ``threads2`` of
         benchmarks/results/bench_predict.json).
+    device : where the served networks run (``cpu``, ``cuda``, ``auto``; acnmp_core/device.py): each
+        model is moved there once, when it is swapped in; ValueError for a device not present.
     """
 
     def __init__(self, session: zenoh.Session, namespace: str = "default", *,
                  skills: Sequence[str] | None = None, workers: int = 2, fetch_latest: bool = True,
                  max_queue: int = MAX_QUEUE, weights_source: str = "learner",
                  batch_max: int = DEFAULT_BATCH_MAX, batch_window: float = DEFAULT_BATCH_WINDOW,
-                 batch_threads: int = 1):
+                 batch_threads: int = 1, device: str = "cpu"):
+        from acnmp_core.device import resolve_device
+
+        self.device = resolve_device(device)
         self.session = session
         self.weights_source = weights_source
         self.keys = Keyspace(namespace)
@@ -174,6 +179,7 @@ class ModelService:
     def load(self, entry: SkillModel) -> bool:
         """Swap ``entry`` in if it is newer than what is served; declare the skill's liveliness token
         the first time. Returns True if it was swapped in."""
+        entry.model.to_device(self.device)  # once, before any predict sees it
         if not self.registry.offer(entry):
             log.debug("ignored %s v%d (not newer or not served here)", entry.skill, entry.version)
             return False
@@ -277,6 +283,8 @@ class ModelConfig(Service):
     batch_window: float = option(DEFAULT_BATCH_WINDOW, "seconds to wait for more predicts to batch with the "
                                                        "first (default: %(default)s: only those already waiting)",
                                  metavar="SECONDS", type=seconds(zero=True))
+    device: str = option("cpu", "where the networks run: cpu, cuda or auto (cuda when present) (default: %(default)s)",
+                         type=device)
     batch_threads: int = option(1, "threads computing batched predicts; the work around a forward pass holds "
                                    "Python's GIL, so on 2 cores one is fastest (default: %(default)s)",
                                 metavar="N", type=int_at_least(1))
@@ -289,7 +297,8 @@ class ModelConfig(Service):
         source = "learner" if authenticated_user(self.session.config) else "unauthenticated"
         with ModelService(session, self.session.namespace, skills=self.skills, workers=self.workers,
                           max_queue=self.max_queue, weights_source=source, batch_max=self.batch_max,
-                          batch_window=self.batch_window, batch_threads=self.batch_threads) as service:
+                          batch_window=self.batch_window, batch_threads=self.batch_threads,
+                          device=self.device) as service:
             for value in self.checkpoints:
                 skill, path = _parse_checkpoint_arg(value)
                 try:

@@ -97,6 +97,18 @@ def robot_help(what: str) -> str:
             f"package.module:attr")
 
 
+def device(text: str) -> str:
+    """``--device``: ``cpu``, ``cuda``, ``cuda:N`` or ``auto``, present on this machine
+    (:func:`acnmp_core.device.resolve_device`); returns the name as given."""
+    from acnmp_core.device import resolve_device
+
+    try:
+        resolve_device(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc).split(": ", 1)[1]) from None
+    return text
+
+
 def endpoint(text: str) -> str:
     """An argparse type: a zenoh endpoint ``<protocol>/<address>`` as zenoh parses it (for the
     endpoints a command writes into config files rather than opening a session on)."""
