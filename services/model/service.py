@@ -14,7 +14,9 @@ Declared entities (``<ns>`` the namespace, ``<skill>`` a skill name):
   and ``acnmp/<ns>/model/<skill>`` (one per skill, once it has a model).
 
 At start-up, and again every few seconds while a skill it should serve has no model, it queries
-``acnmp/<ns>/skill/<skill|*>/weights/latest``. Weights can also come from checkpoint files.
+``acnmp/<ns>/skill/<skill|*>/weights/latest``; and for every served skill whenever a learner's
+liveliness token appears (again): after its link to the router was cut and came back, the weights
+put meanwhile are fetched. Weights can also come from checkpoint files.
 Weights are decoded and the model built on one loader thread, then swapped in under a lock
 (services/model/handlers.py): queries in flight finish on the old model, versions only increase.
 """
@@ -132,8 +134,13 @@ class ModelService:
         ]
         self._loader = threading.Thread(target=self._load_loop, name="model-loader", daemon=True)
         self._loader.start()
-        self._fetcher = None
+        self._fetcher, self._learners = None, None
+        # a learner's token seen (again): at start, and when this process's link to the router comes
+        # back after a cut (weights put meanwhile never reached it): ask every skill's latest weights
+        self._learner_seen = threading.Event()
         if fetch_latest:
+            self._learners = session.liveliness().declare_subscriber(
+                self.keys.tokens("learner"), self._on_learner, history=True)
             self._fetcher = threading.Thread(target=self._fetch_loop, name="model-fetch", daemon=True)
             self._fetcher.start()
         self.token_key = self.keys.model_service_token(str(session.zid()))
@@ -203,16 +210,23 @@ class ModelService:
         self.load(entry)
         return entry
 
+    def _on_learner(self, sample: zenoh.Sample) -> None:
+        if sample.kind == zenoh.SampleKind.PUT:
+            self._learner_seen.set()
+
     def _fetch_loop(self) -> None:
         first = True
         while not self._stop.is_set():
+            again = self._learner_seen.is_set()
+            self._learner_seen.clear()
             wanted = self.registry.missing() if self.registry.allowed is not None else (
                 ["*"] if first or not self.registry.skills() else [])
+            if again:  # what is served may be behind: load() keeps only a newer version
+                wanted = sorted(set(wanted) | set(self.registry.skills()))
             for skill in wanted:
                 self._fetch_latest(skill)
             first = False
-            if self._stop.wait(LATEST_POLL):
-                return
+            self._learner_seen.wait(LATEST_POLL)
 
     def _fetch_latest(self, skill: str) -> None:
         key = self.keys.weights_latest(skill)
@@ -228,7 +242,10 @@ class ModelService:
     def close(self) -> None:
         """Undeclare the tokens, subscribers and queryables (waiting for queries in flight)."""
         self._stop.set()
+        self._learner_seen.set()  # wakes the fetcher
         self._inbox.put(("stop", b"", ""))
+        if self._learners is not None:
+            self._learners.undeclare()
         for t in (self._loader, self._fetcher):
             if t is not None:
                 t.join(timeout=6.0)

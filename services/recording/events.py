@@ -6,7 +6,7 @@ Every event is a wire map (services/transport/wire.py) with ``"v": 1``, ``"kind"
 The seven kinds and their fields (``?`` marks optional ones; ``T`` steps, ``D`` output dims):
 
 rollout       job str, rollout_index int>=0, trajectory (T,D) float, times (T,) float,
-              reward (T,) float (per step), return float, success bool, worker str,
+              reward (T,) float (per step), return float, success bool, worker str, host str (optional),
               condition? {times (K,) float, values (K,D) float}, task_params? (P,) float,
               iteration? int, skill? str, space? "cartesian"|"joint",
               drawing? str (a robot drawing kind) with that drawing's fields
@@ -67,11 +67,12 @@ def _base(kind: str, t: float | None) -> dict:
 def rollout_event(job: str, rollout_index: int, trajectory, times, reward, *, ret: float | None = None,
                   success: bool = False, worker: str = "", condition: dict | None = None,
                   task_params=None, iteration: int | None = None, skill: str | None = None,
-                  space: str = "cartesian", t: float | None = None) -> dict:
+                  space: str = "cartesian", t: float | None = None, host: str = "") -> dict:
     """Build and validate a ``rollout`` event.
 
     ``trajectory`` (T,D), ``times`` (T,), ``reward`` (T,) per-step rewards; ``ret`` defaults to
-    ``reward.sum()``; ``condition`` is ``{"times": (K,), "values": (K,D)}``. Returns the message map.
+    ``reward.sum()``; ``condition`` is ``{"times": (K,), "values": (K,D)}``; ``host``: the worker's
+    host (set only when known). Returns the message map.
     """
     reward = np.asarray(reward, dtype=np.float64)
     msg = _base("rollout", t)
@@ -80,6 +81,8 @@ def rollout_event(job: str, rollout_index: int, trajectory, times, reward, *, re
                times=np.asarray(times, dtype=np.float64), reward=reward,
                success=bool(success), worker=str(worker), space=space)
     msg["return"] = float(reward.sum() if ret is None else ret)
+    if host:
+        msg["host"] = str(host)
     if condition is not None:
         msg["condition"] = {"times": np.asarray(condition["times"], dtype=np.float64),
                             "values": np.asarray(condition["values"], dtype=np.float64)}
@@ -112,6 +115,7 @@ def batch_rollout_events(job: str, first_index: int, trajectories, times, batch,
     """
     trajectories = np.asarray(trajectories, dtype=np.float64)
     workers = getattr(batch, "workers", None) or ("local",) * len(batch)
+    hosts = getattr(batch, "hosts", None) or ("",) * len(batch)
     if len(workers) != len(trajectories) or batch.rewards.shape[0] != len(trajectories):
         raise ValueError(f"batch: expected {len(trajectories)} roll-outs, got {len(workers)} worker ids "
                          f"and {batch.rewards.shape[0]} rewards")
@@ -122,7 +126,7 @@ def batch_rollout_events(job: str, first_index: int, trajectories, times, batch,
     out = []
     for j in range(len(trajectories)):
         ev = rollout_event(job, first_index + j, trajectories[j], times, batch.rewards[j],
-                           success=bool(batch.success[j]), worker=str(workers[j]), condition=condition,
+                           success=bool(batch.success[j]), worker=str(workers[j]), host=hosts[j], condition=condition,
                            task_params=None if tp is None else tp[j], iteration=iteration, skill=skill,
                            space="cartesian" if drawing is None else "joint")
         if drawn:
@@ -291,6 +295,7 @@ def _validate_rollout(msg: dict) -> None:
     field(msg, "return", float)
     field(msg, "success", bool)
     field(msg, "worker", str)
+    field(msg, "host", str, default="")
     space = field(msg, "space", str, default="cartesian")
     if space not in ("cartesian", "joint"):
         raise WireError("bad_request", f"field 'space': {space!r} is not 'cartesian' or 'joint'")

@@ -133,7 +133,8 @@ def summarize(path: str | Path) -> dict:
     ``rollouts`` (rows logged), ``unique_rollouts`` (distinct indices), ``duplicates`` (indices
     logged more than once), ``mean_return``, ``best_return``, ``success_rate``, ``method``,
     ``skill``, ``robot``, ``task``, ``seed`` (from its ``job`` event; None for a recording without
-    one), ``workers`` ({worker: roll-outs}) and ``last_progress`` (the latest job_progress values).
+    one), ``workers`` ({worker: roll-outs}), ``hosts`` ({the workers' host: roll-outs}, where the
+    events name it) and ``last_progress`` (the latest job_progress values).
     Raises FileNotFoundError, IsADirectoryError or ValueError (not a readable recording).
     """
     path = Path(path)
@@ -176,7 +177,7 @@ def summarize(path: str | Path) -> dict:
                 about[parts[1]] = {c: cols[c][i] for c in cols}
             continue
         if head == "rollouts":
-            cols = {c: _column(batch, c) for c in ("rollout_index", "ret", "success", "worker")}
+            cols = {c: _column(batch, c) for c in ("rollout_index", "ret", "success", "worker", "host")}
             for i in range(batch.num_rows):
                 rollouts[parts[1]].append({c: cols[c][i] for c in cols})
         elif head == "progress":
@@ -216,6 +217,7 @@ def summarize(path: str | Path) -> dict:
             "best_return": max(returns) if returns else None,
             "success_rate": (sum(bool(r["success"]) for r in rows) / len(rows)) if rows else None,
             "workers": dict(Counter(r["worker"] or "?" for r in rows)),
+            "hosts": dict(Counter(r["host"] for r in rows if r["host"])),
             "last_progress": last,
         }
     skills = {s: {"versions": sorted(versions.get(s, ())), "latents": latents.get(s, 0)}
@@ -295,6 +297,8 @@ def format_summary(summary: dict) -> str:
             lines.append(f"    duplicated roll-out indices: {j['duplicates'][:20]}")
         if j["workers"]:
             lines.append("    workers: " + ", ".join(f"{w}={n}" for w, n in sorted(j["workers"].items())))
+        if j.get("hosts"):
+            lines.append("    hosts: " + ", ".join(f"{h}={n}" for h, n in sorted(j["hosts"].items())))
         if j["last_progress"]:
             p = j["last_progress"]
             lines.append(f"    last progress: iteration {p['iteration']}, {p['rollouts']} roll-outs, "

@@ -231,7 +231,8 @@ class RrdWriter:
                 self.rec.log(f"trajectory/time/{job}/condition", rr.Points2D(pts, radii=0.5 * _radius(traj)))
         self.rec.log(f"return/{job}", rr.Scalars(ret))
         self.rec.log(f"reward/{job}", rr.BarChart(np.asarray(msg["reward"], dtype=np.float32)))
-        row = dict(rollout_index=idx, worker=str(msg.get("worker", "")), success=bool(msg.get("success")),
+        row = dict(rollout_index=idx, worker=str(msg.get("worker", "")), host=str(msg.get("host", "")),
+                   success=bool(msg.get("success")),
                    ret=ret, steps=int(traj.shape[0]), iteration=-1 if msg.get("iteration") is None else int(msg["iteration"]),
                    # the data back at full precision (the drawings above are float32): recordings as data
                    dims=int(dims), times=np.asarray(msg["times"], dtype=np.float64),

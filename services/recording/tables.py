@@ -34,7 +34,7 @@ _F64 = pa.list_(pa.float64())
 SCHEMAS: dict[str, pa.Schema] = {
     "rollouts": pa.schema([
         ("job", pa.string()), ("attempt", pa.int64()), ("rollout_index", pa.int64()), ("iteration", pa.int64()),
-        ("worker", pa.string()), ("method", pa.string()), ("robot", pa.string()), ("task", pa.string()),
+        ("worker", pa.string()), ("host", pa.string()), ("method", pa.string()), ("robot", pa.string()), ("task", pa.string()),
         ("skill", pa.string()), ("model_version", pa.int64()), ("task_params", _F64), ("times", _F64),
         ("trajectory", pa.list_(_F64)), ("steps", pa.int64()), ("dims", pa.int64()), ("reward", _F64),
         ("return", pa.float64()), ("success", pa.bool_()), ("wall_time", pa.float64()), ("event_id", pa.string()),
@@ -197,7 +197,7 @@ def read_recording(paths: str | os.PathLike | Iterable[str | os.PathLike]) -> Re
 
 
 def _rollouts(parts, batch, rows, seen) -> None:
-    cols = {c: _column(batch, c) for c in ("rollout_index", "worker", "success", "ret", "steps", "iteration", "dims",
+    cols = {c: _column(batch, c) for c in ("rollout_index", "worker", "host", "success", "ret", "steps", "iteration", "dims",
                                             "skill", "attempt", "model_version", "event_id")}
     arrays = {c: _lists(batch, c) for c in ("times", "values", "reward", "task_params")}
     wall = _seconds(batch)
@@ -213,6 +213,7 @@ def _rollouts(parts, batch, rows, seen) -> None:
         rows["rollouts"].append({
             "job": parts[1], "attempt": key[1], "rollout_index": key[2],
             "iteration": None if iteration in (None, -1) else iteration, "worker": cols["worker"][i],
+            "host": cols["host"][i] or None,
             "skill": cols["skill"][i], "model_version": cols["model_version"][i],
             "task_params": arrays["task_params"][i], "times": arrays["times"][i], "trajectory": trajectory,
             "steps": cols["steps"][i], "dims": dims, "reward": arrays["reward"][i], "return": cols["ret"][i],

@@ -39,20 +39,26 @@ _BATCH_FIELDS = tuple(f.name for f in dataclasses.fields(RolloutBatch))
 @dataclass
 class ExecutedBatch(RolloutBatch):
     """A :class:`~acnmp_core.rollout.RolloutBatch` that also says which worker executed each roll-out:
-    ``workers`` (B,) worker ids (``"local"`` for an in-process evaluator)."""
+    ``workers`` (B,) worker ids (``"local"`` for an in-process evaluator) and ``hosts`` (B,) their
+    hosts (services/transport/about.py; empty when not known)."""
 
     workers: tuple[str, ...] = ()
+    hosts: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         super().__post_init__()
         self.workers = tuple(str(w) for w in self.workers)
+        self.hosts = tuple(str(h) for h in self.hosts)
         if len(self.workers) != len(self):
             raise ValueError(f"workers: expected {len(self)} worker ids, got {len(self.workers)}")
+        if self.hosts and len(self.hosts) != len(self):
+            raise ValueError(f"hosts: expected {len(self)} host names, got {len(self.hosts)}")
 
     @classmethod
-    def of(cls, batch: RolloutBatch, workers) -> "ExecutedBatch":
-        """``batch`` with its worker ids (every field of the library's RolloutBatch is kept)."""
-        return cls(**{name: getattr(batch, name) for name in _BATCH_FIELDS}, workers=tuple(workers))
+    def of(cls, batch: RolloutBatch, workers, hosts=()) -> "ExecutedBatch":
+        """``batch`` with its worker ids and hosts (every field of the library's RolloutBatch is kept)."""
+        return cls(**{name: getattr(batch, name) for name in _BATCH_FIELDS}, workers=tuple(workers),
+                   hosts=tuple(hosts))
 
 
 def take(batch: RolloutBatch, start: int, stop: int) -> RolloutBatch:
@@ -71,9 +77,9 @@ def rollout_request(task: str, task_config: dict, trajectories, times, task_para
             "task_params": task_params}
 
 
-def rollout_reply(batch: RolloutBatch, worker_id: str) -> dict:
-    """The reply map of an executed batch: every RolloutBatch field that is set, and the worker."""
-    reply: dict[str, Any] = {"v": 1, "worker": worker_id}
+def rollout_reply(batch: RolloutBatch, worker_id: str, host: str = "") -> dict:
+    """The reply map of an executed batch: every RolloutBatch field that is set, the worker and its host."""
+    reply: dict[str, Any] = {"v": 1, "worker": worker_id, "host": host}
     for name in _BATCH_FIELDS:
         value = getattr(batch, name)
         if isinstance(value, dict):
@@ -94,12 +100,14 @@ def batch_from_reply(reply: dict) -> RolloutBatch:
 class Worker:
     """Executes roll-out requests for one robot kind; the zenoh-free core of the worker process.
 
-    ``delay`` (seconds per roll-out) simulates a slow robot, for tests and benchmarks.
+    ``delay`` (seconds per roll-out) simulates a slow robot, for tests and benchmarks; ``host`` is
+    the host every reply names (the process's, services/transport/about.py).
     """
 
-    def __init__(self, robot_kind: str, worker_id: str, *, delay: float = 0.0):
+    def __init__(self, robot_kind: str, worker_id: str, *, delay: float = 0.0, host: str = ""):
         self.robot = robot(robot_kind)
         self.worker_id = check_name("worker id", worker_id)
+        self.host = str(host)
         self.delay = float(delay)
         self._cache: OrderedDict[str, Any] = OrderedDict()
         self.rollouts = 0
@@ -141,7 +149,7 @@ class Worker:
         if self.delay > 0:
             time.sleep(self.delay * b)
         self.rollouts += b
-        return rollout_reply(batch, self.worker_id)
+        return rollout_reply(batch, self.worker_id, self.host)
 
     def close(self) -> None:
         """Close every cached evaluator that holds resources (PyBullet clients)."""

@@ -122,6 +122,7 @@ class RemoteEvaluator:
         b = trajs.shape[0]
         results: list[RolloutBatch | None] = [None] * b  # one slot per roll-out
         done_by: list[str] = [""] * b
+        host_of: list[str] = [""] * b
         cond = threading.Condition()
         live: set[str] = set()
         dead: set[str] = set()
@@ -148,7 +149,8 @@ class RemoteEvaluator:
             req = rollout_request(self.task, self.task_config, trajs[chunk.start:chunk.stop], times, tp)
             key = self.keys.worker_rollout(self.robot, chunk.worker)
             try:
-                batch = batch_from_reply(call(self.session, key, req, timeout=self.timeout))
+                reply = call(self.session, key, req, timeout=self.timeout)
+                batch = batch_from_reply(reply)
                 if len(batch) != chunk.stop - chunk.start:
                     raise WireError("internal", f"worker {chunk.worker} returned {len(batch)} roll-outs "
                                                 f"for {chunk.stop - chunk.start}")
@@ -173,6 +175,7 @@ class RemoteEvaluator:
                 for i in range(chunk.start, chunk.stop):
                     results[i] = take(batch, i - chunk.start, i - chunk.start + 1)
                     done_by[i] = chunk.worker
+                    host_of[i] = str(reply.get("host") or "")
                 cond.notify_all()
 
         def dispatch(start: int, stop: int, avoid: set[str]) -> None:
@@ -238,4 +241,4 @@ class RemoteEvaluator:
         missing = [i for i, r in enumerate(results) if r is None]
         if missing:  # cannot happen when the loop above ends normally; guard the invariant
             raise RuntimeError(f"roll-outs {missing} have no result")
-        return ExecutedBatch.of(RolloutBatch.concat(results), done_by)
+        return ExecutedBatch.of(RolloutBatch.concat(results), done_by, host_of)

@@ -16,6 +16,7 @@ from typing import ClassVar
 import zenoh
 
 from services.transport import Keyspace, Ready, Service, declare_rpc, option, wait_until_stopped
+from services.transport.about import host_name
 from services.transport.argtypes import robot_help, robot_kind, seconds
 
 from .core import Worker
@@ -37,7 +38,8 @@ class WorkerConfig(Service):
 
     def serve(self, session: zenoh.Session, stop: threading.Event, ready: Ready) -> int:
         keys = Keyspace(self.session.namespace)
-        worker = Worker(self.robot, self.worker_id or f"{self.robot}-{os.getpid()}", delay=self.delay)
+        worker = Worker(self.robot, self.worker_id or f"{self.robot}-{os.getpid()}", delay=self.delay,
+                        host=host_name())
         try:
             # one handler thread: requests run one after the other, PyBullet stays on one thread
             rpc = declare_rpc(session, keys.worker_rollout(self.robot, worker.worker_id),
