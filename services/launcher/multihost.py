@@ -69,13 +69,15 @@ class MultiHostDeployment:
     learner re-sends it), ``start_timeout``/``stop_timeout`` (seconds), ``work_dir`` (certificates,
     configs and logs; default a temporary directory removed at stop). ``one_host``: every process
     on the router's host, so the same processes, configs and TLS talk over that namespace's
-    loopback: the baseline a benchmark compares the links against.
+    loopback: the baseline a benchmark compares the links against. ``extra_workers``: robot kinds
+    of one more worker each, on hosts ``worker-<kind>`` (ids ``<kind>-0``).
     """
 
     def __init__(self, namespace: str = "default", *, workers: int = 2, robot: str = "point2d",
                  record: str | os.PathLike | None = None, state_dir: str | os.PathLike | None = None,
                  chunk_timeout: float = 60.0, start_timeout: float = 60.0, stop_timeout: float = 8.0,
-                 work_dir: str | os.PathLike | None = None, one_host: bool = False) -> None:
+                 work_dir: str | os.PathLike | None = None, one_host: bool = False,
+                 extra_workers: Sequence[str] = ()) -> None:
         if workers < 1:
             raise ValueError(f"workers: expected >= 1, got {workers}")
         self.namespace, self.robot, self.n_workers = namespace, robot, int(workers)
@@ -88,7 +90,8 @@ class MultiHostDeployment:
         self.secrets, self.certs, self.log_dir = (self.work_dir / "secrets", self.work_dir / "tls",
                                                   self.work_dir / "logs")
         names = ["router", *(["recorder"] if self.record is not None else []), "learner", "model",
-                 *[f"worker-{i}" for i in range(self.n_workers)], "client"]
+                 *[f"worker-{i}" for i in range(self.n_workers)], *[f"worker-{k}" for k in extra_workers], "client"]
+        self.extra_workers = tuple(extra_workers)
         self.one_host = bool(one_host)
         self.network = HostNetwork(["router", "client"] if self.one_host else names)
         self.processes: dict[str, HostProcess] = {}
@@ -116,6 +119,8 @@ class MultiHostDeployment:
             for i in range(self.n_workers):
                 started.append(self._spawn(f"worker-{i}", "worker", "worker",
                                            ["--robot", self.robot, "--id", f"{self.robot}-{i}"]))
+            for kind in self.extra_workers:
+                started.append(self._spawn(f"worker-{kind}", "worker", "worker", ["--robot", kind, "--id", f"{kind}-0"]))
             self._wait(started)
         except BaseException:
             self.stop()
