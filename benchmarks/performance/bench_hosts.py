@@ -24,7 +24,6 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-import threading
 import time
 from pathlib import Path
 
@@ -33,6 +32,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 from benchmarks._results import provenance, save_result  # noqa: E402
+from benchmarks.performance.bench_predict import run_clients  # noqa: E402
 
 SKILL = "e1"
 
@@ -61,32 +61,10 @@ def probe(args) -> dict:
     out = {"latency": {"p50_ms": float(np.percentile(ms, 50)), "p99_ms": float(np.percentile(ms, 99)), "n": args.n},
            "throughput": []}
     for n_clients in args.clients:
-        counts, errors = [0] * n_clients, [0] * n_clients
-        start, stop = threading.Barrier(n_clients + 1), threading.Event()
-
-        def worker(i: int) -> None:
-            with ACNMPClient(args.namespace, config_file=args.config, role="client", timeout=30) as c:
-                predict(c)
-                start.wait()
-                while not stop.is_set():
-                    try:
-                        predict(c)
-                        counts[i] += 1
-                    except Exception:
-                        errors[i] += 1
-
-        threads = [threading.Thread(target=worker, args=(i,)) for i in range(n_clients)]
-        for t in threads:
-            t.start()
-        start.wait()
-        t0 = time.perf_counter()
-        time.sleep(args.duration)  # the measuring window
-        stop.set()
-        for t in threads:
-            t.join()
-        elapsed = time.perf_counter() - t0
-        out["throughput"].append({"clients": n_clients, "predicts": sum(counts), "errors": sum(errors),
-                                  "predicts_per_s": sum(counts) / elapsed})
+        ran = run_clients(n_clients, args.duration,
+                          lambda: ACNMPClient(args.namespace, config_file=args.config, role="client", timeout=30), predict)
+        out["throughput"].append({"clients": n_clients, "predicts": ran["ops"], "errors": ran["errors"],
+                                  "predicts_per_s": ran["ops"] / ran["seconds"]})
     return out
 
 

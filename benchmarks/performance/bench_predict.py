@@ -130,6 +130,40 @@ def _cpu_seconds(proc) -> float:
     return t.user + t.system
 
 
+def run_clients(n_clients: int, duration: float, connect, op, on_start=None) -> dict:
+    """``n_clients`` threads, each with its own client ``connect()`` (a context manager), call
+    ``op(client)`` once to warm up, then as often as they can for ``duration`` s, all at once.
+    ``on_start()`` runs when they start (e.g. to read CPU counters). Returns the ops done, the
+    errors and the seconds measured."""
+    counts, errors = [0] * n_clients, [0] * n_clients
+    start = threading.Barrier(n_clients + 1)
+    stop = threading.Event()
+
+    def worker(i: int) -> None:
+        with connect() as c:
+            op(c)  # connected and warm
+            start.wait()
+            while not stop.is_set():
+                try:
+                    op(c)
+                    counts[i] += 1
+                except Exception:
+                    errors[i] += 1
+
+    threads = [threading.Thread(target=worker, args=(i,)) for i in range(n_clients)]
+    for t in threads:
+        t.start()
+    start.wait()
+    if on_start is not None:
+        on_start()
+    t0 = time.perf_counter()
+    time.sleep(duration)  # the measuring window
+    stop.set()
+    for t in threads:
+        t.join()
+    return {"ops": sum(counts), "errors": sum(errors), "seconds": time.perf_counter() - t0}
+
+
 def measure_throughput(endpoint: str, n_clients: int, duration: float, service=None, empty: bool = False) -> dict:
     """Predicts per second with ``n_clients`` threads, each with its own session, for ``duration`` s;
     with ``service`` (a psutil process) also the CPU milliseconds per predict of the service and
@@ -139,44 +173,23 @@ def measure_throughput(endpoint: str, n_clients: int, duration: float, service=N
 
     from clients.client import ACNMPClient
 
-    counts, errors = [0] * n_clients, [0] * n_clients
-    start = threading.Barrier(n_clients + 1)
-    stop = threading.Event()
+    def op(c):
+        if empty:
+            if not [r for r in c.session.get(EMPTY_KEY, timeout=30.0) if r.ok is not None]:
+                raise RuntimeError("no empty reply")
+        else:
+            c.predict("reach", OBS_T, OBS_V, n_steps=STEPS)
 
-    def worker(i: int) -> None:
-        with ACNMPClient(NS, connect=[endpoint], timeout=30.0) as c:
-            def op():
-                if empty:
-                    if not [r for r in c.session.get(EMPTY_KEY, timeout=30.0) if r.ok is not None]:
-                        raise RuntimeError("no empty reply")
-                else:
-                    c.predict("reach", OBS_T, OBS_V, n_steps=STEPS)
+    me, cpu0 = psutil.Process(), []
 
-            c.predict("reach", OBS_T, OBS_V, n_steps=STEPS)  # connected and warm
-            start.wait()
-            while not stop.is_set():
-                try:
-                    op()
-                    counts[i] += 1
-                except Exception:
-                    errors[i] += 1
+    def on_start():
+        cpu0.extend([_cpu_seconds(service) if service is not None else 0.0, _cpu_seconds(me)])
 
-    threads = [threading.Thread(target=worker, args=(i,)) for i in range(n_clients)]
-    for t in threads:
-        t.start()
-    me = psutil.Process()
-    start.wait()
-    cpu0 = (_cpu_seconds(service) if service is not None else 0.0, _cpu_seconds(me))
-    t0 = time.perf_counter()
-    time.sleep(duration)
-    stop.set()
-    for t in threads:
-        t.join()
-    elapsed = time.perf_counter() - t0
+    ran = run_clients(n_clients, duration, lambda: ACNMPClient(NS, connect=[endpoint], timeout=30.0), op, on_start)
     cpu1 = (_cpu_seconds(service) if service is not None else 0.0, _cpu_seconds(me))
-    n = max(sum(counts), 1)
-    return {"clients": n_clients, "predicts": sum(counts), "errors": sum(errors),
-            "seconds": elapsed, "predicts_per_s": sum(counts) / elapsed,
+    n = max(ran["ops"], 1)
+    return {"clients": n_clients, "predicts": ran["ops"], "errors": ran["errors"],
+            "seconds": ran["seconds"], "predicts_per_s": ran["ops"] / ran["seconds"],
             "service_cpu_ms_per_predict": 1e3 * (cpu1[0] - cpu0[0]) / n if service is not None else None,
             "client_cpu_ms_per_predict": 1e3 * (cpu1[1] - cpu0[1]) / n}
 
