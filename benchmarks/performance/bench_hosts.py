@@ -13,7 +13,9 @@ In each: E1 run from the client host (``acnmp experiment viapoint --distributed 
 --config``, ``--train-steps`` and ``--budget``), its own ``wall_time_s`` and the command's time;
 then, on the skill E1 trained, ``--n`` predicts one at a time (p50, p99 in ms) and the predicts per
 second of 1, 4 and 16 concurrent clients (threads of one process, a session each, ``--duration`` s
-each) from the client host. Reported: each number per layout and the ratio hosts / loopback.
+each) from the client host. The layouts alternate ``--reps`` times each (the machine is shared:
+one run of each is noise); reported: every run, the medians per layout, the ratio of the medians
+hosts / loopback and the ratio per repetition.
 
     python benchmarks/performance/bench_hosts.py [--n 300] [--out benchmarks/results/bench_hosts.json]
 
@@ -103,6 +105,7 @@ def main() -> int:
     parser.add_argument("--warmup", type=int, default=20)
     parser.add_argument("--duration", type=float, default=3.0, help="seconds per throughput point")
     parser.add_argument("--clients", type=lambda s: [int(x) for x in s.split(",")], default=[1, 4, 16])
+    parser.add_argument("--reps", type=int, default=3, help="runs of each layout, alternating (default %(default)s)")
     parser.add_argument("--seed", type=int, default=0, help="E1's seed")
     parser.add_argument("--train-steps", type=int, default=3000)
     parser.add_argument("--budget", type=int, default=100)
@@ -124,19 +127,28 @@ def main() -> int:
         return 1
     result = {"provenance": provenance(sys.argv), "config": {k: v for k, v in vars(args).items()
                                                              if k not in ("probe", "namespace", "config")}}
+    runs: dict[str, list[dict]] = {"loopback": [], "hosts": []}
     with tempfile.TemporaryDirectory(prefix="bench-hosts-") as tmp:
-        for layout in ("loopback", "hosts"):
-            result[layout] = measure_layout(layout, args, Path(tmp))
-            print(layout, json.dumps(result[layout]), flush=True)
-    lo, hi = result["loopback"], result["hosts"]
-    result["ratios_hosts_over_loopback"] = {
-        "predict_p50": hi["latency"]["p50_ms"] / lo["latency"]["p50_ms"],
-        "predict_p99": hi["latency"]["p99_ms"] / lo["latency"]["p99_ms"],
-        **{f"throughput_{a['clients']}_clients": a["predicts_per_s"] / b["predicts_per_s"]
-           for a, b in zip(hi["throughput"], lo["throughput"])},
-        "e1_wall_time": hi["e1"]["wall_time_s"] / lo["e1"]["wall_time_s"],
-        "e1_command_time": hi["e1"]["command_s"] / lo["e1"]["command_s"]}
-    result["e1_same_counts"] = lo["e1"]["rollouts"] == hi["e1"]["rollouts"] and lo["e1"]["success"] == hi["e1"]["success"]
+        for rep in range(args.reps):  # alternating, so both layouts meet the machine's moods alike
+            for layout in (("loopback", "hosts") if rep % 2 == 0 else ("hosts", "loopback")):
+                runs[layout].append(measure_layout(layout, args, Path(tmp) / f"rep{rep}"))
+                print(rep, layout, json.dumps(runs[layout][-1]), flush=True)
+
+    def median(layout: str, get) -> float:
+        return float(np.median([get(r) for r in runs[layout]]))
+
+    metrics = {"predict_p50_ms": lambda r: r["latency"]["p50_ms"], "predict_p99_ms": lambda r: r["latency"]["p99_ms"],
+               **{f"predicts_per_s_{n}_clients": (lambda r, i=i: r["throughput"][i]["predicts_per_s"])
+                  for i, n in enumerate(args.clients)},
+               "e1_wall_time_s": lambda r: r["e1"]["wall_time_s"], "e1_command_s": lambda r: r["e1"]["command_s"]}
+    for layout in runs:
+        result[layout] = {"runs": runs[layout], "median": {k: median(layout, f) for k, f in metrics.items()}}
+    lo, hi = result["loopback"]["median"], result["hosts"]["median"]
+    result["ratios_hosts_over_loopback"] = {k: hi[k] / lo[k] for k in metrics}
+    result["ratios_per_rep"] = {k: [f(h) / f(l) for h, l in zip(runs["hosts"], runs["loopback"])] for k, f in metrics.items()}
+    result["e1_same_counts"] = all(r["e1"]["rollouts"] == runs["loopback"][0]["e1"]["rollouts"]
+                                   and r["e1"]["success"] == runs["loopback"][0]["e1"]["success"]
+                                   for layout in runs for r in runs[layout])
     save_result(result, args.out, headline=("ratios_hosts_over_loopback", "e1_same_counts"))
     return 0
 
