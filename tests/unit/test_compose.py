@@ -94,3 +94,11 @@ def test_every_container_command_parses_with_acnmp_serve(compose):
             parser.parse_args(cmd)
         except SystemExit as exc:  # argparse exits on an unknown option or process
             pytest.fail(f"{name}: `acnmp {' '.join(cmd)}` does not parse (exit {exc.code})")
+
+
+def test_every_process_container_is_named_as_its_host(compose):
+    """`acnmp status --config` and the recording name each process's host (services/transport/about.py):
+    a container's own host name is its random id unless the file sets it."""
+    for name, svc in compose["services"].items():
+        if name != "router":
+            assert svc.get("hostname") == name, name
