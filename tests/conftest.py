@@ -105,6 +105,28 @@ def e1_model(e1_demos, tmp_path_factory):
         return model
 
 
+#: E1's size in the tests that run it across a deployment: (seed, budget, train steps).
+E1_SMALL = (2, 10, 300)
+
+
+@pytest.fixture(scope="session")
+def e1_small_run(tmp_path_factory):
+    """E1 in one process at :data:`E1_SMALL` (a ViaPointRun), what the distributed runs must equal.
+    Run once per test run (the first xdist worker saves it, the others load it)."""
+    import pickle
+
+    from acnmp_core.experiments.viapoint import run_viapoint
+
+    path = _run_dir(tmp_path_factory) / "e1_small_run.pkl"
+    with _once(path) as todo:
+        if not todo:
+            return pickle.loads(path.read_bytes())
+        seed, budget, steps = E1_SMALL
+        run = run_viapoint(seed=seed, budget=budget, train_steps=steps, progress=False)
+        path.write_bytes(pickle.dumps(run))
+        return run
+
+
 @pytest.fixture(scope="session")
 def small_model(e1_demos):
     """A small CNMP on the E1 demos (2 x 32 units, 50 steps): fast to train, for tests where only

@@ -13,14 +13,14 @@ import torch
 
 from acnmp_core.cnmp import CNMP, CNMPConfig
 from acnmp_core.demo_io import load_demos
-from acnmp_core.experiments.viapoint import make_setup, run_viapoint
+from acnmp_core.experiments.viapoint import make_setup
 from acnmp_core.training import TrainConfig, train
 from clients.cli import main
 from clients.distributed import DeployedSkill
 from services.recording.replay import summarize
 from services.recording.tables import read_recording
 
-SEED, BUDGET, STEPS = 2, 10, 300
+SEED, BUDGET, STEPS = 2, 10, 300  # E1_SMALL of tests/conftest.py: e1_small_run is its in-process run
 ARGS = ["--seed", str(SEED), "--budget", str(BUDGET), "--train-steps", str(STEPS), "--quiet"]
 METHODS = ("lfd_only", "rl_only", "acnmp")
 
@@ -32,7 +32,8 @@ def _kill_the_recorder() -> int:
     return recorder.pid
 
 
-def test_distributed_e1_matches_in_process_and_its_recording_is_data(tmp_path, verify_rrd, capsys, monkeypatch):
+def test_distributed_e1_matches_in_process_and_its_recording_is_data(tmp_path, verify_rrd, capsys, monkeypatch,
+                                                                      e1_small_run):
     dist, rrd = tmp_path / "dist.json", tmp_path / "e1.rrd"
     torch.set_num_threads(1)
     # the recorder is killed with -9 mid-run, after LfD's roll-out and before RL's and ACNMP's: the
@@ -46,7 +47,7 @@ def test_distributed_e1_matches_in_process_and_its_recording_is_data(tmp_path, v
         return real_adapt(self, setup, method, cfg, seed, assimilation)
 
     monkeypatch.setattr(DeployedSkill, "adapt", adapt)
-    local = run_viapoint(seed=SEED, budget=BUDGET, train_steps=STEPS, progress=False)
+    local = e1_small_run  # seed 2, budget 10, 300 steps: SEED, BUDGET, STEPS
     assert main(["experiment", "viapoint", *ARGS, "--distributed", "--workers", "2",
                  "--record", str(rrd), "--json", str(dist)]) == 0
     assert len(killed) == 1

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 import torch
 
-from acnmp_core.experiments.viapoint import make_setup, run_viapoint
+from acnmp_core.experiments.viapoint import make_setup
 from services.launcher import netns
 from services.launcher.multihost import MultiHostDeployment
 from services.recording.replay import summarize
@@ -25,34 +25,60 @@ from services.recording.replay import summarize
 WHY_NOT = netns.unavailable_reason()
 pytestmark = pytest.mark.skipif(WHY_NOT is not None, reason=f"no network namespaces here: {WHY_NOT}")
 
-SEED, BUDGET, STEPS = 2, 10, 300
+SEED, BUDGET, STEPS = 2, 10, 300  # E1_SMALL of tests/conftest.py: e1_small_run is its in-process run
 METHODS = ("lfd_only", "rl_only", "acnmp")
 CUT_SECONDS = 10.0
-#: A batch of roll-outs sent from the client host to the workers of one robot kind (an operator may
-#: call workers), once N of them are live: argv namespace, config, robot, task, task config (JSON),
-#: N, input .npz, output .npz.
-BATCH = """
+#: An operator's process on the client host, one session for all it is asked (each request a JSON
+#: line on stdin, each answer one on stdout): {"batch": [robot, task, task_config, n, in.npz, out.npz]}
+#: sends a batch of roll-outs to the workers of ``robot`` once ``n`` of them are live (an operator
+#: may call workers); {"info": skill} asks the model service.
+OPERATOR = """
 import json, sys, numpy as np
 from clients.client import ACNMPClient
 from services.transport import wait_for_liveliness
 from services.worker.remote import RemoteEvaluator
-namespace, config, robot, task, task_config, n, data, out = sys.argv[1:9]
-d = np.load(data)
-with ACNMPClient(namespace, config_file=config, role="operator", timeout=30) as client:
-    wait_for_liveliness(client.session, client.keys.worker_token(robot), count=int(n), timeout=60)
-    b = RemoteEvaluator(client.session, client.keys, robot, task, json.loads(task_config)).evaluate(
-        d["trajectories"], d["times"], d["task_params"] if d["task_params"].size else None)
-np.savez(out, rewards=b.rewards, success=b.success, hosts=np.array(b.hosts))
+with ACNMPClient(sys.argv[1], config_file=sys.argv[2], role="operator", timeout=30) as client:
+    for line in sys.stdin:
+        ask = json.loads(line)
+        if "info" in ask:
+            print(json.dumps({"version": client.info(ask["info"])["version"]}), flush=True)
+            continue
+        robot, task, task_config, n, data, out = ask["batch"]
+        d = np.load(data)
+        wait_for_liveliness(client.session, client.keys.worker_token(robot), count=n, timeout=60)
+        b = RemoteEvaluator(client.session, client.keys, robot, task, task_config).evaluate(
+            d["trajectories"], d["times"], d["task_params"] if d["task_params"].size else None)
+        np.savez(out, rewards=b.rewards, success=b.success, hosts=np.array(b.hosts))
+        print(json.dumps({"done": out}), flush=True)
 """
 
 
-def remote_batch(dep, tmp_path, name: str, robot: str, task: str, task_config: dict, n_workers: int,
-                 batch: dict) -> subprocess.Popen:
-    """Start :data:`BATCH` on the client host for ``batch`` (trajectories, times, task_params)."""
-    np.savez(tmp_path / f"{name}_in.npz", **{k: np.asarray([] if v is None else v) for k, v in batch.items()})
-    return dep.popen([sys.executable, "-c", BATCH, dep.namespace, str(dep.config("operator")), robot, task,
-                      json.dumps(task_config), str(n_workers), str(tmp_path / f"{name}_in.npz"),
-                      str(tmp_path / f"{name}_out.npz")], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+class Operator:
+    """:data:`OPERATOR` running on the client host of ``dep``."""
+
+    def __init__(self, dep: MultiHostDeployment, tmp_path) -> None:
+        self.tmp = tmp_path
+        self.proc = dep.popen([sys.executable, "-c", OPERATOR, dep.namespace, str(dep.config("operator"))],
+                              stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+
+    def ask(self, request: dict) -> dict:
+        self.proc.stdin.write(json.dumps(request) + "\n")
+        self.proc.stdin.flush()
+        line = self.proc.stdout.readline()
+        assert line, f"the operator process ended (exit {self.proc.poll()})"
+        return json.loads(line)
+
+    def batch(self, name: str, robot: str, task: str, task_config: dict, n_workers: int, batch: dict) -> dict:
+        """Execute ``batch`` (trajectories, times, task_params) remotely; its rewards, success, hosts."""
+        np.savez(self.tmp / f"{name}_in.npz", **{k: np.asarray([] if v is None else v) for k, v in batch.items()})
+        out = str(self.tmp / f"{name}_out.npz")
+        assert self.ask({"batch": [robot, task, task_config, n_workers, str(self.tmp / f"{name}_in.npz"), out]}) == \
+            {"done": out}
+        return dict(np.load(out))
+
+    def close(self) -> None:
+        self.proc.stdin.close()
+        assert self.proc.wait(timeout=30) == 0
 
 
 def e1(dep: MultiHostDeployment, out) -> subprocess.Popen:
@@ -81,7 +107,7 @@ def ur10_batch(demo_file) -> dict:
             "task_params": demo[2]}
 
 
-def test_a_deployment_over_hosts_survives_cut_links_and_keeps_strangers_out(tmp_path, ur10_demo_file):
+def test_a_deployment_over_hosts_survives_cut_links_and_keeps_strangers_out(tmp_path, ur10_demo_file, e1_small_run):
     from acnmp_core.tasks.ur10_pick_place import UR10PickPlaceTask
 
     torch.set_num_threads(1)
@@ -98,12 +124,11 @@ def test_a_deployment_over_hosts_survives_cut_links_and_keeps_strangers_out(tmp_
         assert {p["pid"] for p in procs} == {c.proc.pid for c in dep.processes.values()}
 
         # a batch of UR10 roll-outs from the client host gives what the simulator gives here
+        operator = Operator(dep, tmp_path)
         batch = ur10_batch(ur10_demo_file)
-        ur10 = remote_batch(dep, tmp_path, "ur10", "ur10", "pick_place", {}, 1, batch)
         with UR10PickPlaceTask() as task:
             here = task.evaluate(batch["trajectories"], batch["times"], batch["task_params"])
-        finished(ur10)
-        there = np.load(tmp_path / "ur10_out.npz")
+        there = operator.batch("ur10", "ur10", "pick_place", {}, 1, batch)
         assert np.array_equal(there["rewards"], here.rewards) and np.array_equal(there["success"], here.success)
         assert list(there["hosts"]) == ["worker-ur10"] * 3
 
@@ -118,8 +143,7 @@ def test_a_deployment_over_hosts_survives_cut_links_and_keeps_strangers_out(tmp_
         model_cut = time.monotonic()
         try:
             cut_run = e1(dep, tmp_path / "cut.json")
-            local = json.loads(json.dumps(run_viapoint(seed=SEED, budget=BUDGET, train_steps=STEPS,
-                                                       progress=False).summary))
+            local = json.loads(json.dumps(e1_small_run.summary))
             lost = dep.acnmp("query", "info", "--skill", "e1", "--timeout", "3", role="client")
             dep.wait_for_line("learner", "version 0", timeout=120)  # put while the model is cut off
             time.sleep(max(0.0, model_cut + CUT_SECONDS - time.monotonic()))  # the cut's length, not a wait
@@ -145,15 +169,13 @@ def test_a_deployment_over_hosts_survives_cut_links_and_keeps_strangers_out(tmp_
         paths = setup.target.query_times
         e1_batch = {"trajectories": np.stack([np.stack([paths, np.sin(k * paths)], 1) for k in range(8)]),
                     "times": paths, "task_params": None}
-        again = remote_batch(dep, tmp_path, "e1", "point2d", "viapoint", setup.task_config, 2, e1_batch)
-        finished(again)
-        there = np.load(tmp_path / "e1_out.npz")
+        there = operator.batch("e1", "point2d", "viapoint", setup.task_config, 2, e1_batch)
         assert sorted(set(there["hosts"])) == ["worker-0", "worker-1"]
         here = setup.task.evaluate(e1_batch["trajectories"], paths)
         assert np.array_equal(there["rewards"], here.rewards)
-        # the same model process answers, nothing was restarted
-        back = dep.acnmp("query", "info", "--skill", "e1", role="client")
-        assert back.returncode == 0 and "e1" in back.stdout, back.stderr
+        # the same model process answers (the version E1 trained), nothing was restarted
+        assert operator.ask({"info": "e1"}) == {"version": 0}
+        operator.close()
         assert dep.processes["model"].proc.pid == model_pid
         assert all(c.proc.poll() is None for c in dep.processes.values())
 
