@@ -85,19 +85,20 @@ def _running_deployment(args):
     if args.fresh:
         yield None
         return
-    if args.namespace is None:
+    namespace = args.namespace
+    if namespace is None:
         try:
-            args.namespace = find(None).namespace
+            namespace = find(None).namespace
         except DeploymentNotFound:
             yield None
             return
     if args.record:
-        raise ValueError(f"--record: deployment {args.namespace!r} is running; its recorder (acnmp up --record) "
+        raise ValueError(f"--record: deployment {namespace!r} is running; its recorder (acnmp up --record) "
                          "records, or use --fresh")
     if args.insecure:
-        raise ValueError(f"--insecure: deployment {args.namespace!r} is running and keeps its own authentication; "
+        raise ValueError(f"--insecure: deployment {namespace!r} is running and keeps its own authentication; "
                          "use --fresh to start an unauthenticated one")
-    with operator_client(args.namespace, args.config) as client:
+    with operator_client(namespace, args.config) as client:
         where = f"through {args.config}" if args.config else "found by its run file"
         print(f"running E1 on deployment {client.namespace!r} ({where}); --fresh starts a new one", flush=True)
         yield client

@@ -178,14 +178,14 @@ class LocalDeployment:
             while True:
                 if child.proc.poll() is not None:
                     raise RuntimeError(f"{child.name} exited with code {child.proc.returncode} before going live; "
-                                       f"log {child.log}:\n{_tail(child.log)}")
+                                       f"log {child.log}:\n{log_tail(child.log)}")
                 try:
                     wait_for_liveliness(self.session, child.token, timeout=0.5)
                     break
                 except TimeoutError:
                     if time.monotonic() > deadline:
                         raise TimeoutError(f"{child.name} not live after {self.start_timeout}s; "
-                                           f"log {child.log}:\n{_tail(child.log)}") from None
+                                           f"log {child.log}:\n{log_tail(child.log)}") from None
 
     def start_worker(self, worker_id: str, *, robot: str | None = None, delay: float | None = None,
                      wait: bool = True) -> Child:
@@ -427,9 +427,10 @@ class LocalDeployment:
         self.stop()
 
 
-def _popen(argv: list[str], log: Path) -> subprocess.Popen:
-    """Start a child in its own session (a terminal's Ctrl-C reaches only the launcher), output to ``log``;
-    it watches the launcher's pid (services.transport.lifetime.watch_parent)."""
+def child_env() -> dict[str, str]:
+    """The environment of a launcher's child process: the project (and the launcher's directory) on
+    PYTHONPATH, one torch thread, unbuffered output, no Rerun analytics, the robot plugins this
+    process loaded, and the launcher's pid to watch."""
     # the launcher's directory too: a robot plugin named as module:attr is found from where it was named
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(ROOT), os.getcwd(), os.environ.get("PYTHONPATH")])),
                RERUN_ANALYTICS="0", OMP_NUM_THREADS="1", PYTHONUNBUFFERED="1")
@@ -438,12 +439,19 @@ def _popen(argv: list[str], log: Path) -> subprocess.Popen:
     env[PLUGINS_ENV] = plugins_for_children()
     env[PARENT_PID_ENV] = str(os.getpid())  # children stop when the launcher dies (even by kill -9)
     env.pop("RERUN", None)  # RERUN=off would silence the recorder
+    return env
+
+
+def _popen(argv: list[str], log: Path) -> subprocess.Popen:
+    """Start a child in its own session (a terminal's Ctrl-C reaches only the launcher), output to ``log``;
+    it watches the launcher's pid (services.transport.lifetime.watch_parent)."""
+    env = child_env()
     with open(log, "ab") as out:
         return subprocess.Popen(argv, cwd=ROOT, env=env, stdin=subprocess.DEVNULL, stdout=out,
                                 stderr=subprocess.STDOUT, start_new_session=True)
 
 
-def _tail(path: Path | None, n: int = 20) -> str:
+def log_tail(path: Path | None, n: int = 20) -> str:
     """Last ``n`` lines of a log file ('' if unreadable)."""
     try:
         return "\n".join(Path(path).read_text(errors="replace").splitlines()[-n:])

@@ -36,12 +36,11 @@ from typing import Sequence
 
 from services.transport.about import HOST_ENV
 from services.transport.auth import write_router_deployment
-from services.transport.lifetime import PARENT_PID_ENV
 
+from .deployment import ROOT, child_env, log_tail
 from .netns import HostNetwork
 from .processes import entry_module
 
-ROOT = Path(__file__).resolve().parents[2]
 PORT = 7447
 
 
@@ -128,12 +127,7 @@ class MultiHostDeployment:
         return self
 
     def _env(self, host: str) -> dict[str, str]:
-        env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])),
-                   RERUN_ANALYTICS="0", OMP_NUM_THREADS="1", PYTHONUNBUFFERED="1")
-        env[PARENT_PID_ENV] = str(os.getpid())
-        env[HOST_ENV] = self.host(host).name
-        env.pop("RERUN", None)
-        return env
+        return {**child_env(), HOST_ENV: self.host(host).name}
 
     def config(self, role: str) -> Path:
         """The zenoh config file of ``role`` (``operator``, ``client``, ``worker`` ...)."""
@@ -180,7 +174,7 @@ class MultiHostDeployment:
             if not child.ready_line or child.proc.poll() is not None:
                 child.proc.wait(timeout=10)
                 raise RuntimeError(f"{child.name} exited with code {child.proc.returncode} before it was ready; "
-                                   f"log {child.log}:\n{_tail(child.log)}")
+                                   f"log {child.log}:\n{log_tail(child.log)}")
 
     # ----- using -------------------------------------------------------------------------------
     def host(self, name: str):
@@ -260,9 +254,3 @@ class MultiHostDeployment:
     def __exit__(self, *exc) -> None:
         self.stop()
 
-
-def _tail(path: Path, n: int = 20) -> str:
-    try:
-        return "\n".join(Path(path).read_text(errors="replace").splitlines()[-n:])
-    except OSError:
-        return ""

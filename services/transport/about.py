@@ -48,7 +48,7 @@ class ProcessAbout:
 
 
 class AboutQueryable:
-    """The ``about`` queryable of one process (declared by :func:`declare_about`); ``live`` is set
+    """The ``about`` queryable of one process (declared by :func:`services.transport.service.run_service` for every service); ``live`` is set
     once the service said its ready line."""
 
     def __init__(self, session: zenoh.Session, keys: Keyspace, service: str) -> None:
