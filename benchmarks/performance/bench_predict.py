@@ -48,20 +48,23 @@ STEPS = 200
 
 
 def _serve(checkpoint: str, endpoint: str, workers: int, batch_max: int, window: float, threads: int, ready,
-           stop) -> None:
-    """Child process: a model service serving ``checkpoint`` as skill 'reach' plus the empty queryable."""
+           stop, routed: bool = False, computed=None) -> None:
+    """Child process: a model service serving ``checkpoint`` as skill 'reach' plus the empty queryable,
+    as a peer listening on ``endpoint``; ``routed``: as a client of the router there, without the
+    empty queryable. At exit, ``computed`` (a shared integer) gets the predicts it computed."""
     import torch
 
     torch.set_num_threads(1)
     from services.model import ModelService
     from services.transport import open_session
 
-    with open_session("peer", [endpoint]) as session:
+    with open_session("client" if routed else "peer", None if routed else [endpoint],
+                      [endpoint] if routed else None) as session:
         def empty(query):
             with query:
                 query.reply(query.key_expr, b"")
 
-        q = session.declare_queryable(EMPTY_KEY, empty, complete=True)
+        q = None if routed else session.declare_queryable(EMPTY_KEY, empty, complete=True)
         with ModelService(session, NS, workers=workers, fetch_latest=False, batch_max=batch_max,
                           batch_window=window, batch_threads=threads) as service:
             service.load_checkpoint(checkpoint, "reach")
@@ -69,11 +72,23 @@ def _serve(checkpoint: str, endpoint: str, workers: int, batch_max: int, window:
             while not stop.wait(0.2):
                 pass
             b = service.batcher
+            if computed is not None and b is not None:
+                computed.value = b.computed
             if b is not None:
                 print(f"batcher (max {b.max_items}, window {b.window}, threads {b.threads}): {b.computed} predicts "
                       f"in {b.passes} passes, "
                       f"largest {b.largest}", file=sys.stderr, flush=True)
-        q.undeclare()
+        if q is not None:
+            q.undeclare()
+
+
+def _route(endpoint: str, ready, stop) -> None:
+    """Child process: a zenoh router listening on ``endpoint``."""
+    from services.transport import open_session
+
+    with open_session("router", [endpoint]):
+        ready.set()
+        stop.wait()
 
 
 def _train_checkpoint(path: Path, steps: int):
@@ -125,7 +140,9 @@ def measure_latency(clients: dict, model, n: int, warmup: int) -> dict:
 
 
 def _cpu_seconds(proc) -> float:
-    """User + system CPU seconds of a psutil process so far."""
+    """User + system CPU seconds of a psutil process (or a list of them, summed) so far."""
+    if isinstance(proc, list):
+        return sum(_cpu_seconds(p) for p in proc)
     t = proc.cpu_times()
     return t.user + t.system
 
@@ -194,9 +211,11 @@ def measure_throughput(endpoint: str, n_clients: int, duration: float, service=N
             "client_cpu_ms_per_predict": 1e3 * (cpu1[1] - cpu0[1]) / n}
 
 
-#: The configurations: ``off``, ``on``, ``window`` (services), ``empty`` (empty queries to the ``on``
-#: service: the transport's floor, throughput only).
-MODES = ("off", "on", "window", "threads2", "empty")
+#: The configurations: ``off``, ``on``, ``window``, ``threads2`` (services), ``routed1`` / ``routed2``
+#: (one or two ``on`` services as clients of a zenoh router: does the router share predicts between
+#: two processes?), ``empty`` (empty queries to the ``on`` service: the transport's floor, throughput
+#: only).
+MODES = ("off", "on", "window", "threads2", "routed1", "routed2", "empty")
 
 
 def _wait_served(client) -> None:
@@ -245,6 +264,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(f"--modes: a comma-separated subset of {', '.join(MODES)} that includes 'on'")
     settings = {"off": (1, 0.0, 1), "on": (DEFAULT_BATCH_MAX, DEFAULT_BATCH_WINDOW, 1),
                 "window": (DEFAULT_BATCH_MAX, args.window, 1), "threads2": (DEFAULT_BATCH_MAX, DEFAULT_BATCH_WINDOW, 2),
+                "routed1": (DEFAULT_BATCH_MAX, DEFAULT_BATCH_WINDOW, 1), "routed2": (DEFAULT_BATCH_MAX, DEFAULT_BATCH_WINDOW, 1),
                 "empty": (None, None, None)}
     n_clients = [int(k) for k in args.clients.split(",")]
     ctx = mp.get_context("spawn")  # zenoh sessions do not survive fork
@@ -254,14 +274,27 @@ def main(argv: list[str] | None = None) -> int:
         served = [m for m in modes if m != "empty"]
         endpoints = {m: loopback_endpoint(free_port()) for m in served}
         stop = ctx.Event()
-        children, readies = {}, {}
+        children, readies, computed = {}, {}, {}
         for m in served:
+            if m.startswith("routed"):  # a router, and that many service processes as its clients
+                readies[m] = ctx.Event()
+                children[m] = ctx.Process(target=_route, args=(endpoints[m], readies[m], stop), daemon=True)
+                children[m].start()
+                readies[m].wait(60)
+                for i in range(int(m[-1])):
+                    readies[f"{m}+{i}"] = ctx.Event()
+                    computed[f"{m}+{i}"] = ctx.Value("q", 0)
+                    children[f"{m}+{i}"] = ctx.Process(target=_serve, args=(
+                        str(ckpt), endpoints[m], args.workers, *settings[m], readies[f"{m}+{i}"], stop, True,
+                        computed[f"{m}+{i}"]), daemon=True)
+                    children[f"{m}+{i}"].start()
+                continue
             readies[m] = ctx.Event()
             children[m] = ctx.Process(target=_serve, args=(str(ckpt), endpoints[m], args.workers, *settings[m],
                                                            readies[m], stop), daemon=True)
             children[m].start()
         try:
-            for m in served:
+            for m in readies:
                 if not readies[m].wait(60):
                     raise RuntimeError(f"model service ({m}) did not start")
             clients = {m: ACNMPClient(NS, connect=[endpoints[m]], timeout=10.0) for m in served}
@@ -279,7 +312,8 @@ def main(argv: list[str] | None = None) -> int:
                     for m in order:
                         on = "on" if m == "empty" else m
                         runs.append({"rep": rep, "mode": m, **measure_throughput(
-                            endpoints[on], k, args.duration, psutil.Process(children[on].pid), empty=m == "empty")})
+                            endpoints[on], k, args.duration, [psutil.Process(c.pid) for n, c in children.items()
+                                                             if n == on or n.startswith(on + "+")], empty=m == "empty")})
         finally:
             stop.set()
             for child in children.values():
@@ -324,6 +358,13 @@ def main(argv: list[str] | None = None) -> int:
         first, last = str(n_clients[0]), str(n_clients[-1])
         row["cpu_ms_per_predict_median"] = cpu
         row["scaling_ceiling"] = (os.cpu_count() * 1e3 / cpu[last]) / rate[n_clients[0]]
+        if m.startswith("routed"):
+            # predicts the service processes computed, against those the clients counted (which leave
+            # out a few warm-up and latency predicts, so ~1.0 means each predict was computed once)
+            done = [computed[k].value for k in sorted(computed) if k.startswith(m + "+")]
+            row["service_processes"] = len(done)
+            row["computed_per_process"] = done
+            row["computed_per_counted_predict"] = sum(done) / max(1, sum(r["predicts"] for r in runs if r["mode"] == m))
     top = str(n_clients[-1])
     result = {
         "benchmark": "predict", "provenance": prov, "steps": STEPS,
@@ -351,7 +392,9 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{m:7s} p50 ratio {row['p50_ratio']:.2f}; {rates}; x{row['scaling_vs_1'][top]:.2f} at {top} "
               f"({row['errors']} errors); CPU ms per predict service+clients {cpu}; cores busy "
               f"{', '.join(f'{k}: {v:.2f}' for k, v in row['cores_busy_median'].items())}; CPU ceiling at {top}: "
-              f"x{row['scaling_ceiling']:.2f}")
+              f"x{row['scaling_ceiling']:.2f}"
+              + (f"; {row['service_processes']} service processes computed {row['computed_per_process']}: "
+                 f"{row['computed_per_counted_predict']:.2f} computations per predict" if "service_processes" in row else ""))
     if args.json:
         save_result(result, args.json)
     return 0
