@@ -14,6 +14,8 @@ caller (:func:`services.transport.rpc.call`).
 from __future__ import annotations
 
 import contextlib
+import itertools
+import threading
 import time
 from dataclasses import dataclass
 from typing import Any, Callable, Sequence
@@ -24,7 +26,8 @@ import zenoh
 from acnmp_core.adapt_job import AdaptJob
 from acnmp_core.transfer_job import PairTrainJob
 from services.transport import DEFAULT_NAMESPACE, Keyspace, WireError, alive_tokens, open_session
-from services.transport.keys import last_chunk
+from services.transport.keys import is_concrete, last_chunk
+from services.transport.rpc import call
 
 from .discovery import call_when_available, resolve
 
@@ -151,6 +154,11 @@ class ACNMPClient:
         self.namespace = namespace or DEFAULT_NAMESPACE
         self.keys = Keyspace(self.namespace)
         self.session = session
+        self._processes: dict[str, set[str]] = {}  # skill -> zids of the model processes serving it
+        self._processes_lock = threading.Lock()
+        self._watching = False
+        # whose turn is next among a skill's processes: each client starts elsewhere (its own zid)
+        self._turn = itertools.count(int(str(session.zid()), 16) % 65536)
 
     def close(self) -> None:
         """Close the session (if the client opened it)."""
@@ -169,6 +177,45 @@ class ACNMPClient:
         return call_when_available(self.session, key, payload, self.timeout if timeout is None else float(timeout))
 
     # ----- model service ---------------------------------------------------------------------
+    def model_processes(self, skill: str) -> list[str]:
+        """The zenoh ids of the model processes serving ``skill``, as this client knows them now (a
+        liveliness subscriber declared on the first call, so the first call may return [])."""
+        with self._processes_lock:
+            if not self._watching:
+                self._watching = True
+                sub = self.session.liveliness().declare_subscriber(
+                    self.keys.model_process_token("*", "*"), self._on_model_process, history=True)
+                self._stack.callback(sub.undeclare)
+            return sorted(self._processes.get(skill, ()))
+
+    def _on_model_process(self, sample: zenoh.Sample) -> None:
+        key = str(sample.key_expr)
+        if not is_concrete(key):
+            return
+        skill, zid = key.split("/")[-2:]
+        with self._processes_lock:
+            zids = self._processes.setdefault(skill, set())
+            if sample.kind == zenoh.SampleKind.PUT:
+                zids.add(zid)
+            else:
+                zids.discard(zid)
+
+    def _predict_request(self, skill: str, payload: dict, timeout: float | None) -> dict:
+        """A predict query: with several model processes serving ``skill``, sent to one of them in
+        turn (each computes only what it is sent; on the skill's own key every process would compute
+        it), else on the skill's key. A process gone meanwhile (``unavailable``) falls back to the
+        skill's key."""
+        processes = self.model_processes(skill)
+        if len(processes) > 1:
+            zid = processes[next(self._turn) % len(processes)]
+            try:
+                return call(self.session, self.keys.predict_at(skill, zid), payload,
+                            self.timeout if timeout is None else float(timeout))
+            except WireError as exc:
+                if exc.code != "unavailable":
+                    raise
+        return self.request(self.keys.predict(skill), payload, timeout)
+
     def predict(self, skill: str, obs_times, obs_values, task_params=None, query_times=None, *,
                 n_steps: int | None = None, obs_dims_mask=None, n_samples: int | None = None,
                 seed: int | None = None, timeout: float | None = None) -> PredictResult:
@@ -180,7 +227,7 @@ class ACNMPClient:
         """
         req = predict_request(obs_times, obs_values, task_params, query_times, n_steps=n_steps,
                               obs_dims_mask=obs_dims_mask, n_samples=n_samples, seed=seed)
-        return PredictResult.from_reply(self.request(self.keys.predict(skill), req, timeout))
+        return PredictResult.from_reply(self._predict_request(skill, req, timeout))
 
     def transfer(self, skill: str, obs_times, obs_values, query_times=None, *, n_steps: int | None = None,
                  obs_dims_mask=None, n_samples: int | None = None, seed: int | None = None,
@@ -198,7 +245,7 @@ class ACNMPClient:
     def predict_batch(self, skill: str, requests: Sequence[dict], timeout: float | None = None) -> list[PredictResult]:
         """Several predict requests (maps from :func:`predict_request`) in one query, answered by one
         model version. Returns one :class:`PredictResult` per request, in order."""
-        reply = self.request(self.keys.predict(skill), {"v": 1, "batch": list(requests)}, timeout)
+        reply = self._predict_request(skill, {"v": 1, "batch": list(requests)}, timeout)
         return [PredictResult.from_reply(r) for r in reply["results"]]
 
     def info(self, skill: str, timeout: float | None = None) -> dict:

@@ -25,6 +25,9 @@ def register(subparsers) -> None:
                         "(default: the user state directory, ~/.local/state/acnmp/<namespace> on Linux; "
                         "./runs/<namespace>/state, the old default, while only it exists)")
     p.add_argument("--no-model", action="store_true", help="do not start the model service")
+    p.add_argument("--model-processes", type=int_at_least(1), default=1, metavar="N",
+                   help="model service processes; clients share their predicts between them, so N processes "
+                        "use up to N cores (default: %(default)s)")
     p.add_argument("--demos", action="append", default=[], metavar="SKILL=FILE.npz",
                    help="have the learner train SKILL from a demonstration file at start (again when the "
                         "file's demonstrations changed; repeatable); "
@@ -82,7 +85,7 @@ def run(args) -> int:
     served = False
     dep = LocalDeployment(args.namespace, args.workers, args.robot, record=args.record, state_dir=state_dir,
                           model=not args.no_model, learner_args=learner_args, secure=not args.insecure,
-                          announce=True, report=report, viewer=args.viewer)
+                          announce=True, report=report, viewer=args.viewer, model_processes=args.model_processes)
     try:
         try:
             dep.start()
@@ -156,8 +159,10 @@ def stopping_line(dep) -> str:
     """The line ``acnmp up`` prints as it begins to stop ``dep``: what it stops and what is kept."""
     names = list(dep.children)
     workers = sum(n.startswith("worker-") for n in names)
+    models = sum(n == "model" or n.startswith("model-") for n in names)
     parts = [{"learner": "the learner (a running job is saved and resumes at the next start)",
-              "model": "the model service"}[n] for n in ("learner", "model") if n in names]
+              "model": "the model service" + (f" ({models} processes)" if models > 1 else "")}[n]
+             for n in ("learner", "model") if n in names]
     if workers:
         parts.append(f"{workers} worker{'s' if workers != 1 else ''}")
     if "recorder" in names:

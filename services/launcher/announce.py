@@ -36,8 +36,11 @@ def check_namespace_free(namespace: str) -> None:
 
 
 def role_of(child_name: str) -> str:
-    """The zenoh username a child authenticates as: ``worker-<id>`` -> ``worker``, else its name."""
-    return "worker" if child_name.startswith("worker") else child_name
+    """The zenoh username a child authenticates as: ``worker-<id>`` -> ``worker``, ``model-<i>`` (a
+    further model process) -> ``model``, else its name."""
+    if child_name.startswith("worker"):
+        return "worker"
+    return "model" if child_name.startswith("model-") else child_name
 
 
 class Announcement:

@@ -91,7 +91,9 @@ class LocalDeployment:
     namespace : key prefix of this deployment. workers : number of workers of kind ``robot``.
     record : .rrd file for a recorder (None: no recorder). state_dir : learner checkpoints
         (None: a temporary directory, removed at exit). model : start the model service (it serves
-        every skill the learner publishes). learner : start the learner.
+        every skill the learner publishes). model_processes : how many model service processes
+        (``model``, ``model-2``, ...); clients share their predicts between them
+        (:meth:`clients.client.ACNMPClient.model_processes`). learner : start the learner.
     worker_delay : seconds per roll-out each worker sleeps (simulates a slow robot; tests).
     chunk_timeout : the learner's per-chunk worker timeout. start_timeout, stop_timeout : seconds.
     log_dir : children's logs (default: ``<state_dir>/logs``).
@@ -118,7 +120,7 @@ class LocalDeployment:
                  start_timeout: float = 60.0, stop_timeout: float = 8.0, log_dir: str | os.PathLike | None = None,
                  learner_args: Sequence[str] = (), secure: bool = False, announce: bool | None = None,
                  supervise: bool = True, restart_policy: RestartPolicy | None = None,
-                 report: Callable[[str], None] | None = None, viewer: bool = False):
+                 report: Callable[[str], None] | None = None, viewer: bool = False, model_processes: int = 1):
         self.robot = robot_spec(robot).kind  # UnknownRobotError (a ValueError) for a kind not registered
         if workers < 0:
             raise ValueError(f"workers: expected >= 0, got {workers}")
@@ -138,6 +140,9 @@ class LocalDeployment:
         self.state_dir = Path(state_dir).resolve()
         self.log_dir = Path(log_dir) if log_dir is not None else self.state_dir / "logs"
         self.with_model, self.with_learner = model, learner
+        if model_processes < 1:
+            raise ValueError(f"model_processes: expected >= 1, got {model_processes}")
+        self.model_processes = int(model_processes)
         self.worker_delay, self.chunk_timeout = float(worker_delay), float(chunk_timeout)
         self.start_timeout, self.stop_timeout = float(start_timeout), float(stop_timeout)
         self.learner_args = list(learner_args)
@@ -237,8 +242,9 @@ class LocalDeployment:
                     "learner", entry_module("learner"), args, keys.learner_token("learner"),
                     [keys.train("*"), keys.adapt("*"), keys.job_status("*"), keys.jobs(), keys.weights_latest("*")]))
             if self.with_model:
-                started.append(self._spawn("model", entry_module("model"), [], keys.model_service_token("*"),
-                                           [keys.predict("*"), keys.info("*")]))
+                for i in range(self.model_processes):
+                    started.append(self._spawn("model" if i == 0 else f"model-{i + 1}", entry_module("model"), [],
+                                               keys.model_service_token("*"), [keys.predict("*"), keys.info("*")]))
             for i in range(self.n_workers):
                 started.append(self.start_worker(f"{self.robot}-{i}", wait=False))
             self._wait_live(started)

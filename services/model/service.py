@@ -9,9 +9,14 @@ Declared entities (``<ns>`` the namespace, ``<skill>`` a skill name):
   skill, because zenoh hands a query to *every* matching queryable of a session: a per-skill
   queryable next to a catch-all would run every predict twice (measured: it did). With several
   model processes, each answers; :class:`clients.client.ACNMPClient` takes the successful reply;
+- queryable ``acnmp/<ns>/skill/*/predict/<zid>``: the same predicts, for this process alone. Zenoh
+  gives a query on the skill's key to every model process (each computes it:
+  benchmarks/results/bench_predict_routed.json), so a client that sees several processes serving a
+  skill sends each predict to one of them here, and they share the work;
 - subscriber ``acnmp/<ns>/skill/<skill|*>/weights`` (weights messages, services/model/weights.py);
 - liveliness tokens ``acnmp/<ns>/service/model/<zid>`` (the process, once its queryables exist)
-  and ``acnmp/<ns>/model/<skill>`` (one per skill, once it has a model).
+  and ``acnmp/<ns>/model/<skill>`` plus ``acnmp/<ns>/model/<skill>/<zid>`` (per skill, once it has
+  a model: the skill is served, and by this process).
 
 At start-up, and again every few seconds while a skill it should serve has no model, it queries
 ``acnmp/<ns>/skill/<skill|*>/weights/latest``; and for every served skill whenever a learner's
@@ -97,7 +102,7 @@ class ModelService:
         self.keys = Keyspace(namespace)
         self.registry = ModelRegistry(None if skills is None else [check_name("skill", s) for s in skills])
         self._lock = threading.Lock()
-        self._tokens: dict[str, object] = {}  # skill -> liveliness token (kept referenced: GC undeclares)
+        self._tokens: dict[str, list] = {}  # skill -> its liveliness tokens (kept referenced: GC undeclares)
         self._inbox: queue.Queue = queue.Queue()
         self._stop = threading.Event()
         self.swaps = 0
@@ -111,19 +116,23 @@ class ModelService:
                         if batch_max > 1 else None)
         self._subs = [session.declare_subscriber(self.keys.weights(s), self._on_weights) for s in sub_skills]
         # complete=False: this process does not claim to serve every skill name, so a wildcard or
-        # unknown-skill query still reaches the other model processes
+        # unknown-skill query still reaches the other model processes. Each predict queryable is
+        # declared twice: on the skill's key, which every model process answers, and on this
+        # process's own (predict_at), on which a client shares its predicts between processes
+        self.zid = str(session.zid())
+        predict_keys = (self.keys.predict("*"), self.keys.predict_at("*", self.zid))
         if self.batcher is None:  # each predict decoded, checked and computed on a handler thread
-            predict = declare_rpc(session, self.keys.predict("*"),
-                                  lambda req, q: handle_predict(self.registry, _skill_of(q), req),
-                                  workers=workers, complete=False, max_queue=max_queue,
-                                  default_timeout=DEFAULT_QUERY_TIMEOUT)
+            predicts = [declare_rpc(session, key, lambda req, q: handle_predict(self.registry, _skill_of(q), req),
+                                    workers=workers, complete=False, max_queue=max_queue,
+                                    default_timeout=DEFAULT_QUERY_TIMEOUT) for key in predict_keys]
         else:  # zenoh's thread only queues the query: the batcher's threads decode, check and compute
-            predict = declare_rpc(session, self.keys.predict("*"), self._submit_predict, workers=0,
-                                  complete=False, decode_payload=False, default_timeout=DEFAULT_QUERY_TIMEOUT,
-                                  pass_deadline=True)
+            predicts = [declare_rpc(session, key, self._submit_predict, workers=0, complete=False,
+                                    decode_payload=False, default_timeout=DEFAULT_QUERY_TIMEOUT, pass_deadline=True)
+                        for key in predict_keys]
+        predict = predicts[0]
         self._predict_rpc = predict
         self._rpcs = [
-            predict,
+            *predicts,
             # a transfer is a predict through two models: the same queue bound and deadline, no batching
             declare_rpc(session, self.keys.transfer("*"),
                         lambda req, q: handle_transfer(self.registry, _skill_of(q), req),
@@ -147,7 +156,8 @@ class ModelService:
         self._token = session.liveliness().declare_token(self.token_key)
 
     def _submit_predict(self, _request, query: zenoh.Query, deadline: float | None):
-        # on zenoh's callback thread: nothing but the skill's name is looked at here
+        # on zenoh's callback thread: nothing but the skill's name is looked at here (both predict
+        # queryables decode alike, so either's decode_request serves)
         skill = _skill_of(query)
         return self.batcher.submit(
             lambda: prepare_predict(self.registry, skill, self._predict_rpc.decode_request(query)), deadline)
@@ -194,8 +204,9 @@ class ModelService:
         log.info("serving %s v%d (%s)", entry.skill, entry.version, entry.source)
         with self._lock:
             if entry.skill not in self._tokens and not self._stop.is_set():
-                self._tokens[entry.skill] = self.session.liveliness().declare_token(
-                    self.keys.model_token(entry.skill))
+                # the skill is served (by someone), and served by this process
+                self._tokens[entry.skill] = [self.session.liveliness().declare_token(key) for key in (
+                    self.keys.model_token(entry.skill), self.keys.model_process_token(entry.skill, self.zid))]
         return True
 
     def load_checkpoint(self, path: str | Path, skill: str | None = None) -> SkillModel:
@@ -253,7 +264,7 @@ class ModelService:
         for sub in self._subs:
             sub.undeclare()
         with self._lock:
-            tokens, self._tokens = list(self._tokens.values()), {}
+            tokens, self._tokens = [t for pair in self._tokens.values() for t in pair], {}
         for token in tokens:
             token.undeclare()
         for rpc in self._rpcs:

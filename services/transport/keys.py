@@ -103,6 +103,11 @@ class Keyspace:
         """``.../skill/<skill>/predict``: the model service's predict queryable."""
         return self.skill(skill, "predict")
 
+    def predict_at(self, skill: str, zid: str) -> str:
+        """``.../skill/<skill>/predict/<zid>``: the predict queryable of one model process (``zid``
+        its zenoh id, or ``*``), which a client uses to share predicts between several processes."""
+        return f"{self.predict(skill)}/{zid if zid == '*' else check_name('zid', zid)}"
+
     def info(self, skill: str) -> str:
         """``.../skill/<skill>/info``: the model service's info queryable."""
         return self.skill(skill, "info")
@@ -157,6 +162,10 @@ class Keyspace:
     def model_token(self, skill: str = "*") -> str:
         """``.../model/<skill>``: a model service has weights for ``skill`` (``*``: any skill)."""
         return f"{self.prefix}/model/{skill if skill == '*' else check_name('skill', skill)}"
+
+    def model_process_token(self, skill: str = "*", zid: str = "*") -> str:
+        """``.../model/<skill>/<zid>``: the model process ``zid`` serves ``skill`` (``*``: any)."""
+        return "/".join([self.model_token(skill), zid if zid == "*" else check_name("zid", zid)])
 
     def model_service_token(self, zid: str = "*") -> str:
         """``.../service/model/<zid>``: a model process is live (with or without skills loaded)."""

@@ -1,6 +1,7 @@
 """`acnmp up --demos SKILL=FILE` as a new user runs it (issue 36): "deployment is up" only once the
 model service serves SKILL (row 3: it was printed before, and a predict right after failed
-``unknown_skill``); Ctrl-C then says what it stops before the deployment stops (row 10)."""
+``unknown_skill``); Ctrl-C then says what it stops before the deployment stops (row 10). With
+``--model-processes 2`` a client shares its predicts between both processes (issue 37)."""
 from __future__ import annotations
 
 import contextlib
@@ -10,10 +11,14 @@ import sys
 import uuid
 from pathlib import Path
 
+import numpy as np
+
+import clients.client
 from acnmp_core.demo_io import save_demos
 from acnmp_core.tasks.viapoint import obstacle_demos
 from clients.client import ACNMPClient
 from services.learner.store import demo_set_to_arrays
+from services.transport import wait_for_liveliness
 
 
 @contextlib.contextmanager
@@ -32,21 +37,36 @@ def ctrl_c_at_the_end(proc: subprocess.Popen):
     assert proc.returncode == 0, out
 
 
-def test_up_with_demos_is_up_once_the_skill_is_served_and_ctrl_c_says_what_it_stops(tmp_path, acnmp_up):
+def test_up_with_demos_is_up_once_the_skill_is_served_and_ctrl_c_says_what_it_stops(tmp_path, acnmp_up,
+                                                                                    monkeypatch):
     demos = tmp_path / "mine.npz"
     save_demos(demos, demo_set_to_arrays(obstacle_demos(n_steps=30)))
     ns = f"demos-{uuid.uuid4().hex[:8]}"
     # enough steps that training outlasts the start of the other processes
     proc, lines = acnmp_up("--namespace", ns, "--workers", "0", "--demos", f"mine={demos}",
-                           "--train-steps", "100", "--state-dir", str(tmp_path / "state"))
+                           "--train-steps", "100", "--state-dir", str(tmp_path / "state"), "--model-processes", "2")
     with ctrl_c_at_the_end(proc) as out:
         assert any("waiting for the model service to serve skill 'mine'" in ln for ln in lines), lines
         with ACNMPClient(namespace=ns, role="client", timeout=10) as client:
             info = client.info("mine")  # at once: was unknown_skill for as long as the training took
-        assert info["skill"] == "mine" and info["version"] == 0
+            assert info["skill"] == "mine" and info["version"] == 0
+            # both model processes serve it; the client (its role's ACL) sends predicts to each in turn
+            wait_for_liveliness(client.session, client.keys.model_process_token("mine"), count=2, timeout=30)
+            sent = []
+            real_call = clients.client.call
+            monkeypatch.setattr(clients.client, "call", lambda s, key, *a, **k: sent.append(key) or real_call(
+                s, key, *a, **k))
+            client.model_processes("mine")  # its liveliness subscriber sees both (history)
+            wait_for_liveliness(client.session, client.keys.model_process_token("mine"), count=2)
+            got = [client.predict("mine", [0.0], [[0.0, 0.0]], n_steps=20) for _ in range(6)]
+        zids = set(client.model_processes("mine"))
+        assert len(zids) == 2 and {k.rsplit("/", 1)[-1] for k in sent} == zids, sent  # both, nothing else
+        assert all(k.startswith(client.keys.predict("mine") + "/") for k in sent)
+        for p in got[1:]:  # the same weights in both processes: the same numbers
+            np.testing.assert_array_equal(p.mean, got[0].mean)
     out = out[0]
     stopping = [ln for ln in out.splitlines() if ln.startswith("acnmp up: stopping")]
-    assert len(stopping) == 1 and "learner" in stopping[0] and "model" in stopping[0], out
+    assert len(stopping) == 1 and "learner" in stopping[0] and "model service (2 processes)" in stopping[0], out
     assert "deployment stopped" in out.splitlines()[-1]
 
 
