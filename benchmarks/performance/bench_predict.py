@@ -181,19 +181,24 @@ def run_clients(n_clients: int, duration: float, connect, op, on_start=None) -> 
     return {"ops": sum(counts), "errors": sum(errors), "seconds": time.perf_counter() - t0}
 
 
-def measure_throughput(endpoint: str, n_clients: int, duration: float, service=None, empty: bool = False) -> dict:
+def measure_throughput(endpoint: str, n_clients: int, duration: float, service=None, empty: bool = False,
+                       skill_key: bool = False) -> dict:
     """Predicts per second with ``n_clients`` threads, each with its own session, for ``duration`` s;
     with ``service`` (a psutil process) also the CPU milliseconds per predict of the service and
     of this (the clients') process. ``empty``: empty queries instead of predicts (the transport's
     floor), counted the same way."""
     import psutil
 
-    from clients.client import ACNMPClient
+    from clients.client import ACNMPClient, predict_request
+
+    request = predict_request(OBS_T, OBS_V, n_steps=STEPS)
 
     def op(c):
         if empty:
             if not [r for r in c.session.get(EMPTY_KEY, timeout=30.0) if r.ok is not None]:
                 raise RuntimeError("no empty reply")
+        elif skill_key:  # on the skill's key, as clients did before they shared predicts between processes
+            c.request(c.keys.predict("reach"), request)
         else:
             c.predict("reach", OBS_T, OBS_V, n_steps=STEPS)
 
@@ -212,10 +217,11 @@ def measure_throughput(endpoint: str, n_clients: int, duration: float, service=N
 
 
 #: The configurations: ``off``, ``on``, ``window``, ``threads2`` (services), ``routed1`` / ``routed2``
-#: (one or two ``on`` services as clients of a zenoh router: does the router share predicts between
-#: two processes?), ``empty`` (empty queries to the ``on`` service: the transport's floor, throughput
-#: only).
-MODES = ("off", "on", "window", "threads2", "routed1", "routed2", "empty")
+#: (one or two ``on`` services as clients of a zenoh router; with two, each client sends each predict
+#: to one of them in turn), ``routed2key`` (two, the clients' predicts on the skill's key: every
+#: process computes each), ``empty`` (empty queries to the ``on`` service: the transport's floor,
+#: throughput only).
+MODES = ("off", "on", "window", "threads2", "routed1", "routed2", "routed2key", "empty")
 
 
 def _wait_served(client) -> None:
@@ -265,6 +271,7 @@ def main(argv: list[str] | None = None) -> int:
     settings = {"off": (1, 0.0, 1), "on": (DEFAULT_BATCH_MAX, DEFAULT_BATCH_WINDOW, 1),
                 "window": (DEFAULT_BATCH_MAX, args.window, 1), "threads2": (DEFAULT_BATCH_MAX, DEFAULT_BATCH_WINDOW, 2),
                 "routed1": (DEFAULT_BATCH_MAX, DEFAULT_BATCH_WINDOW, 1), "routed2": (DEFAULT_BATCH_MAX, DEFAULT_BATCH_WINDOW, 1),
+                "routed2key": (DEFAULT_BATCH_MAX, DEFAULT_BATCH_WINDOW, 1),
                 "empty": (None, None, None)}
     n_clients = [int(k) for k in args.clients.split(",")]
     ctx = mp.get_context("spawn")  # zenoh sessions do not survive fork
@@ -281,7 +288,7 @@ def main(argv: list[str] | None = None) -> int:
                 children[m] = ctx.Process(target=_route, args=(endpoints[m], readies[m], stop), daemon=True)
                 children[m].start()
                 readies[m].wait(60)
-                for i in range(int(m[-1])):
+                for i in range(int(m.removeprefix("routed").removesuffix("key"))):
                     readies[f"{m}+{i}"] = ctx.Event()
                     computed[f"{m}+{i}"] = ctx.Value("q", 0)
                     children[f"{m}+{i}"] = ctx.Process(target=_serve, args=(
@@ -313,7 +320,8 @@ def main(argv: list[str] | None = None) -> int:
                         on = "on" if m == "empty" else m
                         runs.append({"rep": rep, "mode": m, **measure_throughput(
                             endpoints[on], k, args.duration, [psutil.Process(c.pid) for n, c in children.items()
-                                                             if n == on or n.startswith(on + "+")], empty=m == "empty")})
+                                                             if n == on or n.startswith(on + "+")], empty=m == "empty",
+                            skill_key=m == "routed2key")})
         finally:
             stop.set()
             for child in children.values():
