@@ -251,7 +251,10 @@ class ModelService:
 
     # ----- shutdown --------------------------------------------------------------------------
     def close(self) -> None:
-        """Undeclare the tokens, subscribers and queryables (waiting for queries in flight)."""
+        """Undeclare the tokens, subscribers and queryables (waiting for queries in flight); a second
+        call does nothing."""
+        if self._stop.is_set():
+            return
         self._stop.set()
         self._learner_seen.set()  # wakes the fetcher
         self._inbox.put(("stop", b"", ""))

@@ -278,3 +278,43 @@ def test_concurrent_predicts_are_batched_and_each_gets_its_own_answer(mesh, smal
         assert reply.mean.shape == (steps, 2) and reply.samples.shape == (2, steps, 2)
         np.testing.assert_allclose(reply.mean, ref.mean, rtol=1e-5, atol=1e-6)
         np.testing.assert_allclose(reply.std, ref.std, rtol=1e-5, atol=1e-6)
+
+
+def test_two_model_processes_share_a_clients_predicts_and_a_gone_one_falls_back(mesh, small_model, monkeypatch):
+    """Issue 37: on the skill's key every model process computes every predict; a client that sees
+    two processes serving the skill sends each predict to one of them, so each is computed once. A
+    process the client still lists but that is gone is skipped through the skill's key."""
+    from services.transport import wait_for_liveliness, wait_for_liveliness_gone
+
+    ep, server, client = mesh
+    with open_session("peer", connect=[ep]) as other, \
+            ModelService(server, NS, fetch_latest=False) as a, ModelService(other, NS, fetch_latest=False) as b:
+        for service in (a, b):
+            service.load(SkillModel("reach", 1, small_model))
+        client.model_processes("reach")  # its subscriber, declared now, sees both
+        wait_for_liveliness(client.session, KEYS.model_process_token("reach"), count=2)
+        ref = small_model.predict(OBS["obs_times"], OBS["obs_values"], n_steps=50)
+        got = [wait_for(lambda: client.predict("reach", OBS["obs_times"], OBS["obs_values"], n_steps=50))
+               for _ in range(8)]
+        assert sorted(client.model_processes("reach")) == sorted([a.zid, b.zid])
+        for p in got:
+            np.testing.assert_array_equal(p.mean, ref.mean)
+        # every predict computed once, by one of the two, and both took some
+        assert a.batcher.computed + b.batcher.computed == 8 and a.batcher.computed and b.batcher.computed
+        # b goes; the client still lists it (as it would until the token's lease ends): every predict
+        # sent to b ends 'unavailable' at once and is asked again on the skill's key, which a answers
+        b_zid, before = b.zid, a.batcher.computed
+        b.close()
+        wait_for_liveliness_gone(client.session, KEYS.model_process_token("reach", b_zid))
+        with client._processes_lock:
+            client._processes["reach"].add(b_zid)
+        import clients.client
+
+        sent, real_call = [], clients.client.call
+        monkeypatch.setattr(clients.client, "call", lambda s, key, *args, **kw: sent.append(key) or real_call(
+            s, key, *args, **kw))
+        for _ in range(4):
+            np.testing.assert_array_equal(client.predict("reach", OBS["obs_times"], OBS["obs_values"],
+                                                         n_steps=50).mean, ref.mean)
+        assert a.batcher.computed == before + 4
+        assert sorted(sent) == sorted([KEYS.predict_at("reach", a.zid)] * 2 + [KEYS.predict_at("reach", b_zid)] * 2)
