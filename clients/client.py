@@ -155,7 +155,7 @@ class ACNMPClient:
         self.keys = Keyspace(self.namespace)
         self.session = session
         self._processes: dict[str, set[str]] = {}  # skill -> zids of the model processes serving it
-        self._processes_lock = threading.Lock()
+        self._processes_changed = threading.Condition()
         self._watching = False
         # whose turn is next among a skill's processes: each client starts elsewhere (its own zid)
         self._turn = itertools.count(int(str(session.zid()), 16) % 65536)
@@ -177,15 +177,20 @@ class ACNMPClient:
         return call_when_available(self.session, key, payload, self.timeout if timeout is None else float(timeout))
 
     # ----- model service ---------------------------------------------------------------------
-    def model_processes(self, skill: str) -> list[str]:
-        """The zenoh ids of the model processes serving ``skill``, as this client knows them now (a
-        liveliness subscriber declared on the first call, so the first call may return [])."""
-        with self._processes_lock:
+    def model_processes(self, skill: str, at_least: int = 0, timeout: float = 10.0) -> list[str]:
+        """The zenoh ids of the model processes serving ``skill``, as this client knows them (from a
+        liveliness subscriber declared on the first call). With ``at_least``, wait until it knows that
+        many (TimeoutError after ``timeout`` seconds); without, the first call may return []."""
+        with self._processes_changed:
             if not self._watching:
                 self._watching = True
                 sub = self.session.liveliness().declare_subscriber(
                     self.keys.model_process_token("*", "*"), self._on_model_process, history=True)
                 self._stack.callback(sub.undeclare)
+            if not self._processes_changed.wait_for(lambda: len(self._processes.get(skill, ())) >= at_least,
+                                                    timeout):
+                raise TimeoutError(f"{len(self._processes.get(skill, ()))} model processes serve {skill!r} "
+                                   f"after {timeout:g} s, not {at_least}")
             return sorted(self._processes.get(skill, ()))
 
     def _on_model_process(self, sample: zenoh.Sample) -> None:
@@ -193,12 +198,13 @@ class ACNMPClient:
         if not is_concrete(key):
             return
         skill, zid = key.split("/")[-2:]
-        with self._processes_lock:
+        with self._processes_changed:
             zids = self._processes.setdefault(skill, set())
             if sample.kind == zenoh.SampleKind.PUT:
                 zids.add(zid)
             else:
                 zids.discard(zid)
+            self._processes_changed.notify_all()
 
     def _predict_request(self, skill: str, payload: dict, timeout: float | None) -> dict:
         """A predict query: with several model processes serving ``skill``, sent to one of them in

@@ -284,15 +284,14 @@ def test_two_model_processes_share_a_clients_predicts_and_a_gone_one_falls_back(
     """Issue 37: on the skill's key every model process computes every predict; a client that sees
     two processes serving the skill sends each predict to one of them, so each is computed once. A
     process the client still lists but that is gone is skipped through the skill's key."""
-    from services.transport import wait_for_liveliness, wait_for_liveliness_gone
+    from services.transport import wait_for_liveliness_gone
 
     ep, server, client = mesh
     with open_session("peer", connect=[ep]) as other, \
             ModelService(server, NS, fetch_latest=False) as a, ModelService(other, NS, fetch_latest=False) as b:
         for service in (a, b):
             service.load(SkillModel("reach", 1, small_model))
-        client.model_processes("reach")  # its subscriber, declared now, sees both
-        wait_for_liveliness(client.session, KEYS.model_process_token("reach"), count=2)
+        client.model_processes("reach", at_least=2)  # its subscriber sees both
         ref = small_model.predict(OBS["obs_times"], OBS["obs_values"], n_steps=50)
         got = [wait_for(lambda: client.predict("reach", OBS["obs_times"], OBS["obs_values"], n_steps=50))
                for _ in range(8)]
@@ -306,7 +305,7 @@ def test_two_model_processes_share_a_clients_predicts_and_a_gone_one_falls_back(
         b_zid, before = b.zid, a.batcher.computed
         b.close()
         wait_for_liveliness_gone(client.session, KEYS.model_process_token("reach", b_zid))
-        with client._processes_lock:
+        with client._processes_changed:
             client._processes["reach"].add(b_zid)
         import clients.client
 

@@ -56,8 +56,7 @@ def test_up_with_demos_is_up_once_the_skill_is_served_and_ctrl_c_says_what_it_st
             real_call = clients.client.call
             monkeypatch.setattr(clients.client, "call", lambda s, key, *a, **k: sent.append(key) or real_call(
                 s, key, *a, **k))
-            client.model_processes("mine")  # its liveliness subscriber sees both (history)
-            wait_for_liveliness(client.session, client.keys.model_process_token("mine"), count=2)
+            client.model_processes("mine", at_least=2)  # its liveliness subscriber sees both (history)
             got = [client.predict("mine", [0.0], [[0.0, 0.0]], n_steps=20) for _ in range(6)]
         zids = set(client.model_processes("mine"))
         assert len(zids) == 2 and {k.rsplit("/", 1)[-1] for k in sent} == zids, sent  # both, nothing else
