@@ -157,9 +157,11 @@ def wait_for_skill(dep, skill: str, stop, source: str, poll: float = 1.0) -> boo
 
 def stopping_line(dep) -> str:
     """The line ``acnmp up`` prints as it begins to stop ``dep``: what it stops and what is kept."""
+    from services.launcher.announce import role_of
+
     names = list(dep.children)
     workers = sum(n.startswith("worker-") for n in names)
-    models = sum(n == "model" or n.startswith("model-") for n in names)
+    models = sum(role_of(n) == "model" for n in names)
     parts = [{"learner": "the learner (a running job is saved and resumes at the next start)",
               "model": "the model service" + (f" ({models} processes)" if models > 1 else "")}[n]
              for n in ("learner", "model") if n in names]

@@ -248,6 +248,10 @@ class LocalDeployment:
             for i in range(self.n_workers):
                 started.append(self.start_worker(f"{self.robot}-{i}", wait=False))
             self._wait_live(started)
+            if self.with_model and self.model_processes > 1:
+                # every model process declares the same kind of token: _wait_live saw one of them
+                wait_for_liveliness(self.session, keys.model_service_token("*"), count=self.model_processes,
+                                    timeout=self.start_timeout)
             self._announce()
             self._events = EventPublisher(self.session, self.keys)
             if self.supervise:
