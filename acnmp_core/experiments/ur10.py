@@ -45,8 +45,12 @@ from ..training import TrainConfig, train
 CASES = {"8_10": (0.08, 0.10), "9_11": (0.09, 0.11), "10_12": (0.10, 0.12)}
 #: ACNMP's roll-out budget per case (issue 14: success within 60 roll-outs).
 BUDGET = 60
-#: Supervised training steps of the LfD model.
-TRAIN_STEPS = 3000
+#: Supervised training steps of the LfD model, and the rate its cosine decay ends at (from Adam's
+#: 1e-3): 3000 steps at a constant rate left the joints that never move with the heights (pan, wrist
+#: 3) 1-2.5 deg off in extrapolation, and LfD and ACNMP worse at every case
+#: (benchmarks/studies/e5_training.py, docs/studies/e5_ur10.md).
+TRAIN_STEPS = 10000
+TRAIN_LR_FINAL = 1e-5
 #: Every FIGURE_STRIDE-th row of the trajectories is kept in the result for the figure.
 FIGURE_STRIDE = 5
 
@@ -94,11 +98,14 @@ def make_target(setup: UR10Setup, case: str) -> AdaptTarget:
                        task_params=np.asarray(CASES[case], dtype=np.float64), query_times=setup.times.copy())
 
 
-def train_ur10_cnmp(demos: DemoSet, seed: int, steps: int = TRAIN_STEPS, progress: bool = False) -> CNMP:
-    """The LfD model of E5: a default-size CNMP over the six joint angles with 2 task parameters."""
+def train_ur10_cnmp(demos: DemoSet, seed: int, steps: int = TRAIN_STEPS, progress: bool = False,
+                    lr_final: float | None = TRAIN_LR_FINAL) -> CNMP:
+    """The LfD model of E5: a default-size CNMP over the six joint angles with 2 task parameters,
+    trained ``steps`` steps (batch 32) with the rate decaying along a half cosine to ``lr_final``
+    (None: constant)."""
     model = CNMP(CNMPConfig(n_outputs=demos.n_outputs, n_task_params=demos.n_task_params,
                             task_param_names=["h_obj", "h_obs"]), seed=seed)
-    train(model, demos, TrainConfig(steps=steps), seed=seed, progress=progress)
+    train(model, demos, TrainConfig(steps=steps, lr_final=lr_final), seed=seed, progress=progress)
     return model
 
 
@@ -157,6 +164,7 @@ def run_ur10(
     seeds: int | list[int] = 5,
     *,
     train_steps: int = TRAIN_STEPS,
+    train_lr_final: float | None = TRAIN_LR_FINAL,
     adapt_config: AdaptConfig | None = None,
     cases: tuple[str, ...] = tuple(CASES),
     demo_path: str | None = None,
@@ -172,6 +180,7 @@ def run_ur10(
     seeds : a count N (seeds 0..N-1) or an explicit list; each seeds the CNMP's initialisation and
         training and the adaptation's exploration.
     train_steps : supervised CNMP training steps (batch 32).
+    train_lr_final : the rate the training's cosine decay ends at (None: constant 1e-3).
     adapt_config : adaptation settings (default: ``AdaptConfig(max_rollouts=BUDGET)``, the project's
         defaults otherwise); ``mode`` is set here.
     cases : a subset of :data:`CASES`.
@@ -213,7 +222,7 @@ def run_ur10(
             batch = ev.evaluate(setup.experts[case][None], setup.times, np.asarray(CASES[case]))
             experts_exec[case] = batch.states["joint_angles"][0]
         for seed in seed_list:
-            model = train_ur10_cnmp(setup.demos, seed, train_steps, progress)
+            model = train_ur10_cnmp(setup.demos, seed, train_steps, progress, train_lr_final)
             for case in cases:
                 t1 = time.perf_counter()
                 ev = shared if shared is not None else evaluator_factory(case)
@@ -248,7 +257,7 @@ def run_ur10(
         "heights_m": {c: list(CASES[c]) for c in cases},
         "joint_names": list(setup.joint_names),
         "wall_time_s": round(time.perf_counter() - t0, 2),
-        "config": {"train_steps": train_steps, "adapt": cfg.to_dict()},
+        "config": {"train_steps": train_steps, "train_lr_final": train_lr_final, "adapt": cfg.to_dict()},
         "runs": runs,
         "figure": figure,
     }

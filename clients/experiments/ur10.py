@@ -8,7 +8,7 @@ from .common import (add_deployment_arguments, add_output_arguments, add_size_ar
 
 def add_arguments(p) -> None:
     """Add the ``ur10`` experiment's options to its parser ``p`` (made from its catalog entry)."""
-    add_size_arguments(p, seeds=5, train_steps=3000, budget=60, budget_help="ACNMP roll-out budget per case")
+    add_size_arguments(p, seeds=5, train_steps=10000, budget=60, budget_help="ACNMP roll-out budget per case")
     p.add_argument("--cases", default=None, metavar="8_10,9_11",
                    help="comma-separated test cases, object_obstacle heights in cm (default: 8_10,9_11,10_12)")
     add_output_arguments(p, "write the per-joint trajectories of the first seed (PNG)")
