@@ -596,6 +596,34 @@ def e5_results() -> str:
     ])
 
 
+E5_TRAINING_LABELS = {"steps_3000_constant": "3000 steps, constant rate (before)",
+                      "steps_3000_cosine": "3000 steps, decay to 1e-5",
+                      "steps_10000_cosine": "10000 steps, decay to 1e-5 (the default)",
+                      "steps_20000_cosine": "20000 steps, decay to 1e-5"}
+
+
+@renderer("e5-training")
+def e5_training() -> str:
+    """E5 per training variant and case: LfD's and ACNMP's successes, ACNMP's within the joint
+    bound, ACNMP's roll-outs per seed (e5_training.json)."""
+    r = load("e5_training")
+    n, bound = r["seeds"], r["joint_bound_deg"]
+    rows = []
+    for name, v in r["variants"].items():
+        cells = [f"{c['lfd_success']}/{n}, {c['acnmp_success']}/{n}, {c['acnmp_within_deg']}/{n}"
+                 for c in v["cases"].values()]
+        rows.append([E5_TRAINING_LABELS.get(name, name), *cells,
+                     "; ".join(", ".join(map(str, c["acnmp_rollouts"])) for c in v["cases"].values()),
+                     f"{v['wall_time_s']:.0f}"])
+    cases = list(next(iter(r["variants"].values()))["cases"])
+    return "\n".join([
+        table(["LfD model", *(f"{E5_CASE_LABELS.get(c, c)}: LfD, ACNMP, ACNMP within {bound:g} deg" for c in cases),
+               "ACNMP roll-outs per seed, per case", "time (s)"], rows),
+        "",
+        source(r, "e5_training"),
+    ])
+
+
 @renderer("e6-results")
 def e6_results() -> str:
     """E6 against the paper's Table 2 (right): LfD's error, ACNMP's roll-outs to 30 g, the
