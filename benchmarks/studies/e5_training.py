@@ -6,8 +6,11 @@ per case: LfD's physics successes, ACNMP's, and ACNMP's successes with every joi
 of the expert. The variants are those before (3000 steps at a constant 1e-3) and after the change
 of default (10000 steps decaying to 1e-5), the decay alone, and twice the steps.
 
+The variants were compared on E5's reported seeds 0-4; ``--seeds 5-9`` checks them on seeds that
+chose nothing (``benchmarks/results/e5_training_fresh.json``).
+
 Writes ``benchmarks/results/e5_training.json``.
-Usage: ``python benchmarks/studies/e5_training.py [--seeds N] [--only NAME,...] [--out FILE]``
+Usage: ``python benchmarks/studies/e5_training.py [--seeds N|A-B] [--only NAME,...] [--out FILE]``
 (about 20 min for the four variants on one core).
 """
 from __future__ import annotations
@@ -57,7 +60,7 @@ def counts(result: dict) -> dict:
 def main(argv: list[str] | None = None) -> int:
     """Run the variants; print one line per variant and case."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--seeds", type=int, default=5)
+    ap.add_argument("--seeds", default="5", help="a count N (seeds 0..N-1) or a range A-B (default 5)")
     ap.add_argument("--only", default=None, help=f"comma-separated subset of {','.join(VARIANTS)}")
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "e5_training.json"))
     args = ap.parse_args(argv)
@@ -65,13 +68,20 @@ def main(argv: list[str] | None = None) -> int:
     unknown = [n for n in names if n not in VARIANTS]
     if unknown or not names:
         ap.error(f"--only: expected a subset of {','.join(VARIANTS)}, got {args.only!r}")
+    try:
+        first, _, last = args.seeds.partition("-")
+        seeds = list(range(int(first), int(last) + 1)) if last else list(range(int(first)))
+    except ValueError:
+        seeds = []
+    if not seeds:
+        ap.error(f"--seeds: expected a count N >= 1 or a range A-B, got {args.seeds!r}")
     torch.set_num_threads(1)
-    result = {"provenance": provenance(), "benchmark": "e5_training", "seeds": args.seeds,
+    result = {"provenance": provenance(), "benchmark": "e5_training", "seeds": len(seeds), "seed_list": seeds,
               "joint_bound_deg": E5_JOINT_DEG, "variants": {}}
     t0 = time.perf_counter()
     for name in names:
         steps, lr_final = VARIANTS[name]
-        r = run_ur10(args.seeds, train_steps=steps, train_lr_final=lr_final)
+        r = run_ur10(seeds, train_steps=steps, train_lr_final=lr_final)
         result["variants"][name] = {"train_steps": steps, "train_lr_final": lr_final,
                                     "wall_time_s": r["wall_time_s"], "cases": counts(r)}
         for case, c in result["variants"][name]["cases"].items():
