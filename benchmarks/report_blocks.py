@@ -602,26 +602,40 @@ E5_TRAINING_LABELS = {"steps_3000_constant": "3000 steps, constant rate (before)
                       "steps_20000_cosine": "20000 steps, decay to 1e-5"}
 
 
-@renderer("e5-training")
-def e5_training() -> str:
-    """E5 per training variant and case: LfD's and ACNMP's successes, ACNMP's within the joint
-    bound, ACNMP's roll-outs per seed (e5_training.json)."""
-    r = load("e5_training")
+def _e5_training_table(name: str) -> str:
+    """E5 per training variant and case from ``name``.json (benchmarks/studies/e5_training.py):
+    LfD's and ACNMP's successes, ACNMP's within the joint bound, ACNMP's roll-outs per seed."""
+    r = load(name)
     n, bound = r["seeds"], r["joint_bound_deg"]
     rows = []
-    for name, v in r["variants"].items():
+    for variant, v in r["variants"].items():
         cells = [f"{c['lfd_success']}/{n}, {c['acnmp_success']}/{n}, {c['acnmp_within_deg']}/{n}"
                  for c in v["cases"].values()]
-        rows.append([E5_TRAINING_LABELS.get(name, name), *cells,
+        rows.append([E5_TRAINING_LABELS.get(variant, variant), *cells,
                      "; ".join(", ".join(map(str, c["acnmp_rollouts"])) for c in v["cases"].values()),
                      f"{v['wall_time_s']:.0f}"])
     cases = list(next(iter(r["variants"].values()))["cases"])
+    seeds = r.get("seed_list", list(range(n)))
     return "\n".join([
+        f"Seeds {seeds[0]}-{seeds[-1]}:",
+        "",
         table(["LfD model", *(f"{E5_CASE_LABELS.get(c, c)}: LfD, ACNMP, ACNMP within {bound:g} deg" for c in cases),
                "ACNMP roll-outs per seed, per case", "time (s)"], rows),
         "",
-        source(r, "e5_training"),
+        source(r, name),
     ])
+
+
+@renderer("e5-training")
+def e5_training() -> str:
+    """The training variants on E5's reported seeds (e5_training.json)."""
+    return _e5_training_table("e5_training")
+
+
+@renderer("e5-training-fresh")
+def e5_training_fresh() -> str:
+    """The same on seeds that chose nothing (e5_training_fresh.json)."""
+    return _e5_training_table("e5_training_fresh")
 
 
 @renderer("e6-results")
