@@ -46,9 +46,9 @@ CASES = {"8_10": (0.08, 0.10), "9_11": (0.09, 0.11), "10_12": (0.10, 0.12)}
 #: ACNMP's roll-out budget per case (issue 14: success within 60 roll-outs).
 BUDGET = 60
 #: Supervised training steps of the LfD model, and the rate its cosine decay ends at (from Adam's
-#: 1e-3): 3000 steps at a constant rate left the joints that never move with the heights (pan, wrist
-#: 3) 1-2.5 deg off in extrapolation, and LfD and ACNMP worse at every case
-#: (benchmarks/studies/e5_training.py, docs/studies/e5_ur10.md).
+#: 1e-3): 3000 steps at a constant rate left even the joints that never move with the heights (pan,
+#: wrist 3) 1-2.5 deg off in extrapolation; over seeds 0-9 the longer, decaying training is ahead
+#: or level on every E5 count (benchmarks/studies/e5_training.py, docs/studies/e5_ur10.md).
 TRAIN_STEPS = 10000
 TRAIN_LR_FINAL = 1e-5
 #: Every FIGURE_STRIDE-th row of the trajectories is kept in the result for the figure.
