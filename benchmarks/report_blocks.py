@@ -579,8 +579,9 @@ def e5_results() -> str:
             rows += [["(9, 11)", "paper, LfD", "", "", "17.98", "14.89", "", "", "fails", ""],
                      ["(9, 11)", "paper, ACNMP", "", "", "1.78", "1.51", "", "", "succeeds", ""]]
     per_seed = {case: [x["acnmp"]["rollouts"] for x in r["runs"] if x["case"] == case] for case in r["cases"]}
-    within = {case: sum(x["acnmp"]["success"] and max(x["acnmp"]["joint_error_deg"]) <= 2.0
-                        for x in r["runs"] if x["case"] == case) for case in r["cases"]}
+    from clients.experiments.targets import E5_JOINT_DEG, e5_within_bound
+
+    within = {case: e5_within_bound(r["runs"], case) for case in r["cases"]}
     return "\n".join([
         table(["case (cm)", "method", "shoulder pan", "shoulder lift", "elbow", "wrist 1", "wrist 2", "wrist 3",
                "success", "roll-outs"], rows),
@@ -589,7 +590,7 @@ def e5_results() -> str:
         "success in physics; roll-outs: median.",
         "* ACNMP roll-outs per seed: " + "; ".join(f"{E5_CASE_LABELS.get(c, c)} {', '.join(map(str, v))}"
                                                    for c, v in per_seed.items()) + ".",
-        "* ACNMP succeeding with every joint within 2 deg: " + "; ".join(
+        f"* ACNMP succeeding with every joint within {E5_JOINT_DEG:g} deg: " + "; ".join(
             f"{E5_CASE_LABELS.get(c, c)} {k}/{n}" for c, k in within.items()) + ".",
         "",
         source(r, "e5_ur10"),

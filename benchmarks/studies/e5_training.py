@@ -27,7 +27,7 @@ sys.path.insert(0, str(ROOT))
 
 from acnmp_core.experiments.ur10 import run_ur10  # noqa: E402
 from benchmarks._results import provenance, save_result  # noqa: E402
-from clients.experiments.targets import E5_JOINT_DEG  # noqa: E402
+from clients.experiments.targets import E5_JOINT_DEG, e5_within_bound  # noqa: E402
 
 #: name -> (training steps, final rate of the cosine decay or None for a constant 1e-3)
 VARIANTS = {
@@ -48,8 +48,7 @@ def counts(result: dict) -> dict:
             "seeds": len(runs),
             "lfd_success": sum(r["lfd"]["success"] for r in runs),
             "acnmp_success": sum(r["acnmp"]["success"] for r in runs),
-            "acnmp_within_deg": sum(r["acnmp"]["success"] and max(r["acnmp"]["joint_error_deg"]) <= E5_JOINT_DEG
-                                    for r in runs),
+            "acnmp_within_deg": e5_within_bound(result["runs"], case),
             "acnmp_rollouts": [r["acnmp"]["rollouts"] for r in runs],
             "lfd_joint_error_deg": summary["lfd_only"]["joint_error_deg"],
             "acnmp_joint_error_deg": summary["acnmp"]["joint_error_deg"],
