@@ -116,23 +116,24 @@ class ModelService:
                         if batch_max > 1 else None)
         self._subs = [session.declare_subscriber(self.keys.weights(s), self._on_weights) for s in sub_skills]
         # complete=False: this process does not claim to serve every skill name, so a wildcard or
-        # unknown-skill query still reaches the other model processes. Each predict queryable is
-        # declared twice: on the skill's key, which every model process answers, and on this
-        # process's own (predict_at), on which a client shares its predicts between processes
+        # unknown-skill query still reaches the other model processes. The predict RPC is declared
+        # on two keys: the skill's, which every model process answers, and this process's own
+        # (predict_at), on which a client shares its predicts between processes
         self.zid = str(session.zid())
         predict_keys = (self.keys.predict("*"), self.keys.predict_at("*", self.zid))
+        # one RPC over both keys: they share the handler threads and the queue bound (--workers and
+        # --max-queue are the process's, whichever key a client asks on)
         if self.batcher is None:  # each predict decoded, checked and computed on a handler thread
-            predicts = [declare_rpc(session, key, lambda req, q: handle_predict(self.registry, _skill_of(q), req),
-                                    workers=workers, complete=False, max_queue=max_queue,
-                                    default_timeout=DEFAULT_QUERY_TIMEOUT) for key in predict_keys]
+            predict = declare_rpc(session, predict_keys,
+                                  lambda req, q: handle_predict(self.registry, _skill_of(q), req),
+                                  workers=workers, complete=False, max_queue=max_queue,
+                                  default_timeout=DEFAULT_QUERY_TIMEOUT)
         else:  # zenoh's thread only queues the query: the batcher's threads decode, check and compute
-            predicts = [declare_rpc(session, key, self._submit_predict, workers=0, complete=False,
-                                    decode_payload=False, default_timeout=DEFAULT_QUERY_TIMEOUT, pass_deadline=True)
-                        for key in predict_keys]
-        predict = predicts[0]
+            predict = declare_rpc(session, predict_keys, self._submit_predict, workers=0, complete=False,
+                                  decode_payload=False, default_timeout=DEFAULT_QUERY_TIMEOUT, pass_deadline=True)
         self._predict_rpc = predict
         self._rpcs = [
-            *predicts,
+            predict,
             # a transfer is a predict through two models: the same queue bound and deadline, no batching
             declare_rpc(session, self.keys.transfer("*"),
                         lambda req, q: handle_transfer(self.registry, _skill_of(q), req),
@@ -155,9 +156,13 @@ class ModelService:
         self.token_key = self.keys.model_service_token(str(session.zid()))
         self._token = session.liveliness().declare_token(self.token_key)
 
+    @property
+    def predicts_answered(self) -> int:
+        """Predicts this process has computed and answered, on either of its predict keys."""
+        return self._predict_rpc.served
+
     def _submit_predict(self, _request, query: zenoh.Query, deadline: float | None):
-        # on zenoh's callback thread: nothing but the skill's name is looked at here (both predict
-        # queryables decode alike, so either's decode_request serves)
+        # on zenoh's callback thread: nothing but the skill's name is looked at here
         skill = _skill_of(query)
         return self.batcher.submit(
             lambda: prepare_predict(self.registry, skill, self._predict_rpc.decode_request(query)), deadline)

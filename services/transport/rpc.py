@@ -15,7 +15,7 @@ import threading
 import time
 import traceback
 from concurrent.futures import Future, ThreadPoolExecutor
-from typing import Any, Callable
+from typing import Any, Callable, Sequence
 
 import zenoh
 
@@ -86,15 +86,21 @@ class Expired(Exception):
 class RpcQueryable:
     """A queryable whose handler errors become ``reply_err`` payloads; see :func:`declare_rpc`.
 
-    Use as a context manager or call :meth:`close`; closing undeclares the queryable and waits
-    for handlers in flight (when a thread pool is used).
+    ``key_expr`` may be several key expressions: one zenoh queryable is declared on each, and they
+    share this object's handler threads, queue bound and counters (one service's bound, whichever
+    key its queries come on). Use as a context manager or call :meth:`close`; closing undeclares
+    the queryables and waits for handlers in flight (when a thread pool is used).
     """
 
-    def __init__(self, session: zenoh.Session, key_expr: str, handler: Handler, *, workers: int = 0,
+    def __init__(self, session: zenoh.Session, key_expr: str | Sequence[str], handler: Handler, *, workers: int = 0,
                  decode_payload: bool = True, expect_version: int | None = SCHEMA_VERSION,
                  max_bytes: int = DEFAULT_MAX_BYTES, complete: bool = True, max_queue: int | None = None,
                  default_timeout: float | None = None, pass_deadline: bool = False):
-        self.key_expr = key_expr
+        keys = [key_expr] if isinstance(key_expr, str) else list(key_expr)
+        if not keys:
+            raise ValueError("key_expr: expected at least one key expression")
+        self.key_expr = keys[0]
+        self.key_exprs = tuple(keys)
         self._handler = handler
         self._decode = decode_payload
         self._expect_version = expect_version
@@ -111,7 +117,7 @@ class RpcQueryable:
         self.waiting = 0     # queued, not started
         self._lock = threading.Lock()
         callback = self._dispatch if self._pool else self._serve_inline
-        self._queryable = session.declare_queryable(key_expr, callback, complete=complete)
+        self._queryables = [session.declare_queryable(k, callback, complete=complete) for k in keys]
 
     def _deadline(self, query: zenoh.Query) -> float | None:
         timeout = query_timeout(query) or self.default_timeout
@@ -152,7 +158,7 @@ class RpcQueryable:
         if full:
             with contextlib.suppress(Exception):
                 query.reply_err(error_payload("overloaded", f"{self.max_queue} queries are already waiting on "
-                                                            f"{self.key_expr}; try again later"))
+                                                            f"{query.key_expr}; try again later"))
             query.drop()
             return
         try:
@@ -232,9 +238,10 @@ class RpcQueryable:
             log.debug("reply_err failed on %s", self.key_expr, exc_info=True)
 
     def close(self) -> None:
-        """Undeclare the queryable, then let handlers in flight finish."""
-        with contextlib.suppress(Exception):
-            self._queryable.undeclare()
+        """Undeclare the queryables, then let handlers in flight finish."""
+        for queryable in self._queryables:
+            with contextlib.suppress(Exception):
+                queryable.undeclare()
         if self._pool is not None:
             self._pool.shutdown(wait=True, cancel_futures=False)
 
@@ -245,8 +252,9 @@ class RpcQueryable:
         self.close()
 
 
-def declare_rpc(session: zenoh.Session, key_expr: str, handler: Handler, **kwargs) -> RpcQueryable:
-    """Declare a queryable on ``key_expr`` that answers every query exactly once.
+def declare_rpc(session: zenoh.Session, key_expr: str | Sequence[str], handler: Handler, **kwargs) -> RpcQueryable:
+    """Declare a queryable on ``key_expr`` (one key expression, or several sharing the handler
+    threads and queue bound below) that answers every query exactly once.
 
     ``handler(request, query)`` gets the decoded request map (None when the query has no
     payload) and returns a reply map (encoded here) or bytes. A :class:`WireError` it raises

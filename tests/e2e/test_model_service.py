@@ -13,6 +13,7 @@ from acnmp_core.checkpoint import save_checkpoint
 from acnmp_core.cnmp import CNMP
 from clients.client import ACNMPClient, ClientError
 from services.model import ModelConfig, ModelService
+from services.model.batching import DEFAULT_BATCH_MAX
 from services.model.handlers import MAX_BATCH, MAX_QUERY_STEPS, SkillModel
 from services.model.weights import encode_weights
 from services.transport import (Keyspace, SessionOptions, WireError, call, declare_rpc, encode, free_port,
@@ -280,7 +281,9 @@ def test_concurrent_predicts_are_batched_and_each_gets_its_own_answer(mesh, smal
         np.testing.assert_allclose(reply.std, ref.std, rtol=1e-5, atol=1e-6)
 
 
-def test_two_model_processes_share_a_clients_predicts_and_a_gone_one_falls_back(mesh, small_model, monkeypatch):
+@pytest.mark.parametrize("batch_max", [DEFAULT_BATCH_MAX, 1], ids=["batching", "no-batching"])
+def test_two_model_processes_share_a_clients_predicts_and_a_gone_one_falls_back(mesh, small_model, monkeypatch,
+                                                                               batch_max):
     """Issue 37: on the skill's key every model process computes every predict; a client that sees
     two processes serving the skill sends each predict to one of them, so each is computed once. A
     process the client still lists but that is gone is skipped through the skill's key."""
@@ -288,7 +291,8 @@ def test_two_model_processes_share_a_clients_predicts_and_a_gone_one_falls_back(
 
     ep, server, client = mesh
     with open_session("peer", connect=[ep]) as other, \
-            ModelService(server, NS, fetch_latest=False) as a, ModelService(other, NS, fetch_latest=False) as b:
+            ModelService(server, NS, fetch_latest=False, batch_max=batch_max) as a, \
+            ModelService(other, NS, fetch_latest=False, batch_max=batch_max) as b:
         for service in (a, b):
             service.load(SkillModel("reach", 1, small_model))
         client.model_processes("reach", at_least=2)  # its subscriber sees both
@@ -299,10 +303,10 @@ def test_two_model_processes_share_a_clients_predicts_and_a_gone_one_falls_back(
         for p in got:
             np.testing.assert_array_equal(p.mean, ref.mean)
         # every predict computed once, by one of the two, and both took some
-        assert a.batcher.computed + b.batcher.computed == 8 and a.batcher.computed and b.batcher.computed
+        assert a.predicts_answered + b.predicts_answered == 8 and a.predicts_answered and b.predicts_answered
         # b goes; the client still lists it (as it would until the token's lease ends): every predict
         # sent to b ends 'unavailable' at once and is asked again on the skill's key, which a answers
-        b_zid, before = b.zid, a.batcher.computed
+        b_zid, before = b.zid, a.predicts_answered
         b.close()
         wait_for_liveliness_gone(client.session, KEYS.model_process_token("reach", b_zid))
         with client._processes_changed:
@@ -315,5 +319,5 @@ def test_two_model_processes_share_a_clients_predicts_and_a_gone_one_falls_back(
         for _ in range(4):
             np.testing.assert_array_equal(client.predict("reach", OBS["obs_times"], OBS["obs_values"],
                                                          n_steps=50).mean, ref.mean)
-        assert a.batcher.computed == before + 4
+        assert a.predicts_answered == before + 4
         assert sorted(sent) == sorted([KEYS.predict_at("reach", a.zid)] * 2 + [KEYS.predict_at("reach", b_zid)] * 2)

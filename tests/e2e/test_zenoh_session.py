@@ -249,6 +249,33 @@ def test_a_full_queue_answers_overloaded_at_once_and_queued_queries_still_comple
         rpc.close()
 
 
+def test_one_rpc_on_two_keys_shares_one_queue_bound(anchor):
+    """The model service's predict answers on the skill's key and on its own: --max-queue bounds
+    the process, not each key (two bounds let twice the queries wait)."""
+    server, ep = anchor
+    key_a, key_b = "acnmp/test/shared/a", "acnmp/test/shared/b"
+    rpc, entered, release, calls = _blocking_service(server, [key_a, key_b], max_queue=1)
+    try:
+        with peer(ep) as client:
+            release.set()
+            _reachable(client, key_b)
+            first = _hold_first(client, key_a, entered, release)  # runs, held by the one handler thread
+            queued = client.get(key_b, payload=encode({"i": 2}), timeout=30)
+            _wait_until(lambda: rpc.waiting == 1)
+            for key in (key_a, key_b):
+                with pytest.raises(WireError) as info:
+                    call(client, key, {"i": 3}, timeout=10)
+                assert info.value.code == "overloaded" and key in info.value.message
+            assert rpc.overloaded == 2
+            release.set()
+            for handler in (first, queued):
+                assert [r.ok is not None for r in handler] == [True]
+            assert [c["i"] for c in calls if "i" in c] == [1, 2]
+    finally:
+        release.set()
+        rpc.close()
+
+
 def test_a_query_whose_timeout_passed_in_the_queue_is_dropped_without_computing(anchor):
     server, ep = anchor
     key = "acnmp/test/queue/deadline"
