@@ -3,10 +3,11 @@
 Writes benchmarks/results/e3_wall.json (with its provenance) and e3_wall.png (the paper's
 Fig. 5 d, e). Usage: ``python benchmarks/experiments/e3_wall.py [--envs N] [--seed S] [--threads N] [--out FILE]``;
 the default is 1500 new environments after 30 demonstrated ones, tested on 1000, the generated
-paths moved onto their start and goal (``--snap-paths none``: the paper's variant), with torch's
-default threads (one per core; the provenance records how many). The settings are the library's
-defaults, the same as ``acnmp experiment wall``; on the CPU ``bench_e3_threads.py`` measured, the
-thread count changes the time, not the numbers.
+paths moved onto their start and goal (``--snap-paths none``: the paper's variant). The settings
+are the library's defaults, the same as ``acnmp experiment wall``: training, adaptation and
+assimilation at one torch thread (acnmp_core/threads.py), which ``--threads N`` changes as the CLI's
+option does; on the CPU ``bench_e3_threads.py`` measured, the thread count changes the time, not
+the numbers.
 """
 from __future__ import annotations
 
@@ -14,13 +15,12 @@ import argparse
 import sys
 from pathlib import Path
 
-import torch
-
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 from acnmp_core.experiments.wall import ASSIMILATE_FROM, TRAIN_DEFAULTS, run_wall  # noqa: E402
 from acnmp_core.plots import plot_wall  # noqa: E402
+from acnmp_core.threads import set_training_threads  # noqa: E402
 from benchmarks._results import provenance, save_result  # noqa: E402
 
 
@@ -36,13 +36,14 @@ def main(argv: list[str] | None = None) -> int:
                     help="as acnmp experiment wall: 'generated' (default, boundary conditions enforced), 'none' "
                          "(the paper's variant, paths as generated), 'all' (the adaptations' roll-outs too)")
     ap.add_argument("--threads", type=int, default=None,
-                    help="torch intra-op threads (default: torch's, one per core; see bench_e3_threads.py)")
+                    help="torch threads for training, adaptation and assimilation (default: $ACNMP_TORCH_THREADS "
+                         "or 1; see bench_thread_default.py)")
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "e3_wall.json"))
     args = ap.parse_args(argv)
     if args.threads is not None:
         if args.threads < 1:
             ap.error(f"--threads: expected an integer >= 1, got {args.threads}")
-        torch.set_num_threads(args.threads)
+        set_training_threads(args.threads)
     meta = provenance()
     result = {"provenance": meta, **run_wall(args.envs, args.seed, eval_every=args.eval_every,
                                                assimilate_from=args.assimilate_from,
