@@ -184,7 +184,8 @@ def test_thread_count_changes_the_time_not_the_numbers():
     assert all(run["identical_to_one_thread"] for run in bench["runs"])
     from acnmp_core.threads import set_training_threads
 
-    kw = dict(envs=4, seed=2, n_initial=20, n_test=100, eval_every=2, train_steps=600, assimilate_steps=60,
+    # one environment that needs an adaptation (12 roll-outs) and its assimilation: about 10 s a run
+    kw = dict(envs=1, seed=2, n_initial=20, n_test=100, eval_every=1, train_steps=600, assimilate_steps=60,
               methods=("acnmp",))
     try:
         runs = []
