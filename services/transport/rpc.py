@@ -100,7 +100,6 @@ class RpcQueryable:
         if not keys:
             raise ValueError("key_expr: expected at least one key expression")
         self.key_expr = keys[0]
-        self.key_exprs = tuple(keys)
         self._handler = handler
         self._decode = decode_payload
         self._expect_version = expect_version
@@ -220,7 +219,7 @@ class RpcQueryable:
     def _fail_with(self, query: zenoh.Query, exc: BaseException) -> None:
         err = wire_error(exc)
         if err.code == "internal":
-            log.error("handler for %s failed:\n%s", self.key_expr,
+            log.error("handler for %s failed:\n%s", query.key_expr,
                       "".join(traceback.format_exception(type(exc), exc, exc.__traceback__)))
         self._fail(query, err.code, err.message)
 
@@ -235,7 +234,7 @@ class RpcQueryable:
         try:
             query.reply_err(error_payload(code, message))
         except Exception:  # session closing under us: nothing left to tell
-            log.debug("reply_err failed on %s", self.key_expr, exc_info=True)
+            log.debug("reply_err failed on %s", query.key_expr, exc_info=True)
 
     def close(self) -> None:
         """Undeclare the queryables, then let handlers in flight finish."""
