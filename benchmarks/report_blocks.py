@@ -249,7 +249,7 @@ def e3_results_paper_paths() -> str:
     return _e3_results_block("e3_wall_paper_paths")
 
 
-def _e3_seed_runs(wall: str = "e3_wall", seeds: str = "e3_seeds") -> tuple[dict, dict, dict]:
+def e3_seed_runs(wall: str = "e3_wall", seeds: str = "e3_seeds") -> tuple[dict, dict, dict]:
     """(seed 0's JSON ``wall``, seeds 1-9's ``seeds``, {seed: {method: summary}}) for ten seeds: by
     default those at the default settings."""
     full, more = load(wall), load(seeds)
@@ -270,7 +270,7 @@ def _e3_seed_runs(wall: str = "e3_wall", seeds: str = "e3_seeds") -> tuple[dict,
 def _e3_per_env(wall: str, seeds: str) -> str:
     """The largest number of trajectories one environment took, seed 0 and over the ten seeds, and
     the adaptations that ran to their budget (from the same JSON as the ten-seed table)."""
-    full, _, runs = _e3_seed_runs(wall, seeds)
+    full, _, runs = e3_seed_runs(wall, seeds)
     a0 = full["methods"]["acnmp"]
     top = max(runs[s]["acnmp"]["trajectories_per_env_max"] for s in runs)
     failed = {s: runs[s]["acnmp"]["adaptations_failed"] for s in sorted(runs, key=int)
@@ -308,7 +308,7 @@ def e3_seeds_paper_paths() -> str:
 
 
 def _e3_seeds(wall: str, seeds_file: str) -> str:
-    full, more, runs = _e3_seed_runs(wall, seeds_file)
+    full, more, runs = e3_seed_runs(wall, seeds_file)
     seeds = sorted(runs, key=int)
     rows = []
     for seed in seeds:
@@ -351,7 +351,7 @@ def _e3_seeds(wall: str, seeds_file: str) -> str:
 def e3_targets() -> str:
     """Issue 37's E3 targets at the default over the ten seeds (e3_wall.json + e3_seeds.json), each
     with the measured value and whether it is met."""
-    full, _, runs = _e3_seed_runs()
+    full, _, runs = e3_seed_runs()
     seeds = sorted(runs, key=int)
 
     def mean(m: str, key: str) -> float:
@@ -401,7 +401,7 @@ def e3_time_alone() -> str:
 @renderer("e3-paper-paths-summary")
 def e3_paper_paths_summary() -> str:
     """One paragraph: the ten seeds with paths as generated (the paper's variant) beside the default."""
-    _, _, runs = _e3_seed_runs("e3_wall_paper_paths", "e3_seeds_paper_paths")
+    _, _, runs = e3_seed_runs("e3_wall_paper_paths", "e3_seeds_paper_paths")
     seeds = sorted(runs, key=int)
 
     def mean(m: str, key: str) -> float:
@@ -508,7 +508,7 @@ def e3_compare() -> str:
 
 
 def e3_row() -> list[str]:
-    r, _, runs = _e3_seed_runs()
+    r, _, runs = e3_seed_runs()
     a, p = r["methods"]["acnmp"], r["methods"]["promp_rl"]
     ratio = r["trajectory_ratio_promp_over_acnmp"]
 

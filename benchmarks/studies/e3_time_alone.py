@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import statistics
 import sys
 from pathlib import Path
 
@@ -20,19 +21,10 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 from benchmarks._results import provenance, save_result  # noqa: E402
+from benchmarks.report_blocks import e3_seed_runs  # noqa: E402
 
 #: the summary entries that are times, not results
 TIME_KEYS = ("time_s",)
-
-
-def reference_runs(results: Path) -> dict[str, dict[str, dict]]:
-    """{seed: {method: summary}} of the ten-seed table: seed 0 from e3_wall.json, 1-9 from e3_seeds.json."""
-    wall = json.loads((results / "e3_wall.json").read_text())
-    runs = {str(wall["seed"]): {m: s for m, s in wall["methods"].items()}}
-    for seed, variants in json.loads((results / "e3_seeds.json").read_text())["seeds"].items():
-        w = variants["baseline"]
-        runs[seed] = {"acnmp": w["summary"], **{m: o["summary"] for m, o in w.get("others", {}).items()}}
-    return runs
 
 
 def same_results(a: dict, b: dict) -> bool:
@@ -41,9 +33,9 @@ def same_results(a: dict, b: dict) -> bool:
     return all(a.get(k) == b.get(k) for k in keys)
 
 
-def combine(paths: list[Path], results: Path) -> dict:
+def combine(paths: list[Path]) -> dict:
     """One record per seed run (e3_wall.py JSON files) with the ten-seed table's time beside it."""
-    reference = reference_runs(results)
+    _, _, reference = e3_seed_runs()
     seeds, parts, wall = {}, [], 0.0
     for path in paths:
         run = json.loads(path.read_text())
@@ -64,11 +56,10 @@ def combine(paths: list[Path], results: Path) -> dict:
             "test_success_rate": run["methods"]["acnmp"]["test_success_rate"],
             "same_results_as_ten_seed_table": all(same_results(run["methods"][m], ref[m]) for m in run["methods"]),
         }
-    times = sorted(s["acnmp_time_s"] for s in seeds.values())
+    times = [s["acnmp_time_s"] for s in seeds.values()]
     return {"experiment": "e3_time_alone", "seeds": dict(sorted(seeds.items(), key=lambda kv: int(kv[0]))),
-            "acnmp_time_s_median": times[len(times) // 2] if len(times) % 2 else
-            (times[len(times) // 2 - 1] + times[len(times) // 2]) / 2,
-            "acnmp_time_s_max": times[-1],
+            "acnmp_time_s_median": statistics.median(times),
+            "acnmp_time_s_max": max(times),
             "seeds_within_120_s": sum(t <= 120 for t in times),
             "wall_time_s": wall, "combined_from": parts}
 
@@ -77,11 +68,9 @@ def main(argv: list[str] | None = None) -> int:
     """Combine e3_wall.py runs into one JSON (``--out``) and print the times per seed."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("runs", nargs="+", type=Path, help="e3_wall.py JSON files, one per seed")
-    ap.add_argument("--results", type=Path, default=ROOT / "benchmarks" / "results",
-                    help="where e3_wall.json and e3_seeds.json are (default: %(default)s)")
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "e3_time_alone.json"))
     args = ap.parse_args(argv)
-    result = {"provenance": provenance(), **combine(args.runs, args.results)}
+    result = {"provenance": provenance(), **combine(args.runs)}
     for seed, s in result["seeds"].items():
         print(f"seed {seed}: ACNMP {s['acnmp_time_s']:.0f} s alone, "
               f"{s['acnmp_time_s_ten_seed_table']:.0f} s in the ten-seed table; {s['adaptations']} adaptations "
