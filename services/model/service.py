@@ -116,13 +116,12 @@ class ModelService:
                         if batch_max > 1 else None)
         self._subs = [session.declare_subscriber(self.keys.weights(s), self._on_weights) for s in sub_skills]
         # complete=False: this process does not claim to serve every skill name, so a wildcard or
-        # unknown-skill query still reaches the other model processes. The predict RPC is declared
-        # on two keys: the skill's, which every model process answers, and this process's own
-        # (predict_at), on which a client shares its predicts between processes
+        # unknown-skill query still reaches the other model processes. One predict RPC serves two
+        # keys: the skill's, which every model process answers, and this process's own (predict_at),
+        # on which a client shares its predicts between processes; both share the handler threads and
+        # the queue bound (--workers and --max-queue are the process's, whichever key a client asks on)
         self.zid = str(session.zid())
         predict_keys = (self.keys.predict("*"), self.keys.predict_at("*", self.zid))
-        # one RPC over both keys: they share the handler threads and the queue bound (--workers and
-        # --max-queue are the process's, whichever key a client asks on)
         if self.batcher is None:  # each predict decoded, checked and computed on a handler thread
             predict = declare_rpc(session, predict_keys,
                                   lambda req, q: handle_predict(self.registry, _skill_of(q), req),
