@@ -55,7 +55,7 @@ import torch
 
 from .cnmp import CNMP, Query
 from .data import DemoSet
-from .exploration import CubicNoise, SmoothNoise
+from .exploration import CubicNoise, DemoNoise, SmoothNoise
 from .optim_step import Stepper
 from .threads import with_training_threads
 from .rollout import RolloutBatch, RolloutEvaluator
@@ -67,10 +67,11 @@ ADVANTAGES = ("awr", "reinforce")
 #: Which executed roll-out can be adapt()'s solution (``AdaptConfig.solution``).
 SOLUTIONS = ("mean", "any")
 #: Shapes of the exploration noise (``AdaptConfig.noise``).
-NOISES = ("rbf", "cubic")
+NOISES = ("rbf", "cubic", "demos")
 #: How a task's rewards depend on the actions (a class attribute ``credit`` of its evaluator):
-#: "step" (the reward at t depends on the state at t only) or "future" (on everything before it).
-CREDITS = ("step", "future")
+#: "step" (the reward at t depends on the state at t only) or "future" (on everything before it);
+#: "episode" (the whole return at every step) is set by ``noise="demos"``, not by a task.
+CREDITS = ("step", "future", "episode")
 
 
 @dataclass
@@ -94,7 +95,11 @@ class AdaptConfig:
     noise : "rbf" (the default: :class:`~acnmp_core.exploration.SmoothNoise`, ``n_knots`` knots, the
         std the same at every step) or "cubic" (the authors' E4 noise,
         :class:`~acnmp_core.exploration.CubicNoise`: the least-squares cubic through ``n_knots``
-        >= 4 samples of the std, about 0.42 x it per step on average).
+        >= 4 samples of the std, about 0.42 x it per step on average) or "demos" (a random
+        combination of the demonstrations' deviations from their mean,
+        :class:`~acnmp_core.exploration.DemoNoise`, its root mean square the std: the outputs move
+        together as a change of task parameters moves them; one draw perturbs the whole
+        trajectory, so each step is credited with the roll-out's whole return, "episode" credit).
     advantage : "awr" or "reinforce" (the authors'); see the module docstring.
     temperature : of the "awr" weights, relative to the rewards' spread at each step.
     lr : Adam learning rate of the policy steps.
@@ -247,7 +252,9 @@ def per_step_advantages(rewards: np.ndarray, kind: str = "awr", temperature: flo
     ``credit`` says which rewards the action at step t is credited with: "step" its own reward
     only (a kinematic task, where the reward at t depends on the state at t alone), "future" its
     reward and every later one (reward-to-go: a task with dynamics, where an action also moves
-    what happens after it). It is a property of the task (see :data:`CREDITS`), not a setting.
+    what happens after it). It is a property of the task (see :data:`CREDITS`), not a setting;
+    "episode" (every step the whole return) is the exploration's: noise drawn once for the whole
+    trajectory (``noise="demos"``).
 
     * "reinforce" (the authors'): rows 1..K, ``r_t(noisy) - r_t(mean)`` divided by its std over all
       K*T entries.
@@ -258,6 +265,8 @@ def per_step_advantages(rewards: np.ndarray, kind: str = "awr", temperature: flo
     """
     if credit == "future":
         rewards = np.cumsum(rewards[:, ::-1], axis=1)[:, ::-1]
+    elif credit == "episode":
+        rewards = np.repeat(rewards.sum(axis=1, keepdims=True), rewards.shape[1], axis=1)
     elif credit != "step":
         raise ValueError(f"credit: expected one of {CREDITS}, got {credit!r}")
     diff = rewards[1:] - rewards[0:1]
@@ -382,6 +391,17 @@ def _explore_std(cfg: AdaptConfig, std0: np.ndarray, scale: np.ndarray, err: flo
     return std0 * float(np.clip(ratio, cfg.explore_min, 1.0))
 
 
+def _demos_on(demos: DemoSet, times: np.ndarray, model: CNMP) -> np.ndarray:
+    """(N, T, D) the demonstrations, normalised as ``model``'s outputs, at ``times`` (T,) of their
+    phase (each demonstration's times mapped onto [times[0], times[-1]])."""
+    out = []
+    for d in demos.demos:
+        ph = (d.times - d.times[0]) / (d.times[-1] - d.times[0]) * (times[-1] - times[0]) + times[0]
+        out.append(np.stack([np.interp(times, ph, d.values[:, j]) for j in range(d.values.shape[1])], axis=1))
+    with torch.no_grad():
+        return model.value_norm.normalize(torch.as_tensor(np.stack(out), dtype=torch.float32)).double().numpy()
+
+
 @with_training_threads
 def adapt(
     model: CNMP,
@@ -424,9 +444,13 @@ def adapt(
     rng = np.random.default_rng(seed)
     gen = torch.Generator().manual_seed(seed)
     n_knots = min(cfg.n_knots, len(times))
-    noise = CubicNoise(len(times), n_knots) if cfg.noise == "cubic" else SmoothNoise(len(times), n_knots)
+    if cfg.noise == "demos":
+        noise = DemoNoise(_demos_on(demos, times, model))
+    else:
+        noise = CubicNoise(len(times), n_knots) if cfg.noise == "cubic" else SmoothNoise(len(times), n_knots)
     updater = _Updater(model, query, cfg, demos, train_cfg, gen, None if params is None else list(params))
-    credit = getattr(evaluator, "credit", "step")
+    # One draw of demonstration-shaped noise perturbs the whole trajectory at once: its return is its credit.
+    credit = "episode" if cfg.noise == "demos" else getattr(evaluator, "credit", "step")
     history: list[IterationLog] = []
     rollouts, it, success, err0 = 0, 0, False, None
     solved: int | None = None  # the row, in the last batch, of the roll-out that is the solution

@@ -161,6 +161,10 @@ class EpisodeSampler:
     so the model also learns to pass through what it is conditioned on.
     With probability ``partial_obs_prob`` an observation carries only a random non-empty subset of
     the output dimensions, which teaches the model to condition on partial observations.
+    ``task_param_jitter`` > 0 moves each episode's task parameters (normalised units) by Gaussian
+    noise of that std, the same for its observations and targets: training with input noise
+    (Bishop 1995, a smoothness penalty) keeps an output the demonstrations never vary with the
+    task parameters from drifting when they are extrapolated (docs/studies/e5_ur10.md).
 
     ``packed`` is read once, at construction: the sampler keeps its own float32 table of it (one
     row per demonstration point), so a sampler over demonstrations that changed must be rebuilt.
@@ -175,7 +179,11 @@ class EpisodeSampler:
         n_targets: int = 10,
         partial_obs_prob: float = 0.2,
         targets_include_obs: bool = False,
+        task_param_jitter: float = 0.0,
     ) -> None:
+        if isinstance(task_param_jitter, bool) or not isinstance(task_param_jitter, (int, float)) \
+                or not 0 <= task_param_jitter < float("inf"):
+            raise ValueError(f"task_param_jitter: expected a finite std >= 0, got {task_param_jitter!r}")
         shortest = int(packed.lengths.min())
         if min_obs < 1 or max_obs < min_obs:
             raise ValueError(f"max_obs: expected 1 <= min_obs <= max_obs, got {min_obs}, {max_obs}")
@@ -186,6 +194,7 @@ class EpisodeSampler:
         self.targets_include_obs = bool(targets_include_obs)
         self.n_targets = max(1, min(n_targets, shortest if self.targets_include_obs else shortest - max_obs))
         self.partial_obs_prob = partial_obs_prob
+        self.task_param_jitter = float(task_param_jitter)
         n, tmax, d = packed.values.shape
         self._n, self._tmax, self._d = n, tmax, d
         # Every value of an episode is a packed value (times a 0/1 mask, which is exact), so rounding
@@ -232,6 +241,8 @@ class EpisodeSampler:
         n_obs = torch.randint(self.min_obs, self.max_obs + 1, (b,), generator=gen)
         obs_mask = self._obs_slots < n_obs[:, None]
         tp = self._task_params[demo_idx]
+        if self.task_param_jitter > 0 and tp.shape[1]:
+            tp = tp + self.task_param_jitter * torch.randn(tp.shape, generator=gen)
         ot, ov = points[:, :m, :1], points[:, :m, 1:]
         dim_mask = torch.ones(b, m, d)
         if self.partial_obs_prob > 0 and d > 1:

@@ -79,3 +79,38 @@ class CubicNoise(_KnotNoise):
     def step_std(self) -> np.ndarray:
         """(T,) std of the noise at each step per unit ``std`` of the samples."""
         return np.linalg.norm(self.basis, axis=1)
+
+
+class DemoNoise:
+    """Noise shaped like the demonstrations' differences: a random combination of each
+    demonstration's deviation from their mean, so a perturbation moves the outputs together the way
+    a change of task parameters moves them (a few task parameters: a few directions), not each
+    output on its own.
+
+    Parameters
+    ----------
+    values : (N, T, D) the N >= 2 demonstrations on the trajectory's T steps (any units; the caller's
+        normalised ones).
+    """
+
+    def __init__(self, values) -> None:
+        values = check_array("values", values, ndim=3)
+        if values.shape[0] < 2:
+            raise ValueError(f"values: expected at least 2 demonstrations, got {values.shape[0]}")
+        dev = values - values.mean(axis=0, keepdims=True)
+        # Scaled so the noise's root mean square over the steps and outputs is one unit of ``std``.
+        rms = float(np.sqrt((dev**2).sum(axis=0).mean() / (values.shape[0] - 1)))
+        if not rms > 0:
+            raise ValueError("values: the demonstrations are all the same; there is no direction to explore")
+        self.modes = dev / (rms * np.sqrt(values.shape[0] - 1))
+        self.n_steps = values.shape[1]
+
+    def sample(self, n: int, n_dims: int, rng: np.random.Generator, std=1.0) -> np.ndarray:
+        """Draw ``n`` noise trajectories of shape (n, T, n_dims); ``std`` (scalar or (n_dims,))
+        scales the root mean square of each output's share."""
+        n = check_positive_int("n", n, minimum=0)
+        if n_dims != self.modes.shape[2]:
+            raise ValueError(f"n_dims: expected {self.modes.shape[2]} (the demonstrations' outputs), got {n_dims}")
+        std = check_array("std", std, ndim=(0, 1))
+        z = rng.standard_normal((n, self.modes.shape[0]))
+        return np.einsum("nk,ktd->ntd", z, self.modes) * std

@@ -31,6 +31,8 @@ class TrainConfig:
     is used instead, which still makes best-checkpoint keeping meaningful.
     val_every : steps between validations. partial_obs_prob : see EpisodeSampler.
     beta : beta-NLL exponent for the training loss (see :func:`nll_loss`); 0 is the plain NLL.
+    task_param_jitter : std (normalised units) of the Gaussian noise added to each episode's task
+        parameters (0: none; see EpisodeSampler).
     lr_final : None keeps ``lr`` constant; a number decays the rate from ``lr`` to ``lr_final``
         along a half cosine over the steps (:func:`cosine_lr`), which ends training with small,
         precise steps instead of Adam's full-rate jitter.
@@ -49,6 +51,7 @@ class TrainConfig:
     beta: float = 0.5
     lr_final: float | None = None
     targets_include_obs: bool = False
+    task_param_jitter: float = 0.0
 
     def __post_init__(self) -> None:
         check_positive_int("steps", self.steps, minimum=0)
@@ -59,6 +62,9 @@ class TrainConfig:
         if not (self.lr > 0):
             raise ValueError(f"lr: expected > 0, got {self.lr}")
         check_lr_final(self.lr, self.lr_final)
+        j = self.task_param_jitter
+        if isinstance(j, bool) or not isinstance(j, (int, float)) or not 0 <= j < float("inf"):
+            raise ValueError(f"task_param_jitter: expected a finite std >= 0, got {j!r}")
 
 
 def check_lr_final(lr: float, lr_final: float | None) -> None:
@@ -119,6 +125,7 @@ def make_sampler(model: CNMP, demos: DemoSet, cfg: TrainConfig) -> EpisodeSample
         n_targets=cfg.n_targets,
         partial_obs_prob=cfg.partial_obs_prob,
         targets_include_obs=cfg.targets_include_obs,
+        task_param_jitter=cfg.task_param_jitter,
     )
 
 

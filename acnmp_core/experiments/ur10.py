@@ -99,13 +99,15 @@ def make_target(setup: UR10Setup, case: str) -> AdaptTarget:
 
 
 def train_ur10_cnmp(demos: DemoSet, seed: int, steps: int = TRAIN_STEPS, progress: bool = False,
-                    lr_final: float | None = TRAIN_LR_FINAL) -> CNMP:
+                    lr_final: float | None = TRAIN_LR_FINAL, task_param_jitter: float = 0.0) -> CNMP:
     """The LfD model of E5: a default-size CNMP over the six joint angles with 2 task parameters,
     trained ``steps`` steps (batch 32) with the rate decaying along a half cosine to ``lr_final``
-    (None: constant)."""
+    (None: constant), the task parameters jittered by ``task_param_jitter`` (normalised std; see
+    :class:`~acnmp_core.training.TrainConfig`)."""
     model = CNMP(CNMPConfig(n_outputs=demos.n_outputs, n_task_params=demos.n_task_params,
                             task_param_names=["h_obj", "h_obs"]), seed=seed)
-    train(model, demos, TrainConfig(steps=steps, lr_final=lr_final), seed=seed, progress=progress)
+    train(model, demos, TrainConfig(steps=steps, lr_final=lr_final, task_param_jitter=task_param_jitter),
+          seed=seed, progress=progress)
     return model
 
 
@@ -165,6 +167,7 @@ def run_ur10(
     *,
     train_steps: int = TRAIN_STEPS,
     train_lr_final: float | None = TRAIN_LR_FINAL,
+    train_task_param_jitter: float = 0.0,
     adapt_config: AdaptConfig | None = None,
     cases: tuple[str, ...] = tuple(CASES),
     demo_path: str | None = None,
@@ -181,6 +184,7 @@ def run_ur10(
         training and the adaptation's exploration.
     train_steps : supervised CNMP training steps (batch 32).
     train_lr_final : the rate the training's cosine decay ends at (None: constant 1e-3).
+    train_task_param_jitter : std of the training's task-parameter jitter (normalised units; 0: none).
     adapt_config : adaptation settings (default: ``AdaptConfig(max_rollouts=BUDGET)``, the project's
         defaults otherwise); ``mode`` is set here.
     cases : a subset of :data:`CASES`.
@@ -222,7 +226,7 @@ def run_ur10(
             batch = ev.evaluate(setup.experts[case][None], setup.times, np.asarray(CASES[case]))
             experts_exec[case] = batch.states["joint_angles"][0]
         for seed in seed_list:
-            model = train_ur10_cnmp(setup.demos, seed, train_steps, progress, train_lr_final)
+            model = train_ur10_cnmp(setup.demos, seed, train_steps, progress, train_lr_final, train_task_param_jitter)
             for case in cases:
                 t1 = time.perf_counter()
                 ev = shared if shared is not None else evaluator_factory(case)
@@ -257,7 +261,9 @@ def run_ur10(
         "heights_m": {c: list(CASES[c]) for c in cases},
         "joint_names": list(setup.joint_names),
         "wall_time_s": round(time.perf_counter() - t0, 2),
-        "config": {"train_steps": train_steps, "train_lr_final": train_lr_final, "adapt": cfg.to_dict()},
+        "config": {"train_steps": train_steps, "train_lr_final": train_lr_final,
+                   **({"train_task_param_jitter": train_task_param_jitter} if train_task_param_jitter else {}),
+                   "adapt": cfg.to_dict()},
         "runs": runs,
         "figure": figure,
     }
