@@ -8,7 +8,7 @@ import pytest
 from acnmp_core.adaptation import AdaptConfig, adapt, per_step_advantages
 from acnmp_core.assimilation import AssimilationConfig, assimilate
 from acnmp_core.data import Demonstration
-from acnmp_core.exploration import CubicNoise, SmoothNoise
+from acnmp_core.exploration import CubicNoise, DemoNoise, SmoothNoise
 from acnmp_core.experiments.viapoint import make_setup, trajectory_metrics
 from acnmp_core.rollout import RolloutBatch
 from acnmp_core.training import reproduction_error
@@ -99,6 +99,56 @@ def test_future_credit_gives_earlier_steps_the_later_rewards():
     assert per_step_advantages(np.zeros((3, 6)), "awr", 0.1, "future") is None  # nothing to learn
     with pytest.raises(ValueError, match="credit"):
         per_step_advantages(rewards, "awr", 0.1, "later")
+
+
+def test_episode_credit_gives_every_step_the_whole_return():
+    rewards = np.zeros((3, 6))
+    rewards[:, 1] = [-1.0, -0.2, -2.0]
+    rewards[:, 4] = [-1.0, -1.5, -0.5]  # noisy 1: better at step 1, worse at step 4; returns -2, -1.7, -2.5
+    _, adv = per_step_advantages(rewards, "awr", 0.1, "episode")
+    assert np.all(adv == adv[:, :1])  # one weight per roll-out, at every step
+    assert adv[1, 0] > adv[0, 0] > adv[2, 0]  # ordered by the returns
+    _, adv = per_step_advantages(rewards, "reinforce", credit="episode")
+    assert np.all(adv == adv[:, :1]) and adv[0, 0] > 0
+
+
+def test_demo_noise_moves_the_outputs_as_the_demonstrations_differ():
+    rng = np.random.default_rng(0)
+    t = np.linspace(0, 1, 50)
+    demos = np.stack([np.stack([np.sin(t) * a, np.cos(t) * a, np.full(50, 3.0)], axis=1) for a in (1.0, 2.0, 4.0)])
+    noise = DemoNoise(demos)
+    x = noise.sample(5000, 3, rng, std=0.5)
+    assert x.shape == (5000, 50, 3)
+    np.testing.assert_array_equal(x[..., 2], 0.0)  # an output the demonstrations never vary stays put
+    dev = (demos - demos.mean(0)).reshape(3, -1).T  # (T*D, N)
+    flat = x.reshape(5000, -1).T
+    resid = flat - dev @ np.linalg.lstsq(dev, flat, rcond=None)[0]
+    assert np.abs(resid).max() < 1e-9 * np.abs(flat).max()  # every draw lies in the demonstrations' span
+    assert np.sqrt((x ** 2).mean()) == pytest.approx(0.5, rel=0.05)  # the std is its root mean square
+    with pytest.raises(ValueError, match="at least 2"):
+        DemoNoise(demos[:1])
+    with pytest.raises(ValueError, match="all the same"):
+        DemoNoise(np.stack([demos[0], demos[0]]))
+    with pytest.raises(ValueError, match="n_dims"):
+        noise.sample(1, 2, rng)
+
+
+def test_demo_noise_option_perturbs_only_in_the_demonstrations_span(e1_model, setup):
+    """noise="demos": every noisy roll-out differs from its mean by a combination of the
+    demonstrations' deviations from their mean (in raw units too: the normalisation is affine)."""
+    seen = []
+    adapt(copy.deepcopy(e1_model), setup.demos, setup.target, setup.task,
+          AdaptConfig(max_rollouts=10, noise="demos", stop_on_success=False), seed=0,
+          on_iteration=lambda log, trajs, batch: seen.append(trajs[1:] - trajs[:1]))
+    q = setup.target.query_times
+    demos = np.stack([np.stack([np.interp(q, (d.times - d.times[0]) / (d.times[-1] - d.times[0]) * (q[-1] - q[0]) + q[0],
+                                          d.values[:, j]) for j in range(d.values.shape[1])], axis=1)
+                      for d in setup.demos.demos])
+    dev = (demos - demos.mean(0)).reshape(len(demos), -1).T
+    flat = np.concatenate([d.reshape(len(d), -1) for d in seen]).T
+    assert flat.shape[1] == 8 and np.abs(flat).max() > 0
+    resid = flat - dev @ np.linalg.lstsq(dev, flat, rcond=None)[0]
+    assert np.abs(resid).max() < 1e-4 * np.abs(flat).max()
 
 
 def test_a_task_with_dynamics_is_solved_through_future_credit(e1_model, setup):

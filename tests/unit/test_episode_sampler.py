@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import torch
 
 from acnmp_core.cnmp import CNMP, CNMPConfig
@@ -132,3 +133,24 @@ def _packed():
     model = CNMP(CNMPConfig(n_outputs=1))
     model.fit_normalization(demos)
     return model.pack(demos)
+
+
+def test_task_parameter_jitter_moves_each_episode_by_one_draw_of_the_std():
+    """task_param_jitter: each episode's task parameters (normalised) move by one Gaussian draw,
+    the same in its observations and its targets; the default draws nothing (the reference above)."""
+    demos = _ragged()
+    model = CNMP(CNMPConfig(n_outputs=3, n_task_params=2))
+    model.fit_normalization(demos)
+    idx = torch.zeros(4000, dtype=torch.long)  # every episode from demonstration 0
+    ep = make_sampler(model, demos, TrainConfig(task_param_jitter=0.25)).sample(4000, torch.Generator().manual_seed(0), idx)
+    tp_obs, tp_tgt = ep.obs_x[..., 1:3], ep.tgt_x[..., 1:3]
+    assert torch.equal(tp_obs, tp_obs[:, :1].expand_as(tp_obs)) and torch.equal(tp_tgt, tp_obs[:, :1].expand_as(tp_tgt))
+    clean = model.task_norm.normalize(torch.as_tensor(demos[0].task_params[None])).float()
+    shift = (tp_obs[:, 0] - clean).numpy()
+    np.testing.assert_allclose(shift.std(axis=0), [0.25, 0.25], rtol=0.05)
+    np.testing.assert_allclose(shift.mean(axis=0), [0.0, 0.0], atol=0.02)
+    for bad in (-0.1, float("nan"), float("inf"), True):
+        with pytest.raises(ValueError, match="task_param_jitter"):
+            TrainConfig(task_param_jitter=bad)
+        with pytest.raises(ValueError, match="task_param_jitter"):
+            EpisodeSampler(model.pack(demos), task_param_jitter=bad)
