@@ -165,6 +165,10 @@ class EpisodeSampler:
     noise of that std, the same for its observations and targets: training with input noise
     (Bishop 1995, a smoothness penalty) keeps an output the demonstrations never vary with the
     task parameters from drifting when they are extrapolated (docs/studies/e5_ur10.md).
+    ``mixup`` > 0: with that probability an episode is a blend ``lam * a + (1 - lam) * b`` (lam
+    uniform in [0, 1]) of its demonstration ``a`` and a second random one ``b`` at the same points,
+    task parameters and values alike (mixup, Zhang et al. 2018): the model is taught to move
+    linearly between demonstrations. It needs demonstrations on one time grid.
 
     ``packed`` is read once, at construction: the sampler keeps its own float32 table of it (one
     row per demonstration point), so a sampler over demonstrations that changed must be rebuilt.
@@ -180,7 +184,13 @@ class EpisodeSampler:
         partial_obs_prob: float = 0.2,
         targets_include_obs: bool = False,
         task_param_jitter: float = 0.0,
+        mixup: float = 0.0,
     ) -> None:
+        if isinstance(mixup, bool) or not isinstance(mixup, (int, float)) or not 0 <= mixup <= 1:
+            raise ValueError(f"mixup: expected a probability in [0, 1], got {mixup!r}")
+        if mixup > 0 and not (bool((packed.lengths == packed.lengths[0]).all())
+                              and torch.equal(packed.times, packed.times[:1].expand_as(packed.times))):
+            raise ValueError("mixup: expected every demonstration on one time grid (the same times)")
         if isinstance(task_param_jitter, bool) or not isinstance(task_param_jitter, (int, float)) \
                 or not 0 <= task_param_jitter < float("inf"):
             raise ValueError(f"task_param_jitter: expected a finite std >= 0, got {task_param_jitter!r}")
@@ -195,6 +205,7 @@ class EpisodeSampler:
         self.n_targets = max(1, min(n_targets, shortest if self.targets_include_obs else shortest - max_obs))
         self.partial_obs_prob = partial_obs_prob
         self.task_param_jitter = float(task_param_jitter)
+        self.mixup = float(mixup)
         n, tmax, d = packed.values.shape
         self._n, self._tmax, self._d = n, tmax, d
         # Every value of an episode is a packed value (times a 0/1 mask, which is exact), so rounding
@@ -237,10 +248,19 @@ class EpisodeSampler:
         # Targets follow the observations in the permutation, or (targets_include_obs) start with them.
         t0 = 0 if self.targets_include_obs else m
         k = max(m, t0 + self.n_targets)
-        points = self._table[self._first_points(keys, k) + demo_idx[:, None] * tmax]  # (B, k, 1 + D)
+        slots = self._first_points(keys, k)
+        points = self._table[slots + demo_idx[:, None] * tmax]  # (B, k, 1 + D)
         n_obs = torch.randint(self.min_obs, self.max_obs + 1, (b,), generator=gen)
         obs_mask = self._obs_slots < n_obs[:, None]
         tp = self._task_params[demo_idx]
+        if self.mixup > 0:
+            other = torch.randint(0, n, (b,), generator=gen)
+            lam = torch.rand(b, generator=gen)
+            lam = torch.where(torch.rand(b, generator=gen) < self.mixup, lam, torch.ones(b))[:, None]
+            # One time grid: the same slots of the other demonstration are at the same times.
+            values = self._table[slots + other[:, None] * tmax][..., 1:]
+            points = torch.cat([points[..., :1], lam[:, :, None] * points[..., 1:] + (1 - lam[:, :, None]) * values], -1)
+            tp = lam * tp + (1 - lam) * self._task_params[other]
         if self.task_param_jitter > 0 and tp.shape[1]:
             tp = tp + self.task_param_jitter * torch.randn(tp.shape, generator=gen)
         ot, ov = points[:, :m, :1], points[:, :m, 1:]

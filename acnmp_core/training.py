@@ -31,6 +31,7 @@ class TrainConfig:
     is used instead, which still makes best-checkpoint keeping meaningful.
     val_every : steps between validations. partial_obs_prob : see EpisodeSampler.
     beta : beta-NLL exponent for the training loss (see :func:`nll_loss`); 0 is the plain NLL.
+    mixup : probability that an episode blends two demonstrations (0: never; see EpisodeSampler).
     task_param_jitter : std (normalised units) of the Gaussian noise added to each episode's task
         parameters (0: none; see EpisodeSampler).
     lr_final : None keeps ``lr`` constant; a number decays the rate from ``lr`` to ``lr_final``
@@ -52,6 +53,7 @@ class TrainConfig:
     lr_final: float | None = None
     targets_include_obs: bool = False
     task_param_jitter: float = 0.0
+    mixup: float = 0.0
 
     def __post_init__(self) -> None:
         check_positive_int("steps", self.steps, minimum=0)
@@ -65,6 +67,8 @@ class TrainConfig:
         j = self.task_param_jitter
         if isinstance(j, bool) or not isinstance(j, (int, float)) or not 0 <= j < float("inf"):
             raise ValueError(f"task_param_jitter: expected a finite std >= 0, got {j!r}")
+        if isinstance(self.mixup, bool) or not isinstance(self.mixup, (int, float)) or not 0 <= self.mixup <= 1:
+            raise ValueError(f"mixup: expected a probability in [0, 1], got {self.mixup!r}")
 
 
 def check_lr_final(lr: float, lr_final: float | None) -> None:
@@ -126,6 +130,7 @@ def make_sampler(model: CNMP, demos: DemoSet, cfg: TrainConfig) -> EpisodeSample
         partial_obs_prob=cfg.partial_obs_prob,
         targets_include_obs=cfg.targets_include_obs,
         task_param_jitter=cfg.task_param_jitter,
+        mixup=cfg.mixup,
     )
 
 

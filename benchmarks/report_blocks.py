@@ -628,28 +628,49 @@ E5_TRAINING_LABELS = {"steps_3000_constant": "3000 steps, constant rate (before)
                       "steps_20000_cosine": "20000 steps, decay to 1e-5"}
 
 
-def _e5_training_table(name: str) -> str:
-    """E5 per training variant and case from ``name``.json (benchmarks/studies/e5_training.py):
-    LfD's and ACNMP's successes, ACNMP's within the joint bound, ACNMP's roll-outs per seed."""
+E5_EXPLORATION_LABELS = {"default": "default (as published)",
+                         "demo_noise": "demonstration-shaped noise",
+                         "jitter_0.1_demo_noise": "jitter 0.1, demonstration-shaped noise",
+                         "jitter_0.3_demo_noise": "jitter 0.3, demonstration-shaped noise",
+                         "jitter_0.3_rbf": "jitter 0.3, default noise",
+                         "mixup": "mixup training, default noise"}
+
+
+def _e5_variant_table(name: str, labels: dict[str, str], first: str) -> str:
+    """E5 per variant and case from ``name``.json (benchmarks/studies/e5_training.py or
+    e5_exploration.py): LfD's and ACNMP's successes, ACNMP's within the joint bound, ACNMP's
+    roll-outs per seed, and the variant's time when recorded; ``first`` heads the variant column."""
     r = load(name)
     n, bound = r["seeds"], r["joint_bound_deg"]
+    timed = all("wall_time_s" in v for v in r["variants"].values())
     rows = []
     for variant, v in r["variants"].items():
         cells = [f"{c['lfd_success']}/{n}, {c['acnmp_success']}/{n}, {c['acnmp_within_deg']}/{n}"
                  for c in v["cases"].values()]
-        rows.append([E5_TRAINING_LABELS.get(variant, variant), *cells,
+        rows.append([labels.get(variant, variant), *cells,
                      "; ".join(", ".join(map(str, c["acnmp_rollouts"])) for c in v["cases"].values()),
-                     f"{v['wall_time_s']:.0f}"])
+                     *([f"{v['wall_time_s']:.0f}"] if timed else [])])
     cases = list(next(iter(r["variants"].values()))["cases"])
     seeds = r.get("seed_list", list(range(n)))
     return "\n".join([
         f"Seeds {seeds[0]}-{seeds[-1]}:",
         "",
-        table(["LfD model", *(f"{E5_CASE_LABELS.get(c, c)}: LfD, ACNMP, ACNMP within {bound:g} deg" for c in cases),
-               "ACNMP roll-outs per seed, per case", "time (s)"], rows),
+        table([first, *(f"{E5_CASE_LABELS.get(c, c)}: LfD, ACNMP, ACNMP within {bound:g} deg" for c in cases),
+               "ACNMP roll-outs per seed, per case", *(["time (s)"] if timed else [])], rows),
         "",
         source(r, name),
     ])
+
+
+def _e5_training_table(name: str) -> str:
+    """The training variants of ``name``.json (benchmarks/studies/e5_training.py)."""
+    return _e5_variant_table(name, E5_TRAINING_LABELS, "LfD model")
+
+
+@renderer("e5-exploration")
+def e5_exploration() -> str:
+    """Demonstration-shaped noise and task-parameter jitter on E5 (e5_exploration.json)."""
+    return _e5_variant_table("e5_exploration", E5_EXPLORATION_LABELS, "variant")
 
 
 @renderer("e5-training")

@@ -99,15 +99,17 @@ def make_target(setup: UR10Setup, case: str) -> AdaptTarget:
 
 
 def train_ur10_cnmp(demos: DemoSet, seed: int, steps: int = TRAIN_STEPS, progress: bool = False,
-                    lr_final: float | None = TRAIN_LR_FINAL, task_param_jitter: float = 0.0) -> CNMP:
+                    lr_final: float | None = TRAIN_LR_FINAL, task_param_jitter: float = 0.0,
+                    mixup: float = 0.0) -> CNMP:
     """The LfD model of E5: a default-size CNMP over the six joint angles with 2 task parameters,
     trained ``steps`` steps (batch 32) with the rate decaying along a half cosine to ``lr_final``
-    (None: constant), the task parameters jittered by ``task_param_jitter`` (normalised std; see
+    (None: constant), the task parameters jittered by ``task_param_jitter`` (normalised std) and
+    episodes blending two demonstrations with probability ``mixup`` (see
     :class:`~acnmp_core.training.TrainConfig`)."""
     model = CNMP(CNMPConfig(n_outputs=demos.n_outputs, n_task_params=demos.n_task_params,
                             task_param_names=["h_obj", "h_obs"]), seed=seed)
-    train(model, demos, TrainConfig(steps=steps, lr_final=lr_final, task_param_jitter=task_param_jitter),
-          seed=seed, progress=progress)
+    train(model, demos, TrainConfig(steps=steps, lr_final=lr_final, task_param_jitter=task_param_jitter,
+                                    mixup=mixup), seed=seed, progress=progress)
     return model
 
 
@@ -168,6 +170,7 @@ def run_ur10(
     train_steps: int = TRAIN_STEPS,
     train_lr_final: float | None = TRAIN_LR_FINAL,
     train_task_param_jitter: float = 0.0,
+    train_mixup: float = 0.0,
     adapt_config: AdaptConfig | None = None,
     cases: tuple[str, ...] = tuple(CASES),
     demo_path: str | None = None,
@@ -185,6 +188,7 @@ def run_ur10(
     train_steps : supervised CNMP training steps (batch 32).
     train_lr_final : the rate the training's cosine decay ends at (None: constant 1e-3).
     train_task_param_jitter : std of the training's task-parameter jitter (normalised units; 0: none).
+    train_mixup : probability of a training episode blending two demonstrations (0: none).
     adapt_config : adaptation settings (default: ``AdaptConfig(max_rollouts=BUDGET)``, the project's
         defaults otherwise); ``mode`` is set here.
     cases : a subset of :data:`CASES`.
@@ -226,7 +230,8 @@ def run_ur10(
             batch = ev.evaluate(setup.experts[case][None], setup.times, np.asarray(CASES[case]))
             experts_exec[case] = batch.states["joint_angles"][0]
         for seed in seed_list:
-            model = train_ur10_cnmp(setup.demos, seed, train_steps, progress, train_lr_final, train_task_param_jitter)
+            model = train_ur10_cnmp(setup.demos, seed, train_steps, progress, train_lr_final, train_task_param_jitter,
+                                    train_mixup)
             for case in cases:
                 t1 = time.perf_counter()
                 ev = shared if shared is not None else evaluator_factory(case)
@@ -263,6 +268,7 @@ def run_ur10(
         "wall_time_s": round(time.perf_counter() - t0, 2),
         "config": {"train_steps": train_steps, "train_lr_final": train_lr_final,
                    **({"train_task_param_jitter": train_task_param_jitter} if train_task_param_jitter else {}),
+                   **({"train_mixup": train_mixup} if train_mixup else {}),
                    "adapt": cfg.to_dict()},
         "runs": runs,
         "figure": figure,

@@ -12,7 +12,9 @@ expert's; and the LfD model drifts, when extrapolated, on joints the demonstrati
   episode credit);
 * ``jitter_X_demo_noise``: the LfD model trained with ``TrainConfig(task_param_jitter=X)``, then
   demonstration-shaped noise;
-* ``jitter_0.3_rbf``: that model with the default noise (which of the two does the work).
+* ``jitter_0.3_rbf``: that model with the default noise (which of the two does the work);
+* ``mixup``: the LfD model trained on blends of demonstration pairs (``TrainConfig(mixup=1)``),
+  the default noise.
 
 Each variant runs the whole E5 (the three cases, LfD only and ACNMP, budget 60) on every seed; the
 counts are issue 37's: LfD's and ACNMP's physics successes and ACNMP's successes with every joint
@@ -41,21 +43,22 @@ from acnmp_core.threads import set_training_threads  # noqa: E402
 from benchmarks._results import provenance, save_result  # noqa: E402
 from clients.experiments.targets import E5_JOINT_DEG, e5_within_bound  # noqa: E402
 
-#: name -> (task-parameter jitter of the LfD model's training, exploration noise)
+#: name -> (task-parameter jitter of the LfD model's training, its mixup probability, exploration noise)
 VARIANTS = {
-    "default": (0.0, "rbf"),
-    "demo_noise": (0.0, "demos"),
-    "jitter_0.1_demo_noise": (0.1, "demos"),
-    "jitter_0.3_demo_noise": (0.3, "demos"),
-    "jitter_0.3_rbf": (0.3, "rbf"),
+    "default": (0.0, 0.0, "rbf"),
+    "demo_noise": (0.0, 0.0, "demos"),
+    "jitter_0.1_demo_noise": (0.1, 0.0, "demos"),
+    "jitter_0.3_demo_noise": (0.3, 0.0, "demos"),
+    "jitter_0.3_rbf": (0.3, 0.0, "rbf"),
+    "mixup": (0.0, 1.0, "rbf"),
 }
 
 
 def run_one(name: str, seed: int) -> dict:
     """One seed of one variant: run_ur10's result (its runs carry the seed)."""
     set_training_threads(1)
-    jitter, noise = VARIANTS[name]
-    return run_ur10([seed], train_task_param_jitter=jitter,
+    jitter, mixup, noise = VARIANTS[name]
+    return run_ur10([seed], train_task_param_jitter=jitter, train_mixup=mixup,
                     adapt_config=AdaptConfig(max_rollouts=BUDGET, noise=noise))
 
 
@@ -97,17 +100,18 @@ def main(argv: list[str] | None = None) -> int:
         ap.error(f"--seeds: expected a count N >= 1 or a range A-B, got {args.seeds!r}")
     if args.jobs < 1:
         ap.error(f"--jobs: expected >= 1, got {args.jobs}")
+    prov = provenance()  # the code the run starts from
     t0 = time.perf_counter()
     with ProcessPoolExecutor(args.jobs, mp_context=get_context("spawn")) as pool:
         futures = {(n, s): pool.submit(run_one, n, s) for n in names for s in seeds}
         results = {key: f.result() for key, f in futures.items()}
-    out = {"provenance": provenance(), "benchmark": "e5_exploration", "seeds": len(seeds), "seed_list": seeds,
+    out = {"provenance": prov, "benchmark": "e5_exploration", "seeds": len(seeds), "seed_list": seeds,
            "joint_bound_deg": E5_JOINT_DEG, "jobs": args.jobs, "variants": {}}
     for name in names:
-        jitter, noise = VARIANTS[name]
+        jitter, mixup, noise = VARIANTS[name]
         runs = [run for s in seeds for run in results[(name, s)]["runs"]]
         cases = results[(name, seeds[0])]["cases"]
-        out["variants"][name] = {"train_task_param_jitter": jitter, "noise": noise,
+        out["variants"][name] = {"train_task_param_jitter": jitter, "train_mixup": mixup, "noise": noise,
                                  "cases": {c: counts(runs, c) for c in cases}}
         for case, c in out["variants"][name]["cases"].items():
             print(f"{name} {case}: LfD {c['lfd_success']}/{c['seeds']}, ACNMP {c['acnmp_success']}/{c['seeds']}, "

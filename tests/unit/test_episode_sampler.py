@@ -154,3 +154,30 @@ def test_task_parameter_jitter_moves_each_episode_by_one_draw_of_the_std():
             TrainConfig(task_param_jitter=bad)
         with pytest.raises(ValueError, match="task_param_jitter"):
             EpisodeSampler(model.pack(demos), task_param_jitter=bad)
+
+
+def test_mixup_blends_two_demonstrations_at_the_same_points():
+    """mixup: an episode is lam * a + (1 - lam) * b of two demonstrations, task parameters and
+    values alike, at the same times; so a relation every demonstration obeys linearly (here value =
+    task parameter) holds in every blended episode, at task parameters between the demonstrations'."""
+    t = np.linspace(0, 1, 30)
+    demos = DemoSet([Demonstration(t, np.column_stack([np.full(30, p), t * p]), np.array([p])) for p in (1.0, 2.0, 5.0)])
+    model = CNMP(CNMPConfig(n_outputs=2, n_task_params=1))
+    model.fit_normalization(demos)
+    ep = make_sampler(model, demos, TrainConfig(mixup=1.0, partial_obs_prob=0.0)).sample(2000, torch.Generator().manual_seed(0))
+    p = model.task_norm.denormalize(ep.tgt_x[..., 1:2].double())
+    y = model.value_norm.denormalize(ep.tgt_y.double())
+    times = model.time_norm.denormalize(ep.tgt_x[..., :1].double())
+    np.testing.assert_allclose(y[..., 0], p[..., 0], atol=1e-5)
+    np.testing.assert_allclose(y[..., 1], (times * p)[..., 0], atol=1e-5)
+    ptp = p[:, 0, 0].numpy()
+    assert np.mean(~np.isin(np.round(ptp, 4), [1.0, 2.0, 5.0])) > 0.5  # most episodes lie between demonstrations
+    assert 1.0 - 1e-5 <= ptp.min() and ptp.max() <= 5.0 + 1e-5
+    ragged = _ragged()
+    m2 = CNMP(CNMPConfig(n_outputs=3, n_task_params=2))
+    m2.fit_normalization(ragged)
+    with pytest.raises(ValueError, match="one time grid"):
+        make_sampler(m2, ragged, TrainConfig(mixup=0.5))
+    for bad in (-0.1, 1.5, float("nan"), True):
+        with pytest.raises(ValueError, match="mixup"):
+            TrainConfig(mixup=bad)
