@@ -673,6 +673,12 @@ def e5_exploration() -> str:
     return _e5_variant_table("e5_exploration", E5_EXPLORATION_LABELS, "variant")
 
 
+@renderer("e5-exploration-mixup")
+def e5_exploration_mixup() -> str:
+    """Mixup training on E5 (e5_exploration_mixup.json, the same study run for that variant)."""
+    return _e5_variant_table("e5_exploration_mixup", E5_EXPLORATION_LABELS, "variant")
+
+
 @renderer("e5-training")
 def e5_training() -> str:
     """The training variants on E5's reported seeds (e5_training.json)."""

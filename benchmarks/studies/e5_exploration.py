@@ -41,6 +41,7 @@ from acnmp_core.adaptation import AdaptConfig  # noqa: E402
 from acnmp_core.experiments.ur10 import BUDGET, run_ur10  # noqa: E402
 from acnmp_core.threads import set_training_threads  # noqa: E402
 from benchmarks._results import provenance, save_result  # noqa: E402
+from benchmarks.studies.e5_training import variants_and_seeds  # noqa: E402
 from clients.experiments.targets import E5_JOINT_DEG, e5_within_bound  # noqa: E402
 
 #: name -> (task-parameter jitter of the LfD model's training, its mixup probability, exploration noise)
@@ -87,17 +88,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--jobs", type=int, default=2, help="processes (default 2)")
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "e5_exploration.json"))
     args = ap.parse_args(argv)
-    names = list(VARIANTS) if args.only is None else [n.strip() for n in args.only.split(",") if n.strip()]
-    unknown = [n for n in names if n not in VARIANTS]
-    if unknown or not names:
-        ap.error(f"--only: expected a subset of {','.join(VARIANTS)}, got {args.only!r}")
-    try:
-        first, _, last = args.seeds.partition("-")
-        seeds = list(range(int(first), int(last) + 1)) if last else list(range(int(first)))
-    except ValueError:
-        seeds = []
-    if not seeds:
-        ap.error(f"--seeds: expected a count N >= 1 or a range A-B, got {args.seeds!r}")
+    names, seeds = variants_and_seeds(ap, args, VARIANTS)
     if args.jobs < 1:
         ap.error(f"--jobs: expected >= 1, got {args.jobs}")
     prov = provenance()  # the code the run starts from

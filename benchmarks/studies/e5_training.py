@@ -56,17 +56,13 @@ def counts(result: dict) -> dict:
     return out
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Run the variants; print one line per variant and case."""
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--seeds", default="5", help="a count N (seeds 0..N-1) or a range A-B (default 5)")
-    ap.add_argument("--only", default=None, help=f"comma-separated subset of {','.join(VARIANTS)}")
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "e5_training.json"))
-    args = ap.parse_args(argv)
-    names = list(VARIANTS) if args.only is None else [n.strip() for n in args.only.split(",") if n.strip()]
-    unknown = [n for n in names if n not in VARIANTS]
+def variants_and_seeds(ap: argparse.ArgumentParser, args: argparse.Namespace, variants: dict) -> tuple[list[str], list[int]]:
+    """The variant names of ``args.only`` (comma-separated; None: all of ``variants``) and the seeds
+    of ``args.seeds`` (a count N: 0..N-1, or a range A-B); ``ap.error`` (exit 2, one line) otherwise."""
+    names = list(variants) if args.only is None else [n.strip() for n in args.only.split(",") if n.strip()]
+    unknown = [n for n in names if n not in variants]
     if unknown or not names:
-        ap.error(f"--only: expected a subset of {','.join(VARIANTS)}, got {args.only!r}")
+        ap.error(f"--only: expected a subset of {','.join(variants)}, got {args.only!r}")
     try:
         first, _, last = args.seeds.partition("-")
         seeds = list(range(int(first), int(last) + 1)) if last else list(range(int(first)))
@@ -74,6 +70,17 @@ def main(argv: list[str] | None = None) -> int:
         seeds = []
     if not seeds:
         ap.error(f"--seeds: expected a count N >= 1 or a range A-B, got {args.seeds!r}")
+    return names, seeds
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the variants; print one line per variant and case."""
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seeds", default="5", help="a count N (seeds 0..N-1) or a range A-B (default 5)")
+    ap.add_argument("--only", default=None, help=f"comma-separated subset of {','.join(VARIANTS)}")
+    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "e5_training.json"))
+    args = ap.parse_args(argv)
+    names, seeds = variants_and_seeds(ap, args, VARIANTS)
     torch.set_num_threads(1)
     result = {"provenance": provenance(), "benchmark": "e5_training", "seeds": len(seeds), "seed_list": seeds,
               "joint_bound_deg": E5_JOINT_DEG, "variants": {}}
