@@ -20,7 +20,9 @@ the new ones first), budget 30 (``--budget 30``: a run not solved by then counts
 median), "F" against "N", "O" and "Q" (``--only F,N,O,Q``); ``baseline_not_within_20`` lists the
 seeds the first candidate of ``--only`` (here "F") does not solve within 20. The fit's candidates
 "R" and "S" on the same set (``results/e6_settings_fit.json``, ``--only R,S``; F not re-run, the runs
-are deterministic): there ``baseline_not_within_20`` is R's. "S" is ``e6_adapt_config`` since.
+are deterministic): there ``baseline_not_within_20`` is R's. "S" was ``e6_adapt_config`` since.
+"T" (S with the demonstration-shaped noise) against "S" on the same set, on the AMD machine
+(``results/e6_settings_demos.json``, ``--only S,T``); "T" is ``e6_adapt_config`` since.
 
 Usage: ``python benchmarks/studies/e6_settings.py [--seeds 100,101,102,103 | 100-115] [--only F,G] [--budget 25]
 [--jobs 2] [--out FILE]``.
@@ -74,6 +76,8 @@ CANDIDATES = {
     # still 0.13-1.5 stds from the AWR target, having moved part of the way to it: more steps, or faster ones
     "R": dict(explore_error_gain=1.5e-3, explore_cap=0.5, lr=1e-3, temperature=0.05, max_reuse=200),
     "S": dict(explore_error_gain=1.5e-3, explore_cap=0.5, lr=3e-3, temperature=0.05, max_reuse=100),
+    # S exploring along the demonstrations' deviations (DemoNoise, episode credit; the E5 study)
+    "T": dict(explore_error_gain=1.5e-3, explore_cap=0.5, lr=3e-3, temperature=0.05, max_reuse=100, noise="demos"),
 }
 
 
