@@ -732,19 +732,46 @@ def _assimilation_text(cfg: dict) -> str:
 
 @renderer("e6-machines")
 def e6_machines() -> str:
-    """E6's five seeds on the two machines that ran it (e6_pour.json, e6_pour_first_machine.json)."""
+    """E6's five seeds on the two machines that ran it, and with the demonstration-shaped noise
+    that was tried (e6_pour.json, e6_pour_setting_t.json, e6_pour_first_machine.json)."""
     rows = []
-    for name in ("e6_pour", "e6_pour_first_machine"):
+    for name in ("e6_pour", "e6_pour_setting_t", "e6_pour_first_machine"):
         r = load(name)
         n, a, mach = r["seeds"], r["acnmp"], r["provenance"]["machine"]
+        noise = r["config"]["adapt"].get("noise", "rbf")
         rows.append([f"{mach['cpu']}, {mach.get('torch_cpu_capability', '?')} (`{name}.json`)",
+                     "demonstration-shaped (T)" if noise == "demos" else "per step (S)",
                      ", ".join(fmt(e) for e in r["lfd_only"]["errors_g"]),
                      ", ".join("-" if f is None else str(f) for f in a["first_success_rollout"]),
                      frac(a["success_within_20_rate"], n), fmt(r["assimilation"]["demos_reproduced_within_30g"]),
-                     fmt(r["assimilation"]["lfd_demos_reproduced_within_30g"])])
-    return table(["machine", "LfD-only error per seed (g)", "ACNMP's first roll-out within 30 g, per seed",
+                     fmt(r["assimilation"]["lfd_demos_reproduced_within_30g"]), _e6_all_within_50(r)])
+    return table(["machine", "exploration noise", "LfD-only error per seed (g)", "ACNMP's first roll-out within 30 g, per seed",
                   "within 20 roll-outs", "demos within 30 g after assimilation (median)",
-                  "LfD-only's (median)"], rows)
+                  "LfD-only's (median)", "all 16 within 50 g after assimilation"], rows)
+
+
+def _e6_all_within_50(r: dict) -> str:
+    """How many of an E6 result's assimilated seeds reproduce all 16 demonstrations within 50 g."""
+    done = [x for x in r["runs"] if x.get("assimilation")]
+    return f"{sum(max(x['assimilation']['demo_errors_g']) <= 50 for x in done)}/{len(done)}"
+
+
+@renderer("e6-settings-demos")
+def e6_settings_demos() -> str:
+    """Settings S and T (S with the demonstration-shaped noise) on the tuning seeds 100-115, on
+    this machine (e6_settings_demos.json, benchmarks/studies/e6_settings.py)."""
+    r = load("e6_settings_demos")
+    n = len(r["seeds"])
+    rows = [[name, f"{r['within_20'][name]}/{n}", fmt(r["first_success_median"][name]),
+             ", ".join("-" if f is None else str(f) for f in r["first_success_rollout"][name])]
+            for name in r["candidates"]]
+    return "\n".join([
+        f"Seeds {', '.join(map(str, r['seeds']))}, budget {r['budget']}:",
+        "",
+        table(["setting", "within 20 roll-outs", "first roll-out within 30 g (median)", "per seed"], rows),
+        "",
+        source(r, "e6_settings_demos"),
+    ])
 
 
 @renderer("e6-assimilation")

@@ -22,7 +22,8 @@ seeds the first candidate of ``--only`` (here "F") does not solve within 20. The
 "R" and "S" on the same set (``results/e6_settings_fit.json``, ``--only R,S``; F not re-run, the runs
 are deterministic): there ``baseline_not_within_20`` is R's. "S" was ``e6_adapt_config`` since.
 "T" (S with the demonstration-shaped noise) against "S" on the same set, on the AMD machine
-(``results/e6_settings_demos.json``, ``--only S,T``); "T" is ``e6_adapt_config`` since.
+(``results/e6_settings_demos.json``, ``--only S,T``); "T" was not kept (its assimilated solutions
+reproduce the demonstrations worse: ``results/e6_pour_setting_t.json``).
 
 Usage: ``python benchmarks/studies/e6_settings.py [--seeds 100,101,102,103 | 100-115] [--only F,G] [--budget 25]
 [--jobs 2] [--out FILE]``.
