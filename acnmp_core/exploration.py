@@ -103,7 +103,6 @@ class DemoNoise:
         if not rms > 0:
             raise ValueError("values: the demonstrations are all the same; there is no direction to explore")
         self.modes = dev / (rms * np.sqrt(values.shape[0] - 1))
-        self.n_steps = values.shape[1]
 
     def sample(self, n: int, n_dims: int, rng: np.random.Generator, std=1.0) -> np.ndarray:
         """Draw ``n`` noise trajectories of shape (n, T, n_dims); ``std`` (scalar or (n_dims,))

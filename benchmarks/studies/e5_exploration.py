@@ -41,7 +41,7 @@ from acnmp_core.adaptation import AdaptConfig  # noqa: E402
 from acnmp_core.experiments.ur10 import BUDGET, run_ur10  # noqa: E402
 from acnmp_core.threads import set_training_threads  # noqa: E402
 from benchmarks._results import provenance, save_result  # noqa: E402
-from benchmarks.studies.e5_training import variants_and_seeds  # noqa: E402
+from benchmarks.studies.e5_training import print_variant, variants_and_seeds  # noqa: E402
 from clients.experiments.targets import E5_JOINT_DEG, e5_within_bound  # noqa: E402
 
 #: name -> (task-parameter jitter of the LfD model's training, its mixup probability, exploration noise)
@@ -104,10 +104,7 @@ def main(argv: list[str] | None = None) -> int:
         cases = results[(name, seeds[0])]["cases"]
         out["variants"][name] = {"train_task_param_jitter": jitter, "train_mixup": mixup, "noise": noise,
                                  "cases": {c: counts(runs, c) for c in cases}}
-        for case, c in out["variants"][name]["cases"].items():
-            print(f"{name} {case}: LfD {c['lfd_success']}/{c['seeds']}, ACNMP {c['acnmp_success']}/{c['seeds']}, "
-                  f"within {E5_JOINT_DEG:g} deg {c['acnmp_within_deg']}/{c['seeds']}, roll-outs {c['acnmp_rollouts']}",
-                  flush=True)
+        print_variant(name, out["variants"][name]["cases"])
     out["wall_time_s"] = round(time.perf_counter() - t0, 2)
     save_result(out, args.out)
     return 0

@@ -73,6 +73,15 @@ def variants_and_seeds(ap: argparse.ArgumentParser, args: argparse.Namespace, va
     return names, seeds
 
 
+def print_variant(name: str, cases: dict) -> None:
+    """One line per case of a variant's counts: LfD's and ACNMP's successes, ACNMP's within
+    E5_JOINT_DEG, ACNMP's roll-outs per seed."""
+    for case, c in cases.items():
+        print(f"{name} {case}: LfD {c['lfd_success']}/{c['seeds']}, ACNMP {c['acnmp_success']}/{c['seeds']}, "
+              f"within {E5_JOINT_DEG:g} deg {c['acnmp_within_deg']}/{c['seeds']}, roll-outs {c['acnmp_rollouts']}",
+              flush=True)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the variants; print one line per variant and case."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -90,10 +99,7 @@ def main(argv: list[str] | None = None) -> int:
         r = run_ur10(seeds, train_steps=steps, train_lr_final=lr_final)
         result["variants"][name] = {"train_steps": steps, "train_lr_final": lr_final,
                                     "wall_time_s": r["wall_time_s"], "cases": counts(r)}
-        for case, c in result["variants"][name]["cases"].items():
-            print(f"{name} {case}: LfD {c['lfd_success']}/{c['seeds']}, ACNMP {c['acnmp_success']}/{c['seeds']}, "
-                  f"within {E5_JOINT_DEG:g} deg {c['acnmp_within_deg']}/{c['seeds']}, roll-outs {c['acnmp_rollouts']}",
-                  flush=True)
+        print_variant(name, result["variants"][name]["cases"])
     result["wall_time_s"] = round(time.perf_counter() - t0, 2)
     save_result(result, args.out)
     return 0
