@@ -310,6 +310,9 @@ def test_two_model_processes_share_a_clients_predicts_and_a_gone_one_falls_back(
         b.close()
         wait_for_liveliness_gone(client.session, KEYS.model_process_token("reach", b_zid))
         with client._processes_changed:
+            # the client's own subscriber must have taken b out first, or it could do so after b is
+            # put back here and the predicts would all go to the skill's key
+            assert client._processes_changed.wait_for(lambda: b_zid not in client._processes["reach"], 10)
             client._processes["reach"].add(b_zid)
         import clients.client
 
