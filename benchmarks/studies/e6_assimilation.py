@@ -6,9 +6,11 @@ demonstrations reproduced, ``adapt`` with :func:`e6_adapt_config`), then every c
 that same solution into a copy of either the adapted model (``adapted``: E6's behaviour until this
 study) or the model before the adaptation (``skill``: as E3's default assimilates, so the RL steps'
 side effects stay out of the skill), and is checked as ``run_seed`` checks: the test poured without
-RL, each demonstration reproduced. Seeds run in ``--jobs`` processes. Writes
-``benchmarks/results/e6_assimilation.json``. Usage:
-``python benchmarks/studies/e6_assimilation.py [--seeds 5] [--jobs 2] [--out FILE]``.
+RL, each demonstration reproduced. Seeds run in ``--jobs`` processes. ``--noise demos`` explores
+as setting T does (``noise="demos"``, the demonstrations' deviations; E6's default, "rbf", explores per
+step), to see whether another start or rate keeps the demonstrations when T's solutions are
+assimilated. Writes ``benchmarks/results/e6_assimilation.json``. Usage:
+``python benchmarks/studies/e6_assimilation.py [--seeds 5] [--jobs 2] [--noise rbf|cubic|demos] [--out FILE]``.
 """
 from __future__ import annotations
 
@@ -35,11 +37,13 @@ CANDIDATES = {
     "adapted_lr3e-5": ("adapted", AssimilationConfig(lr=3e-5)),
     "skill_cosine": ("skill", AssimilationConfig(lr_final=1e-5)),
     "skill_2000": ("skill", AssimilationConfig(steps=2000, lr_final=1e-5)),
+    "skill_4000": ("skill", AssimilationConfig(steps=4000, lr_final=1e-5)),
 }
 
 
-def _seed(seed: int) -> dict:
-    """One seed: the LfD model's reproduction, the adaptation, then every candidate's checks."""
+def _seed(job: tuple[int, str]) -> dict:
+    """One seed (``job`` = (seed, exploration noise)): the LfD model's reproduction, the
+    adaptation, then every candidate's checks."""
     import torch
 
     from acnmp_core.adaptation import adapt
@@ -49,6 +53,7 @@ def _seed(seed: int) -> dict:
                                              mean_errors_g, train_pour_cnmp)
     from acnmp_core.robots.pour import PourTask
 
+    seed, noise = job
     torch.set_num_threads(1)
     t0 = time.perf_counter()
     setup = make_setup()
@@ -59,7 +64,7 @@ def _seed(seed: int) -> dict:
         model = train_pour_cnmp(setup.demos, seed)
         before = mean_errors_g(model, setup, task, demo_tp)
         skill = copy.deepcopy(model)
-        res = adapt(model, setup.demos, target, task, replace(e6_adapt_config(), mode="acnmp"), seed=seed)
+        res = adapt(model, setup.demos, target, task, replace(e6_adapt_config(), mode="acnmp", noise=noise), seed=seed)
         out = {"seed": seed, "success": bool(res.success), "rollouts": int(res.rollouts),
                "lfd_demo_errors_g": before.tolist(), "lfd_demos_within_30g": int(np.sum(before <= TOLERANCE_G)),
                "candidates": {}}
@@ -98,21 +103,24 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=5)
     ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--noise", choices=("rbf", "cubic", "demos"), default=None,
+                    help="the adaptation's exploration noise (default: E6's, e6_adapt_config().noise)")
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "e6_assimilation.json"))
     args = ap.parse_args(argv)
     meta = provenance()
     t0 = time.perf_counter()
-    from acnmp_core.experiments.pour import make_setup
+    from acnmp_core.experiments.pour import e6_adapt_config, make_setup
 
+    noise = args.noise or e6_adapt_config().noise
     make_setup()  # the demonstrations are generated and cached once, before the children
     with ProcessPoolExecutor(max_workers=args.jobs) as pool:
-        runs = list(pool.map(_seed, range(args.seeds)))
+        runs = list(pool.map(_seed, [(s, noise) for s in range(args.seeds)]))
     summary = summarize(runs)
     for name, s in summary.items():
         print(f"{name:<16} all within 50 g {s['all_within_50g']}/{s['seeds']}  no fewer within 30 g "
               f"{s['no_fewer_within_30g']}/{s['seeds']}  test without RL {s['test_within_30g_no_rl']}/{s['seeds']}  "
               f"median within 30 g {s['demos_within_30g_median']}")
-    save_result({"provenance": meta, "experiment": "e6_assimilation", "seeds": args.seeds,
+    save_result({"provenance": meta, "experiment": "e6_assimilation", "seeds": args.seeds, "noise": noise,
                  "candidates": {n: {"start": s, "config": vars(c)} for n, (s, c) in CANDIDATES.items()},
                  "summary": summary, "runs": runs, "wall_time_s": round(time.perf_counter() - t0, 1)}, args.out)
     return 0
