@@ -29,6 +29,7 @@ sys.path.insert(0, str(ROOT))
 
 from acnmp_core.assimilation import AssimilationConfig  # noqa: E402
 from benchmarks._results import provenance, save_result  # noqa: E402
+from benchmarks.studies.e6_settings import parse_seeds  # noqa: E402
 
 #: name -> (the model the assimilation starts from, its settings).
 CANDIDATES = {
@@ -41,9 +42,9 @@ CANDIDATES = {
 }
 
 
-def _seed(job: tuple[int, str]) -> dict:
-    """One seed (``job`` = (seed, exploration noise)): the LfD model's reproduction, the
-    adaptation, then every candidate's checks."""
+def _seed(job: tuple[int, str, tuple[str, ...]]) -> dict:
+    """One seed (``job`` = (seed, exploration noise, candidate names)): the LfD model's
+    reproduction, the adaptation, then each named candidate's checks."""
     import torch
 
     from acnmp_core.adaptation import adapt
@@ -53,7 +54,7 @@ def _seed(job: tuple[int, str]) -> dict:
                                              mean_errors_g, train_pour_cnmp)
     from acnmp_core.robots.pour import PourTask
 
-    seed, noise = job
+    seed, noise, names = job
     torch.set_num_threads(1)
     t0 = time.perf_counter()
     setup = make_setup()
@@ -70,7 +71,8 @@ def _seed(job: tuple[int, str]) -> dict:
                "candidates": {}}
         if res.success:
             solution = Demonstration(res.times, res.trajectory, tp)
-            for name, (start, cfg) in CANDIDATES.items():
+            for name in names:
+                start, cfg = CANDIDATES[name]
                 m = copy.deepcopy(model if start == "adapted" else skill)
                 assimilate(m, setup.demos, solution, cfg, conditions=target, seed=seed)
                 err = mean_errors_g(m, setup, task, demo_tp)
@@ -82,13 +84,13 @@ def _seed(job: tuple[int, str]) -> dict:
     return out
 
 
-def summarize(runs: list[dict]) -> dict:
+def summarize(runs: list[dict], names: tuple[str, ...] = tuple(CANDIDATES)) -> dict:
     """Per candidate, over the seeds that found a solution: seeds with every demonstration within
     50 g, seeds with no fewer within 30 g than the LfD model, seeds whose test pour without RL is
     within 30 g, and the median count within 30 g."""
     solved = [r for r in runs if r["success"]]
     out = {}
-    for name in CANDIDATES:
+    for name in names:
         got = [(r, r["candidates"][name]) for r in solved]
         out[name] = {"seeds": len(got),
                      "all_within_50g": sum(c["demos_max_error_g"] <= 50 for _, c in got),
@@ -101,8 +103,9 @@ def summarize(runs: list[dict]) -> dict:
 def main(argv: list[str] | None = None) -> int:
     """Run the seeds, print one line per candidate, write the JSON."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--seeds", type=int, default=5)
+    ap.add_argument("--seeds", default="5", help="a count N (seeds 0..N-1) or a list such as 100-115,0-4")
     ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--only", default=",".join(CANDIDATES), help="candidates, comma-separated")
     ap.add_argument("--noise", choices=("rbf", "cubic", "demos"), default=None,
                     help="the adaptation's exploration noise (default: E6's, e6_adapt_config().noise)")
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "e6_assimilation.json"))
@@ -112,16 +115,22 @@ def main(argv: list[str] | None = None) -> int:
     from acnmp_core.experiments.pour import e6_adapt_config, make_setup
 
     noise = args.noise or e6_adapt_config().noise
+    seeds = list(range(int(args.seeds))) if args.seeds.isdigit() else parse_seeds(args.seeds)
+    names = tuple(n.strip() for n in args.only.split(",") if n.strip())
+    unknown = [n for n in names if n not in CANDIDATES]
+    if unknown or not names:
+        ap.error(f"--only: unknown candidate(s) {unknown}; expected some of {list(CANDIDATES)}")
     make_setup()  # the demonstrations are generated and cached once, before the children
     with ProcessPoolExecutor(max_workers=args.jobs) as pool:
-        runs = list(pool.map(_seed, [(s, noise) for s in range(args.seeds)]))
-    summary = summarize(runs)
+        runs = list(pool.map(_seed, [(s, noise, names) for s in seeds]))
+    summary = summarize(runs, names)
     for name, s in summary.items():
         print(f"{name:<16} all within 50 g {s['all_within_50g']}/{s['seeds']}  no fewer within 30 g "
               f"{s['no_fewer_within_30g']}/{s['seeds']}  test without RL {s['test_within_30g_no_rl']}/{s['seeds']}  "
               f"median within 30 g {s['demos_within_30g_median']}")
-    save_result({"provenance": meta, "experiment": "e6_assimilation", "seeds": args.seeds, "noise": noise,
-                 "candidates": {n: {"start": s, "config": vars(c)} for n, (s, c) in CANDIDATES.items()},
+    save_result({"provenance": meta, "experiment": "e6_assimilation", "seeds": len(seeds), "seed_list": seeds,
+                 "noise": noise,
+                 "candidates": {n: {"start": CANDIDATES[n][0], "config": vars(CANDIDATES[n][1])} for n in names},
                  "summary": summary, "runs": runs, "wall_time_s": round(time.perf_counter() - t0, 1)}, args.out)
     return 0
 
