@@ -35,6 +35,12 @@ from .training import TrainConfig, check_lr_final, check_stop, cosine_lr, make_s
 from .validation import check_array, check_positive_int
 
 
+#: Which network a solution is assimilated into, for the experiments that choose: the skill as it
+#: was before the adaptation ("skill"; the solution is learnt through the anchor, and the RL steps'
+#: side effects stay out of the skill) or the adapted network ("adapted", which already produces it).
+ASSIMILATE_FROM = ("skill", "adapted")
+
+
 @dataclass
 class AssimilationConfig:
     """Continued training after a solution joins the demonstrations.

@@ -43,7 +43,7 @@ import numpy as np
 import torch
 
 from ..adaptation import AdaptConfig, AdaptTarget, adapt
-from ..assimilation import AssimilationConfig, assimilate, snap_path, snap_to_observations
+from ..assimilation import ASSIMILATE_FROM, AssimilationConfig, assimilate, snap_path, snap_to_observations
 from ..cnmp import CNMP, CNMPConfig
 from ..data import Demonstration, DemoSet
 from ..promp_rl import AdaptiveProMP, PrompRLConfig, promp_rl
@@ -85,9 +85,6 @@ TRAIN_DEFAULTS = dict(train_steps=3000, assimilate_steps=150, assimilate_lr=3e-4
 #: executed and kept only if it succeeds): over seeds 0-2 at 300 environments, 85.9 % test success on
 #: average against 78.2 % with the solutions as found, with fewer trajectories in every seed
 #: (benchmarks/results/e3_snap.json against e3_optimizer.json).
-#: Which network the assimilation continues from: the skill as it was before the adaptation
-#: ("skill"; the solution is learnt through the anchor), or the adapted copy ("adapted").
-ASSIMILATE_FROM = ("skill", "adapted")
 
 
 @dataclass

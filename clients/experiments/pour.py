@@ -12,6 +12,9 @@ def add_arguments(p) -> None:
     """Add the ``pour`` experiment's options to its parser ``p`` (made from its catalog entry)."""
     add_size_arguments(p, seeds=5, train_steps=3000, budget=60, budget_help="ACNMP roll-out budget")
     p.add_argument("--no-assimilation", action="store_true", help="skip the assimilation and its checks")
+    p.add_argument("--assimilate-from", choices=("skill", "adapted"), default=None,
+                   help="assimilate the solution into the model as it was before the adaptation, or into "
+                        "the adapted model (default: run_pour's, the skill)")
     add_output_arguments(p, "write the error of every roll-out per seed (PNG)")
     add_deployment_arguments(p, "the roll-outs on pour PyBullet workers")
     p.add_argument("--jobs", type=int_at_least(1, 64), default=1,
@@ -31,7 +34,8 @@ def run(args) -> int:
         raise ValueError("--jobs: expected 1 with --distributed")
     torch.set_num_threads(1)  # the CNMP is small; threads only contend with the simulator
     kwargs = dict(train_steps=train_steps, adapt_config=e6_adapt_config(budget),
-                  assimilate_solution=not args.no_assimilation, log=None if args.quiet else print)
+                  assimilate_solution=not args.no_assimilation, log=None if args.quiet else print,
+                  **({} if args.assimilate_from is None else {"assimilate_from": args.assimilate_from}))
     if args.distributed:
         from clients.distributed import remote_rollouts
 
