@@ -31,7 +31,8 @@ def test_every_block_has_a_renderer_and_every_renderer_is_used():
                                   "e4_failures_seed0", "e4_failures_sl_once", "e4_failures_cubic", "e1_assimilation",
                                   "e5_demo_spread", "e3_budget", "e3_stop", "e3_seeds", "e3_wall_paper_paths",
                                   "e3_seeds_paper_paths", "e2_push_second_machine", "e6_pour", "e6_pour_first_machine",
-                                  "e6_assimilation", "e5_ur10"])
+                                  "e6_assimilation", "e5_ur10", "e6_pour_setting_s", "e6_assimilation_demos",
+                                  "e6_assimilation_demos_tuning", "e6_assimilation_rbf_tuning"])
 def test_result_files_record_their_provenance(name):
     p = json.loads((RESULTS / f"{name}.json").read_text())["provenance"]
     assert len(p["commit"]) == 40 and isinstance(p["dirty"], bool) and p["command"]
