@@ -41,6 +41,13 @@ from .validation import check_array, check_positive_int
 ASSIMILATE_FROM = ("skill", "adapted")
 
 
+def check_assimilate_from(value: str) -> str:
+    """``value`` if it is one of :data:`ASSIMILATE_FROM`, else ValueError in one line."""
+    if value not in ASSIMILATE_FROM:
+        raise ValueError(f"assimilate_from: expected one of {ASSIMILATE_FROM}, got {value!r}")
+    return value
+
+
 @dataclass
 class AssimilationConfig:
     """Continued training after a solution joins the demonstrations.

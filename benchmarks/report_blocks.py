@@ -804,11 +804,11 @@ def e6_assimilation() -> str:
     ])
 
 
-#: The E6 assimilation study's runs by exploration noise and seed set: (label, result file).
-E6_ASSIMILATION_RUNS = (("per step (S)", "seeds 0-4", "e6_assimilation"),
-                        ("per step (S)", "seeds 100-115", "e6_assimilation_rbf_tuning"),
-                        ("demonstration-shaped (T)", "seeds 0-4", "e6_assimilation_demos"),
-                        ("demonstration-shaped (T)", "seeds 100-115", "e6_assimilation_demos_tuning"))
+#: The E6 assimilation study's runs: (setting, its exploration noise, seed set, result file).
+E6_ASSIMILATION_RUNS = (("S", "per step (S)", "seeds 0-4", "e6_assimilation"),
+                        ("S", "per step (S)", "seeds 100-115", "e6_assimilation_rbf_tuning"),
+                        ("T", "demonstration-shaped (T)", "seeds 0-4", "e6_assimilation_demos"),
+                        ("T", "demonstration-shaped (T)", "seeds 100-115", "e6_assimilation_demos_tuning"))
 
 
 def e6_seed_checks(run: dict, candidate: str) -> dict[str, bool]:
@@ -828,9 +828,9 @@ def e6_assimilation_noise() -> str:
     per seed set, how many seeds meet each of issue 37's E6 checks and all of them
     (e6_assimilation*.json, benchmarks/studies/e6_assimilation.py)."""
     rows, sources, unsolved = [], [], []
-    for noise, seeds, name in E6_ASSIMILATION_RUNS:
+    for setting, noise, seeds, name in E6_ASSIMILATION_RUNS:
         r = load(name)
-        unsolved += [f"{noise.split()[-1][1:-1]} seed {run['seed']}" for run in r["runs"] if not run["success"]]
+        unsolved += [f"{setting} seed {run['seed']}" for run in r["runs"] if not run["success"]]
         for cand in ("adapted", "skill_4000"):
             c = r["candidates"][cand]
             checks = [e6_seed_checks(run, cand) for run in r["runs"]]

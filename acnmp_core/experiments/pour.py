@@ -30,7 +30,7 @@ from typing import Callable
 import numpy as np
 
 from ..adaptation import AdaptConfig, AdaptTarget, adapt
-from ..assimilation import ASSIMILATE_FROM, AssimilationConfig, assimilate
+from ..assimilation import AssimilationConfig, assimilate, check_assimilate_from
 from ..cnmp import CNMP, CNMPConfig
 from ..data import DemoSet, Demonstration
 from ..rollout import RolloutBatch, RolloutEvaluator
@@ -188,7 +188,7 @@ def mean_errors_g(model: CNMP, setup: PourSetup, evaluator: RolloutEvaluator, ta
 
 def run_seed(model: CNMP, setup: PourSetup, evaluator: RolloutEvaluator, cfg: AdaptConfig, seed: int,
              assimilation: AssimilationConfig | None, on_iteration: Callable | None = None,
-             assimilate_from: str = "skill") -> dict:
+             assimilate_from: str = ASSIMILATE_FROM_DEFAULT) -> dict:
     """LfD, ACNMP and (after a solution, with ``assimilation``) the assimilated model's checks,
     for one seed; ``model`` is adapted in place (pass a copy). The solution is assimilated into a
     copy of ``model`` taken before the adaptation (``assimilate_from`` "skill") or into the
@@ -214,8 +214,7 @@ def run_seed(model: CNMP, setup: PourSetup, evaluator: RolloutEvaluator, cfg: Ad
     tp = np.array([TEST["weight_g"], TEST["target_g"]])
     target = make_target(setup, tp)
     demo_tp = np.stack([d.task_params for d in setup.demos])
-    if assimilate_from not in ASSIMILATE_FROM:
-        raise ValueError(f"assimilate_from: expected one of {ASSIMILATE_FROM}, got {assimilate_from!r}")
+    check_assimilate_from(assimilate_from)
     before = mean_errors_g(model, setup, evaluator, demo_tp) if assimilation is not None else None
     skill = copy.deepcopy(model) if assimilation is not None and assimilate_from == "skill" else None
     per_rollout: list[float] = []
@@ -250,7 +249,7 @@ def run_seed(model: CNMP, setup: PourSetup, evaluator: RolloutEvaluator, cfg: Ad
 
 def _one_seed(seed: int, setup: PourSetup, evaluator: RolloutEvaluator, train_steps: int, cfg: AdaptConfig,
               acfg: AssimilationConfig | None, progress: bool = False,
-              on_iteration: Callable | None = None, assimilate_from: str = "skill") -> tuple[dict, list[float]]:
+              on_iteration: Callable | None = None, assimilate_from: str = ASSIMILATE_FROM_DEFAULT) -> tuple[dict, list[float]]:
     """Train the LfD model of ``seed`` and run :func:`run_seed` on it. Returns the run's dict (with
     ``seed`` and ``time_s``, wall s) and the CPU seconds per roll-out of each batch."""
     t1 = time.perf_counter()
@@ -331,8 +330,7 @@ def run_pour(
     if jobs > 1 and (evaluator_factory is not None or on_iteration is not None):
         raise ValueError("jobs: more than one process needs the in-process evaluator and no on_iteration")
     cfg = adapt_config or e6_adapt_config()
-    if assimilate_from not in ASSIMILATE_FROM:
-        raise ValueError(f"assimilate_from: expected one of {ASSIMILATE_FROM}, got {assimilate_from!r}")
+    check_assimilate_from(assimilate_from)
     acfg = (assimilation or e6_assimilation_config()) if assimilate_solution else None
     t0 = time.perf_counter()
     setup = make_setup(demo_path)  # generates and caches the demonstrations once, before any child

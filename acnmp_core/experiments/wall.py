@@ -43,7 +43,7 @@ import numpy as np
 import torch
 
 from ..adaptation import AdaptConfig, AdaptTarget, adapt
-from ..assimilation import ASSIMILATE_FROM, AssimilationConfig, assimilate, snap_path, snap_to_observations
+from ..assimilation import AssimilationConfig, assimilate, check_assimilate_from, snap_path, snap_to_observations
 from ..cnmp import CNMP, CNMPConfig
 from ..data import Demonstration, DemoSet
 from ..promp_rl import AdaptiveProMP, PrompRLConfig, promp_rl
@@ -536,8 +536,7 @@ def run_wall(
             raise ValueError(f"methods: expected a subset of {ALL_METHODS}, got {m!r}")
     check_positive_int("eval_every", eval_every)
     check_positive_int("consolidate_steps", consolidate_steps, minimum=0)
-    if assimilate_from not in ASSIMILATE_FROM:
-        raise ValueError(f"assimilate_from: expected one of {ASSIMILATE_FROM}, got {assimilate_from!r}")
+    check_assimilate_from(assimilate_from)
     acfg = adapt_config or AdaptConfig(max_rollouts=ACNMP_BUDGET)
     pcfg = promp_config or PrompRLConfig(**PROMP_DEFAULTS)
     ecfg = ewerton_config or SelfImproveConfig(max_rollouts=ACNMP_BUDGET)
