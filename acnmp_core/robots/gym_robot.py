@@ -7,6 +7,22 @@ environment's (or those a user function computes from the whole episode), its su
 ``info`` or a predicate, and its task parameters reach the environment through
 ``reset(options={"task_params": ...})`` or a setter the user names.
 
+Timing: an episode takes one step per trajectory row, at most T. Step k sends the action made
+from row k and the joint positions observed before the step, so row k is where the joints should
+be after step k (``states["joint_angles"][k]``), ``(k + 1) * dt`` s after ``reset``; a
+trajectory that starts at the reset posture makes its first step a hold. The episode ends when
+the environment terminates or truncates it, or after the T-th step, whichever comes first
+(:attr:`Episode.truncated_by_trajectory`: the trajectory ran out first, and an environment that
+reports only at its episode's end has not reported; the user functions' errors say so).
+
+PD gains. For joint-velocity actions (``q <- q + dt * action``) the PD command with ``kd = 0``
+gives ``q <- q + kp * dt * (target - q)``: ``kp = 1 / dt`` lands each step exactly on its row
+(while ``(target - q) / dt`` stays inside the action bounds, else the clipped command catches up
+over the next steps); a smaller kp leaves ``1 - kp * dt`` of the error at every step and trails a
+moving trajectory by ``1 / kp - dt`` s; ``kp > 2 / dt`` overshoots without settling. For torque
+actions the gains are the usual tuning (Pusher's: :mod:`acnmp_core.tasks.pusher_scene`); for
+position actions use ``control="position"``.
+
 What an environment needs (:class:`GymRobotConfig`):
 
 - a ``Box`` action space of D dimensions, D the trajectory's columns;
@@ -43,13 +59,22 @@ ObsReader = Callable[[np.ndarray], np.ndarray]
 class Episode:
     """One executed episode, as user functions (``success``, ``error``, ``reward``) see it.
 
+    An episode takes at most T steps, one per trajectory row: it ends when the environment
+    terminates or truncates it, or after its T-th step, whichever comes first.
+
     states : executed states over the T steps: ``joint_angles`` (T, D) rad (or the env's units),
         ``joint_targets`` (T, D), ``actions`` (T, D), and ``ee_xyz`` / ``object_xyz`` (T, 3) m when
-        their readers are configured.
+        their readers are configured; row k is the state after step k.
     rewards : (T,) the environment's per-step rewards (0 after the episode ended).
     final_obs : the last observation; final_info : the last ``info`` map.
     task_params : (P,) the task parameters of the batch.
     steps : the number of environment steps taken (< T when the episode ended early).
+    truncated_by_trajectory : True when the trajectory ran out first: the environment neither
+        terminated nor truncated in the T steps, so ``final_info`` is that of a step in the middle
+        of the environment's own episode (entries an environment gives only at its episode's end
+        are missing).
+    env_max_steps : the length of the environment's own episodes (its ``TimeLimit``), None when
+        unknown.
     """
 
     states: Mapping[str, np.ndarray]
@@ -58,6 +83,8 @@ class Episode:
     final_info: Mapping[str, Any]
     task_params: np.ndarray
     steps: int
+    truncated_by_trajectory: bool = False
+    env_max_steps: int | None = None
 
 
 @dataclass(frozen=True)
@@ -70,13 +97,20 @@ class GymRobotConfig:
     joint_velocities : obs -> (D,) joint velocities; default: finite differences over ``dt``.
     control : "pd" (action = kp (target - q) - kd qdot, clipped to the action space) or
         "position" (action = target, clipped).
-    kp, kd : PD gains, a number or (D,).
+    kp, kd : PD gains, a number or (D,); for joint-velocity actions kp = 1 / dt and kd = 0 (the
+        module docstring derives it).
     set_task : ``(env, task_params (P,)) -> obs`` placing the task after ``reset`` and returning
-        the new observation; None: the parameters go as ``reset(options={"task_params": ...})``.
-    success : the name of a boolean ``info`` entry of the last step, or ``Episode -> bool``.
+        the new observation; ``env`` is the environment as made (what ``gymnasium.make`` or your
+        factory returns, with its wrappers, the same in a vector env's sub-processes): reach the
+        simulator through ``env.unwrapped`` and return the observation as ``env`` would (through
+        its wrappers). None: the parameters go as ``reset(options={"task_params": ...})``.
+    success : the name of a boolean ``info`` entry of the last step (an error when the last step's
+        info lacks it), or ``Episode -> bool``.
     error : ``Episode -> float``, the remaining error in the task's units (what a tolerance bounds).
     reward : ``Episode -> (T,) or float``, rewards computed from the whole episode instead of the
         environment's (a float is given to the last step).
+    What these functions raise becomes one :class:`~acnmp_core.errors.InputError` line saying how
+    the episode ended.
     end_effector, object_position : obs -> (3,) m, for the recording's drawing and the states.
     goal_params : indices of the goal's x, y[, z] in the task parameters (drawn as a target).
     joints : the D joints (names, limits), for ``acnmp robots`` and the docs; default: read from a
@@ -190,6 +224,17 @@ class GymRolloutEvaluator:
         """Seconds per environment step (``env.unwrapped.dt`` or 1)."""
         return float(getattr(self._single().unwrapped, "dt", 1.0))
 
+    @property
+    def env_max_steps(self) -> int | None:
+        """The length of the environment's own episodes (its ``spec.max_episode_steps``, or the
+        limit of a ``TimeLimit`` wrapper), None when the environment does not say."""
+        env = self._single()
+        steps = getattr(getattr(env, "spec", None), "max_episode_steps", None)
+        while not steps and env is not None:  # a TimeLimit around an environment without a spec
+            steps = getattr(env, "_max_episode_steps", None)
+            env = getattr(env, "env", None)
+        return int(steps) if steps else None
+
     # -- execution ---------------------------------------------------------------------------
     def evaluate(self, trajectories: np.ndarray, times: np.ndarray, task_params: np.ndarray | None = None) -> RolloutBatch:
         """Execute each trajectory (B, T, D) of joint targets, one per environment step, as one episode
@@ -233,6 +278,7 @@ class GymRolloutEvaluator:
         logs: dict[str, list[np.ndarray]] = {name: [] for name in ("joint_angles", "joint_targets", "actions", *extra)}
         rewards = np.zeros((n, steps))
         taken = np.full(n, steps, dtype=np.int64)  # steps each episode ran (it may end early)
+        ended = np.zeros(n, dtype=bool)  # the environment terminated or truncated it
         finals: list[Any] = [None] * n
         final_obs = obs.copy()
         for t in range(steps):
@@ -257,8 +303,9 @@ class GymRolloutEvaluator:
             for i in np.flatnonzero(live):
                 final_obs[i] = obs_t[i]
                 finals[i] = _info_of(info, i) if vector else info
-            ended = live & (np.asarray(term) | np.asarray(trunc)).reshape(n)
-            taken[ended] = t + 1
+            now = live & (np.asarray(term) | np.asarray(trunc)).reshape(n)
+            taken[now] = t + 1
+            ended |= now
             obs = obs_t
             if not (taken > t + 1).any():
                 break
@@ -268,8 +315,10 @@ class GymRolloutEvaluator:
             # an episode that ended early holds its last state (and targets) to the end
             index = np.minimum(np.arange(steps)[None, :], taken[:, None] - 1)
             states[name] = np.take_along_axis(values, np.minimum(index, values.shape[1] - 1)[..., None], axis=1)
+        max_steps = self.env_max_steps
         return [Episode({k: v[i] for k, v in states.items()}, rewards[i], final_obs[i], finals[i] or {}, params,
-                        int(taken[i])) for i in range(n)]
+                        int(taken[i]), truncated_by_trajectory=not ended[i], env_max_steps=max_steps)
+                for i in range(n)]
 
     def _batch(self, episodes: list[Episode]) -> RolloutBatch:
         cfg = self.config
@@ -277,17 +326,17 @@ class GymRolloutEvaluator:
         if cfg.success is None:
             success = np.zeros(len(episodes), dtype=bool)
         elif isinstance(cfg.success, str):
-            success = np.array([bool(ep.final_info.get(cfg.success, False)) for ep in episodes])
+            success = np.array([bool(_info_entry(cfg.success, ep)) for ep in episodes])
         else:
-            success = np.array([bool(cfg.success(ep)) for ep in episodes])
-        errors = None if cfg.error is None else np.array([float(cfg.error(ep)) for ep in episodes])
+            success = np.array([bool(_user_call("success", cfg.success, ep)) for ep in episodes])
+        errors = None if cfg.error is None else np.array([float(_user_call("error", cfg.error, ep)) for ep in episodes])
         states = {k: np.stack([ep.states[k] for ep in episodes]) for k in episodes[0].states}
         return RolloutBatch(rewards=rewards, success=success, states=states, errors=errors)
 
     def _rewards(self, ep: Episode) -> np.ndarray:
         if self.config.reward is None:
             return ep.rewards
-        value = np.asarray(self.config.reward(ep), dtype=np.float64)
+        value = np.asarray(_user_call("reward", self.config.reward, ep), dtype=np.float64)
         if value.ndim == 0:
             out = np.zeros_like(ep.rewards)
             out[max(ep.steps, 1) - 1] = float(value)
@@ -295,6 +344,40 @@ class GymRolloutEvaluator:
         if value.shape != ep.rewards.shape:
             raise InputError(f"reward: expected a float or shape {ep.rewards.shape}, got {value.shape}")
         return value
+
+
+def _user_call(role: str, fn: Callable[[Episode], Any], ep: Episode) -> Any:
+    """``fn(ep)``, the user's ``role`` function; what it raises becomes one :class:`InputError`
+    line saying how the episode ended (the usual cause: a trajectory shorter than the
+    environment's episodes, whose end-of-episode ``info`` the function expected)."""
+    try:
+        return fn(ep)
+    except InputError:
+        raise
+    except Exception as exc:
+        raise InputError(f"GymRobotConfig.{role}: your function raised {type(exc).__name__}: {exc}; {_how_it_ended(ep)}") from exc
+
+
+def _info_entry(key: str, ep: Episode) -> Any:
+    """Entry ``key`` of the episode's last ``info``; InputError saying how the episode ended when
+    the environment did not give it."""
+    if key not in ep.final_info:
+        raise InputError(f"GymRobotConfig.success: the last step's info has no {key!r} (its keys: {sorted(ep.final_info)}); "
+                         f"{_how_it_ended(ep)}")
+    return ep.final_info[key]
+
+
+def _how_it_ended(ep: Episode) -> str:
+    """How ``ep`` ended, and what to do when the trajectory ran out before the environment's episode."""
+    rows = len(ep.rewards)
+    if not ep.truncated_by_trajectory:
+        return f"the environment ended the episode after {ep.steps} of the trajectory's {rows} steps"
+    own = "" if ep.env_max_steps is None else f" (its episodes last {ep.env_max_steps} steps)"
+    longer = "as long as its episodes" if ep.env_max_steps is None else f"of {ep.env_max_steps} rows"
+    return (f"the episode ended with the trajectory: its {rows} rows ran {rows} steps and the environment "
+            f"had not ended its episode{own}, so the last info is a mid-episode one; give trajectories "
+            f"{longer} (demonstrations and query times of that many steps), or make the environment end "
+            f"at {rows} steps (gymnasium.make(..., max_episode_steps={rows}))")
 
 
 def _info_of(info: Mapping[str, Any], i: int) -> dict[str, Any]:

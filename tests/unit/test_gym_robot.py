@@ -19,10 +19,7 @@ from acnmp_core.robots.gym_robot import GymRobotConfig, GymRolloutEvaluator, gym
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "examples" / "my_robot"))
 from my_robot.env import START, ReachEnv, hand  # noqa: E402
 from my_robot.make_demos import demos  # noqa: E402
-
-CONFIG = GymRobotConfig(ReachEnv, joint_positions=lambda o: o[:2], kp=20.0, success="is_success",
-                        error=lambda ep: float(ep.final_info["distance"]),
-                        end_effector=lambda o: np.array([o[2], o[3], 0.0]), goal_params=(0, 1))
+from my_robot.plugin import CONFIG  # noqa: E402  (the example's configuration, as a user copies it)
 
 
 def test_a_demonstration_tracked_by_pd_reaches_its_goal_and_the_episode_is_seeded():
@@ -38,6 +35,22 @@ def test_a_demonstration_tracked_by_pd_reaches_its_goal_and_the_episode_is_seede
     np.testing.assert_array_equal(again.rewards, batch.rewards)
 
 
+def test_velocity_actions_with_kp_one_over_dt_reach_each_row_at_its_step():
+    """The example's actions are joint velocities and its kp is 1/dt: step k lands on row k of the
+    trajectory (``joint_angles[k]``, the state after step k), with no lag behind a moving target."""
+    d = demos()
+    ev = GymRolloutEvaluator(CONFIG)
+    assert CONFIG.kp == pytest.approx(1.0 / ev.dt) and CONFIG.kd == 0.0
+    batch = ev.evaluate(d.values, d.times[0], d.task_params[0])
+    # exact up to the float32 the action space carries
+    np.testing.assert_allclose(batch.states["joint_angles"], d.values, atol=1e-6)
+    np.testing.assert_array_equal(batch.states["joint_targets"], d.values)
+    # a smaller gain trails each moving row by 1/kp - dt seconds (here 1.5 steps at kp = 20)
+    slow = GymRolloutEvaluator(dataclasses.replace(CONFIG, kp=20.0)).evaluate(d.values[4:], d.times[0], d.task_params[4])
+    lag = np.abs(slow.states["joint_angles"][0] - d.values[4]).max()
+    assert lag > 0.02
+
+
 def test_position_control_sends_the_targets_and_a_setter_places_the_task():
     seen = []
 
@@ -51,6 +64,27 @@ def test_position_control_sends_the_targets_and_a_setter_places_the_task():
     batch = GymRolloutEvaluator(cfg).evaluate(targets, np.arange(4), np.array([0.1, 0.2]))
     np.testing.assert_array_equal(batch.states["actions"][0], np.full((4, 2), 0.5))
     assert len(seen) == 1 and seen[0].tolist() == [0.1, 0.2]
+
+
+class _Marked(gym.Wrapper):
+    """The user's own wrapper: what ``set_task`` must receive (the environment as the factory made it)."""
+
+
+def test_set_task_gets_the_environment_as_made_with_its_wrappers_also_in_sub_processes():
+    kinds = []
+
+    def set_goal(env, params):
+        kinds.append(type(env).__name__)
+        env.unwrapped.goal = params
+        return env.unwrapped._obs()
+
+    cfg = dataclasses.replace(CONFIG, env=lambda: _Marked(ReachEnv()), set_task=set_goal)
+    d = demos()
+    one = GymRolloutEvaluator(cfg).evaluate(d.values[[0, 4]], d.times[0], d.task_params[4])
+    assert kinds == ["_Marked"] * 2 and one.errors[1] < 1e-3 < one.errors[0]  # demonstration 4's goal was placed
+    with GymRolloutEvaluator(dataclasses.replace(cfg, vector_envs=2)) as ev:  # set_task runs in the sub-processes
+        two = ev.evaluate(d.values[[0, 4]], d.times[0], d.task_params[4])
+    np.testing.assert_allclose(two.errors, one.errors)
 
 
 class _EndsEarly(gym.Env):
@@ -80,6 +114,62 @@ def test_an_episode_that_ends_early_holds_its_last_state_and_earns_nothing_more(
     assert batch.success.all()
     # a trajectory-level reward (a float) goes to the last step taken
     assert np.count_nonzero(batch.rewards[0]) == 1 and batch.rewards[0, 2] == pytest.approx(q[2])
+
+
+class _ReportsAtTheEnd(gym.Env):
+    """1 joint at the commanded velocity; its episodes last 100 steps (a TimeLimit), and only the
+    last step's info says how far the joint ended from 1 (``goal_error``), as many environments do."""
+
+    action_space = gym.spaces.Box(-1.0, 1.0, (1,), np.float32)
+    observation_space = gym.spaces.Box(-np.inf, np.inf, (1,), np.float64)
+    dt = 0.1
+
+    def reset(self, *, seed=None, options=None):
+        super().reset(seed=seed)
+        self.q = np.zeros(1)
+        return self.q.copy(), {}
+
+    def step(self, action):
+        self.q = self.q + np.asarray(action, dtype=np.float64) * self.dt
+        return self.q.copy(), 0.0, False, False, {}
+
+
+class _GoalErrorAtTheEnd(gym.Wrapper):
+    def step(self, action):
+        obs, reward, term, trunc, info = self.env.step(action)
+        if term or trunc:
+            info = {**info, "goal_error": abs(float(obs[0]) - 1.0)}
+        return obs, reward, term, trunc, info
+
+
+def _reports_at_the_end():
+    return _GoalErrorAtTheEnd(gym.wrappers.TimeLimit(_ReportsAtTheEnd(), 100))
+
+
+def test_a_trajectory_shorter_than_the_episode_ends_it_and_the_user_function_error_says_so():
+    seen = []
+
+    def error(ep):
+        seen.append(ep)
+        return ep.final_info["goal_error"]
+
+    cfg = GymRobotConfig(_reports_at_the_end, kp=10.0, error=error)
+    with pytest.raises(InputError) as raised:
+        GymRolloutEvaluator(cfg).evaluate(np.ones((1, 50, 1)), np.arange(50))
+    message = str(raised.value)
+    assert "\n" not in message and message.startswith("GymRobotConfig.error: your function raised KeyError: 'goal_error'")
+    assert "its 50 rows ran 50 steps and the environment had not ended its episode (its episodes last 100 steps)" in message
+    assert "give trajectories of 100 rows" in message and "max_episode_steps=50" in message
+    (ep,) = seen  # the user's function saw the whole 50-step episode, marked as cut by the trajectory
+    assert ep.steps == 50 and ep.truncated_by_trajectory and ep.env_max_steps == 100
+    # an info key as success: the same account instead of a silent False
+    with pytest.raises(InputError, match=r"GymRobotConfig.success: the last step's info has no 'goal_error' \(its keys: \[\]\); "
+                                         r"the episode ended with the trajectory"):
+        GymRolloutEvaluator(GymRobotConfig(_reports_at_the_end, success="goal_error")).evaluate(
+            np.ones((1, 50, 1)), np.arange(50))
+    # a trajectory as long as the episode: the environment ends it, the function gets its entry
+    full = GymRolloutEvaluator(cfg).evaluate(np.ones((1, 100, 1)), np.arange(100))
+    assert not seen[-1].truncated_by_trajectory and seen[-1].steps == 100 and full.errors[0] < 0.01
 
 
 def test_a_batch_through_the_vector_api_gives_the_same_roll_outs():

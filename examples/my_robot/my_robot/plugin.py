@@ -8,7 +8,9 @@ from .env import ReachEnv
 CONFIG = GymRobotConfig(
     ReachEnv,                                   # a factory (or a registered id such as "Pusher-v5")
     joint_positions=lambda obs: obs[:2],        # where the joint angles are in the observation
-    control="pd", kp=20.0, kd=0.0,              # velocity commands 20 (target - q), clipped to +-2 rad/s
+    # ReachEnv's actions are joint velocities: q <- q + dt * action. kp = 1/dt makes each step land
+    # on its trajectory row (q <- target); a smaller kp trails it by 1/kp - dt seconds.
+    control="pd", kp=1.0 / ReachEnv.dt, kd=0.0,
     success="is_success",                       # info entry of the last step
     error=lambda ep: float(ep.final_info["distance"]),
     end_effector=lambda obs: np.array([obs[2], obs[3], 0.0]),
