@@ -50,7 +50,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..rollout import RolloutBatch
-from .spec import EndEffectorPathDrawing, Joint, RobotBody, RobotSpec, TaskFactory
+from .spec import DrawnTarget, EndEffectorPathDrawing, Joint, RobotBody, RobotSpec, TaskFactory
 
 ObsReader = Callable[[np.ndarray], np.ndarray]
 
@@ -112,7 +112,9 @@ class GymRobotConfig:
     What these functions raise becomes one :class:`~acnmp_core.errors.InputError` line saying how
     the episode ended.
     end_effector, object_position : obs -> (3,) m, for the recording's drawing and the states.
-    goal_params : indices of the goal's x, y[, z] in the task parameters (drawn as a target).
+    goal_params : indices of the goal's x, y[, z] in the task parameters (drawn as the target "goal").
+    targets : more points of the task drawn with each roll-out (:class:`~acnmp_core.robots.spec.DrawnTarget`:
+        a name and the indices of its x, y[, z] in the task parameters), e.g. a via-point.
     joints : the D joints (names, limits), for ``acnmp robots`` and the docs; default: read from a
         MuJoCo environment's model, else ``joint0..`` without limits.
     seed : the seed of every episode's ``reset`` (every roll-out starts from the same state).
@@ -134,6 +136,7 @@ class GymRobotConfig:
     end_effector: ObsReader | None = None
     object_position: ObsReader | None = None
     goal_params: tuple[int, ...] = ()
+    targets: tuple[DrawnTarget, ...] = ()
     joints: tuple[Joint, ...] | None = None
     seed: int = 0
     vector_envs: int = 0
@@ -434,7 +437,8 @@ def gym_robot(kind: str, summary: str, config: GymRobotConfig | Callable[[], Gym
 
     def body() -> RobotBody:
         cfg = resolve()
-        return RobotBody(env_joints(cfg), EndEffectorPathDrawing(tuple(cfg.goal_params)) if cfg.end_effector else None)
+        drawing = EndEffectorPathDrawing(tuple(cfg.goal_params), tuple(cfg.targets)) if cfg.end_effector else None
+        return RobotBody(env_joints(cfg), drawing)
 
     return RobotSpec(kind, summary, tasks={task: {}}, body=body, new_tasks={task: TaskFactory(build, credit)})
 

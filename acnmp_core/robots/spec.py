@@ -13,7 +13,8 @@ and ``event_fields()`` (constant fields, e.g. link lengths, that travel with eac
 :class:`PlanarChainDrawing` draws a planar arm as a line strip from its joint angles; a mesh robot
 names its URDF and joints (its drawer logs the meshes once and a transform per link and step), a
 set of points (the pouring rig's marbles) names the state holding their positions, and any robot
-that reports its end effector's path can use :class:`EndEffectorPathDrawing`. The recorder
+that reports its end effector's path can use :class:`EndEffectorPathDrawing` (with the task's
+points, a via-point and a goal, as :class:`DrawnTarget`). The recorder
 (``services/recording/drawings.py``) holds one drawing function per kind.
 """
 from __future__ import annotations
@@ -50,12 +51,37 @@ class TaskFactory:
             raise InputError(f"credit: expected 'step' or 'future', got {self.credit!r}")
 
 
+#: A drawn target's name: what the recording labels it with (and its entity's last part).
+_TARGET_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9 _-]{0,39}")
+
+
+@dataclass(frozen=True)
+class DrawnTarget:
+    """A point of the task drawn with each roll-out, e.g. a via-point or the goal: ``name`` (its
+    label) and ``params``, the indices of its x, y[, z] (m) in the task parameters. A target of
+    two indices is drawn at the height of the path's first point."""
+
+    name: str
+    params: tuple[int, ...]
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not _TARGET_NAME.fullmatch(self.name):
+            raise InputError(f"targets: a target's name is 1-40 letters, digits, spaces, '_' or '-', got {self.name!r}")
+        params = tuple(self.params) if isinstance(self.params, (tuple, list)) else ()
+        if len(params) not in (2, 3) or not all(isinstance(i, int) and not isinstance(i, bool) and i >= 0
+                                                for i in params):
+            raise InputError(f"targets.{self.name}: expected the indices of x, y[, z] in the task parameters "
+                             f"(2 or 3 integers >= 0), got {self.params!r}")
+        object.__setattr__(self, "params", params)
+
+
 @dataclass(frozen=True)
 class EndEffectorPathDrawing:
     """Draw a roll-out as the path of the robot's end effector, ``ee_xyz`` (T, 3) m, and, when the
-    roll-out has it, a handled object's path ``object_xyz`` (T, 3) m; the task parameters named in
-    ``goal_params`` (indices of x, y[, z] in the task parameters, m) are drawn as a target point.
-    The drawing any robot can have (e.g. a Gymnasium environment's, see
+    roll-out has it, a handled object's path ``object_xyz`` (T, 3) m; the task's points are drawn
+    as labelled targets: ``goal_params`` (indices of x, y[, z] in the task parameters, m) as the
+    one named "goal", and each of ``targets`` (:class:`DrawnTarget`, e.g. a via-point and a
+    goal). The drawing any robot can have (e.g. a Gymnasium environment's, see
     :mod:`acnmp_core.robots.gym_robot`)."""
 
     kind: ClassVar[str] = "ee_path"
@@ -63,10 +89,33 @@ class EndEffectorPathDrawing:
     states: ClassVar[tuple[str, ...]] = ("ee_xyz", "object_xyz")
 
     goal_params: tuple[int, ...] = ()
+    targets: tuple[DrawnTarget, ...] = ()
+
+    def __post_init__(self) -> None:
+        targets = tuple(self.targets)
+        if not all(isinstance(t, DrawnTarget) for t in targets):
+            raise InputError("targets: expected DrawnTarget(name, params) entries")
+        object.__setattr__(self, "targets", targets)
+        names = [t.name for t in self.all_targets()]
+        if len(set(names)) != len(names):
+            raise InputError(f"targets: each target needs its own name, got {names}")
+
+    def all_targets(self) -> tuple[DrawnTarget, ...]:
+        """Every target drawn: the goal of ``goal_params`` (when given), then ``targets``."""
+        goal = (DrawnTarget("goal", tuple(self.goal_params)),) if self.goal_params else ()
+        return goal + self.targets
 
     def event_fields(self) -> dict[str, Any]:
-        """The constant fields each roll-out event carries for this drawing (docs/PROTOCOL.md)."""
-        return {"goal_params": np.asarray(self.goal_params, dtype=np.int64)}
+        """The constant fields each roll-out event carries for this drawing (docs/PROTOCOL.md):
+        ``goal_params`` as given, and with any target ``target_params`` (K, 3) int (-1: no z) and
+        ``target_names`` (the K names joined by commas)."""
+        fields: dict[str, Any] = {"goal_params": np.asarray(self.goal_params, dtype=np.int64)}
+        targets = self.all_targets()
+        if targets:
+            fields["target_params"] = np.array([list(t.params) + [-1] * (3 - len(t.params)) for t in targets],
+                                               dtype=np.int64)
+            fields["target_names"] = ",".join(t.name for t in targets)
+        return fields
 
 
 @dataclass(frozen=True)

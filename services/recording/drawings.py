@@ -23,6 +23,8 @@ STEP_STRIDE = 100_000
 
 #: Colour of a reference arm drawn beside the roll-out's (``reference_joint_angles``).
 REFERENCE_COLOR = (150, 150, 150)
+#: Colours of an ``ee_path`` drawing's targets, in the order the event names them.
+TARGET_COLORS = ((40, 120, 220), (230, 160, 30), (150, 70, 200), (40, 170, 170))
 
 #: ``draw(rec, job, rollout_index, event, color)``; ``job`` is already an escaped entity path part.
 Drawer = Callable[[rr.RecordingStream, str, int, dict, tuple], None]
@@ -230,8 +232,11 @@ def draw_point_set(rec: rr.RecordingStream, job: str, idx: int, msg: dict, color
 
 def draw_ee_path(rec: rr.RecordingStream, job: str, idx: int, msg: dict, color) -> None:
     """Any robot by its end effector: ``ee_xyz`` (T, 3) m as a moving point and the roll-out's path;
-    with ``object_xyz`` (T, 3) m the handled object likewise; with ``goal_params`` (indices into
-    ``task_params``) the goal as a point (e.g. a Gymnasium arm's, acnmp_core/robots/gym_robot.py)."""
+    with ``object_xyz`` (T, 3) m the handled object likewise; the task's points as labelled
+    targets under ``/arm/<job>/targets/<name>``: ``target_params`` (K, 3) indices into
+    ``task_params`` (-1: no z) named by ``target_names`` (K names, comma-separated), or, in
+    events of senders before several targets, ``goal_params`` as the one named "goal" (e.g. a
+    Gymnasium arm's via-point and goal, acnmp_core/robots/gym_robot.py)."""
     ee = _array(msg, "ee_xyz", (-1, 3))
     steps = ee.shape[0]
     if not 1 <= steps < STEP_STRIDE:
@@ -247,14 +252,32 @@ def draw_ee_path(rec: rr.RecordingStream, job: str, idx: int, msg: dict, color) 
     _at_first_step(rec, idx)
     for name, path, colour, _ in parts:
         rec.log(f"arm/{job}/{name}_path", rr.LineStrips3D([path], colors=[colour], labels=[f"#{idx}"]))
-    goal = np.asarray(msg.get("goal_params", ()), dtype=np.int64).reshape(-1)
     tp = msg.get("task_params")
-    if goal.size in (2, 3) and tp is not None and int(goal.max()) < np.asarray(tp).size:
+    if tp is None:
+        return
+    tp = np.asarray(tp, dtype=np.float64).reshape(-1)
+    for k, (name, index) in enumerate(_targets(msg)):
+        index = index[index >= 0]
+        if index.size not in (2, 3) or int(index.max()) >= tp.size:
+            continue  # a target the roll-out's task parameters do not hold
         xyz = np.zeros(3)
-        xyz[:goal.size] = np.asarray(tp, dtype=np.float64).reshape(-1)[goal]
-        if goal.size == 2:  # a goal on the ground: at the object's (or effector's) first height
+        xyz[:index.size] = tp[index]
+        if index.size == 2:  # a point on the ground: at the object's (or effector's) first height
             xyz[2] = (parts[-1][1])[0, 2]
-        rec.log(f"arm/{job}/goal", rr.Points3D([xyz], radii=[0.02], colors=[(40, 120, 220)], labels=["goal"]))
+        rec.log(f"arm/{job}/targets/{rr.escape_entity_path_part(name)}",
+                rr.Points3D([xyz], radii=[0.02], colors=[TARGET_COLORS[k % len(TARGET_COLORS)]], labels=[name]))
+
+
+def _targets(msg: dict) -> list[tuple[str, np.ndarray]]:
+    """(name, indices (3,) with -1 for no z) of each target an ``ee_path`` event names."""
+    if msg.get("target_params") is not None:
+        index = np.asarray(msg["target_params"], dtype=np.int64).reshape(-1, 3)
+        names = str(msg.get("target_names", "")).split(",")
+        if len(names) != len(index):
+            raise ValueError(f"target_names: expected {len(index)} comma-separated names, got {msg.get('target_names')!r}")
+        return list(zip(names, index))
+    goal = np.asarray(msg.get("goal_params", ()), dtype=np.int64).reshape(-1)
+    return [("goal", np.concatenate([goal, [-1] * (3 - goal.size)]))] if goal.size in (2, 3) else []
 
 
 #: Drawing kind -> its function.

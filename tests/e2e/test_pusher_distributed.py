@@ -32,4 +32,4 @@ def test_pusher_distributed_equals_one_process_and_records_every_rollout(tmp_pat
         assert jobs[f"pusher-{run['method']}-s0-{n}"]["rollouts"] == run["rollouts"] + extra
     reader = rr.chunk.RrdReader(rrd)
     entities = {c.entity_path for c in reader.stream(store=reader.recordings()[0])}
-    assert {"/arm/pusher-acnmp-s0-1/effector", "/arm/pusher-acnmp-s0-1/object", "/arm/pusher-acnmp-s0-1/goal"} <= entities
+    assert {"/arm/pusher-acnmp-s0-1/effector", "/arm/pusher-acnmp-s0-1/object", "/arm/pusher-acnmp-s0-1/targets/goal"} <= entities

@@ -15,9 +15,10 @@ gym = pytest.importorskip("gymnasium", reason="gymnasium is not installed (scrip
 
 from acnmp_core.errors import InputError  # noqa: E402
 from acnmp_core.robots.gym_robot import GymRobotConfig, GymRolloutEvaluator, gym_robot  # noqa: E402
+from acnmp_core.robots.spec import DrawnTarget, EndEffectorPathDrawing  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "examples" / "my_robot"))
-from my_robot.env import START, ReachEnv, hand  # noqa: E402
+from my_robot.env import ReachEnv, hand  # noqa: E402
 from my_robot.make_demos import demos  # noqa: E402
 from my_robot.plugin import CONFIG  # noqa: E402  (the example's configuration, as a user copies it)
 
@@ -199,25 +200,46 @@ def test_wrong_inputs_are_one_line_errors():
     assert factory.build({"seed": 3}).config.seed == 3
 
 
-def test_a_gym_robot_is_recorded_with_its_end_effector_path(tmp_path, verify_rrd):
+def test_a_gym_robot_is_recorded_with_its_end_effector_path_and_every_target_of_its_task(tmp_path, verify_rrd):
+    """A task may name several targets (a via-point and a goal): each is drawn, labelled, where
+    the roll-out's task parameters put it."""
     import rerun as rr
 
     from services.recording.events import batch_rollout_events, decode_event
     from services.recording.rrd_writer import RrdWriter
     from services.transport import encode
 
-    spec = gym_robot("reacher3", "test", CONFIG, task="reach_r")
+    cfg = dataclasses.replace(CONFIG, goal_params=(2, 3), targets=(DrawnTarget("via-point", (0, 1)),))
+    spec = gym_robot("reacher3", "test", cfg, task="reach_r")
     d = demos()
-    batch = spec.make_evaluator("reach_r").evaluate(d.values[:2], d.times[0], d.task_params[0])
-    events = batch_rollout_events("job-1", 0, d.values[:2], d.times[0], batch, task_params=d.task_params[0],
+    batch = GymRolloutEvaluator(CONFIG).evaluate(d.values[:2], d.times[0], d.task_params[0])
+    params = np.array([0.3, 0.4, *d.task_params[0]])  # via-point (x, y), then the goal (x, y)
+    events = batch_rollout_events("job-1", 0, d.values[:2], d.times[0], batch, task_params=params,
                                   drawing=spec.drawing)
     path = tmp_path / "gym.rrd"
     with RrdWriter(path) as w:
         for e in events:
-            assert e["drawing"] == "ee_path"
+            assert e["drawing"] == "ee_path" and e["target_names"] == "goal,via-point"
             w.log_event(decode_event(encode(e)))
     verify_rrd(path)
     reader = rr.chunk.RrdReader(path)
+    drawn = {}
+    for c in reader.stream(store=reader.recordings()[0]):
+        if c.entity_path.startswith("/arm/job-1/targets/"):
+            b = c.to_record_batch()
+            drawn[c.entity_path] = (b.column("Points3D:labels").to_pylist()[0],
+                                    b.column("Points3D:positions").to_pylist()[0][0])
+    ground = 0.0  # the example draws its effector at z = 0, and a 2-D target at the path's first height
+    assert drawn == {"/arm/job-1/targets/goal": (["goal"], pytest.approx([*d.task_params[0], ground])),
+                     "/arm/job-1/targets/via-point": (["via-point"], pytest.approx([0.3, 0.4, ground]))}
     entities = {c.entity_path for c in reader.stream(store=reader.recordings()[0])}
-    assert {"/arm/job-1/effector", "/arm/job-1/effector_path", "/arm/job-1/goal"} <= entities
-    assert START.shape == (2,)
+    assert {"/arm/job-1/effector", "/arm/job-1/effector_path"} <= entities
+
+
+def test_drawn_targets_are_checked_when_the_robot_is_described():
+    with pytest.raises(InputError, match="targets.via: expected the indices of x, y"):
+        DrawnTarget("via", (0,))
+    with pytest.raises(InputError, match="a target's name is 1-40"):
+        DrawnTarget("via,point", (0, 1))
+    with pytest.raises(InputError, match="each target needs its own name"):
+        EndEffectorPathDrawing((0, 1), (DrawnTarget("goal", (2, 3)),))
