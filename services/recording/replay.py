@@ -131,7 +131,9 @@ def summarize(path: str | Path) -> dict:
     exit_code, restarts); ``metrics`` the learner's curves, ``{source: {"<phase>/<name>":
     {"points", "first_step", "last_step", "first", "last", "min", "max"}}}``; per job:
     ``rollouts`` (rows logged), ``unique_rollouts`` (distinct indices), ``duplicates`` (indices
-    logged more than once), ``mean_return``, ``best_return``, ``success_rate``, ``method``,
+    logged more than once), ``mean_return``, ``best_return``, ``rollouts_succeeded`` and
+    ``rollout_success_share`` (how many of its roll-outs, and which share, met the task: not
+    whether the job reached its target, which the job's result says), ``method``,
     ``skill``, ``robot``, ``task``, ``seed`` (from its ``job`` event; None for a recording without
     one), ``workers`` ({worker: roll-outs}), ``hosts`` ({the workers' host: roll-outs}, where the
     events name it) and ``last_progress`` (the latest job_progress values).
@@ -215,7 +217,9 @@ def summarize(path: str | Path) -> dict:
             "duplicates": sorted(i for i, n in idx.items() if n > 1),
             "mean_return": (sum(returns) / len(returns)) if returns else None,
             "best_return": max(returns) if returns else None,
-            "success_rate": (sum(bool(r["success"]) for r in rows) / len(rows)) if rows else None,
+            # the roll-outs that met the task (exploring ones included), not whether the job reached its target
+            "rollouts_succeeded": sum(bool(r["success"]) for r in rows),
+            "rollout_success_share": (sum(bool(r["success"]) for r in rows) / len(rows)) if rows else None,
             "workers": dict(Counter(r["worker"] or "?" for r in rows)),
             "hosts": dict(Counter(r["host"] for r in rows if r["host"])),
             "last_progress": last,
@@ -292,7 +296,8 @@ def format_summary(summary: dict) -> str:
         seed = "" if j.get("seed") is None else f", seed {j['seed']}"
         lines.append(f"  job {job}: {j['rollouts']} roll-outs ({j['unique_rollouts']} distinct), "
                      f"mean return {num(j['mean_return'])}, best {num(j['best_return'])}, "
-                     f"success {num(j['success_rate'])}{seed}")
+                     f"{j['rollouts_succeeded']} of them succeeded (share of roll-outs that succeeded "
+                     f"{num(j['rollout_success_share'])}){seed}")
         if j["duplicates"]:
             lines.append(f"    duplicated roll-out indices: {j['duplicates'][:20]}")
         if j["workers"]:
@@ -303,6 +308,9 @@ def format_summary(summary: dict) -> str:
             p = j["last_progress"]
             lines.append(f"    last progress: iteration {p['iteration']}, {p['rollouts']} roll-outs, "
                          f"best {num(p['best_return'])}, {p['state']}")
+    if summary["jobs"]:
+        lines.append("  (a roll-out succeeded when it met the task, exploring roll-outs included; whether a job "
+                     "succeeded, the `success` of an experiment's JSON, is its result: `acnmp query jobs`)")
     for skill, s in summary["skills"].items():
         lines.append(f"  skill {skill}: model versions {s['versions'] or '-'}, {s['latents']} latent vector(s)")
     for p in summary.get("processes", []):

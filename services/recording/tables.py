@@ -193,7 +193,41 @@ def read_recording(paths: str | os.PathLike | Iterable[str | os.PathLike]) -> Re
         for key in ("method", "robot", "task"):
             r[key] = about.get(key)
         r["skill"] = r["skill"] or about.get("skill")
-    return RecordingTables(**{name: pa.Table.from_pylist(rows[name], schema=SCHEMAS[name]) for name in SCHEMAS})
+    tables = {name: pa.Table.from_pylist(rows[name], schema=SCHEMAS[name]) for name in SCHEMAS}
+    # the task's parameters as columns of their own, which a reader can filter on
+    job_params = [_flat("task_config", json.loads(j["task_config"]) if j.get("task_config") else {})
+                  for j in rows["jobs"]]
+    by_job = {j["job"]: params for j, params in zip(rows["jobs"], job_params)}  # the last attempt's
+    tables["jobs"] = _with_columns(tables["jobs"], job_params)
+    tables["rollouts"] = _with_columns(tables["rollouts"], [
+        {**by_job.get(r["job"], {}), **_flat("task_params", r["task_params"] or [])} for r in rows["rollouts"]])
+    return RecordingTables(**tables)
+
+
+def _flat(prefix: str, value) -> dict[str, object]:
+    """``value`` (a JSON value) as ``{column: scalar}``: a map's entries as ``<prefix>.<key>``, a
+    list's elements as ``<prefix>.<index>``, recursively (a via-point ``point`` [[t, x, y], ...]
+    gives ``task_config.point.1.2``)."""
+    if isinstance(value, dict):
+        return {k: v for key, item in value.items() for k, v in _flat(f"{prefix}.{key}", item).items()}
+    if isinstance(value, (list, tuple)):
+        return {k: v for i, item in enumerate(value) for k, v in _flat(f"{prefix}.{i}", item).items()}
+    return {prefix: value}
+
+
+def _with_columns(table: pa.Table, extra: list[dict[str, object]]) -> pa.Table:
+    """``table`` with a column per name in ``extra`` (one map per row; null where a row lacks the
+    name), sorted by name after the table's own; a column whose rows mix types holds them as text."""
+    for name in sorted({k for row in extra for k in row}):
+        values = [row.get(name) for row in extra]
+        try:
+            column = pa.array(values)
+        except (pa.ArrowInvalid, pa.ArrowTypeError):
+            column = pa.array([None if v is None else json.dumps(v) for v in values], type=pa.string())
+        if pa.types.is_null(column.type):
+            column = column.cast(pa.float64())
+        table = table.append_column(name, column)
+    return table
 
 
 def _rollouts(parts, batch, rows, seen) -> None:

@@ -76,6 +76,45 @@ def test_parquet_tables_and_a_roll_out_in_two_files_once(tmp_path, setup):
     assert set(written) == {"rollouts", "jobs", "latents", "models", "metrics"}
 
 
+def test_a_tasks_parameters_are_columns_an_outside_reader_filters_on(tmp_path, setup, capsys):
+    """E1's via-point sat in jobs.task_config as JSON text and rollouts.task_params was null: now
+    every task parameter is a column of its own in both tables, read by pyarrow alone."""
+    paths = _paths(setup)
+    writer = RrdWriter(tmp_path / "r.rrd")
+    writer.log_event(job_event(JOB, method="acnmp", robot="point2d", task="viapoint", task_config=setup.task_config))
+    times = setup.target.query_times
+    batch = setup.task.evaluate(paths, times, None)
+    for ev in batch_rollout_events(JOB, 0, paths, times, batch):
+        writer.log_event(ev)
+    two = setup.task.evaluate(paths[:2], times, None)
+    for ev in batch_rollout_events("reach-1", 0, paths[:2], times, two, task_params=np.array([0.6, 0.45])):
+        writer.log_event(ev)  # a robot task whose parameters travel with each roll-out
+    writer.close()
+    assert main(["replay", str(tmp_path / "r.rrd"), "--export", str(tmp_path / "out")]) == 0
+    capsys.readouterr()
+    via_y = setup.task_config["point"][1][1]
+    rollouts = pq.read_table(tmp_path / "out" / "rollouts.parquet",
+                             filters=[("task_config.point.1.1", ">", via_y - 1e-9)])
+    assert rollouts.num_rows == 4 and set(rollouts.column("job").to_pylist()) == {JOB}
+    assert rollouts.column("task_config.t_v.1").to_pylist() == [0.25] * 4
+    reach = pq.read_table(tmp_path / "out" / "rollouts.parquet", filters=[("task_params.1", "==", 0.45)])
+    assert reach.num_rows == 2 and reach.column("task_params.0").to_pylist() == [0.6, 0.6]
+    jobs = pq.read_table(tmp_path / "out" / "jobs.parquet")
+    assert jobs.column("task_config.tolerance.1").to_pylist() == [setup.task_config["tolerance"][1]]
+
+
+def test_replay_says_which_success_it_counts(tmp_path, setup, capsys):
+    paths = _paths(setup)
+    batch = _record(tmp_path / "r.rrd", setup, paths)
+    assert main(["replay", str(tmp_path / "r.rrd")]) == 0
+    out = capsys.readouterr().out
+    assert f"{int(batch.success.sum())} of them succeeded (share of roll-outs that succeeded " in out
+    assert "whether a job succeeded, the `success` of an experiment's JSON, is its result" in out
+    assert main(["replay", str(tmp_path / "r.rrd"), "--json"]) == 0
+    job = json.loads(capsys.readouterr().out)["jobs"][JOB]
+    assert job["rollouts_succeeded"] == int(batch.success.sum()) and "success_rate" not in job
+
+
 def test_demonstrations_from_a_recording(tmp_path, setup, capsys):
     paths = _paths(setup)
     batch = _record(tmp_path / "r.rrd", setup, paths)
