@@ -18,8 +18,9 @@ def register(subparsers) -> None:
                    help=robot_help("robot kind of the workers") + " (default: %(default)s)")
     p.add_argument("--record", type=non_empty, default=None, metavar="FILE.rrd", help="start a recorder writing this file")
     p.add_argument("--viewer", action="store_true",
-                   help="with --record: also stream the recording live (Rerun gRPC server and web viewer on "
-                        "127.0.0.1; the addresses are printed) to watch the deployment while it runs")
+                   help="with --record: also stream the recording live (Rerun gRPC server and web viewer, "
+                        "both listening on 127.0.0.1 only; the addresses are printed) to watch the deployment "
+                        "while it runs (docs/DEPLOYMENT.md, 'Watching it live')")
     p.add_argument("--state-dir", type=non_empty, default=None, metavar="DIR",
                    help="learner checkpoints and process logs, locked while the deployment runs "
                         "(default: the user state directory, ~/.local/state/acnmp/<namespace> on Linux; "

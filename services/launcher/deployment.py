@@ -43,7 +43,6 @@ import tempfile
 import threading
 import time
 import uuid
-from urllib.parse import quote
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Sequence
@@ -55,6 +54,7 @@ from acnmp_core.robots.registry import robot as robot_spec
 from services.learner.store import DirectoryLock
 from services.recording.event_ids import marks_path
 from services.recording.publisher import EventPublisher
+from services.recording.web_viewer import page_url
 from services.transport import Keyspace, free_port, loopback_endpoint, open_session, wait_for_liveliness
 from services.transport.lifetime import PARENT_PID_ENV
 
@@ -227,7 +227,7 @@ class LocalDeployment:
                     grpc_port, web_port = free_port(), free_port()
                     live = ["--serve-grpc", str(grpc_port), "--web-viewer", str(web_port)]
                     self.viewer_url = f"rerun+http://127.0.0.1:{grpc_port}/proxy"
-                    self.web_viewer_url = f"http://127.0.0.1:{web_port}/?url={quote(self.viewer_url, safe='')}"
+                    self.web_viewer_url = page_url(self.viewer_url, web_port)
                 rec = self._spawn("recorder", entry_module("recorder"),
                                   ["--out", str(self.record), "--recording-id", self.recording_id, *live],
                                   keys.tokens("recorder"), [keys.events() + " (subscriber)", keys.recorder_status()])

@@ -41,9 +41,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import ClassVar, Sequence
-from urllib.parse import quote
 
-import rerun as rr
 import zenoh
 import zenoh.ext as zext
 
@@ -56,6 +54,7 @@ from .event_ids import SeenEvents, marks_path
 from .events import decode_event
 from .replay import recorded_event_ids
 from .rrd_writer import RrdWriter
+from .web_viewer import WebViewer
 
 log = logging.getLogger(__name__)
 
@@ -212,11 +211,16 @@ def record(session: zenoh.Session, keys: Keyspace, path: str, stop: threading.Ev
 
     writer = RrdWriter(path, recording_id=recording_id, grpc_port=grpc_port)  # creates the file's directory
     live = ""
+    web = None
     if writer.grpc_url is not None:
         live = f"; live: rerun --connect {writer.grpc_url}"
         if web_port is not None:
-            rr.serve_web_viewer(web_port=web_port, open_browser=False, connect_to=writer.grpc_url)
-            live += f" or http://127.0.0.1:{web_port}/?url={quote(writer.grpc_url, safe='')}"
+            try:
+                web = WebViewer(writer.grpc_url, web_port).start()
+            except BaseException:
+                writer.close()
+                raise
+            live += f" or {web.url}"
     try:
         write_marks(path, ids)  # before any event: the next recorder starts from these plus this file's ids
         sub = zext.declare_advanced_subscriber(
@@ -241,6 +245,8 @@ def record(session: zenoh.Session, keys: Keyspace, path: str, stop: threading.Ev
         token.undeclare()
         status.close()
     finally:
+        if web is not None:
+            web.close()
         writer.close()
     final = {**writer.stats(), "rejected": rejected[0], "duplicates": duplicates[0], "missed": missed()}
     log.info("recording closed: %s", final)

@@ -262,7 +262,8 @@ def _metric_events(metrics: dict[str, dict[str, list]]) -> int:
 
 
 def format_summary(summary: dict) -> str:
-    """Human-readable text of :func:`summarize`'s result, ending with how to open the viewer."""
+    """Human-readable text of :func:`summarize`'s result, ending with how to open the recording in
+    Rerun's viewer, native or in a browser."""
     def num(x):
         return "-" if x is None or (isinstance(x, float) and math.isnan(x)) else f"{x:.4g}"
 
@@ -321,4 +322,6 @@ def format_summary(summary: dict) -> str:
         lines.append(f"  learner metrics of {source} (to step {steps}): " + ", ".join(cells))
     lines.append(f"open it in the viewer:  rerun {summary['path']}   "
                  f"(or: python -m rerun {summary['path']})")
+    lines.append(f"or in a browser:        rerun --serve-web --bind 127.0.0.1 {summary['path']}   "
+                 "(then open the address it prints, http://127.0.0.1:9090 by default)")
     return "\n".join(lines)

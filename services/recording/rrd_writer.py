@@ -39,6 +39,10 @@ entity                             archetype                       from event
                                                                    got from an advanced publisher
 =================================  ==============================  ===========================
 
+Layout: the blueprint sent with the recording (:func:`default_blueprint`) has the views its
+events fill, a left-panel tab being added (the blueprint sent again) when an event first fills it
+(:data:`VIEWS`), so a point robot's recording has no empty 3-D tabs.
+
 Timelines: ``rollout`` (sequence: the roll-out index of a rollout event, the roll-out count of a
 job_progress event), ``model_version`` (sequence: the version of latent/model_version events) and
 ``wall_time`` (timestamp: the sender's ``t``); Rerun adds ``log_time`` itself.
@@ -76,34 +80,38 @@ _OK = (70, 190, 110)
 _FAIL = (215, 80, 60)
 
 
-def default_blueprint() -> rrb.Blueprint:
-    """The layout shipped with every recording: trajectories | returns (and the learner's metrics),
-    latents, rewards, log."""
+#: The tabs of the layout's left panel, in order: each shows what one kind of roll-out (or the
+#: paired skills' latents) draws, and a recording has only those its events filled.
+VIEWS = ("xy", "time", "xyz", "arm", "poured", "latent_map")
+
+
+def default_blueprint(views=VIEWS) -> rrb.Blueprint:
+    """The layout shipped with a recording: the tabs of ``views`` (names of :data:`VIEWS`: a point
+    robot's roll-outs fill "xy", an arm's "time" and "arm", the pouring rig's also "poured") beside
+    returns (and the learner's metrics), latents, rewards, log."""
     trail = [rrb.VisibleTimeRange("rollout", start=rrb.TimeRangeBoundary.cursor_relative(seq=-TRAIL),
                                   end=rrb.TimeRangeBoundary.cursor_relative())]
-    return rrb.Blueprint(
-        rrb.Horizontal(
-            rrb.Tabs(
-                rrb.Spatial2DView(name="Trajectories (x, y)", origin="/trajectory/xy", time_ranges=trail),
-                rrb.Spatial2DView(name="Trajectories over time", origin="/trajectory/time", time_ranges=trail),
-                rrb.Spatial3DView(name="Trajectories (x, y, z)", origin="/trajectory/xyz", time_ranges=trail),
-                rrb.Spatial3DView(name="Arm and object", origin="/arm"),
-                rrb.Spatial2DView(name="Latent map", origin="/latent_map"),
-            ),
-            rrb.Vertical(
-                rrb.Tabs(
-                    rrb.TimeSeriesView(name="Return per roll-out", origin="/",
-                                       contents=["/return/**", "/best_return/**"]),
-                    rrb.TimeSeriesView(name="Learner: loss and return", origin="/metrics"),
-                ),
-                rrb.BarChartView(name="Latent", origin="/latent"),
-                rrb.BarChartView(name="Per-step reward", origin="/reward"),
-                rrb.TextLogView(name="Models and jobs", origin="/log"),
-            ),
-            column_shares=[3, 2],
+    make = {
+        "xy": lambda: rrb.Spatial2DView(name="Trajectories (x, y)", origin="/trajectory/xy", time_ranges=trail),
+        "time": lambda: rrb.Spatial2DView(name="Trajectories over time", origin="/trajectory/time", time_ranges=trail),
+        "xyz": lambda: rrb.Spatial3DView(name="Trajectories (x, y, z)", origin="/trajectory/xyz", time_ranges=trail),
+        "arm": lambda: rrb.Spatial3DView(name="Arm and object", origin="/arm"),
+        "poured": lambda: rrb.TimeSeriesView(name="Poured (g)", origin="/poured_g"),
+        "latent_map": lambda: rrb.Spatial2DView(name="Latent map", origin="/latent_map"),
+    }
+    right = rrb.Vertical(
+        rrb.Tabs(
+            rrb.TimeSeriesView(name="Return per roll-out", origin="/", contents=["/return/**", "/best_return/**"]),
+            rrb.TimeSeriesView(name="Learner: loss and return", origin="/metrics"),
         ),
-        collapse_panels=False,
+        rrb.BarChartView(name="Latent", origin="/latent"),
+        rrb.BarChartView(name="Per-step reward", origin="/reward"),
+        rrb.TextLogView(name="Models and jobs", origin="/log"),
     )
+    left = [make[v]() for v in VIEWS if v in views]
+    if not left:  # nothing drawn yet: the curves and the log alone
+        return rrb.Blueprint(right, collapse_panels=False)
+    return rrb.Blueprint(rrb.Horizontal(rrb.Tabs(*left), right, column_shares=[3, 2]), collapse_panels=False)
 
 
 #: Colours of the latent map's points, one per robot kind (picked by a stable hash of its name).
@@ -130,6 +138,10 @@ class RrdWriter:
     def __init__(self, path: str | Path, *, application_id: str = APPLICATION_ID,
                  recording_id: str | None = None, blueprint: rrb.Blueprint | None = None,
                  grpc_port: int | None = None, grpc_bind: str = "127.0.0.1"):
+        # the layout grows a tab when an event first fills it (the views shown so far), unless the
+        # caller gave a layout of its own
+        self._views: set[str] | None = None if blueprint is not None else set()
+        blueprint = blueprint or default_blueprint(())
         self.path = Path(path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
         # an explicit RecordingStream (not rr.init): no global state, no viewer spawned, nothing bound
@@ -147,12 +159,12 @@ class RrdWriter:
         os.chmod(self.path, 0o600)
         self.grpc_url = None
         if grpc_port is None:
-            self.rec.save(str(self.path), default_blueprint=blueprint or default_blueprint())
+            self.rec.save(str(self.path), default_blueprint=blueprint)
         else:
             # live viewing: the same stream also goes to a gRPC server that viewers connect to (it
             # keeps what was logged for viewers that connect late, up to its memory limit)
             self.rec.set_sinks(rr.FileSink(str(self.path)), rr.GrpcServerSink(grpc_bind, int(grpc_port)))
-            self.rec.send_blueprint(blueprint or default_blueprint(), make_active=True, make_default=True)
+            self.rec.send_blueprint(blueprint, make_active=True, make_default=True)
             self.grpc_url = f"rerun+http://{grpc_bind}:{int(grpc_port)}/proxy"
         self.rec.send_recording_name(f"acnmp {self.path.stem}")
         self.counts: Counter = Counter()
@@ -208,13 +220,13 @@ class RrdWriter:
         ret = float(msg["return"])
         label = f"#{idx} R={ret:.3g}"
         cond = msg.get("condition")
-        space = msg.get("space", "cartesian")
-        if space == "cartesian" and dims == 2:
+        view = _trajectory_view(msg.get("space", "cartesian"), dims)
+        if view == "xy":
             self.rec.log(f"trajectory/xy/{job}/path", rr.LineStrips2D([traj], colors=[color], labels=[label]))
             if cond is not None:
                 self.rec.log(f"trajectory/xy/{job}/condition",
                              rr.Points2D(np.asarray(cond["values"], np.float32), radii=0.5 * _radius(traj)))
-        elif space == "cartesian" and dims == 3:
+        elif view == "xyz":
             self.rec.log(f"trajectory/xyz/{job}/path", rr.LineStrips3D([traj], colors=[color], labels=[label]))
             if cond is not None:
                 self.rec.log(f"trajectory/xyz/{job}/condition",
@@ -249,6 +261,8 @@ class RrdWriter:
         draw = drawer_for(msg)
         if draw is not None:
             draw(self.rec, job, idx, msg, color)
+        self._show(view, *(("arm",) if draw is not None else ()),
+                   *(("poured",) if draw is not None and msg.get("poured_g_t") is not None else ()))
         self.rollouts_per_job[msg["job"]] += 1
 
     def _latent(self, msg: dict) -> None:
@@ -257,6 +271,7 @@ class RrdWriter:
         self.rec.log(f"latent/{_part(msg['skill'])}/{label}",
                      rr.BarChart(np.asarray(msg["latent"], dtype=np.float32)))
         if msg.get("map_xy") is not None:  # one point per latent; colour by robot, so paired latents show as pairs
+            self._show("latent_map")
             robot = str(msg.get("robot") or "")
             self.rec.log(f"latent_map/{_part(msg['skill'])}/{label}",
                          rr.Points2D([np.asarray(msg["map_xy"], dtype=np.float32)], radii=0.02,
@@ -316,6 +331,13 @@ class RrdWriter:
             f"{name} {msg['action']} (exit {msg['exit_code']}, restart {msg['restarts']}, pid {msg['pid']}{back})",
             level="ERROR" if msg["action"] == "gave_up" else "WARN"))
 
+    def _show(self, *views: str) -> None:
+        """Add the tabs ``views`` to the layout (sent again, made active) when it lacks one."""
+        if self._views is None or self._views.issuperset(views):
+            return
+        self._views.update(views)
+        self.rec.send_blueprint(default_blueprint(self._views), make_active=True, make_default=True)
+
     # -- end ---------------------------------------------------------------------------------
 
     def close(self, timeout: float = 10.0) -> None:
@@ -334,6 +356,15 @@ class RrdWriter:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+def _trajectory_view(space: str, dims: int) -> str:
+    """The tab a roll-out's trajectory is drawn in: a cartesian path of 2 or 3 dimensions as a
+    path ("xy", "xyz"), anything else (joint space, other dimension counts) per dimension over
+    time ("time")."""
+    if space == "cartesian" and dims in (2, 3):
+        return "xy" if dims == 2 else "xyz"
+    return "time"
 
 
 def _radius(traj: np.ndarray) -> float:

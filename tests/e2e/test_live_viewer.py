@@ -9,6 +9,7 @@ import subprocess
 import time
 import urllib.request
 from pathlib import Path
+from urllib.parse import urlparse
 
 import numpy as np
 import pytest
@@ -18,6 +19,7 @@ from acnmp_core.experiments.viapoint import make_setup
 from services.launcher import LocalDeployment
 from services.recording.live_client import saving_client
 from services.transport import call
+from tests.unit.test_web_viewer import listening_addresses
 
 NS = "live"
 
@@ -55,6 +57,8 @@ def test_a_rerun_client_receives_the_rollouts_while_the_job_runs(tmp_path):
             assert "/metrics/e1/train/nll" in seen and f"/jobs/{job}" in seen
             page = urllib.request.urlopen(dep.web_viewer_url, timeout=10).read().decode()
             assert "Rerun" in page and "<html" in page
+            # on 127.0.0.1 only, as `acnmp up --help` says (rerun.serve_web_viewer listened on 0.0.0.0)
+            assert listening_addresses(urlparse(dep.web_viewer_url).port) == {"0100007F"}
             chromium = shutil.which("chromium") or shutil.which("chromium-browser")
             if chromium is not None:  # the page's scripts run headless; the DOM names the viewer's app
                 dom = subprocess.run([chromium, "--headless=new", "--no-sandbox", "--disable-gpu",

@@ -103,13 +103,15 @@ def test_a_tasks_parameters_are_columns_an_outside_reader_filters_on(tmp_path, s
     assert jobs.column("task_config.tolerance.1").to_pylist() == [setup.task_config["tolerance"][1]]
 
 
-def test_replay_says_which_success_it_counts(tmp_path, setup, capsys):
+def test_replay_says_which_success_it_counts_and_how_to_open_it_in_a_browser(tmp_path, setup, capsys):
     paths = _paths(setup)
     batch = _record(tmp_path / "r.rrd", setup, paths)
     assert main(["replay", str(tmp_path / "r.rrd")]) == 0
     out = capsys.readouterr().out
     assert f"{int(batch.success.sum())} of them succeeded (share of roll-outs that succeeded " in out
     assert "whether a job succeeded, the `success` of an experiment's JSON, is its result" in out
+    # and how to look at it in a browser (the web viewer on loopback, not every interface)
+    assert f"or in a browser:        rerun --serve-web --bind 127.0.0.1 {tmp_path / 'r.rrd'}" in out
     assert main(["replay", str(tmp_path / "r.rrd"), "--json"]) == 0
     job = json.loads(capsys.readouterr().out)["jobs"][JOB]
     assert job["rollouts_succeeded"] == int(batch.success.sum()) and "success_rate" not in job

@@ -117,3 +117,36 @@ def test_mismatched_joint_count_is_rejected(tmp_path):
     msg["link_lengths"] = np.array([0.3, 0.3])
     with RrdWriter(tmp_path / "bad.rrd") as w, pytest.raises(ValueError, match="joint_angles"):
         w.log_event(msg)
+
+
+def _layouts(path) -> list[set[str]]:
+    """The view origins of each layout (blueprint) the recording holds."""
+    reader = rr.chunk.RrdReader(path)
+    layouts = []
+    for store in reader.blueprints():
+        origins = set()
+        for chunk in reader.stream(store=store):
+            batch = chunk.to_record_batch()
+            if "ViewBlueprint:space_origin" in batch.schema.names:
+                origins.update(o[0] for o in batch.column("ViewBlueprint:space_origin").to_pylist() if o)
+        layouts.append(origins)
+    return layouts
+
+
+def test_the_layout_has_the_tabs_the_robots_roll_outs_fill(tmp_path):
+    """No empty 3-D tabs ("Does not match any entity") for the 2-D point robot: a recording's
+    layout has the views its events fill, a point robot's paths in (x, y), an arm's 3-D scene and
+    joint curves."""
+    point = tmp_path / "point.rrd"
+    with RrdWriter(point) as w:
+        for i in range(2):
+            w.log_event(decode_event(encode(rollout_event("e1-0", i, np.zeros((5, 2)), np.linspace(0, 1, 5), np.zeros(5)))))
+    layouts = _layouts(point)
+    assert any("/trajectory/xy" in views for views in layouts)
+    assert not any(views & {"/arm", "/trajectory/xyz", "/trajectory/time", "/latent_map"} for views in layouts)
+    arm = tmp_path / "arm.rrd"
+    with RrdWriter(arm) as w:
+        w.log_event(_event(0, *_states(0), drawing="planar_chain"))
+    layouts = _layouts(arm)
+    assert any({"/arm", "/trajectory/time"} <= views for views in layouts)
+    assert not any(views & {"/trajectory/xy", "/trajectory/xyz"} for views in layouts)
