@@ -59,48 +59,18 @@ def test_wrong_inputs_are_one_line(args, message, monkeypatch, capsys):
     assert code == 2 and message in err and "Traceback" not in err
 
 
-PLUGIN = '''
-import gymnasium as gym
-import numpy as np
-from acnmp_core.robots.gym_robot import GymRobotConfig, gym_robot
-
-
-class Slider(gym.Env):
-    """1 joint at the commanded velocity; 100-step episodes; the goal error only at the end."""
-    action_space = gym.spaces.Box(-1.0, 1.0, (1,), np.float32)
-    observation_space = gym.spaces.Box(-np.inf, np.inf, (1,), np.float64)
-    dt = 0.1
-
-    def reset(self, *, seed=None, options=None):
-        super().reset(seed=seed)
-        self.q, self.t = np.zeros(1), 0
-        return self.q.copy(), {}
-
-    def step(self, action):
-        self.q, self.t = self.q + np.asarray(action, dtype=np.float64) * self.dt, self.t + 1
-        done = self.t >= 100
-        return self.q.copy(), 0.0, False, done, {"goal_error": abs(float(self.q[0]) - 1.0)} if done else {}
-
-
-ROBOT = gym_robot("slider", "a test slider", GymRobotConfig(Slider, kp=10.0, error=lambda ep: ep.final_info["goal_error"]),
-                  task="slide")
-'''
-
-
-def test_demonstrations_shorter_than_the_episode_say_so_in_one_line(tmp_path, monkeypatch, capsys):
+def test_demonstrations_shorter_than_the_episode_say_so_in_one_line(tmp_path, capsys):
     """Issue 54 item 4: 50-row demonstrations on a 100-step environment ended in `KeyError:
     'goal_error'` from the user's error function; now one line says what happened and what to do."""
     from acnmp_core.demo_io import DemoArrays, save_demos
 
-    (tmp_path / "slider_plugin.py").write_text(PLUGIN)
-    monkeypatch.syspath_prepend(str(tmp_path))
     s = np.linspace(0.0, 1.0, 50)
     demos = save_demos(tmp_path / "demos.npz", DemoArrays(np.tile(s, (3, 1)), np.stack([a * s[:, None] for a in (0.5, 1.0, 1.5)]),
                                                           np.array([[0.5], [1.0], [1.5]])))
-    code = main(["experiment", "robot", "--robot", "slider_plugin:ROBOT", "--demos", str(demos), "--at", "1.0",
+    code = main(["experiment", "robot", "--robot", "tests.unit.test_gym_robot:SLIDER", "--demos", str(demos), "--at", "1.0",
                  "--train-steps", "20", "--budget", "2", "--quiet"])
     err = capsys.readouterr().err
     assert code == 2 and len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
     assert "acnmp: error: GymRobotConfig.error: your function raised KeyError: 'goal_error'" in err
-    assert "its 50 rows ran 50 steps and the environment had not ended its episode, so the last info is a " \
-           "mid-episode one; give trajectories as long as its episodes" in err
+    assert "its 50 rows ran 50 steps and the environment had not ended its episode (its episodes last 100 " \
+           "steps), so the last info is a mid-episode one; give trajectories of 100 rows" in err

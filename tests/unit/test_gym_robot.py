@@ -147,6 +147,12 @@ def _reports_at_the_end():
     return _GoalErrorAtTheEnd(gym.wrappers.TimeLimit(_ReportsAtTheEnd(), 100))
 
 
+#: That environment as a robot kind (tests/unit/test_experiment_own_robot.py runs it by reference).
+SLIDER = gym_robot("slider", "a joint whose environment reports its goal error at the end only",
+                   GymRobotConfig(_reports_at_the_end, kp=10.0, error=lambda ep: ep.final_info["goal_error"]),
+                   task="slide")
+
+
 def test_a_trajectory_shorter_than_the_episode_ends_it_and_the_user_function_error_says_so():
     seen = []
 
@@ -168,6 +174,11 @@ def test_a_trajectory_shorter_than_the_episode_ends_it_and_the_user_function_err
                                          r"the episode ended with the trajectory"):
         GymRolloutEvaluator(GymRobotConfig(_reports_at_the_end, success="goal_error")).evaluate(
             np.ones((1, 50, 1)), np.arange(50))
+    # an environment that does not say how long its episodes are: the same, without the length
+    unknown = GymRobotConfig(lambda: _GoalErrorAtTheEnd(_ReportsAtTheEnd()), error=error)
+    with pytest.raises(InputError, match=r"the environment had not ended its episode, so the last info is a "
+                                         r"mid-episode one; give trajectories as long as its episodes"):
+        GymRolloutEvaluator(unknown).evaluate(np.ones((1, 50, 1)), np.arange(50))
     # a trajectory as long as the episode: the environment ends it, the function gets its entry
     full = GymRolloutEvaluator(cfg).evaluate(np.ones((1, 100, 1)), np.arange(100))
     assert not seen[-1].truncated_by_trajectory and seen[-1].steps == 100 and full.errors[0] < 0.01
