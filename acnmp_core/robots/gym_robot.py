@@ -358,7 +358,9 @@ def _user_call(role: str, fn: Callable[[Episode], Any], ep: Episode) -> Any:
     except InputError:
         raise
     except Exception as exc:
-        raise InputError(f"GymRobotConfig.{role}: your function raised {type(exc).__name__}: {exc}; {_how_it_ended(ep)}") from exc
+        said = (str(exc).splitlines() or [""])[0]  # one line, whatever the function's message
+        raise InputError(f"GymRobotConfig.{role}: your function raised {type(exc).__name__}: {said}; "
+                         f"{_how_it_ended(ep)}") from exc
 
 
 def _info_entry(key: str, ep: Episode) -> Any:

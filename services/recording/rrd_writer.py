@@ -62,6 +62,7 @@ import threading
 import uuid
 import zlib
 from collections import Counter
+from collections.abc import Iterable
 from pathlib import Path
 
 import numpy as np
@@ -85,7 +86,7 @@ _FAIL = (215, 80, 60)
 VIEWS = ("xy", "time", "xyz", "arm", "poured", "latent_map")
 
 
-def default_blueprint(views=VIEWS) -> rrb.Blueprint:
+def default_blueprint(views: Iterable[str] = VIEWS) -> rrb.Blueprint:
     """The layout shipped with a recording: the tabs of ``views`` (names of :data:`VIEWS`: a point
     robot's roll-outs fill "xy", an arm's "time" and "arm", the pouring rig's also "poured") beside
     returns (and the learner's metrics), latents, rewards, log."""

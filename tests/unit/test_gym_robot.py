@@ -179,6 +179,11 @@ def test_a_trajectory_shorter_than_the_episode_ends_it_and_the_user_function_err
     with pytest.raises(InputError, match=r"the environment had not ended its episode, so the last info is a "
                                          r"mid-episode one; give trajectories as long as its episodes"):
         GymRolloutEvaluator(unknown).evaluate(np.ones((1, 50, 1)), np.arange(50))
+    # a function's message of several lines still makes one line
+    def multiline(ep):
+        raise ValueError("first\nsecond")
+    with pytest.raises(InputError, match=r"^GymRobotConfig.error: your function raised ValueError: first; [^\n]*$"):
+        GymRolloutEvaluator(dataclasses.replace(cfg, error=multiline)).evaluate(np.ones((1, 100, 1)), np.arange(100))
     # a trajectory as long as the episode: the environment ends it, the function gets its entry
     full = GymRolloutEvaluator(cfg).evaluate(np.ones((1, 100, 1)), np.arange(100))
     assert not seen[-1].truncated_by_trajectory and seen[-1].steps == 100 and full.errors[0] < 0.01
