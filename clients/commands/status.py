@@ -1,5 +1,10 @@
-"""``acnmp status``: the deployments running on this machine, their processes and health; with
-``--config``, a deployment on other hosts: every process that answers, and its host."""
+"""``acnmp status``: the deployments running on this machine, their processes and their health.
+
+With ``--config``, a deployment on other hosts: every process that answers, and its host. A
+process is healthy when its liveliness token is seen and it reports no problem (the learner
+reports a state write that failed, a job loop that stopped, the files in its quarantine). Exit 0
+when every process of every deployment listed is healthy; 1 when one is not (it exited, was
+given up by its launcher, shows no token, or reports a problem) or when none runs."""
 from __future__ import annotations
 
 import json
@@ -11,8 +16,10 @@ def register(subparsers) -> None:
     """Add the ``status`` sub-command."""
     from services.transport.argtypes import seconds
 
+    # the module docstring without its title, as one paragraph
+    description = " ".join(__doc__.split(": ", 1)[1].split()).replace("``", "")
     p = subparsers.add_parser("status", help="list the running deployments (acnmp up), their processes and health",
-                              description=__doc__.splitlines()[0].split(": ", 1)[1])
+                              description=description)
     p.add_argument("--namespace", "-n", default=None, help="only this deployment")
     p.add_argument("--timeout", type=seconds(zero=True), default=2.0,
                    help="seconds to wait for liveliness (default: %(default)s)")
@@ -25,19 +32,24 @@ def register(subparsers) -> None:
 
 @dataclass
 class ProcessHealth:
-    """One process of a deployment: name, pid, whether the pid runs and its liveliness token is seen."""
+    """One process of a deployment: name, pid, whether the pid runs and its liveliness token is
+    seen, its host and the problems it reports (its ``about`` reply)."""
 
     name: str
     pid: int
     running: bool
     live: bool
     host: str = ""
+    problems: tuple[str, ...] = ()
 
     @property
     def health(self) -> str:
-        """``ok`` (its token is seen on zenoh: it serves, even if restarted under another pid),
-        ``no token`` (the pid runs but is not seen) or ``exited``."""
-        return "ok" if self.live else "no token" if self.running else "exited"
+        """``ok`` (its token is seen on zenoh: it serves, even if restarted under another pid, and
+        it reports no problem), ``problems`` (seen, but it reports some), ``no token`` (the pid
+        runs but is not seen) or ``exited``."""
+        if not self.live:
+            return "no token" if self.running else "exited"
+        return "problems" if self.problems else "ok"
 
 
 def process_health(run, timeout: float) -> list[ProcessHealth]:
@@ -57,11 +69,11 @@ def process_health(run, timeout: float) -> list[ProcessHealth]:
             # one liveliness query per kind of token: the access table grants each family, never acnmp/<ns>/**
             tokens = [zenoh.KeyExpr(t) for family in sorted({p.token for p in run.processes})
                       for t in alive_tokens(session, family, timeout)]
-            hosts = {a.pid: a.host for a in list_processes(session, Keyspace(run.namespace), timeout)}
+            about = {a.pid: a for a in list_processes(session, Keyspace(run.namespace), timeout)}
     except ConnectionError:
-        tokens, hosts = [], {}
+        tokens, about = [], {}
     return [ProcessHealth(p.name, p.pid, pid_alive(p.pid), any(zenoh.KeyExpr(p.token).intersects(t) for t in tokens),
-                          hosts.get(p.pid, ""))
+                          about[p.pid].host if p.pid in about else "", about[p.pid].problems if p.pid in about else ())
             for p in run.processes]
 
 
@@ -81,9 +93,10 @@ def remote_status(namespace: str, config: str, timeout: float) -> list:
 
 def run(args) -> int:
     """Print every running deployment (or the one of ``--namespace``): anchor, launcher pid, state
-    directory, and per process its pid, host and health; with ``--config``, every process of
-    ``--namespace`` (default: default) that answers: service, host, pid, what it serves. Exit 0;
-    1 when none runs (none answers)."""
+    directory, and per process its pid, host and health, each problem it reports on a line of
+    its own; with ``--config``, every process of ``--namespace`` (default: default) that answers:
+    service, host, pid, what it serves, its problems. Exit 0 when everything listed is healthy;
+    1 when a process is not, or none runs (none answers)."""
     from services.transport.runfile import running, runtime_dir
 
     if args.config is not None:
@@ -94,8 +107,8 @@ def run(args) -> int:
         procs = process_health(r, args.timeout)
         report.append({"namespace": r.namespace, "anchor": r.anchor, "pid": r.pid, "state_dir": r.state_dir,
                        "secured": bool(r.credentials), "credentials": r.credentials,
-                       "processes": [{"name": p.name, "pid": p.pid, "host": p.host, "health": p.health}
-                                     for p in procs]})
+                       "processes": [{"name": p.name, "pid": p.pid, "host": p.host, "health": p.health,
+                                      "problems": list(p.problems)} for p in procs]})
     if args.json:
         print(json.dumps(report, indent=2))
     elif not report:
@@ -107,7 +120,10 @@ def run(args) -> int:
         print(f"  state {d['state_dir']}")
         for p in d["processes"]:
             print(f"  {p['name']:<18} {p['pid']:>7}  {p['host'] or '?':<20} {p['health']}")
-    return 0 if report else 1
+            for line in p["problems"]:
+                print(f"  {'':<18} {'':>7}  {line}")
+    healthy = all(p["health"] == "ok" for d in report for p in d["processes"])
+    return 0 if report and healthy else 1
 
 
 def _remote(args) -> int:
@@ -130,4 +146,6 @@ def _remote(args) -> int:
         print(f"  {'service':<10} {'host':<20} {'pid':>7}  live as")
         for p in procs:
             print(f"  {p.service:<10} {p.host:<20} {p.pid:>7}  {p.live}")
-    return 0 if procs else 1
+            for line in p.problems:
+                print(f"  {'':<10} {'':<20} {'':>7}  {line}")
+    return 0 if procs and not any(p.problems for p in procs) else 1
