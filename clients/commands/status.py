@@ -53,9 +53,13 @@ class ProcessHealth:
 
 
 def process_health(run, timeout: float) -> list[ProcessHealth]:
-    """The health of each process of run file ``run``: its pid, and its liveliness token seen
-    through a session opened with the deployment's client credentials (one liveliness query per
-    kind of token)."""
+    """The health of each process of run file ``run``: its pid, its liveliness token and its
+    ``about`` reply (host, problems), seen through a session opened with the deployment's client
+    credentials (one liveliness query per kind of token). Asked again until every running process
+    has been seen or ``timeout`` s have passed: a new peer session sees the other peers only once
+    it has found them, so one look may miss a healthy process."""
+    import time
+
     import zenoh
 
     from clients.discovery import resolve
@@ -64,14 +68,26 @@ def process_health(run, timeout: float) -> list[ProcessHealth]:
     from services.transport.runfile import pid_alive
 
     target = resolve(run.namespace, [run.anchor], run.credentials or None, None if run.credentials else "peer")
+    families = sorted({p.token for p in run.processes})
+    tokens: list[zenoh.KeyExpr] = []
+    about: dict = {}
+
+    def seen(p) -> bool:
+        return p.pid in about and any(zenoh.KeyExpr(p.token).intersects(t) for t in tokens)
+
+    deadline = time.monotonic() + timeout
     try:
         with open_session(target.mode, None, target.connect, target.config_file, open_timeout=timeout) as session:
-            # one liveliness query per kind of token: the access table grants each family, never acnmp/<ns>/**
-            tokens = [zenoh.KeyExpr(t) for family in sorted({p.token for p in run.processes})
-                      for t in alive_tokens(session, family, timeout)]
-            about = {a.pid: a for a in list_processes(session, Keyspace(run.namespace), timeout)}
+            while True:
+                look = min(1.0, max(0.1, deadline - time.monotonic()))
+                # one liveliness query per kind of token: the access table grants each family, never acnmp/<ns>/**
+                tokens += [zenoh.KeyExpr(t) for family in families for t in alive_tokens(session, family, look)]
+                about.update({a.pid: a for a in list_processes(session, Keyspace(run.namespace), look)})
+                if all(seen(p) for p in run.processes if pid_alive(p.pid)) or time.monotonic() >= deadline:
+                    break
+                time.sleep(0.1)
     except ConnectionError:
-        tokens, about = [], {}
+        pass
     return [ProcessHealth(p.name, p.pid, pid_alive(p.pid), any(zenoh.KeyExpr(p.token).intersects(t) for t in tokens),
                           about[p.pid].host if p.pid in about else "", about[p.pid].problems if p.pid in about else ())
             for p in run.processes]

@@ -30,6 +30,7 @@ import dataclasses
 import logging
 import os
 import threading
+import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import ClassVar, Sequence
@@ -298,16 +299,28 @@ class LearnerService:
     def close(self) -> None:
         """Stop taking requests, interrupt the running job (it resumes on restart), undeclare all;
         with a recorder (``wait_recorder`` > 0), wait up to :data:`RECORDED_WAIT` s until it holds
-        every roll-out this learner published (the launcher stops it only after the learner)."""
+        every roll-out this learner published (the launcher stops it only after the learner).
+        The liveliness token goes last: a recorder whose launcher died records until it is gone."""
         self.core.interrupt()  # first: a handler training would hold the undeclaring of its queryable
-        for undeclare in (self._token.undeclare, *(rpc.close for rpc in self._rpcs), self._latest.undeclare):
+        for undeclare in (*(rpc.close for rpc in self._rpcs), self._latest.undeclare):
             try:
                 undeclare()
             except Exception:  # the session may be closing under us
                 log.debug("undeclare failed", exc_info=True)
         self.core.close()
+        started = time.monotonic()
         if self.wait_recorder > 0 and not self.events.wait_recorded(RECORDED_WAIT):
-            log.warning("the recorder did not confirm every roll-out of this learner within %.0f s", RECORDED_WAIT)
+            waited = time.monotonic() - started
+            if waited < RECORDED_WAIT:  # said at once: nothing answered
+                log.warning("no recorder answered (after %.1f s; the router may be gone with the launcher that held "
+                            "it): this learner's last events may be missing from the recording, its job records "
+                            "hold the jobs' states", waited)
+            else:
+                log.warning("the recorder did not confirm every roll-out of this learner within %.0f s", RECORDED_WAIT)
+        try:
+            self._token.undeclare()
+        except Exception:
+            log.debug("undeclare failed", exc_info=True)
 
     def __enter__(self) -> "LearnerService":
         return self
