@@ -510,8 +510,8 @@ class LearnerCore:
             attempt = job.attempt + (job.state in ("running", "interrupted"))
             if not isinstance(job.request, PairTrainJob):  # an adaptation, on a copy of its skill's model
                 skill = self.skills.get(job.skill)
-                if skill is None:
-                    raise UnknownSkillError(f"no skill {job.skill!r} (its checkpoints were quarantined?)")
+                if skill is None:  # e.g. none of its versions could be read at start
+                    raise UnknownSkillError(f"no skill {job.skill!r} on this learner")
                 model, demos, start_version = copy.deepcopy(skill.model), skill.demos, skill.version
             self._persist(job, state="running", attempt=attempt, attempt_start_index=job.next_index)
         if isinstance(job.request, PairTrainJob):
@@ -530,7 +530,10 @@ class LearnerCore:
         if job.cancel_requested:  # asked for while the last iteration ran: do not assimilate
             raise JobCancelled(job_id)
         if req.commit and job.result.success:
-            self._assimilate(job, model if skill.version == start_version else None)
+            with self._lock:
+                current = self.skills.get(job.skill)
+            # the adapted copy found the solution; if the skill changed meanwhile, the new one trains on
+            self._assimilate(job, model if current is not None and current.version == start_version else None)
         self._persist(job, state="done")
         self._safe_progress(job, "done")
         self._prune_jobs()
@@ -629,13 +632,14 @@ class LearnerCore:
         res, req = job.result, job.request
         traj, times = res.trajectory, res.times
         with self._lock:
-            skill = self.skills[job.skill]
+            skill = self.skills.get(job.skill)
+            if skill is None:
+                raise UnknownSkillError(f"no skill {job.skill!r} on this learner")
             last = skill.demos[len(skill.demos) - 1]
             if last.values.shape == traj.shape and np.array_equal(last.values, traj) \
                     and np.array_equal(last.times, times):
                 job.committed_version = skill.version  # committed before a crash; do not add it twice
                 return
-            # the adapted copy found the solution; if the skill changed meanwhile, train the new one
             model = adapted if adapted is not None else copy.deepcopy(skill.model)
             tp = req.target.task_params
             params = np.zeros(skill.demos.n_task_params) if tp is None else tp
