@@ -185,6 +185,7 @@ class LearnerCore:
         self._train_lock = threading.Lock()  # one training at a time (the machine has few cores)
         try:
             self.state = StateDir(state_dir)
+            self.state.remove_stale_temps(self.state.root)  # e.g. of the default skill's demonstrations
             self.skill_store = SkillStore(self.state, keep_versions=state_limits.keep_versions)
             self.job_store = JobStore(self.state)
             self.skills: dict[str, SkillState] = self.skill_store.load_all()

@@ -64,7 +64,7 @@ def test_up_quarantines_bad_files_serves_the_rest_and_is_up_once_the_changed_fil
     # enough steps that retraining e1 outlasts the model service's start (which fetched the old one)
     # --insecure: a peer mesh, whose links outlive the launcher (an authenticated deployment's router
     # is the launcher: once it is killed, nothing reaches the recorder any more)
-    proc, lines = acnmp_up("--namespace", ns, "--workers", "1", "--demos", f"e1={new}", "--train-steps", "400",
+    proc, lines = acnmp_up("--namespace", ns, "--workers", "1", "--demos", f"e1={new}", "--train-steps", "150",
                            "--state-dir", str(state), "--record", str(rrd), "--insecure")
     try:
         children = [p.pid for p in find(ns).processes]
