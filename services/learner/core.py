@@ -229,12 +229,16 @@ class LearnerCore:
         self._thread.start()
         return self
 
+    @property
+    def loop_error(self) -> str | None:
+        """Why the job loop ended, if it ended while it should run (None: it runs, or was stopped)."""
+        if self._loop_error is None and self._started and not self._thread.is_alive() and not self._stop.is_set():
+            return "it ended without an error"
+        return self._loop_error
+
     def health(self) -> LearnerHealth:
         """The learner's health now: its job loop, its last write, the quarantined files."""
-        loop_error = self._loop_error
-        if loop_error is None and self._started and not self._thread.is_alive() and not self._stop.is_set():
-            loop_error = "it ended without an error"
-        return LearnerHealth(self._thread.is_alive(), loop_error, self.state.write_error,
+        return LearnerHealth(self._thread.is_alive(), self.loop_error, self.state.write_error,
                              tuple(self.state.quarantined()))
 
     # ----- skills ----------------------------------------------------------------------------
@@ -433,8 +437,7 @@ class LearnerCore:
                         self._active.discard(job_id)
         except BaseException as exc:  # not a job's failure (those are caught below): say so in health
             self._loop_error = f"{type(exc).__name__}: {exc}"
-            log.exception("the job loop stopped")
-            raise
+            log.exception("the job loop stopped")  # logged once, here; the thread ends
 
     def _run_one(self, job_id: str) -> None:
         """Run job ``job_id`` and save how it ended; a job's failure never leaves here."""

@@ -510,7 +510,7 @@ class LearnerConfig(Service):
                   f"state in {Path(state_dir).resolve()}" + "".join(f"; {line}" for line in booted)
                   + (f"; {len(found)} file(s) quarantined at start" if found else ""))
             while not stop.wait(0.2):
-                error = learner.core.health().loop_error
+                error = learner.core.loop_error
                 if error is not None:  # exit, so a launcher restarts it with a working loop
                     log.error("the job loop has stopped (%s): exiting", error)
                     return 1

@@ -75,3 +75,22 @@ def test_refusals_for_the_queue_limit_and_the_disk_have_their_codes():
         raise StateWriteError("job e1-0", Path("/s/jobs/e1-0.json"), full)
     assert failed.value.code == "write_failed" and failed.value.message == (
         "no space left on device while saving job e1-0 to /s/jobs/e1-0.json; the job was not cancelled")
+
+
+def test_a_job_loop_that_stops_is_reported(tmp_path):
+    from services.learner.core import LearnerCore
+
+    core = LearnerCore(tmp_path, evaluator_for=lambda job: None)
+
+    def broken():
+        raise RuntimeError("the loop broke")
+
+    core._next_job = broken  # what no job's failure can do (those are caught), but a bug might
+    core.start()
+    try:
+        core._thread.join(10)
+        assert core.loop_error == "RuntimeError: the loop broke"
+        assert core.health().problems() == ["the job loop has stopped: RuntimeError: the loop broke"]
+    finally:
+        core.close()
+    assert core.loop_error == "RuntimeError: the loop broke"
