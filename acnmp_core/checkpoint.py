@@ -4,27 +4,24 @@ Loading uses ``torch.load(weights_only=True)``: a checkpoint can never execute c
 """
 from __future__ import annotations
 
+import io
 import os
-import tempfile
+import warnings
 from pathlib import Path
 
 import numpy as np
 import torch
 
 from .cnmp import CNMP, CNMPConfig
-from .errors import InputError, ShapeError
+from .errors import InputError, ShapeError, UnreadableFileError
+from .files import atomic_write_bytes
 
 FORMAT_VERSION = 1
 
 
-def save_checkpoint(model: CNMP, path: str | os.PathLike, *, data_hash: str = "", meta: dict | None = None) -> Path:
-    """Write ``model`` to ``path`` atomically (temp file + rename) and return the path.
-
-    ``data_hash`` identifies the training data (``DemoSet.content_hash()``); ``meta`` holds extra
-    plain values (str, int, float, lists and dicts of them).
-    """
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
+def checkpoint_bytes(model: CNMP, *, data_hash: str = "", meta: dict | None = None) -> bytes:
+    """The bytes :func:`save_checkpoint` writes for ``model`` (a torch file of plain containers,
+    tensors and strings): for a caller that writes them its own way (services/learner/store.py)."""
     payload = {
         "format": FORMAT_VERSION,
         "config": model.config.to_dict(),
@@ -32,36 +29,59 @@ def save_checkpoint(model: CNMP, path: str | os.PathLike, *, data_hash: str = ""
         "data_hash": str(data_hash),
         "meta": dict(meta or {}),
     }
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
-    os.close(fd)
-    try:
-        torch.save(payload, tmp)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-    return path
+    buf = io.BytesIO()
+    torch.save(payload, buf)
+    return buf.getvalue()
+
+
+def save_checkpoint(model: CNMP, path: str | os.PathLike, *, data_hash: str = "", meta: dict | None = None) -> Path:
+    """Write ``model`` to ``path`` atomically and durably (acnmp_core/files.py) and return the path.
+
+    ``data_hash`` identifies the training data (``DemoSet.content_hash()``); ``meta`` holds extra
+    plain values (str, int, float, lists and dicts of them). Raises OSError when the file cannot
+    be written (``path`` is then unchanged).
+    """
+    return atomic_write_bytes(path, checkpoint_bytes(model, data_hash=data_hash, meta=meta))
+
+
+#: Why :func:`load_checkpoint` refuses a file torch cannot read. Not torch's own words: for a file
+#: of unknown origin they suggest ``weights_only=False``, which would let the file run code.
+NOT_READABLE = "not a readable checkpoint (truncated or not a torch file)"
 
 
 def load_checkpoint(path: str | os.PathLike) -> tuple[CNMP, dict]:
     """Load a checkpoint written by :func:`save_checkpoint`.
 
-    Returns (model in eval mode, info) where info has ``data_hash`` and ``meta``.
-    Raises ValueError for a file that is not such a checkpoint.
+    Returns (model in eval mode, info) where info has ``data_hash`` and ``meta``. Raises
+    :class:`~acnmp_core.errors.UnreadableFileError` (a ValueError; ``reason`` says what is wrong)
+    for a file that is missing, cannot be read, is not such a checkpoint (:data:`NOT_READABLE`),
+    is one of another format version, or whose weights do not fit its config.
     """
     path = Path(path)
     if not path.is_file():
-        raise ValueError(f"path: no checkpoint file at {path}")
+        raise UnreadableFileError(path, "missing", f"path: no checkpoint file at {path}")
     try:
-        payload = torch.load(path, map_location="cpu", weights_only=True)
-    except Exception as exc:  # torch raises many types for corrupt or unsafe files
-        raise ValueError(f"path: {path} is not a readable checkpoint ({exc})") from None
-    if not isinstance(payload, dict) or payload.get("format") != FORMAT_VERSION:
-        raise ValueError(f"path: {path} is not an acnmp checkpoint of format {FORMAT_VERSION}")
-    model = CNMP(CNMPConfig(**payload["config"]))
-    model.load_state_dict(payload["state_dict"])
+        with warnings.catch_warnings():  # torch warns about what it finds in a foreign file, in its own words
+            warnings.simplefilter("ignore")
+            payload = torch.load(path, map_location="cpu", weights_only=True)
+    except OSError as exc:
+        raise UnreadableFileError(path, f"cannot be read ({exc.strerror or exc})") from None
+    except Exception:  # torch raises many types for corrupt or unsafe files; its words mislead (above)
+        raise UnreadableFileError(path, NOT_READABLE, f"path: {path} is {NOT_READABLE}") from None
+    found = payload.get("format") if isinstance(payload, dict) else None
+    if found != FORMAT_VERSION:
+        reason = (f"an acnmp checkpoint of format {found!r}; this version reads format {FORMAT_VERSION}"
+                  if found is not None else f"not an acnmp checkpoint of format {FORMAT_VERSION}")
+        raise UnreadableFileError(path, reason, f"path: {path} is {reason}")
+    try:
+        model = CNMP(CNMPConfig(**payload["config"]))
+        model.load_state_dict(payload["state_dict"])
+        info = {"data_hash": str(payload["data_hash"]), "meta": dict(payload["meta"])}
+    except Exception as exc:  # a checkpoint of format 1 whose parts do not fit together
+        reason = f"an acnmp checkpoint whose parts do not fit together ({type(exc).__name__})"
+        raise UnreadableFileError(path, reason, f"path: {path} is {reason}") from None
     model.eval()
-    return model, {"data_hash": payload["data_hash"], "meta": payload["meta"]}
+    return model, info
 
 
 def model_to_arrays(model: CNMP) -> tuple[dict, dict[str, "np.ndarray"]]:

@@ -29,6 +29,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .errors import UnreadableFileError
+from .files import atomic_write_bytes
 from .validation import check_array
 
 FORMAT_VERSION = 1
@@ -116,10 +118,9 @@ class DemoArrays:
         return DemoSet([Demonstration(*self.demo(i)) for i in range(len(self))])
 
 
-def save_demos(path: str | os.PathLike, demos: DemoArrays) -> Path:
-    """Write ``demos`` to ``path`` (.npz) atomically (temp file + rename) and return the path."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
+def demos_bytes(demos: DemoArrays) -> bytes:
+    """The bytes of the .npz file :func:`save_demos` writes for ``demos`` (for a caller that
+    writes them its own way, e.g. services/learner/store.py)."""
     arrays = {
         "format_version": np.array(FORMAT_VERSION, dtype=np.int64),
         "times": demos.times,
@@ -133,41 +134,60 @@ def save_demos(path: str | os.PathLike, demos: DemoArrays) -> Path:
             arrays[key] = np.asarray(getattr(demos, key), dtype=str)
     buf = io.BytesIO()
     np.savez(buf, **arrays)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    tmp.write_bytes(buf.getvalue())
-    os.replace(tmp, path)
-    return path
+    return buf.getvalue()
+
+
+def save_demos(path: str | os.PathLike, demos: DemoArrays) -> Path:
+    """Write ``demos`` to ``path`` (.npz) atomically and durably (acnmp_core/files.py) and return
+    the path. Raises OSError when it cannot be written (``path`` is then unchanged)."""
+    return atomic_write_bytes(path, demos_bytes(demos))
 
 
 #: The first bytes of a zip archive (an .npz is one): a local file header, or an empty archive's end.
 ZIP_MAGICS = (b"PK\x03\x04", b"PK\x05\x06")
+#: Why :func:`load_demos` refuses an archive it cannot unpack.
+TRUNCATED = "not a readable demonstrations .npz (truncated or damaged)"
 
 
 def load_demos(path: str | os.PathLike) -> DemoArrays:
     """Read a demonstration file written by :func:`save_demos` (or by hand in the same format).
 
-    Raises ValueError for a file that cannot be read, one that is not an .npz archive ("not a
-    demonstrations .npz: PATH"), a missing key, an unknown format version, or arrays that do not
-    fit together.
+    Raises :class:`~acnmp_core.errors.UnreadableFileError` (a ValueError; ``reason`` says what is
+    wrong without the path) for a file that cannot be read, one that is not an .npz archive ("not
+    a demonstrations .npz: PATH"), a truncated archive, a missing key, an unknown format version,
+    or arrays that do not fit together.
     """
+    where = os.fspath(path)
     try:
         with open(path, "rb") as f:
             magic = f.read(4)
         npz = np.load(path, allow_pickle=False) if magic in ZIP_MAGICS else None
-    except (OSError, ValueError) as exc:
-        raise ValueError(f"path: cannot read a demonstration file at {os.fspath(path)!r} ({exc})") from None
+    except OSError as exc:
+        raise UnreadableFileError(path, f"cannot be read ({exc.strerror or exc})",
+                                  f"path: cannot read a demonstration file at {where!r} ({exc})") from None
+    except Exception:  # zipfile's and numpy's errors for a damaged archive
+        raise UnreadableFileError(path, TRUNCATED, f"path: {where} is {TRUNCATED}") from None
     if not isinstance(npz, np.lib.npyio.NpzFile):  # text, a single .npy array, a pickle: numpy's
-        raise ValueError(f"path: not a demonstrations .npz: {os.fspath(path)}")  # words would mislead
+        reason = "not a demonstrations .npz"  # words would mislead
+        raise UnreadableFileError(path, reason, f"path: {reason}: {where}")
     with npz:
         missing = [k for k in ("times", "values", "task_params") if k not in npz.files]
         if missing:
-            raise ValueError(f"path: {os.fspath(path)!r} lacks the key(s) {missing}")
-        version = int(npz["format_version"]) if "format_version" in npz.files else FORMAT_VERSION
-        if version != FORMAT_VERSION:
-            raise ValueError(f"path: format_version {version} is not supported (expected {FORMAT_VERSION})")
+            raise UnreadableFileError(path, f"lacks the key(s) {missing}", f"path: {where!r} lacks the key(s) {missing}")
         try:
+            version = int(npz["format_version"]) if "format_version" in npz.files else FORMAT_VERSION
             opt = {k: npz[k] for k in (*_STRING_KEYS, "lengths") if k in npz.files}
             arrays = (npz["times"], npz["values"], npz["task_params"])
         except ValueError as exc:  # e.g. an object array, which would need pickle
-            raise ValueError(f"path: {os.fspath(path)!r} holds an array this format does not allow ({exc})") from None
-        return DemoArrays(*arrays, **opt)
+            reason = f"holds an array this format does not allow ({exc})"
+            raise UnreadableFileError(path, reason, f"path: {where!r} {reason}") from None
+        except Exception:  # a member cut short or damaged (zlib, zipfile, EOF errors)
+            raise UnreadableFileError(path, TRUNCATED, f"path: {where} is {TRUNCATED}") from None
+        if version != FORMAT_VERSION:
+            reason = f"format_version {version} is not supported (expected {FORMAT_VERSION})"
+            raise UnreadableFileError(path, reason, f"path: {reason}")
+        try:
+            return DemoArrays(*arrays, **opt)
+        except ValueError as exc:
+            raise UnreadableFileError(path, f"arrays that do not fit together ({exc})",
+                                      f"path: {where}: {exc}") from None

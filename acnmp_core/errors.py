@@ -13,6 +13,8 @@ class                     raised when
 :class:`TooLargeError`    an argument exceeds a documented size bound
 :class:`UnknownTaskError` a task name is not registered, or a robot does not run it
 :class:`UnknownRobotError` a robot kind is not registered
+:class:`UnreadableFileError` a file cannot be read as what it should hold (missing,
+                          truncated, another format or format version)
 ========================  ==========================================================
 
 Messages always start with the argument's name (``"obs_values: expected shape (3, 2), ..."``).
@@ -42,3 +44,17 @@ class UnknownTaskError(InputError):
 
 class UnknownRobotError(InputError):
     """A robot kind that is not in :mod:`acnmp_core.robots.registry`."""
+
+
+class UnreadableFileError(InputError):
+    """A file that cannot be read as what it should hold: missing, truncated, of another format or
+    of a format version this library does not read.
+
+    ``path`` is the file, ``reason`` says what is wrong with it without naming it (a state
+    directory's quarantine records the two apart); the message names both.
+    """
+
+    def __init__(self, path, reason: str, message: str | None = None):
+        super().__init__(message or f"path: {path}: {reason}")
+        self.path = path
+        self.reason = reason

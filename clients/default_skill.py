@@ -9,18 +9,23 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from acnmp_core.demo_io import save_demos
+from acnmp_core.demo_io import load_demos, save_demos
 from acnmp_core.tasks.viapoint import obstacle_demos
-from services.learner.store import demo_set_to_arrays
+from services.learner.store import StateDir, demo_set_to_arrays, reason_of
 
 #: The default skill's name (the same as ``acnmp experiment viapoint --distributed`` trains).
 SKILL = "e1"
 
 
 def default_demos(directory: str | Path) -> str:
-    """Write ``<directory>/e1-demos.npz`` (if missing) and return the learner's ``--demos`` spec
-    ``e1=<path>``."""
+    """Write ``<directory>/e1-demos.npz`` (if missing, or unreadable: then it is quarantined first,
+    services/learner/store.py) and return the learner's ``--demos`` spec ``e1=<path>``."""
     path = Path(directory) / f"{SKILL}-demos.npz"
+    if path.exists():
+        try:
+            load_demos(path)
+        except ValueError as exc:  # the file is ours to write again; the bad one is kept aside
+            StateDir(directory).quarantine(path, reason_of(exc))
     if not path.exists():
         save_demos(path, demo_set_to_arrays(obstacle_demos(), value_names=("x", "y")))
     return f"{SKILL}={path.resolve()}"

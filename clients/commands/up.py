@@ -47,11 +47,12 @@ def run(args) -> int:
     default skill, or every ``--demos`` skill, served first), print what runs where, wait for SIGINT/SIGTERM (restarting children
     that die meanwhile, see services/launcher/supervision.py), stop everything (saying what first);
     run as the ``acnmp`` process itself, end it at once then (:func:`command_owns_the_process`).
-    Exit 0; 1 if it could not start or a skill waited for was never served; 2 (ValueError naming
+    Exit 0; 1 if it could not start (a child that exited first: one line with its last error
+    line) or a skill waited for was never served; 2 (ValueError naming
     the option) for a --demos file the learner could not train or a --record file that cannot be
     written, before anything starts."""
     from clients.default_skill import SKILL, default_demos
-    from services.launcher import LocalDeployment
+    from services.launcher import ChildExited, LocalDeployment
     from services.launcher.announce import NamespaceInUse, check_namespace_free
     from services.learner.service import load_demos_spec, parse_demos_spec
     from services.learner.store import StateDirInUse
@@ -92,6 +93,9 @@ def run(args) -> int:
             dep.start()
         except (StateDirInUse, NamespaceInUse) as exc:  # nothing was started
             print(f"acnmp up: {exc}", file=sys.stderr)
+            return 1
+        except ChildExited as exc:  # the child's last error line, not the whole tail of its log
+            print(f"acnmp up: {str(exc).splitlines()[0]}", file=sys.stderr)
             return 1
         print(dep.describe(), flush=True)
         run = dep.announcement.run

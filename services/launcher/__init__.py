@@ -10,7 +10,7 @@ module                    one job
 ``announce``              a secured deployment's secrets and run file
 ========================  =========================================================
 """
-from .deployment import Child, LocalDeployment
+from .deployment import Child, ChildExited, LocalDeployment
 from .processes import PROCESSES, entry_module, service_class
 
-__all__ = ["Child", "LocalDeployment", "PROCESSES", "entry_module", "service_class"]
+__all__ = ["Child", "ChildExited", "LocalDeployment", "PROCESSES", "entry_module", "service_class"]

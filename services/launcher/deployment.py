@@ -10,7 +10,8 @@
    (``start_new_session``) so a terminal's Ctrl-C reaches only the launcher, which then stops the
    children in order, once each; the recorder is started and awaited first, so no event is lost;
 3. it waits until every child's liveliness token is seen (a child that exits first is reported
-   with the tail of its log);
+   as :class:`ChildExited`, whose first line carries the child's last error line), then reports
+   each problem a live process states (a learner's quarantined files) through ``report``;
 4. on exit it sends SIGTERM to the learner, the model and the workers at once (the learner's
    running job abandons its batch in flight and is saved ``interrupted``), then, once the learner
    has exited, to the recorder (so it records the last events and writes its footer); a child
@@ -36,6 +37,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -56,6 +58,7 @@ from services.recording.event_ids import marks_path
 from services.recording.publisher import EventPublisher
 from services.recording.web_viewer import page_url
 from services.transport import Keyspace, free_port, loopback_endpoint, open_session, wait_for_liveliness
+from services.transport.about import list_processes
 from services.transport.lifetime import PARENT_PID_ENV
 
 from .announce import Announcement, check_namespace_free
@@ -64,6 +67,19 @@ from .supervision import RestartPolicy, Supervisor
 
 ROOT = Path(__file__).resolve().parents[2]
 log = logging.getLogger(__name__)
+
+
+class ChildExited(RuntimeError):
+    """A child process exited before going live. Its first line names the child, its exit code,
+    its last error line (from its log) and the log: ``learner exited with code 2 before going
+    live: acnmp serve learner: error: ... (log STATE/logs/learner.log)``; the log's tail follows
+    on the next lines. ``name``, ``code``, ``log`` and ``error`` (the last error line) are kept."""
+
+    def __init__(self, name: str, code: int, log: Path | None):
+        self.name, self.code, self.log = name, code, log
+        self.error = last_error_line(log)
+        super().__init__(f"{name} exited with code {code} before going live: {self.error or 'its log says nothing'} "
+                         f"(log {log})\n{log_tail(log)}")
 
 
 @dataclass
@@ -182,8 +198,7 @@ class LocalDeployment:
         for child in children:
             while True:
                 if child.proc.poll() is not None:
-                    raise RuntimeError(f"{child.name} exited with code {child.proc.returncode} before going live; "
-                                       f"log {child.log}:\n{log_tail(child.log)}")
+                    raise ChildExited(child.name, child.proc.returncode, child.log)
                 try:
                     wait_for_liveliness(self.session, child.token, timeout=0.5)
                     break
@@ -253,6 +268,7 @@ class LocalDeployment:
                 wait_for_liveliness(self.session, keys.model_service_token("*"), count=self.model_processes,
                                     timeout=self.start_timeout)
             self._announce()
+            self._report_problems()
             self._events = EventPublisher(self.session, self.keys)
             if self.supervise:
                 self.supervisor = Supervisor(self, self.restart_policy,
@@ -261,6 +277,19 @@ class LocalDeployment:
             self.stop()
             raise
         return self
+
+    def _report_problems(self, timeout: float = 2.0) -> None:
+        """Tell ``report`` (default: the log) each problem the live processes report (a learner's
+        quarantined files, say), one line each prefixed by the process's service."""
+        say = self.report or log.warning
+        try:
+            found = list_processes(self.session, self.keys, timeout)
+        except Exception as exc:  # asking is a courtesy: the deployment runs without it
+            log.debug("could not ask the processes for their problems: %s", exc)
+            return
+        for about in found:
+            for line in about.problems:
+                say(f"{about.service}: {line}")
 
     # ----- inspecting ------------------------------------------------------------------------
     def describe(self) -> str:
@@ -459,6 +488,21 @@ def _popen(argv: list[str], log: Path) -> subprocess.Popen:
     with open(log, "ab") as out:
         return subprocess.Popen(argv, cwd=ROOT, env=env, stdin=subprocess.DEVNULL, stdout=out,
                                 stderr=subprocess.STDOUT, start_new_session=True)
+
+
+#: What marks a line of a child's log as an error: a log record of level ERROR or CRITICAL (the
+#: format of services/transport/service.py), a command's one-line error, a Python exception's last
+#: line.
+_ERROR_LINE = re.compile(r"( (ERROR|CRITICAL) |: error: |^[A-Za-z_][\w.]*(Error|Exception|Exit)\b)")
+
+
+def last_error_line(path: Path | None) -> str:
+    """The last line of the log ``path`` that says an error (see :data:`_ERROR_LINE`), else its last
+    line that is not empty ('' if none or unreadable); at most 500 characters."""
+    lines = [ln.strip() for ln in log_tail(path, 200).splitlines() if ln.strip()]
+    errors = [ln for ln in lines if _ERROR_LINE.search(ln)]
+    line = (errors or lines or [""])[-1]
+    return line if len(line) <= 500 else line[:497] + "..."
 
 
 def log_tail(path: Path | None, n: int = 20) -> str:

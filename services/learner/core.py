@@ -28,13 +28,25 @@ Stopping and cancelling: :meth:`LearnerCore.close` (SIGTERM) interrupts the runn
 next attempt starts over) and saves it as ``interrupted``. :meth:`LearnerCore.cancel` ends a
 queued job at once and a running one after the iteration in flight (its roll-outs are recorded),
 saved as ``cancelled``.
+
+Memory follows the disk: every change to a job is written first (:meth:`LearnerCore._persist`
+writes a changed copy) and made in memory only once the write returned, so a job is accepted,
+and a cancel answered, only once its record is durable, and what a status reply says is what a
+restart finds; a failed write (:class:`~services.learner.store.StateWriteError`) refuses the
+request and changes nothing. A write that fails while a job runs fails that job with the write's
+message; its ``failed`` record is written as soon as the disk takes it (retried meanwhile; the
+job loop goes on with the next job only then), and :meth:`LearnerCore.health` reports the
+failure until a write succeeds. Bounds (:class:`~services.learner.limits.StateLimits`): at most
+``max_queued_jobs`` unfinished jobs (:class:`LearnerBusy` beyond), finished records pruned by
+count and age, ``keep_versions`` checkpoints per skill. Jobs are picked in the order they were
+queued by the job loop (:meth:`LearnerCore._next_job`), which marks the one it runs as active.
 """
 from __future__ import annotations
 
 import copy
+import dataclasses
 import logging
 import os
-import queue
 import threading
 import time
 from dataclasses import dataclass
@@ -56,8 +68,9 @@ from services.recording.events import (batch_rollout_events, job_event, job_prog
                                        model_version_event, robot_drawing)
 
 from .jobs import TERMINAL, UNFINISHED, JobRecord
+from .limits import StateLimits, busy_message
 from .metrics import MetricsReporter
-from .store import DirectoryLock, JobStore, SkillState, SkillStore
+from .store import DirectoryLock, JobStore, Quarantined, SkillState, SkillStore, StateDir, StateWriteError
 
 log = logging.getLogger(__name__)
 
@@ -72,6 +85,44 @@ class UnknownJobError(ValueError):
 
 class JobCancelled(Exception):
     """Raised inside a job's adaptation once its cancellation was asked for."""
+
+
+class LearnerBusy(RuntimeError):
+    """The learner holds as many unfinished jobs as its limit allows (answered ``busy``)."""
+
+
+#: Seconds between tries to write a finished job's record while the disk refuses it (doubling).
+RETRY_FIRST, RETRY_MAX = 0.5, 5.0
+#: Quarantined files a health report names one by one (the rest are counted).
+HEALTH_FILES = 10
+
+
+@dataclass(frozen=True)
+class LearnerHealth:
+    """What the learner reports about itself (``acnmp status``).
+
+    loop_running : the job loop runs (False before :meth:`LearnerCore.start` and after close).
+    loop_error : why the job loop ended, if it ended by an error.
+    write_error : the last state write's failure, None once a write succeeded again.
+    quarantined : every file under the state directory's quarantine.
+    """
+
+    loop_running: bool
+    loop_error: str | None
+    write_error: str | None
+    quarantined: tuple[Quarantined, ...]
+
+    def problems(self) -> list[str]:
+        """One line per problem (empty when healthy)."""
+        out = []
+        if self.loop_error is not None:
+            out.append(f"the job loop has stopped: {self.loop_error}")
+        if self.write_error is not None:
+            out.append(f"cannot write its state: {self.write_error}")
+        out += [q.line() for q in self.quarantined[:HEALTH_FILES]]
+        if len(self.quarantined) > HEALTH_FILES:
+            out.append(f"... and {len(self.quarantined) - HEALTH_FILES} more quarantined files")
+        return out
 
 
 @dataclass(frozen=True)
@@ -106,30 +157,37 @@ class LearnerCore:
     Parameters
     ----------
     state_dir : where skills and jobs are checkpointed; locked while this core lives
-        (:class:`~services.learner.store.StateDirInUse` if another learner holds it).
+        (:class:`~services.learner.store.StateDirInUse` if another learner holds it). Unusable
+        files in it are quarantined at start (services/learner/store.py), never fatal.
     evaluator_for : ``job -> RolloutEvaluator`` that executes the job's roll-outs.
     publish : ``event -> None``; every event the learner emits (versions, latents, roll-outs, progress).
     on_version : ``SkillState -> None``; called after a new version is checkpointed, before its events.
     device : where the skills' networks train, adapt and assimilate (``cpu``, ``cuda``, ``auto``;
         acnmp_core/device.py): a skill loaded from the state directory or newly trained is moved
         there once; its checkpoints load on any device.
+    state_limits : queue limit, job records and checkpoints kept (services/learner/limits.py).
     """
 
     def __init__(self, state_dir: str | os.PathLike, *, evaluator_for: Callable[[AdaptJob], RolloutEvaluator],
                  publish: Callable[[dict], None] = lambda _event: None,
-                 on_version: Callable[[SkillState], None] = lambda _state: None, device: str = "cpu"):
+                 on_version: Callable[[SkillState], None] = lambda _state: None, device: str = "cpu",
+                 state_limits: StateLimits = StateLimits()):
         from acnmp_core.device import resolve_device
 
         self.device = resolve_device(device)  # before anything is locked: a bad device changes nothing
         # one learner per state directory: a second one would restart the first one's jobs
         self._dir_lock = DirectoryLock(state_dir, "learner.lock", "learner").acquire()
-        self.skill_store = SkillStore(state_dir)
-        self.job_store = JobStore(state_dir)
+        self.limits = state_limits
         self.evaluator_for, self.publish, self.on_version = evaluator_for, publish, on_version
         self.metrics = MetricsReporter(publish)
         self._lock = threading.RLock()  # guards skills and jobs
+        self._wake = threading.Condition(self._lock)  # a job was queued, or one ended
         self._train_lock = threading.Lock()  # one training at a time (the machine has few cores)
         try:
+            self.state = StateDir(state_dir)
+            self.state.remove_stale_temps(self.state.root)  # e.g. of the default skill's demonstrations
+            self.skill_store = SkillStore(self.state, keep_versions=state_limits.keep_versions)
+            self.job_store = JobStore(self.state)
             self.skills: dict[str, SkillState] = self.skill_store.load_all()
             for state in self.skills.values():
                 for model in (state.model, state.partner):
@@ -139,20 +197,25 @@ class LearnerCore:
         except BaseException:
             self._dir_lock.release()
             raise
-        self._queue: queue.Queue = queue.Queue()
+        for job in self.jobs.values():  # a version a job record names is never given again
+            for version in (job.committed_version, getattr(job.result, "version", None)):
+                if isinstance(version, int):
+                    self.skill_store.note_version(job.skill, version)
+        self._active: set[str] = set()  # jobs a loop thread runs
         self._stop = threading.Event()
+        self._started = False
+        self._loop_error: str | None = None
         for job in self.jobs.values():
             if job.state not in UNFINISHED:
                 continue
-            if job.cancel_requested:  # cancelled, but the learner stopped before the job saw it
-                job.state = "cancelled"
-                self.job_store.save(job)
-                continue
-            if job.state in ("running", "interrupted"):  # restart under a new attempt number
-                job.attempt += 1
-                job.state = "queued"
-                self.job_store.save(job)
-            self._queue.put(job.job)
+            try:  # best effort: a job whose record cannot be written now is still run (see _run_job)
+                if job.cancel_requested:  # cancelled, but the learner stopped before the job saw it
+                    self._persist(job, state="cancelled")
+                elif job.state in ("running", "interrupted"):  # restart under a new attempt number
+                    self._persist(job, attempt=job.attempt + 1, state="queued")
+            except StateWriteError as exc:
+                log.warning("job %s: %s; it is resumed all the same", job.job, exc)
+        self._prune_jobs()
         self._thread = threading.Thread(target=self._job_loop, name="jobs", daemon=True)
 
     @property
@@ -162,8 +225,21 @@ class LearnerCore:
 
     def start(self) -> "LearnerCore":
         """Start running queued jobs (on a background thread); returns self."""
+        self._started = True
         self._thread.start()
         return self
+
+    @property
+    def loop_error(self) -> str | None:
+        """Why the job loop ended, if it ended while it should run (None: it runs, or was stopped)."""
+        if self._loop_error is None and self._started and not self._thread.is_alive() and not self._stop.is_set():
+            return "it ended without an error"
+        return self._loop_error
+
+    def health(self) -> LearnerHealth:
+        """The learner's health now: its job loop, its last write, the quarantined files."""
+        return LearnerHealth(self._thread.is_alive(), self.loop_error, self.state.write_error,
+                             tuple(self.state.quarantined()))
 
     # ----- skills ----------------------------------------------------------------------------
     def skill(self, name: str) -> SkillState:
@@ -180,15 +256,16 @@ class LearnerCore:
             return dict(self.skills)
 
     def train_skill(self, skill: str, spec: TrainSpec) -> SkillState:
-        """Train a new model for ``skill`` on ``spec``, checkpoint and commit it as the next version.
-        InterruptedError (nothing committed) once :meth:`interrupt` or :meth:`close` was called."""
+        """Train a new model for ``skill`` on ``spec``, checkpoint and commit it as the next version
+        (one above every version of it ever committed). InterruptedError (nothing committed) once
+        :meth:`interrupt` or :meth:`close` was called; :class:`StateWriteError` (nothing
+        committed) when the checkpoint cannot be written."""
         model = CNMP(spec.model_cfg, seed=spec.seed)
         with self._train_lock:
             res = train(model, spec.demos, spec.train_cfg, seed=spec.seed, progress=False, stop=self._stop,
                         on_validation=self._train_curve(skill, spec.train_cfg.steps), device=self.device)
         with self._lock:
-            old = self.skills.get(skill)
-            state = SkillState(skill, model, spec.demos, 0 if old is None else old.version + 1,
+            state = SkillState(skill, model, spec.demos, self.skill_store.next_version(skill),
                                source_hash=spec.demos.content_hash())
             self._commit_skill(state, loss=res.best_val, note="trained")
         return state
@@ -203,7 +280,8 @@ class LearnerCore:
 
     def _commit_skill(self, state: SkillState, robots: tuple[str | None, str | None] = (None, None),
                       **extra) -> None:
-        # checkpoint first (a published version must survive a crash), then announce it
+        # checkpoint first (a published version must survive a crash), then announce it; a failed
+        # checkpoint (StateWriteError) changes nothing
         self.skill_store.save(state)
         self.skills[state.name] = state
         self.on_version(state)
@@ -225,8 +303,11 @@ class LearnerCore:
         """Queue ``request`` on ``skill``; returns the new job's record.
 
         Raises :class:`UnknownSkillError`, or the typed ValueError of a target that does not fit
-        the skill's model (wrong output dimension, task parameters, time range).
+        the skill's model (wrong output dimension, task parameters, time range);
+        :class:`LearnerBusy` (before any check: a flood costs nothing) or
+        :class:`StateWriteError` as :meth:`_enqueue`.
         """
+        self._check_room()
         model = self.skill(skill).model
         request.target.query(model)  # the target must fit this skill's model
         return self._enqueue(skill, request)
@@ -237,13 +318,33 @@ class LearnerCore:
         return self._enqueue(skill, request)
 
     def _enqueue(self, skill: str, request: AdaptJob | PairTrainJob) -> JobRecord:
-        """Record a new queued job of ``request`` on ``skill`` (saved first) and queue it."""
+        """Record a new queued job of ``request`` on ``skill`` and queue it, once its record is on
+        disk. :class:`LearnerBusy` when ``max_queued_jobs`` jobs are unfinished,
+        :class:`StateWriteError` when the record cannot be written (nothing queued either way)."""
         job = JobRecord.new(skill, request)
         with self._lock:
-            self.jobs[job.job] = job
+            self._check_room()
             self.job_store.save(job)
-        self._queue.put(job.job)
+            self.jobs[job.job] = job
+            self._wake.notify_all()
         return job
+
+    def _check_room(self) -> None:
+        """:class:`LearnerBusy` when ``max_queued_jobs`` jobs are unfinished."""
+        with self._lock:
+            limit = self.limits.max_queued_jobs
+            if sum(j.state in UNFINISHED for j in self.jobs.values()) >= limit:
+                raise LearnerBusy(busy_message(limit))
+
+    def _persist(self, job: JobRecord, **changes) -> None:
+        """Write ``job`` with ``changes`` (field values), then make them in memory: a failed write
+        (:class:`StateWriteError`) leaves both the disk and the memory as they were."""
+        with self._lock:
+            new = dataclasses.replace(job, **changes)
+            self.job_store.save(new)
+            for name in changes:
+                setattr(job, name, getattr(new, name))
+            job.updated = new.updated
 
     def status(self, job_id: str) -> dict:
         """The status reply of job ``job_id``; :class:`UnknownJobError` if there is none."""
@@ -260,11 +361,12 @@ class LearnerCore:
             return [job.summary() for job in jobs]
 
     def cancel(self, job_id: str) -> dict:
-        """Cancel job ``job_id``; returns its status reply afterwards.
+        """Cancel job ``job_id``; returns its status reply afterwards, once the cancel is on disk.
 
         A queued or interrupted job is ``cancelled`` at once; a running one gets
         ``cancel_requested`` and ends ``cancelled`` after its current iteration; a finished job
-        is left as it is (its state answers). :class:`UnknownJobError` if there is none.
+        is left as it is (its state answers). :class:`UnknownJobError` if there is none,
+        :class:`StateWriteError` (nothing changed) when the record cannot be written.
         """
         with self._lock:
             job = self.jobs.get(job_id)
@@ -272,14 +374,12 @@ class LearnerCore:
                 raise UnknownJobError(f"no job {job_id!r}")
             if job.state in TERMINAL:
                 return job.status()
-            job.cancel_requested = True
-            now = job.state != "running"
-            if now:
-                job.state = "cancelled"
-            self.job_store.save(job)
+            now = job.job not in self._active  # not picked by the job loop: nothing to wait for
+            self._persist(job, cancel_requested=True, **({"state": "cancelled"} if now else {}))
             status = job.status()
         if now:
             self._safe_progress(job, "cancelled")
+            self._prune_jobs()
         log.info("job %s: cancel requested (%s)", job_id, status["state"])
         return status
 
@@ -294,41 +394,102 @@ class LearnerCore:
                 return False
             time.sleep(0.05)
 
+    def _prune_jobs(self) -> None:
+        """Remove the records of finished jobs beyond ``keep_finished_jobs`` (the oldest first)
+        and those unchanged for ``keep_finished_days``; a record that cannot be removed is kept."""
+        with self._lock:
+            finished = sorted((j for j in self.jobs.values() if j.state in TERMINAL and j.job not in self._active),
+                              key=lambda j: j.updated or j.created)
+            cutoff = time.time() - self.limits.keep_finished_days * 86400.0
+            old = [j for j in finished if (j.updated or j.created) < cutoff]
+            recent = [j for j in finished if (j.updated or j.created) >= cutoff]
+            drop = old + recent[:max(0, len(recent) - self.limits.keep_finished_jobs)]
+            for job in drop:
+                try:
+                    self.job_store.delete(job.job)
+                except OSError as exc:
+                    log.warning("could not remove the record of finished job %s: %s", job.job, exc)
+                    continue
+                del self.jobs[job.job]
+        if drop:
+            log.info("removed the records of %d finished job(s) (keeping %d, at most %g days)", len(drop),
+                     self.limits.keep_finished_jobs, self.limits.keep_finished_days)
+
+    def _next_job(self) -> str | None:
+        """The oldest unfinished job no loop thread runs, marked active; None once stopping."""
+        with self._lock:
+            while not self._stop.is_set():
+                for job in self.jobs.values():  # in the order they were queued
+                    if job.state in UNFINISHED and job.job not in self._active:
+                        self._active.add(job.job)
+                        return job.job
+                self._wake.wait(0.5)
+        return None
+
     def _job_loop(self) -> None:
         torch.set_num_threads(1)
-        while not self._stop.is_set():
-            try:
-                job_id = self._queue.get(timeout=0.2)
-            except queue.Empty:
-                continue
-            try:
-                self._run_job(job_id)
-            except InterruptedError:  # shutting down: saved "interrupted", a restart resumes it
-                log.info("job %s interrupted by shutdown", job_id)
-                self._end_job(job_id, "interrupted")
-                return
-            except JobCancelled:
-                log.info("job %s cancelled", job_id)
-                self._end_job(job_id, "cancelled")
-            except Exception as exc:  # a job failure must not stop the loop
-                if self._stop.is_set():  # e.g. the session closing under a batch: not the job's fault
-                    log.info("job %s interrupted by shutdown (%s)", job_id, exc)
-                    self._end_job(job_id, "interrupted")
-                    return
-                log.exception("job %s failed", job_id)
-                with self._lock:
-                    job = self.jobs[job_id]
-                    job.state, job.error = "failed", f"{type(exc).__name__}: {exc}"
-                    self.job_store.save(job)
-                self._safe_progress(job, "failed")
+        try:
+            while (job_id := self._next_job()) is not None:
+                try:
+                    self._run_one(job_id)
+                finally:
+                    with self._lock:
+                        self._active.discard(job_id)
+        except BaseException as exc:  # not a job's failure (those are caught below): say so in health
+            self._loop_error = f"{type(exc).__name__}: {exc}"
+            log.exception("the job loop stopped")  # logged once, here; the thread ends
 
-    def _end_job(self, job_id: str, state: str) -> None:
-        """Save job ``job_id`` in ``state`` and publish its progress event."""
+    def _run_one(self, job_id: str) -> None:
+        """Run job ``job_id`` and save how it ended; a job's failure never leaves here."""
+        try:
+            self._run_job(job_id)
+        except InterruptedError:  # shutting down: saved "interrupted", a restart resumes it
+            log.info("job %s interrupted by shutdown", job_id)
+            self._finish(job_id, "interrupted")
+        except JobCancelled:
+            log.info("job %s cancelled", job_id)
+            self._finish(job_id, "cancelled")
+        except Exception as exc:
+            if self._stop.is_set():  # e.g. the session closing under a batch: not the job's fault
+                log.info("job %s interrupted by shutdown (%s)", job_id, exc)
+                self._finish(job_id, "interrupted")
+                return
+            if isinstance(exc, StateWriteError):  # the message says it all; no traceback
+                log.error("job %s failed: %s", job_id, exc)
+                error = str(exc)
+            else:
+                log.exception("job %s failed", job_id)
+                error = f"{type(exc).__name__}: {exc}"
+            self._finish(job_id, "failed", error=error)
+
+    def _finish(self, job_id: str, state: str, **changes) -> None:
+        """Save job ``job_id`` in ``state`` (with ``changes``) and publish its progress event. A
+        terminal state is written however long the disk refuses it (retried; the loop waits), so
+        it is never shown before it is durable; ``interrupted`` is tried once (the record left
+        ``running`` is resumed the same way)."""
         with self._lock:
-            job = self.jobs[job_id]
-            job.state = state
-            self.job_store.save(job)
+            job = self.jobs.get(job_id)
+        if job is None:
+            return
+        delay = RETRY_FIRST
+        while True:
+            try:
+                self._persist(job, state=state, **changes)
+                break
+            except StateWriteError as exc:
+                if state not in TERMINAL or self._stop.is_set():
+                    log.warning("job %s: %s; it is resumed at the next start", job_id, exc)
+                    return
+                if delay == RETRY_FIRST:
+                    log.warning("job %s: %s; its %s state is saved as soon as the disk takes it", job_id, exc, state)
+                if self._stop.wait(delay):
+                    log.warning("job %s: stopped before its %s state could be saved; it is resumed at the next "
+                                "start", job_id, state)
+                    return
+                delay = min(2 * delay, RETRY_MAX)
         self._safe_progress(job, state)
+        if state in TERMINAL:
+            self._prune_jobs()
 
     def _safe_progress(self, job: JobRecord, state: str) -> None:
         try:
@@ -344,17 +505,19 @@ class LearnerCore:
 
     def _run_job(self, job_id: str) -> None:
         with self._lock:
-            job = self.jobs[job_id]
-            if self._stop.is_set() or job.state not in UNFINISHED:
+            job = self.jobs.get(job_id)
+            if job is None or self._stop.is_set() or job.state not in UNFINISHED:
                 return
             if job.cancel_requested:
                 raise JobCancelled(job_id)
-            job.state = "running"
-            job.attempt_start_index = job.next_index
+            # a record still "running" or "interrupted" (not re-queued at start): a new attempt
+            attempt = job.attempt + (job.state in ("running", "interrupted"))
             if not isinstance(job.request, PairTrainJob):  # an adaptation, on a copy of its skill's model
-                skill = self.skills[job.skill]
+                skill = self.skills.get(job.skill)
+                if skill is None:  # e.g. none of its versions could be read at start
+                    raise UnknownSkillError(f"no skill {job.skill!r} on this learner")
                 model, demos, start_version = copy.deepcopy(skill.model), skill.demos, skill.version
-            self.job_store.save(job)
+            self._persist(job, state="running", attempt=attempt, attempt_start_index=job.next_index)
         if isinstance(job.request, PairTrainJob):
             self._run_pair(job)
             return
@@ -366,18 +529,18 @@ class LearnerCore:
             on_iteration = self._recording(job, start_version)
             job_result = adapt(model, demos, req.target, self.evaluator_for(req), req.config, seed=req.seed,
                                on_iteration=on_iteration)
-            with self._lock:
-                job.rollouts = job_result.rollouts
-                job.result = job_result
-                self.job_store.save(job)  # adaptation done: a crash from here on only re-assimilates
+            # adaptation done: a crash from here on only re-assimilates
+            self._persist(job, rollouts=job_result.rollouts, result=job_result)
         if job.cancel_requested:  # asked for while the last iteration ran: do not assimilate
             raise JobCancelled(job_id)
         if req.commit and job.result.success:
-            self._assimilate(job, model if skill.version == start_version else None)
-        with self._lock:
-            job.state = "done"
-            self.job_store.save(job)
-        self.publish(self._progress_event(job, "done"))
+            with self._lock:
+                current = self.skills.get(job.skill)
+            # the adapted copy found the solution; if the skill changed meanwhile, the new one trains on
+            self._assimilate(job, model if current is not None and current.version == start_version else None)
+        self._persist(job, state="done")
+        self._safe_progress(job, "done")
+        self._prune_jobs()
 
     def _run_pair(self, job: JobRecord) -> None:
         """Train ``job``'s transfer pair (from its beginning, with its seed: a restarted attempt
@@ -394,17 +557,15 @@ class LearnerCore:
             pair.model_a.to_device(self.device)
             pair.model_b.to_device(self.device)
             with self._lock:
-                old = self.skills.get(job.skill)
-                state = SkillState(job.skill, pair.model_a, req.demos_a, 0 if old is None else old.version + 1,
+                state = SkillState(job.skill, pair.model_a, req.demos_a, self.skill_store.next_version(job.skill),
                                    partner=pair.model_b, partner_demos=req.demos_b,
                                    source_hash=req.demos_a.content_hash())
                 self._commit_skill(state, (req.robot_a, req.robot_b), loss=losses.nll_b[-1] if losses.nll_b else None,
                                    note=f"paired skill trained by {job.job}")
-                job.result = PairJobResult.from_losses(state.version, losses)
-                job.committed_version = state.version
-                job.state = "done"
-                self.job_store.save(job)
-        self.publish(self._progress_event(job, "done"))
+                job.committed_version = state.version  # committed (durable): written with the next record
+                self._persist(job, result=PairJobResult.from_losses(state.version, losses), state="done")
+        self._safe_progress(job, "done")
+        self._prune_jobs()
 
     def _pair_progress(self, job: JobRecord) -> Callable[[int, PairTrainResult], None]:
         """``on_step`` of a pair training: every ~5 % of the steps the job's ``iteration`` (steps
@@ -419,9 +580,7 @@ class LearnerCore:
                 raise JobCancelled(job.job)
             if done % every and done != job.request.config.steps:
                 return
-            with self._lock:
-                job.iteration = done
-                self.job_store.save(job)
+            self._persist(job, iteration=done)
             ev = self._progress_event(job, "running")
             ev["loss"] = float(losses.nll_a[-1] + losses.nll_b[-1])
             self.publish(ev)
@@ -444,14 +603,11 @@ class LearnerCore:
         def on_iteration(it_log: IterationLog, trajectories: np.ndarray, batch: RolloutBatch) -> None:
             if self._stop.is_set():
                 raise InterruptedError("learner is shutting down")
-            with self._lock:
-                first = job.next_index
-                job.next_index += len(batch)  # reserve the indices before any event names them
-                job.iteration = it_log.iteration
-                job.rollouts = it_log.rollouts
-                best = float(np.max(batch.returns))
-                job.best_return = best if job.best_return is None else max(job.best_return, best)
-                self.job_store.save(job)
+            first = job.next_index
+            best = float(np.max(batch.returns))
+            # reserve the indices on disk before any event names them (a failed write fails the job)
+            self._persist(job, next_index=first + len(batch), iteration=it_log.iteration, rollouts=it_log.rollouts,
+                          best_return=best if job.best_return is None else max(job.best_return, best))
             for ev in batch_rollout_events(job.job, first, trajectories, target.query_times, batch,
                                            task_params=target.task_params, condition=condition,
                                            iteration=it_log.iteration, skill=job.skill, drawing=drawing):
@@ -475,17 +631,19 @@ class LearnerCore:
         return on_iteration
 
     def _assimilate(self, job: JobRecord, adapted: CNMP | None) -> None:
-        """Add the job's solution to the skill's demos, train on, commit a new version (once)."""
+        """Add the job's solution to the skill's demos, train on, commit a new version (once);
+        :class:`StateWriteError` (nothing committed) when its checkpoint cannot be written."""
         res, req = job.result, job.request
         traj, times = res.trajectory, res.times
         with self._lock:
-            skill = self.skills[job.skill]
+            skill = self.skills.get(job.skill)
+            if skill is None:
+                raise UnknownSkillError(f"no skill {job.skill!r} on this learner")
             last = skill.demos[len(skill.demos) - 1]
             if last.values.shape == traj.shape and np.array_equal(last.values, traj) \
                     and np.array_equal(last.times, times):
                 job.committed_version = skill.version  # committed before a crash; do not add it twice
                 return
-            # the adapted copy found the solution; if the skill changed meanwhile, train the new one
             model = adapted if adapted is not None else copy.deepcopy(skill.model)
             tp = req.target.task_params
             params = np.zeros(skill.demos.n_task_params) if tp is None else tp
@@ -496,22 +654,25 @@ class LearnerCore:
                                   AssimilationConfig(steps=req.assimilate_steps), conditions=req.target,
                                   seed=req.seed + 1, stop=self._stop)
         with self._lock:
-            state = SkillState(skill.name, model, demos, self.skills[skill.name].version + 1,
+            state = SkillState(skill.name, model, demos, self.skill_store.next_version(skill.name),
                                source_hash=skill.source_hash)  # demos = the skill's + the solution
             self._commit_skill(state, note=f"assimilated {job.job}")
-            job.committed_version = state.version
-            self.job_store.save(job)
+            job.committed_version = state.version  # committed (durable): written with the job's next record
 
     def interrupt(self) -> None:
         """Ask the work in progress to stop at its next step (a job's iteration or batch, a training,
         an assimilation: InterruptedError there) and start no more; :meth:`close` still has to be
         called. A service calls it as soon as it is told to stop, so nothing holds its shutdown."""
         self._stop.set()
+        with self._lock:
+            self._wake.notify_all()
 
     def close(self, timeout: float = 10.0) -> None:
         """Stop running jobs: the running one is interrupted (at its next iteration, or at once by an
         evaluator watching :attr:`stopping`), saved ``interrupted``, and resumes on restart."""
         self._stop.set()
+        with self._lock:
+            self._wake.notify_all()
         if self._thread.is_alive():
             self._thread.join(timeout=timeout)
         self._dir_lock.release()

@@ -8,7 +8,7 @@ a record without ``kind`` is an adaptation, so the records of earlier versions l
 One :class:`JobRecord` per job lives in the learner's memory and, as JSON, in
 ``<state_dir>/jobs/<job>.json`` (services/learner/store.py). Request and result are typed; only
 :meth:`JobRecord.to_dict` and :meth:`JobRecord.from_dict` turn them into plain values and back.
-The JSON layout is the one the learner has always written, plus ``kind``.
+The JSON layout is the one the learner has always written, plus ``kind`` and ``format``.
 """
 from __future__ import annotations
 
@@ -29,6 +29,12 @@ JOB_STATES = ("queued", "running", "interrupted", "done", "failed", "cancelled")
 UNFINISHED = ("queued", "running", "interrupted")
 #: States a job never leaves.
 TERMINAL = ("done", "failed", "cancelled")
+#: Format of a job record's JSON (its ``format`` field; a record without one is of format 1).
+RECORD_FORMAT = 1
+
+
+class RecordFormatError(ValueError):
+    """A job record of a format this learner does not read."""
 
 
 @dataclass
@@ -72,6 +78,7 @@ class JobRecord:
     def to_dict(self) -> dict[str, Any]:
         """The JSON-ready map written to the job's file."""
         out = {k: getattr(self, k) for k in self.__dataclass_fields__}
+        out["format"] = RECORD_FORMAT
         out["kind"] = self.kind
         out["request"] = self.request.to_dict()
         out["result"] = self._result_dict()
@@ -89,7 +96,10 @@ class JobRecord:
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> "JobRecord":
-        """Inverse of :meth:`to_dict`."""
+        """Inverse of :meth:`to_dict`; :class:`RecordFormatError` for a record of another format,
+        KeyError/TypeError/ValueError for one that is not a job record."""
+        if d.get("format", RECORD_FORMAT) != RECORD_FORMAT:
+            raise RecordFormatError(f"a job record of format {d.get('format')!r}; this learner reads format {RECORD_FORMAT}")
         values = {k: d[k] for k in cls.__dataclass_fields__ if k in d}
         if d.get("kind", "adapt") == "train_pair":  # records written before kinds existed are adapt jobs
             values["request"] = PairTrainJob.from_dict(d["request"])
@@ -97,6 +107,10 @@ class JobRecord:
         else:
             values["request"] = AdaptJob.from_dict(d["request"])
             values["result"] = None if d.get("result") is None else result_from_dict(d["result"])
+        if not isinstance(values.get("job"), str) or not isinstance(values.get("skill"), str):
+            raise ValueError("fields 'job' and 'skill': expected strings")
+        if values.get("state", "queued") not in JOB_STATES:
+            raise ValueError(f"field 'state': {values.get('state')!r} is not one of {list(JOB_STATES)}")
         return cls(**values)
 
     def summary(self) -> dict[str, Any]:

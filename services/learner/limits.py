@@ -6,6 +6,10 @@ is trained or allocated first), and refused with ``too_large`` naming the settin
 (docs/PROTOCOL.md, "Limits of the learner"). The defaults are generous for the paper's experiments
 (E1 trains 3000 steps; an E1 job makes ~6 500 updates) and can be raised per learner
 (:class:`LearnerLimits` is a field of the learner's config).
+
+:class:`StateLimits` bounds what the learner keeps over time: unfinished jobs (a new one beyond
+the limit is refused with ``busy``), finished job records (by count and age) and checkpoints per
+skill.
 """
 from __future__ import annotations
 
@@ -98,3 +102,34 @@ def check_pair(job: PairTrainJob, limits: LearnerLimits) -> None:
     _refuse("config: points per step, 2 * batch_size * (max_obs + n_targets)", per_step, limits.max_step_points)
     _refuse("config: points in all, steps * 2 * batch_size * (max_obs + n_targets)", cfg.steps * per_step,
             limits.max_train_points)
+
+
+@dataclass(frozen=True)
+class StateLimits:
+    """Bounds on what the learner keeps (docs/DEPLOYMENT.md, "State directory").
+
+    max_queued_jobs : unfinished jobs (queued, running, interrupted) the learner holds; a new job
+        beyond it is refused with ``busy`` (nothing is written). One learner serves a deployment,
+        so this is the deployment's bound.
+    keep_finished_jobs : finished jobs (done, failed, cancelled) whose records are kept; older ones
+        are removed as new ones finish.
+    keep_finished_days : a finished job's record is removed this many days after its last change.
+    keep_versions : checkpoints kept per skill (the newest; an unreadable newest falls back to the
+        one before).
+    """
+
+    max_queued_jobs: int = 100
+    keep_finished_jobs: int = 1000
+    keep_finished_days: float = 30.0
+    keep_versions: int = 3
+
+    def __post_init__(self) -> None:
+        if self.max_queued_jobs < 1 or self.keep_finished_jobs < 0 or self.keep_finished_days < 0 \
+                or self.keep_versions < 1:
+            raise ValueError(f"state limits: inconsistent settings {self}")
+
+
+def busy_message(limit: int) -> str:
+    """The message of a ``busy`` refusal: the learner already holds ``limit`` unfinished jobs."""
+    return (f"the learner already holds {limit} unfinished jobs, its limit (--max-queued-jobs {limit}); "
+            "nothing was queued: send it again once some have finished")

@@ -11,16 +11,26 @@ Declared entities (``<ns>`` namespace; docs/PROTOCOL.md has every field):
   ``rollout`` per executed trajectory and one ``job_progress`` per iteration;
 - liveliness token ``acnmp/<ns>/learner/<id>`` once all of the above exist.
 
+Its health (the ``problems`` of its ``about`` reply, what ``acnmp status`` shows): a state write
+that failed, a job loop that stopped, the files in its state directory's quarantine. A job loop
+that stops by an error ends the process (exit 1), so a launcher restarts it.
+
+``--demos`` skills whose file changed since they were trained are **withheld** until retrained:
+``weights/latest`` does not answer them, so a model service starting meanwhile serves the skill
+only once it is the one trained from the file (``acnmp up`` says "deployment is up" then).
+
 An adapt request is decoded once into an :class:`~acnmp_core.adapt_job.AdaptJob`
 (:meth:`~acnmp_core.adapt_job.AdaptJob.from_dict`); the core runs it with a
 :class:`~services.worker.remote.RemoteEvaluator` over the workers of the job's robot kind.
 """
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import logging
 import os
 import threading
+import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import ClassVar, Sequence
@@ -35,7 +45,7 @@ from acnmp_core.training import TrainConfig
 from acnmp_core.transfer_job import PairTrainJob
 from services.model.weights import encode_weights
 from services.recording.publisher import EventPublisher
-from services.transport import Keyspace, Ready, Service, WireError, declare_rpc, option, wait_until_stopped
+from services.transport import Keyspace, Ready, Service, WireError, declare_rpc, option
 from services.transport.argtypes import device, int_at_least, seconds
 from services.transport.errors import wire_error
 from services.transport.keys import check_name, is_concrete, job_from_key, skill_from_key
@@ -43,9 +53,9 @@ from services.transport.state_dir import default_state_dir
 from services.transport.wire import array_field, error_payload, field, require_payload
 from services.worker.remote import RemoteEvaluator
 
-from .core import LearnerCore, TrainSpec, UnknownJobError, UnknownSkillError
-from .limits import LearnerLimits, check_job, check_pair, check_train
-from .store import SkillState
+from .core import LearnerBusy, LearnerCore, TrainSpec, UnknownJobError, UnknownSkillError
+from .limits import LearnerLimits, StateLimits, check_job, check_pair, check_train
+from .store import SkillState, StateWriteError
 
 log = logging.getLogger(__name__)
 
@@ -138,11 +148,17 @@ class LearnerService:
         event (0: do not wait; events published with no recorder are simply not recorded).
     chunk_timeout : seconds a worker may take for its share of a batch before it is re-sent.
     limits : what one train or adapt request may cost (services/learner/limits.py).
+    state_limits : queue limit, job records and checkpoints kept (services/learner/limits.py).
+    demos : the ``--demos`` values ``SKILL=FILE.npz`` the caller will :func:`bootstrap`: a skill
+        whose file changed is withheld from ``weights/latest`` until it is retrained.
+    ready : the process's :class:`~services.transport.Ready`: the learner reports its health
+        through it before its token appears.
     """
 
     def __init__(self, session: zenoh.Session, keys: Keyspace, state_dir: str | os.PathLike, *,
                  learner_id: str | None = None, wait_recorder: float = 0.0, chunk_timeout: float = 60.0,
-                 limits: LearnerLimits = LearnerLimits(), device: str = "cpu"):
+                 limits: LearnerLimits = LearnerLimits(), device: str = "cpu",
+                 state_limits: StateLimits = StateLimits(), demos: Sequence[str] = (), ready: Ready | None = None):
         self.session, self.keys = session, keys
         self.limits = limits
         self.learner_id = check_name("learner id", learner_id or f"learner-{os.getpid()}")
@@ -151,7 +167,11 @@ class LearnerService:
         self.chunk_timeout = float(chunk_timeout)
         self._recorder_checked = wait_recorder <= 0
         self.core = LearnerCore(state_dir, evaluator_for=self._evaluator, publish=self._publish,
-                                on_version=self._put_weights, device=device)
+                                on_version=self._put_weights, device=device, state_limits=state_limits)
+        if ready is not None:
+            ready.report_health(lambda: self.core.health().problems())
+        #: skills not served until retrained from their changed --demos file
+        self.withheld: set[str] = stale_skills(self.core, demos)
         self._rpcs = [
             declare_rpc(session, keys.train("*"), self._handle_train, workers=1),
             declare_rpc(session, keys.adapt("*"), self._handle_adapt, workers=1),
@@ -184,6 +204,7 @@ class LearnerService:
         self.events.publish(event)
 
     def _put_weights(self, state: SkillState) -> None:
+        self.withheld.discard(state.name)  # a new version: the one asked for
         self.session.put(self.keys.weights(state.name), _weights(state),
                          congestion_control=zenoh.CongestionControl.BLOCK)
 
@@ -204,6 +225,8 @@ class LearnerService:
             state = self.core.train_skill(skill, parse_train_request(msg, self.limits))
         except InterruptedError:  # the learner is stopping: a restarted one trains it when asked again
             raise WireError("unavailable", "the learner is shutting down; send the request again") from None
+        except StateWriteError as exc:
+            raise WireError("write_failed", f"{exc}; nothing was committed") from None
         return {"v": 1, "skill": skill, "version": state.version, "data_hash": state.demos.content_hash(),
                 "n_demos": len(state.demos)}
 
@@ -213,7 +236,8 @@ class LearnerService:
         try:
             job = AdaptJob.from_dict(msg)
             check_job(job, self.limits)
-            job = self.core.submit(skill, job)
+            with _storage_errors("the job was not queued"):
+                job = self.core.submit(skill, job)
         except UnknownSkillError as exc:
             raise WireError("unknown_skill", str(exc)) from None
         except ValueError as exc:  # typed errors keep their code; the model's own checks are bad_request
@@ -222,7 +246,9 @@ class LearnerService:
 
     def _handle_train_pair(self, msg: dict | None, query: zenoh.Query) -> dict:
         skill = self._skill_of(query, msg)
-        job = self.core.submit_pair(skill, parse_pair_request(msg, self.limits))
+        request = parse_pair_request(msg, self.limits)
+        with _storage_errors("the job was not queued"):
+            job = self.core.submit_pair(skill, request)
         return {"v": 1, "job": job.job, "skill": skill, "state": job.state}
 
     def _handle_status(self, _msg, query: zenoh.Query) -> dict:
@@ -235,7 +261,8 @@ class LearnerService:
         return {"v": 1, "jobs": self.core.list_jobs(limit), "total": len(self.core.jobs)}
 
     def _handle_cancel(self, _msg, query: zenoh.Query) -> dict:
-        return self._job_reply(self.core.cancel, query)
+        with _storage_errors("the job was not cancelled"):
+            return self._job_reply(self.core.cancel, query)
 
     @staticmethod
     def _job_reply(action, query: zenoh.Query) -> dict:
@@ -258,7 +285,8 @@ class LearnerService:
             try:
                 asked = query.key_expr
                 states = [state for name, state in sorted(self.core.skill_states().items())
-                          if asked.intersects(zenoh.KeyExpr(self.keys.weights_latest(name)))]
+                          if name not in self.withheld
+                          and asked.intersects(zenoh.KeyExpr(self.keys.weights_latest(name)))]
                 if not states and "*" not in str(asked):  # a wildcard matching nothing gets no reply
                     query.reply_err(error_payload("unknown_skill", f"no skill matching {str(asked)!r} on this learner"))
                     return
@@ -271,22 +299,46 @@ class LearnerService:
     def close(self) -> None:
         """Stop taking requests, interrupt the running job (it resumes on restart), undeclare all;
         with a recorder (``wait_recorder`` > 0), wait up to :data:`RECORDED_WAIT` s until it holds
-        every roll-out this learner published (the launcher stops it only after the learner)."""
+        every roll-out this learner published (the launcher stops it only after the learner).
+        The liveliness token goes last: a recorder whose launcher died records until it is gone."""
         self.core.interrupt()  # first: a handler training would hold the undeclaring of its queryable
-        for undeclare in (self._token.undeclare, *(rpc.close for rpc in self._rpcs), self._latest.undeclare):
+        for undeclare in (*(rpc.close for rpc in self._rpcs), self._latest.undeclare):
             try:
                 undeclare()
             except Exception:  # the session may be closing under us
                 log.debug("undeclare failed", exc_info=True)
         self.core.close()
+        started = time.monotonic()
         if self.wait_recorder > 0 and not self.events.wait_recorded(RECORDED_WAIT):
-            log.warning("the recorder did not confirm every roll-out of this learner within %.0f s", RECORDED_WAIT)
+            waited = time.monotonic() - started
+            if waited < RECORDED_WAIT:  # said at once: nothing answered
+                log.warning("no recorder answered (after %.1f s; the router may be gone with the launcher that held "
+                            "it): this learner's last events may be missing from the recording, its job records "
+                            "hold the jobs' states", waited)
+            else:
+                log.warning("the recorder did not confirm every roll-out of this learner within %.0f s", RECORDED_WAIT)
+        try:
+            self._token.undeclare()
+        except Exception:
+            log.debug("undeclare failed", exc_info=True)
 
     def __enter__(self) -> "LearnerService":
         return self
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+@contextlib.contextmanager
+def _storage_errors(what: str):
+    """Answer a request refused by the learner's bounds or disk: ``busy`` (queue limit) or
+    ``write_failed`` (the record could not be written; ``what`` says what did not happen)."""
+    try:
+        yield
+    except LearnerBusy as exc:
+        raise WireError("busy", str(exc)) from None
+    except StateWriteError as exc:
+        raise WireError("write_failed", f"{exc}; {what}") from None
 
 
 def _weights(state: SkillState) -> bytes:
@@ -342,13 +394,29 @@ def bootstrap(core: LearnerCore, specs: Sequence[str], steps: int) -> list[str]:
                          task_param_names=() if arrays.task_param_names is None else tuple(arrays.task_param_names))
         if old is not None:
             log.warning("skill %s: version %d was trained from other demonstrations than %s (data hash %s); "
-                        "retraining it from %s as version %d", name, old.version, path,
-                        demos.content_hash()[:12], path, old.version + 1)
+                        "retraining it from %s (it is not served until then)", name, old.version, path,
+                        demos.content_hash()[:12], path)
         state = core.train_skill(name, TrainSpec(demos, cfg, TrainConfig(steps=steps)))
         lines.append(f"skill {name}: version {state.version} trained from {path}"
                      + ("" if old is None else " (retrained: the file's demonstrations changed)"))
         log.info("%s", lines[-1])
     return lines
+
+
+def stale_skills(core: LearnerCore, specs: Sequence[str]) -> set[str]:
+    """The skills of ``--demos`` values ``specs`` that :func:`bootstrap` will retrain: those the
+    learner holds, trained from other demonstrations than their file's now (a file that cannot be
+    read is left to :func:`bootstrap`, which says so)."""
+    out = set()
+    for spec in specs:
+        try:
+            name, demos = parse_demos_spec(spec), load_demos_spec(spec).to_demo_set()
+        except ValueError:
+            continue
+        old = core.skills.get(name)
+        if old is not None and not trained_from(old, demos):
+            out.add(name)
+    return out
 
 
 def trained_from(state: SkillState, demos: DemoSet) -> bool:
@@ -395,6 +463,18 @@ class LearnerConfig(Service):
     max_rollouts: int = option(LearnerLimits.max_rollouts,
                                "refuse adaptation jobs with a larger roll-out budget (default: %(default)s)", metavar="N",
                                type=int_at_least(1))
+    max_queued_jobs: int = option(StateLimits.max_queued_jobs,
+                                  "refuse new jobs (busy) while this many are unfinished (default: %(default)s)",
+                                  metavar="N", type=int_at_least(1))
+    keep_jobs: int = option(StateLimits.keep_finished_jobs,
+                            "keep the records of this many finished jobs, removing older ones (default: %(default)s)",
+                            metavar="N", type=int_at_least(0))
+    keep_job_days: float = option(StateLimits.keep_finished_days,
+                                  "remove a finished job's record this many days after its last change "
+                                  "(default: %(default)s)", metavar="DAYS", type=seconds(zero=True))
+    keep_versions: int = option(StateLimits.keep_versions,
+                                "checkpoints kept per skill, the newest (default: %(default)s)", metavar="N",
+                                type=int_at_least(1))
 
     def serve(self, session: zenoh.Session, stop: threading.Event, ready: Ready) -> int:
         import torch
@@ -407,10 +487,13 @@ class LearnerConfig(Service):
         if self.demos:
             imported.start()
         state_dir = self.state_dir or default_state_dir(self.session.namespace, say=log.warning)
+        state_limits = StateLimits(max_queued_jobs=self.max_queued_jobs, keep_finished_jobs=self.keep_jobs,
+                                   keep_finished_days=self.keep_job_days, keep_versions=self.keep_versions)
         with LearnerService(session, Keyspace(self.session.namespace), state_dir, learner_id=self.learner_id,
                             wait_recorder=self.wait_recorder, chunk_timeout=self.chunk_timeout,
                             limits=LearnerLimits(max_train_steps=self.max_train_steps,
-                                                 max_rollouts=self.max_rollouts), device=self.device) as learner:
+                                                 max_rollouts=self.max_rollouts), device=self.device,
+                            state_limits=state_limits, demos=self.demos, ready=ready) as learner:
             # a stop interrupts what the core runs at once (training included), not after it
             threading.Thread(target=lambda: (stop.wait(), learner.core.interrupt()), name="stop-watch",
                              daemon=True).start()
@@ -422,7 +505,13 @@ class LearnerConfig(Service):
             except InterruptedError:
                 log.info("stopped while training the --demos skills; they are trained at the next start")
                 return 0
+            found = learner.core.state.found
             ready(f"learner live as {learner.token_key}; skills: {sorted(learner.skills) or 'none yet'}; "
-                  f"state in {Path(state_dir).resolve()}" + "".join(f"; {line}" for line in booted))
-            wait_until_stopped(stop)
+                  f"state in {Path(state_dir).resolve()}" + "".join(f"; {line}" for line in booted)
+                  + (f"; {len(found)} file(s) quarantined at start" if found else ""))
+            while not stop.wait(0.2):
+                error = learner.core.loop_error
+                if error is not None:  # exit, so a launcher restarts it with a working loop
+                    log.error("the job loop has stopped (%s): exiting", error)
+                    return 1
         return 0

@@ -5,6 +5,11 @@ queues it. The main thread takes events off the queue and logs them (services/rr
 there is exactly one writer and shutdown is ordered:
 
 1. SIGTERM/SIGINT sets the stop event (services/transport/lifetime.py installs the handlers);
+   when the stop comes from the launcher's death instead (no launcher orders the shutdown: every
+   child stops at once), the recorder goes on recording until no learner's liveliness token is
+   left in its namespace (a learner drops it last, once its last events are recorded; at most
+   :data:`LEARNER_GRACE` s), so the learner's last events (a running job's ``interrupted``) are in
+   the file;
 2. the subscriber is undeclared, so nothing new arrives, and the queue is drained into the file;
 3. the liveliness token goes;
 4. the recording is flushed and its file sink closed, which writes the footer
@@ -45,10 +50,11 @@ from typing import ClassVar, Sequence
 import zenoh
 import zenoh.ext as zext
 
-from services.transport import Keyspace, Ready, Service, WireError, declare_rpc, option
+from services.transport import Keyspace, Ready, Service, WireError, declare_rpc, option, wait_for_liveliness_gone
 from services.transport.argtypes import check_output_path, int_at_least, non_empty
 from services.transport.auth import write_private
 from services.transport.keys import is_concrete
+from services.transport.lifetime import launcher_gone
 
 from .event_ids import SeenEvents, marks_path
 from .events import decode_event
@@ -57,6 +63,10 @@ from .rrd_writer import RrdWriter
 from .web_viewer import WebViewer
 
 log = logging.getLogger(__name__)
+
+#: Seconds a recorder whose launcher died records on while a learner still answers: longer than
+#: the learner's own wait for the recorder (services/learner/service.py RECORDED_WAIT, 4 s).
+LEARNER_GRACE = 6.0
 
 #: Events queued between zenoh threads and the writer; when full, the callback blocks, and since
 #: events are put with CongestionControl.BLOCK the publishers slow down instead of losing events.
@@ -237,6 +247,11 @@ def record(session: zenoh.Session, keys: Keyspace, path: str, stop: threading.Ev
         ready(f"recorder live as {token_key}, writing {path}{live}")
         while not stop.is_set():
             _drain(events, writer, timeout=0.2)
+        if launcher_gone.is_set():  # the learner stops at the same moment: take its last events too
+            waiting = threading.Thread(target=_wait_learners_gone, args=(session, keys), daemon=True)
+            waiting.start()
+            while waiting.is_alive():
+                _drain(events, writer, timeout=0.2)
         misses.undeclare()
         sub.undeclare()
         _drain(events, writer, timeout=0.0, until_empty=True)
@@ -251,6 +266,14 @@ def record(session: zenoh.Session, keys: Keyspace, path: str, stop: threading.Ev
     final = {**writer.stats(), "rejected": rejected[0], "duplicates": duplicates[0], "missed": missed()}
     log.info("recording closed: %s", final)
     return final
+
+
+def _wait_learners_gone(session: zenoh.Session, keys: Keyspace) -> None:
+    """Return once no learner token of ``keys``' namespace is alive, or after :data:`LEARNER_GRACE` s."""
+    try:
+        wait_for_liveliness_gone(session, keys.tokens("learner"), timeout=LEARNER_GRACE)
+    except TimeoutError:
+        log.warning("a learner was still live %.0f s after the launcher died; closing the recording", LEARNER_GRACE)
 
 
 def _drain(events: queue.Queue, writer: RrdWriter, *, timeout: float, until_empty: bool = False) -> None:

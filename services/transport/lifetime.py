@@ -38,6 +38,10 @@ def install_shutdown_handlers(stop: threading.Event | None = None) -> threading.
 
 #: Set by the launcher in its children's environment: the launcher's pid.
 PARENT_PID_ENV = "ACNMP_PARENT_PID"
+#: Set (before the stop event) once :func:`watch_parent` found the launcher gone: nobody orders
+#: the shutdown then, so a process that must outlive another (the recorder, the learner's last
+#: events) can tell this stop from a SIGTERM.
+launcher_gone = threading.Event()
 
 
 def watch_parent(stop: threading.Event, poll: float = 0.5) -> threading.Thread | None:
@@ -59,6 +63,7 @@ def watch_parent(stop: threading.Event, poll: float = 0.5) -> threading.Thread |
         while not stop.wait(poll):
             if os.getppid() != parent:
                 log.warning("launcher (pid %d) is gone: shutting down", parent)
+                launcher_gone.set()
                 stop.set()
                 return
 

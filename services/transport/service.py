@@ -41,8 +41,29 @@ from .argtypes import Parser, UsageError
 from .lifetime import install_shutdown_handlers
 from .session import MODES, SessionOptions
 
-#: ``ready(line)``: called once by a service when it is live, with one line saying what it serves.
-Ready = Callable[[str], None]
+class Ready:
+    """What :meth:`Service.serve` is handed to say how it is: ``ready(line)`` once, when live, with
+    one line saying what it serves (its ``about`` reply's ``live``); ``ready.report_health(check)``
+    at any time, where ``check()`` returns one line per problem the process has now (its ``about``
+    reply's ``problems``, which ``acnmp status`` shows; services/transport/about.py).
+
+    ``say`` gets the ready line (default: printed); ``about`` is the process's about queryable
+    (None: nothing is published, e.g. a service run by a test without a session).
+    """
+
+    def __init__(self, say: Callable[[str], None] | None = None, about=None):
+        self._say = say or (lambda line: print(line, flush=True))
+        self._about = about
+
+    def __call__(self, line: str) -> None:
+        if self._about is not None:
+            self._about.live = line
+        self._say(line)
+
+    def report_health(self, check: Callable[[], list[str]]) -> None:
+        """Answer ``check()`` as this process's problems from now on."""
+        if self._about is not None:
+            self._about.health = check
 
 
 def option(default: Any, help: str, *, flag: str | None = None, short: str | None = None,
@@ -130,26 +151,19 @@ def from_args(cls: type[Service], args: argparse.Namespace) -> Service:
     return cls(session=SessionOptions.from_args(args), **values)
 
 
-def run_service(config: Service, *, stop: threading.Event | None = None, ready: Ready | None = None) -> int:
+def run_service(config: Service, *, stop: threading.Event | None = None,
+                ready: Callable[[str], None] | None = None) -> int:
     """Run the service ``config`` describes until ``stop`` is set (default: SIGTERM/SIGINT, or its
-    launcher dying); return its exit code. ``ready`` defaults to printing the line."""
+    launcher dying); return its exit code. ``ready(line)`` gets the ready line (default: printed)."""
     if stop is None:
         stop = install_shutdown_handlers()
-    if ready is None:
-        def ready(line: str) -> None:
-            print(line, flush=True)
     from .about import AboutQueryable
     from .keys import Keyspace
 
     with config.session.open(config.default_mode) as session:
         about = AboutQueryable(session, Keyspace(config.session.namespace), config.name)
-
-        def said(line: str) -> None:
-            about.live = line
-            ready(line)
-
         try:
-            return int(config.serve(session, stop, said) or 0)
+            return int(config.serve(session, stop, Ready(ready, about)) or 0)
         finally:
             about.undeclare()
 

@@ -64,6 +64,8 @@ ERROR_CODES: dict[str, str] = {
     "unknown_task": "no reward/task of that name is registered",
     "unknown_job": "no adaptation job with that id",
     "overloaded": "the service's queue for this key is full; nothing was computed, try again later",
+    "busy": "the learner holds as many unfinished jobs as its limit allows; nothing was queued, try again later",
+    "write_failed": "the service could not write its state (disk full, I/O error, permission); nothing was changed",
     "unavailable": "no service answered (nothing matched the key expression, or it went away)",
     "timeout": "the query timed out before a reply arrived",
     "internal": "the service failed while handling the request; the message says how",

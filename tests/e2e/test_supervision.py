@@ -11,6 +11,7 @@ import numpy as np
 import zenoh
 
 from acnmp_core.experiments.viapoint import make_setup, run_viapoint
+from clients.cli import main
 from clients.client import ACNMPClient
 from clients.distributed import run_viapoint_distributed
 from services.launcher import LocalDeployment
@@ -33,7 +34,7 @@ def _recorded_processes(dep, want: int, timeout: float = 30.0) -> int:
         time.sleep(0.1)
 
 
-def test_a_killed_child_is_restarted_and_recorded_then_given_up_after_the_limit(tmp_path, verify_rrd):
+def test_a_killed_child_is_restarted_and_recorded_then_given_up_after_the_limit(tmp_path, verify_rrd, capsys):
     setup = make_setup()
     lines: list[str] = []
     rrd = tmp_path / "sup.rrd"
@@ -60,6 +61,9 @@ def test_a_killed_child_is_restarted_and_recorded_then_given_up_after_the_limit(
             assert time.monotonic() < deadline, lines
             time.sleep(0.05)
         assert _recorded_processes(dep, 2) == 2  # restarted + gave_up
+        # `acnmp status` shows the child given up on as exited, and says so by its exit code
+        assert main(["status", "--namespace", "sup"]) == 1
+        assert f"{WORKER:<18}" in (out := capsys.readouterr().out) and out.rstrip().endswith("exited"), out
         codes = dep.stop()
     assert any("restarted as pid" in ln for ln in lines) and any("giving up" in ln for ln in lines), lines
     # stopping on purpose restarts nothing and needs no SIGKILL: the recorder is the one started first

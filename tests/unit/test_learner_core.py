@@ -203,3 +203,35 @@ def test_a_cancel_asked_before_a_crash_ends_the_job_on_restart(tmp_path, setup):
     finally:
         again.close()
     assert fresh.calls == 0
+
+
+def test_a_solution_found_on_an_older_version_is_assimilated_into_the_skills_newest(tmp_path, setup):
+    """A train request may commit a new version while a job adapts the old one: the job's solution
+    is then assimilated into the new version's model (it was into the old adapted copy)."""
+    import numpy as np
+
+    class Succeeds(Gated):
+        def evaluate(self, trajectories, times, task_params=None):
+            self.started.set()
+            assert self.gate.wait(60)
+            b, t = trajectories.shape[:2]
+            return ExecutedBatch(np.zeros((b, t)), np.ones(b, dtype=bool), workers=("w0",) * b)
+
+    gated = Succeeds(setup.task)
+    core = LearnerCore(tmp_path, evaluator_for=lambda job: gated)
+    try:
+        spec = TrainSpec(setup.demos, CNMPConfig(n_outputs=2, **SMALL), TrainConfig(steps=5), seed=3)
+        core.train_skill("e1", spec)
+        job = core.submit("e1", AdaptJob(setup.target, "viapoint", "point2d", setup.task_config,
+                                         AdaptConfig(max_rollouts=5), seed=5, commit=True, assimilate_steps=1))
+        core.start()
+        assert gated.started.wait(60)
+        newer = core.train_skill("e1", TrainSpec(setup.demos, spec.model_cfg, spec.train_cfg, seed=4))  # other weights
+        gated.gate.set()
+        assert core.wait_idle(60) and core.status(job.job)["committed_version"] == 2
+        committed = core.skills["e1"].model.state_dict()
+    finally:
+        core.close()
+    name, weights = next(iter(newer.model.named_parameters()))
+    # one assimilation step at lr 1e-4 from version 1's weights, not from version 0's
+    assert float((committed[name] - weights.detach()).abs().max()) < 1e-2
