@@ -39,10 +39,11 @@ def run(args) -> int:
     import torch
 
     from acnmp_core.demo_io import load_demos
-    from acnmp_core.experiments.own_robot import plot_own_robot, robot_task, run_own_robot
+    from acnmp_core.experiments.own_robot import check_points, plot_own_robot, robot_task, run_own_robot
 
     check_deployment_arguments(args)
     demos = load_demos(args.demos)
+    check_points(demos, args.at, "--at")
     task = robot_task(args.robot, args.task)
     train_steps, budget = sizes(args, 3000, 300)
     torch.set_num_threads(1)
