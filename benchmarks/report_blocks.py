@@ -863,6 +863,14 @@ def experiments_table() -> str:
     return table(["id", "page", "command", "what", "benchmark"], rows)
 
 
+@renderer("demo-format")
+def demo_format() -> str:
+    """docs/ROBOTS.md's table of the demonstration file's arrays (acnmp_core.demo_io.FIELDS)."""
+    from acnmp_core.demo_io import format_table
+
+    return format_table()
+
+
 @renderer("readme-results")
 def readme_results() -> str:
     rows = [e1_row(), e2_row(), e3_row(), e4_row(), e5_row(), e6_row()]

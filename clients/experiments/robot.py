@@ -25,7 +25,16 @@ def add_arguments(p) -> None:
     """Add the ``robot`` experiment's options to its parser ``p`` (made from its catalog entry)."""
     p.add_argument("--robot", required=True, type=robot_kind, help="robot kind or plugin package.module:attr")
     p.add_argument("--task", default=None, help="the robot's task (default: its only one)")
-    p.add_argument("--demos", required=True, type=non_empty, metavar="FILE.npz", help="demonstrations (.npz)")
+    import argparse
+    import textwrap
+
+    from acnmp_core.demo_io import format_help
+
+    p.formatter_class = argparse.RawDescriptionHelpFormatter  # the epilog's table keeps its lines
+    p.description = textwrap.fill(p.description or "", 90)
+    p.epilog = format_help()
+    p.add_argument("--demos", required=True, type=non_empty, metavar="FILE.npz",
+                   help="the demonstrations: arrays times (N, T), values (N, T, D), task_params (N, P) (below)")
     p.add_argument("--at", action="append", required=True, type=_point, metavar="P1,P2,...",
                    help="task parameters of a test point (repeatable)")
     add_size_arguments(p, seeds=1, train_steps=3000, budget=300, budget_help="ACNMP roll-out budget per point")

@@ -380,7 +380,8 @@ class LearnerConfig(Service):
                                          "directory; ./runs/<namespace>/state while only it exists)", metavar="DIR")
     learner_id: str | None = option(None, "learner id (default: learner-<pid>)", flag="--id", metavar="ID")
     demos: list[str] = option([], "train SKILL from a demonstration file at start unless it was trained from "
-                                  "that file's demonstrations (a changed file retrains it; repeatable)",
+                                  "that file's demonstrations (a changed file retrains it; repeatable); the file's "
+                                  "arrays: `acnmp up --help`, docs/ROBOTS.md",
                               metavar="SKILL=FILE.npz")
     train_steps: int = option(3000, "steps for --demos (default: %(default)s)", metavar="N", type=int_at_least(1))
     wait_recorder: float = option(0.0, "wait up to S seconds for a recorder before the first event (default: 0)",
