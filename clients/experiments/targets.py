@@ -9,6 +9,8 @@ counts "in k/5 seeds" scale with the seeds a run has. A run at smaller sizes (``
 """
 from __future__ import annotations
 
+from typing import Callable
+
 import numpy as np
 
 #: E1: ACNMP's shape error (m) at most this.
@@ -141,6 +143,72 @@ def predict_target(result: dict) -> tuple[str, bool | None]:
     single = f"; one process: {ceiling_share(modes['routed1']):.2f}" if "routed1" in modes else ""
     return all_checks("16 clients", [(f"{two:.2f} of the CPU ceiling with 2 model processes (>= "
                                       f"{PREDICT_CEILING_SHARE:g}){single}", two >= PREDICT_CEILING_SHARE)])
+
+
+def accounting(result: dict) -> list[str]:
+    """What in an experiment's JSON ``result`` does not add up, one line each (empty: everything
+    checked does): the seed count and list and the seeds of the per-run records agree; each
+    summary's roll-out list and success rate are those of its runs (matched by method, case or
+    condition); E3's trajectory totals are the sums of the per-environment counts."""
+    problems = []
+    runs = result.get("runs") if isinstance(result.get("runs"), list) else result.get("per_run") or []
+    seeds = result.get("seed_list")
+    if seeds is not None:
+        count = result.get("seeds", result.get("runs"))
+        if isinstance(count, int) and count != len(seeds):
+            problems.append(f"{count} seeds counted, {len(seeds)} listed")
+        ran = {r["seed"] for r in runs if "seed" in r}
+        if runs and ran != set(seeds):
+            problems.append(f"the runs' seeds {sorted(ran)} are not the seeds listed {sorted(seeds)}")
+
+    def check(where: str, summary: dict, group: list[dict], outcome) -> None:
+        if not group:
+            return
+        if isinstance(summary.get("rollouts"), list) and summary["rollouts"] != [outcome(r)["rollouts"] for r in group]:
+            problems.append(f"{where}: roll-outs {summary['rollouts']} are not its runs'")
+        if "success_rate" in summary and not np.isclose(summary["success_rate"],
+                                                        np.mean([bool(outcome(r)["success"]) for r in group])):
+            problems.append(f"{where}: success rate {summary['success_rate']:g} is not its runs'")
+
+    for m, summary in (result.get("methods") or {}).items():
+        if not isinstance(summary, dict):
+            continue
+        nested = [(c, s) for c, s in summary.items() if isinstance(s, dict) and "success_rate" in s]
+        for case, s in nested or [(None, summary)]:
+            check(m if case is None else f"{m} at {case}", s,
+                  [r for r in runs if r.get("method") == m and case in (None, r.get("case"))], lambda r: r)
+    cases = result.get("cases") if isinstance(result.get("cases"), dict) else {}
+    for case, by_method in cases.items():  # E5: per case, LfD only and ACNMP
+        for m, s in by_method.items():
+            key = "lfd" if m == "lfd_only" else m
+            check(f"{m} at {case}", s, [r for r in runs if r.get("case") == case and key in r], lambda r, k=key: r[k])
+    for cond, s in (result.get("conditions") or {}).items():  # E4
+        check(cond, s, [r for r in runs if r.get("condition") == cond], lambda r: r)
+    if isinstance(result.get("acnmp"), dict):  # E6
+        check("acnmp", result["acnmp"], [r for r in runs if "success" in r], lambda r: r)
+    for m, per_env in (result.get("rollouts_per_env") or {}).items():  # E3
+        total = result["methods"][m]["trajectories_total"]
+        if total != sum(per_env) or result["curves"][m][-1]["trajectories"] != total:
+            problems.append(f"{m}: {total} trajectories in all, {sum(per_env)} per environment summed")
+    return problems
+
+
+def quick_check(result: dict, target: Callable[[dict], tuple[str, bool | None]] | None) -> tuple[str, bool]:
+    """What a run at smaller sizes than its targets' (``acnmp reproduce --quick``) checks: it ran
+    (``result`` is its JSON), its :func:`accounting` holds, and the fields the decided ``target``
+    reads are there; the targets themselves are not judged (their values are quoted, unmarked).
+    Returns one line and whether every check passed."""
+    problems = accounting(result)
+    quoted = ""
+    if target is not None:
+        try:
+            text, _ = target(result)
+            quoted = "; at these sizes " + text.replace("[ok] ", "").replace("[missed] ", "")
+        except (KeyError, TypeError, IndexError) as exc:
+            problems.append(f"a field the targets read is missing ({exc!r})")
+    verdict = "the accounting holds" if not problems else "the accounting does not hold: " + "; ".join(problems)
+    return (f"quick sizes: it ran, {verdict}, the report renders; the decided targets apply at full size and are not "
+            f"judged here{quoted}"), not problems
 
 
 def all_checks(scope: str, checks: list[tuple[str, bool]]) -> tuple[str, bool | None]:
