@@ -20,8 +20,9 @@ def test_reproduce_quick_e1_writes_the_report_and_resumes(tmp_path, capsys):
     assert "PASS" not in md and "FAIL" not in md and "Quick sizes: each experiment is checked to run" in md
     assert "The last run: E1 in" in md and "(1 at once, quick sizes)" in md
     shape = result["methods"]["acnmp"]["shape_error"]
-    assert (f"ran (quick): quick sizes: it ran, the accounting holds, the report renders; the decided targets apply "
-            f"at full size and are not judged here; at these sizes ACNMP shape error <= 0.05 m: {shape:.3f} m") in md
+    assert ("ran (quick): quick sizes: it ran, the accounting holds, the report renders; the decided targets apply "
+            "at full size and are not judged here.") in md
+    assert f"{shape:.4f}" in md  # its own table
     assert "lfd_only" in md and "![E1](E1.png)" in md  # the command's own table and its figure
     page = (out / "report.html").read_text()
     assert "data:image/png;base64," in page and "<h2>E2" not in page
@@ -126,7 +127,7 @@ def test_a_quick_run_whose_counts_do_not_add_up_says_so():
 
     r = load("e6_pour")
     text, ok = quick_check(r, _step("E6").target)
-    assert ok and "the accounting holds" in text and "[missed]" not in text and "[ok]" not in text
+    assert ok and "the accounting holds" in text and "missed" not in text
     r["runs"][0]["rollouts"] += 1
     text, ok = quick_check(r, _step("E6").target)
     assert not ok and "the accounting does not hold: acnmp: roll-outs [20, 20, 20, 25, 10] are not its runs'" in text
