@@ -5,7 +5,7 @@ from __future__ import annotations
 from services.transport.argtypes import non_empty, robot_kind
 
 from .common import (add_deployment_arguments, add_output_arguments, add_size_arguments,
-                     check_deployment_arguments, sizes, write_json)
+                     check_deployment_arguments, seed_list, sizes, with_deployment, write_json)
 
 
 def _point(text: str) -> list[float]:
@@ -56,15 +56,15 @@ def run(args) -> int:
     task = robot_task(args.robot, args.task)
     train_steps, budget = sizes(args, 3000, 300)
     torch.set_num_threads(1)
-    kwargs = dict(task=task, seeds=args.seeds, train_steps=train_steps, budget=budget,
+    kwargs = dict(task=task, seeds=seed_list(args, 1), train_steps=train_steps, budget=budget,
                   log=None if args.quiet else print)
     if args.distributed:
         from clients.distributed import remote_rollouts
 
         with remote_rollouts(args.robot, task, workers=args.workers, record=args.record, prefix="robot",
                              progress=not args.quiet, secure=not args.insecure, namespace=args.namespace, config=args.config) as make:
-            result = run_own_robot(args.robot, demos, args.at,
-                                   evaluator_factory=lambda m, s, i: make(f"{args.robot}-{m}-s{s}-p{i}", {}, method=m, seed=s), **kwargs)
+            result = with_deployment(run_own_robot(args.robot, demos, args.at, evaluator_factory=lambda m, s, i: make(
+                f"{args.robot}-{m}-s{s}-p{i}", {}, method=m, seed=s), **kwargs), make)
     else:
         result = run_own_robot(args.robot, demos, args.at, **kwargs)
     print(f"robot {result['robot']}, task {result['task']}, {len(result['points'])} point(s) x {result['seeds']} "

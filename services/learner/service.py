@@ -200,12 +200,16 @@ class LearnerService:
 
     def _handle_train(self, msg: dict | None, query: zenoh.Query) -> dict:
         skill = self._skill_of(query, msg)
-        try:
-            state = self.core.train_skill(skill, parse_train_request(msg, self.limits))
-        except InterruptedError:  # the learner is stopping: a restarted one trains it when asked again
-            raise WireError("unavailable", "the learner is shutting down; send the request again") from None
+        spec = parse_train_request(msg, self.limits)
+        state = self.core.trained_from(skill, spec) if field(msg, "reuse", bool, default=False) else None
+        trained = state is None
+        if trained:
+            try:
+                state = self.core.train_skill(skill, spec)
+            except InterruptedError:  # the learner is stopping: a restarted one trains it when asked again
+                raise WireError("unavailable", "the learner is shutting down; send the request again") from None
         return {"v": 1, "skill": skill, "version": state.version, "data_hash": state.demos.content_hash(),
-                "n_demos": len(state.demos)}
+                "n_demos": len(state.demos), "trained": trained}
 
     def _handle_adapt(self, msg: dict | None, query: zenoh.Query) -> dict:
         skill = self._skill_of(query, msg)

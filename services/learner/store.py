@@ -4,7 +4,8 @@ Layout of ``<state_dir>``::
 
     skills/<skill>/demos-v<version>.npz   the DemoSet (acnmp_core.demo_io format, padded + lengths)
     skills/<skill>/model.pt               acnmp_core.checkpoint; meta: version, demos file, n_demos,
-                                          source_hash (of the demonstrations it was trained from)
+                                          source_hash (of the demonstrations it was trained from),
+                                          trained_as (of the training that made this version)
     skills/<skill>/partner-v<version>.pt  a paired skill's robot B model (meta of model.pt names it)
     skills/<skill>/partner-demos-v<version>.npz   and robot B's demonstrations
     jobs/<job>.json                       one job record (JSON)
@@ -143,6 +144,10 @@ class SkillState:
     #: retraining); kept through assimilations, which add to ``demos``. None: not recorded (a
     #: skill saved before this field existed).
     source_hash: str | None = None
+    #: :func:`services.learner.core.train_fingerprint` of the training that made this version
+    #: (demonstrations, model, training settings, seed); None for a version an assimilation or a
+    #: pair training made, or one saved before this field existed.
+    trained_as: str | None = None
 
 
 class SkillStore:
@@ -161,6 +166,8 @@ class SkillStore:
         meta = {"skill": skill.name, "version": int(skill.version), "demos": demo_file, "n_demos": len(skill.demos)}
         if skill.source_hash is not None:
             meta["source_hash"] = skill.source_hash
+        if skill.trained_as is not None:
+            meta["trained_as"] = skill.trained_as
         keep = {demo_file}
         if skill.partner is not None:  # files of this version only: the old checkpoint still names the old ones
             partner_file, partner_demos = f"partner-v{skill.version}.pt", f"partner-demos-v{skill.version}.npz"
@@ -183,7 +190,8 @@ class SkillStore:
             demos = load_demos(d / meta["demos"]).to_demo_set()
             if demos.content_hash() != info["data_hash"]:
                 raise ValueError(f"skill {d.name}: demonstrations do not match the checkpoint's data hash")
-            state = SkillState(d.name, model, demos, int(meta["version"]), source_hash=meta.get("source_hash"))
+            state = SkillState(d.name, model, demos, int(meta["version"]), source_hash=meta.get("source_hash"),
+                               trained_as=meta.get("trained_as"))
             if meta.get("partner"):
                 state.partner, partner_info = load_checkpoint(d / meta["partner"])
                 state.partner_demos = load_demos(d / meta["partner_demos"]).to_demo_set()
