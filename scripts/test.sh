@@ -2,19 +2,20 @@
 # Sets up .venv (CPU torch pinned) and runs the tests on every core (pytest-xdist).
 #
 #   bash scripts/test.sh            # the default suite: every test but the slow ones
-#   bash scripts/test.sh --fast     # the inner loop: tests/unit without the slow tests (under a minute)
+#   bash scripts/test.sh --fast     # the inner loop: tests/unit without the slow and the heavy tests
 #   bash scripts/test.sh --slow     # only the slow tests (minutes each: the pinned regression runs,
 #                                   # E3's learning); before a release (docs/RELEASE.md)
 #
 # Any other argument goes to pytest as it is (paths, -k, -x, ...). A -m EXPR of yours selects among
 # the tests that are not slow: the slow ones run only when EXPR names them (tests/selection.py), so
-# `-m "not e2e"` never brings them in. ACNMP_TEST_DRY_RUN=1 prints the pytest command instead.
+# `-m "not e2e"` never brings them in; the heavy ones (seconds of training each) are listed in
+# tests/selection.py. ACNMP_TEST_DRY_RUN=1 prints the pytest command instead.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 args=()
 for arg in "$@"; do
   case "$arg" in
-    --fast) args+=(tests/unit) ;;
+    --fast) args+=(tests/unit --fast) ;;
     --slow) args+=(-m slow) ;;
     *) args+=("$arg") ;;
   esac

@@ -4,7 +4,7 @@
 sessions on 127.0.0.1 and/or child processes; every test there is marked ``e2e`` (added below).
 Tests marked ``slow`` (minutes each) run only when a ``-m`` expression names them (``-m slow``,
 ``-m "slow or not slow"``) or their node id is given: any other selection, ``-m "not e2e"``
-included, leaves them out (tests/selection.py).
+included, leaves them out; ``--fast`` leaves out the heavy ones too (tests/selection.py).
 """
 from __future__ import annotations
 
@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 import torch
-from selection import deselect_slow
+from selection import add_options, deselect
 
 os.environ.setdefault("RERUN_ANALYTICS", "0")
 torch.set_num_threads(1)
@@ -25,11 +25,15 @@ torch.set_num_threads(1)
 E2E = Path(__file__).parent / "e2e"
 
 
+def pytest_addoption(parser):
+    add_options(parser)
+
+
 def pytest_collection_modifyitems(config, items):
     for item in items:
         if E2E in Path(str(item.fspath)).parents:
             item.add_marker(pytest.mark.e2e)
-    deselect_slow(config, items)
+    deselect(config, items)
 
 
 @pytest.fixture(scope="session", autouse=True)
