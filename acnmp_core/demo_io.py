@@ -1,24 +1,12 @@
 """The project's demonstration file format (.npz) and its reader and writer.
 
-Format (version 1), a NumPy ``.npz`` archive readable with ``np.load(path, allow_pickle=False)``:
-
-=================== ============= ==========================================================
-key                 shape, dtype  meaning
-=================== ============= ==========================================================
-``format_version``  (), int64     1
-``times``           (N, T) f8     time stamps per demonstration, strictly increasing per row
-                                  (the project uses phase in [0, 1]; any unit is allowed)
-``values``          (N, T, D) f8  the trajectory, raw units (e.g. joint angles in rad)
-``task_params``     (N, P) f8     task parameters per demonstration (P may be 0)
-``lengths``         (N,) int64    optional: valid rows per demonstration; rows past a length
-                                  are padding (demonstrations of different lengths)
-``task_param_names`` (P,) str     optional names of the task parameters
-``value_names``     (D,) str      optional names of the output dimensions
-``roles``           (N,) str      optional role per demonstration, e.g. "train",
-                                  "interpolation", "extrapolation"
-=================== ============= ==========================================================
-
-String arrays are stored as fixed-width unicode (never object arrays), so no pickle is involved.
+A demonstration file is a NumPy ``.npz`` archive (``np.savez``; read with ``np.load(path,
+allow_pickle=False)``) of the arrays in :data:`FIELDS`, format version 1. N demonstrations of up
+to T rows each, D output dimensions (the trajectory's columns), P task parameters. Numeric arrays
+of another float or integer dtype are converted on reading; every number must be finite, padding
+included. String arrays are fixed-width unicode (``np.array(["a", "b"])``), never object arrays,
+so no pickle is involved. Keys not listed are ignored. :func:`save_demos` writes one (atomically,
+checked); :func:`load_demos` reads and checks one.
 """
 from __future__ import annotations
 
@@ -35,6 +23,59 @@ from .validation import check_array
 
 FORMAT_VERSION = 1
 _STRING_KEYS = ("task_param_names", "value_names", "roles")
+
+
+@dataclass(frozen=True)
+class Field:
+    """One array of a demonstration file: its key, shape, dtype, whether it must be there, and
+    what it holds (units included)."""
+
+    key: str
+    shape: str
+    dtype: str
+    required: bool
+    meaning: str
+
+
+#: Every array of the format, in the order the docs list them (docs/ROBOTS.md renders this table).
+FIELDS: tuple[Field, ...] = (
+    Field("times", "(N, T)", "float64", True,
+          "each row's time, strictly increasing along a demonstration's valid rows; the project uses the "
+          "phase in [0, 1] (any unit is allowed; use the same for every demonstration and every query)"),
+    Field("values", "(N, T, D)", "float64", True,
+          "the trajectories in raw units (e.g. joint angles in rad, positions in m): row k of "
+          "demonstration i is its D values at times[i, k] (a Gymnasium robot tracks one row per environment "
+          "step)"),
+    Field("task_params", "(N, P)", "float64", True,
+          "each demonstration's task parameters in the task's units (e.g. a goal's x, y in m), in the "
+          "order test points (`--at`) and adapt requests give them; P may be 0: np.zeros((N, 0))"),
+    Field("lengths", "(N,)", "int64", False,
+          "valid rows per demonstration, each in [2, T]: demonstrations of different lengths share one "
+          "array; the rows from lengths[i] on are padding, never read, but finite (e.g. the last row "
+          "repeated); without it every row is valid"),
+    Field("value_names", "(D,)", "str", False, "a name per output dimension, e.g. the joints'"),
+    Field("task_param_names", "(P,)", "str", False, "a name per task parameter"),
+    Field("roles", "(N,)", "str", False,
+          "a role per demonstration, e.g. \"train\", \"interpolation\", \"extrapolation\""),
+    Field("format_version", "()", "int64", False, f"{FORMAT_VERSION}, this format (absent: {FORMAT_VERSION})"),
+)
+
+
+def format_table() -> str:
+    """:data:`FIELDS` as a Markdown table (key, shape, dtype, required, meaning)."""
+    rows = [f"| `{f.key}` | {f.shape} | {f.dtype} | {'yes' if f.required else 'no'} | {f.meaning} |" for f in FIELDS]
+    return "\n".join(["| key | shape | dtype | required | meaning |", "| --- | --- | --- | --- | --- |", *rows])
+
+
+def format_help() -> str:
+    """The format in a few lines for a command's ``--help`` (the arrays, their shapes, an example)."""
+    lines = ["demonstration file (FILE.npz as np.savez writes it; docs/ROBOTS.md, \"The demonstration file\"):",
+             "N demonstrations of T rows, D outputs (the trajectory's columns), P task parameters",
+             *(f"  {f.key:<17} {f.shape:<10} {f.dtype:<8} {'required' if f.required else 'optional'}" for f in FIELDS),
+             "  values in raw units (e.g. rad), times strictly increasing (phase 0..1), padding past lengths[i]",
+             "example: np.savez(\"demos.npz\", times=np.tile(np.linspace(0, 1, 100), (7, 1)), values=q,  # q (7, 100, 3)",
+             "                  task_params=goals)  # goals (7, 2)"]
+    return "\n".join(lines)
 
 
 @dataclass
@@ -191,3 +232,6 @@ def load_demos(path: str | os.PathLike) -> DemoArrays:
         except ValueError as exc:
             raise UnreadableFileError(path, f"arrays that do not fit together ({exc})",
                                       f"path: {where}: {exc}") from None
+
+
+__doc__ += "\n" + format_table() + "\n"  # help(acnmp_core.demo_io) shows the format, from FIELDS

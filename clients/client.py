@@ -137,6 +137,9 @@ class ACNMPClient:
     timeout : default seconds per query. role : credentials taken from a discovered secured
         deployment, ``operator`` (may start jobs) or ``client`` (queries only).
 
+    ``authenticated`` says whether the client joined with a zenoh user and password (its config
+    file names one), None when it was given its ``session``.
+
     Use as a context manager, or call :meth:`close`: an open session keeps the process from exiting.
     """
 
@@ -145,12 +148,15 @@ class ACNMPClient:
                  timeout: float = 10.0, session: zenoh.Session | None = None, role: str = "operator"):
         self.timeout = float(timeout)
         self._stack = contextlib.ExitStack()
+        self.authenticated: bool | None = None
         if session is None:
             target = resolve(namespace, connect, config_file, mode, role)
             namespace = target.namespace
             # a client-mode session waits for its router at most the query timeout
             session = self._stack.enter_context(open_session(target.mode, listen, target.connect, target.config_file,
                                                              open_timeout=self.timeout))
+            self.authenticated = target.config_file is not None and \
+                zenoh.Config.from_file(target.config_file).get_json("transport/auth/usrpwd/user") != "null"
         self.namespace = namespace or DEFAULT_NAMESPACE
         self.keys = Keyspace(self.namespace)
         self.session = session

@@ -8,7 +8,8 @@ E2 and E3 drive their loops in this process and only execute roll-outs remotely:
 roll-outs to the workers and publish each one for the recording.
 
 E1 runs as a client of the services (of a fresh deployment, or of the running one
-``acnmp experiment viapoint --distributed`` found by its run file): the learner trains the skill from the demonstrations and runs
+``acnmp experiment viapoint --distributed`` found by its run file): the learner trains the skill from the demonstrations
+(unless its current version is already what that training gives: then the run uses it as it is) and runs
 one adaptation job per method, the jobs' roll-outs go to the workers, the recorder logs every one,
 and the assimilated model is read back through the model service. The learner calls the same
 library functions with the same seeds as :func:`acnmp_core.experiments.viapoint.run_viapoint`,
@@ -24,12 +25,11 @@ same model, perhaps under the next version number).
 """
 from __future__ import annotations
 
-import contextlib
 import itertools
 import os
 import time
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from typing import Callable, Iterator, TypeVar
 
 import numpy as np
@@ -77,10 +77,50 @@ def experiment_deployment(prefix: str, *, secure: bool = True, **kwargs) -> Loca
     return LocalDeployment(f"{prefix}-{os.getpid()}", secure=secure, announce=False, **kwargs)
 
 
+@dataclass(frozen=True)
+class DeploymentFacts:
+    """What an experiment run with ``--distributed`` records of the deployment it ran on (the
+    ``deployment`` of its JSON).
+
+    namespace : the deployment's. attached : a running deployment it joined (``--namespace``, or
+    found by its run file) rather than one started for the run. workers : the experiment robot's
+    workers when the run began. recording : the file the deployment's recorder writes, None when
+    nothing records the run. authenticated : whether it is joined with a user and password only.
+    """
+
+    namespace: str
+    attached: bool
+    workers: int
+    recording: str | None
+    authenticated: bool
+
+    def to_dict(self) -> dict:
+        """The JSON map."""
+        return asdict(self)
+
+
+def started_facts(dep: LocalDeployment, workers: int, record: str | None) -> DeploymentFacts:
+    """The facts of a deployment started for the run (``workers`` of its robot, ``record``)."""
+    return DeploymentFacts(dep.namespace, False, int(workers), str(record) if record else None, bool(dep.secure))
+
+
+def joined_facts(client: ACNMPClient, robot: str, workers: int | None = None, discover: float = 2.0) -> DeploymentFacts:
+    """The facts of the running deployment ``client`` joined: its live ``robot`` workers (``workers``
+    when already counted, else looked for up to ``discover`` seconds) and its recorder's file (asked
+    of the recorder; None without one)."""
+    if workers is None:
+        workers = len(alive_tokens(client.session, client.keys.worker_token(robot), discover))
+    recording = None
+    if alive_tokens(client.session, client.keys.tokens("recorder"), discover):
+        recording = patiently(lambda: client.request(client.keys.recorder_status(), None, 10.0),
+                              "recorder status", 30.0)["path"]
+    return DeploymentFacts(client.namespace, True, workers, recording, bool(client.authenticated))
+
+
 @contextmanager
 def remote_rollouts(robot: str, task: str, *, workers: int = 2, record: str | None = None,
                     prefix: str = "exp", progress: bool = True, secure: bool = True,
-                    namespace: str | None = None, config: str | None = None) -> Iterator[Callable[..., object]]:
+                    namespace: str | None = None, config: str | None = None) -> Iterator[EvaluatorMaker]:
     """Start ``workers`` workers of ``robot`` (and a recorder writing ``record`` when given) on a
     fresh local deployment (authenticated unless ``secure`` is False, :func:`experiment_deployment`),
     or, with ``namespace``, join the running deployment of that name (:func:`attach`, through the
@@ -89,26 +129,28 @@ def remote_rollouts(robot: str, task: str, *, workers: int = 2, record: str | No
     which returns an evaluator that executes roll-outs of ``task`` on those workers (with
     fail-over) and, when recording, publishes every roll-out under the job name ``<job>-<n>`` (n
     counts the evaluators made, so repeated runs of one method never share roll-out indices), with
-    the fields ``extra`` added to each event. A fresh deployment stops when the block exits."""
+    the fields ``extra`` added to each event (an :class:`EvaluatorMaker`; its ``deployment`` is
+    what the run's JSON records). A fresh deployment stops when the block exits."""
     if namespace is not None:
         with attach(namespace, robot, record=record, secure=secure, progress=progress, config=config) as joined:
-            yield evaluator_maker(joined, robot, task, record=joined.events is not None)
+            yield EvaluatorMaker(joined, robot, task, joined.facts, record=joined.events is not None)
         return
     with experiment_deployment(prefix, secure=secure, workers=workers, robot=robot, record=record,
                                model=False, learner=False) as dep:
         if progress:
             print(dep.describe(), flush=True)
-        yield evaluator_maker(dep, robot, task, record=bool(record))
+        yield EvaluatorMaker(dep, robot, task, started_facts(dep, workers, record), record=bool(record))
 
 
 @dataclass
 class Attached:
     """A running deployment this process joined as its operator (``--namespace``): the client and
-    its session, and the event publisher when the deployment has a recorder."""
+    its session, the event publisher when the deployment has a recorder, and its facts."""
 
     namespace: str
     client: ACNMPClient
     events: EventPublisher | None
+    facts: DeploymentFacts
 
     @property
     def session(self) -> zenoh.Session:
@@ -147,8 +189,9 @@ def attach(namespace: str, robot: str, *, record: str | None = None, secure: boo
         if progress:
             print(f"running on deployment {client.namespace!r} ({len(workers)} {robot} worker(s)); roll-outs "
                   + ("recorded by its recorder" if events else "not recorded: it runs no recorder"), flush=True)
+        facts = joined_facts(client, robot, workers=len(workers))
         try:
-            yield Attached(client.namespace, client, events)
+            yield Attached(client.namespace, client, events, facts)
         finally:
             if events is not None:
                 if not events.wait_recorded(30.0):
@@ -175,29 +218,31 @@ def operator_client(namespace: str, config: str | None = None, timeout: float = 
     return ACNMPClient(run.namespace, role="operator", timeout=timeout)
 
 
-def evaluator_maker(dep: LocalDeployment | Attached, robot: str, task: str, *, record: bool) -> Callable[..., object]:
+class EvaluatorMaker:
     """``make(job, task_config=None, extra=None, *, method=, seed=)`` for a started deployment ``dep``
     (or one joined, :class:`Attached`): an evaluator that executes roll-outs of ``task`` on its
     ``robot`` workers (with fail-over) and, with ``record``, publishes a ``job`` event (the method,
     task, its configuration and seed) and every roll-out under the job name ``<job>-<n>`` (n counts
-    the evaluators made) with the fields ``extra`` added to each event. RuntimeError if its
-    recorder is not up."""
-    publisher = None
-    if record:
-        publisher = dep.events  # the deployment's: its stop() waits until the recorder has what it published
-        if publisher is None or not publisher.wait_for_recorder(timeout=30):
-            raise RuntimeError(f"the recorder of deployment {dep.namespace!r} did not come up")
-    counter = itertools.count()
+    the evaluators made) with the fields ``extra`` added to each event. ``deployment`` holds the
+    facts the run's JSON records. RuntimeError if its recorder is not up."""
 
-    def make(job: str, task_config: dict | None = None, extra: dict | None = None, *, method: str = "unknown",
-             seed: int | None = None):
-        remote = RemoteEvaluator(dep.session, dep.keys, robot, task, task_config)
-        if publisher is None:
+    def __init__(self, dep: LocalDeployment | Attached, robot: str, task: str, deployment: DeploymentFacts, *,
+                 record: bool) -> None:
+        self.dep, self.robot, self.task, self.deployment = dep, robot, task, deployment
+        self.publisher = None
+        if record:
+            self.publisher = dep.events  # the deployment's: its stop() waits until the recorder has what it published
+            if self.publisher is None or not self.publisher.wait_for_recorder(timeout=30):
+                raise RuntimeError(f"the recorder of deployment {dep.namespace!r} did not come up")
+        self.counter = itertools.count()
+
+    def __call__(self, job: str, task_config: dict | None = None, extra: dict | None = None, *,
+                 method: str = "unknown", seed: int | None = None):
+        remote = RemoteEvaluator(self.dep.session, self.dep.keys, self.robot, self.task, task_config)
+        if self.publisher is None:
             return remote
-        about = {"method": method, "task": task, "seed": seed, "task_config": task_config or {}}
-        return RecordedEvaluator(remote, publisher, f"{job}-{next(counter)}", robot, extra, about=about)
-
-    return make
+        about = {"method": method, "task": self.task, "seed": seed, "task_config": task_config or {}}
+        return RecordedEvaluator(remote, self.publisher, f"{job}-{next(self.counter)}", self.robot, extra, about=about)
 
 
 class DeployedSkill:
@@ -209,11 +254,15 @@ class DeployedSkill:
     def __init__(self, client: ACNMPClient, progress: bool = True) -> None:
         self.client, self.progress = client, progress
         self.jobs: dict[str, str] = {}
+        #: the skill's version the run started from, and whether the learner trained it for the run
+        #: (False: the deployment's skill was already what this training gives, and was reused)
+        self.skill: dict | None = None
 
     def train(self, demos, steps: int, seed: int) -> None:
         arrays = np.stack([d.values for d in demos])
         reply = patiently(lambda: self.client.train(SKILL, demos[0].times, arrays, train={"steps": steps},
-                                                    seed=seed, timeout=600), "train", progress=self.progress)
+                                                    seed=seed, reuse=True, timeout=600), "train", progress=self.progress)
+        self.skill = {"name": SKILL, "version": int(reply["version"]), "trained": bool(reply.get("trained", True))}
         self._wait_version(reply["version"])
 
     def predict(self, obs_times, obs_values, task_params, query_times):
@@ -245,33 +294,45 @@ class DeployedSkill:
         raise TimeoutError(f"the model service did not serve version {version} of {SKILL!r} in {timeout:.0f} s")
 
 
+@contextmanager
+def e1_deployment(*, workers: int = 2, record: str | None = None, secure: bool = True, progress: bool = True,
+                  client: ACNMPClient | None = None) -> Iterator[tuple[ACNMPClient, DeploymentFacts]]:
+    """E1's deployment: a fresh local one (``workers`` point-mass workers, a recorder writing
+    ``record`` when given; authenticated unless ``secure`` is False, :func:`experiment_deployment`),
+    stopped at the end, or with ``client`` the running one it is connected to (``acnmp up``: its
+    learner, model service and point2d workers). Yields the client and the deployment's facts."""
+    if client is not None:
+        yield client, joined_facts(client, "point2d")
+        return
+    with experiment_deployment("e1", secure=secure, workers=workers, robot="point2d", record=record) as dep, \
+            ACNMPClient(dep.namespace, session=dep.session, timeout=30) as own:
+        if progress:
+            print(dep.describe(), flush=True)
+        yield own, started_facts(dep, workers, record)
+
+
+def run_viapoint_on(client: ACNMPClient, facts: DeploymentFacts, seed: int = 0, variant: str = "2d", *,
+                    budget: int = 100, train_steps: int = 3000, progress: bool = True,
+                    adapt_overrides: dict | None = None) -> ViaPointRun:
+    """Run E1 on the deployment ``client`` reaches (:func:`e1_deployment`). Returns a
+    :class:`ViaPointRun` like the in-process run, its summary with the ``deployment``'s ``facts``,
+    the ``skill`` the run started from (its version, and ``trained``: False when the deployment's
+    skill was already what this run's training gives and was used as it was) and each method's
+    job id."""
+    skill = DeployedSkill(client, progress=False)
+    run = run_viapoint(seed, variant, budget=budget, train_steps=train_steps, backend=skill,
+                       progress=progress, adapt_overrides=adapt_overrides)
+    run.summary.update(deployment=facts.to_dict(), skill=skill.skill)
+    for method, job in skill.jobs.items():
+        run.summary["methods"][method]["job"] = job
+    return run
+
+
 def run_viapoint_distributed(seed: int = 0, variant: str = "2d", *, budget: int = 100, train_steps: int = 3000,
                              workers: int = 2, record: str | None = None, progress: bool = True,
                              adapt_overrides: dict | None = None, client: ACNMPClient | None = None,
                              secure: bool = True) -> ViaPointRun:
-    """Run E1 on a fresh local deployment (``workers`` point-mass workers, a recorder writing
-    ``record`` when given; authenticated unless ``secure`` is False, :func:`experiment_deployment`),
-    or with ``client`` on the running deployment it is connected to
-    (``acnmp up``: its learner, model service and point2d workers; ``workers`` and ``record`` are
-    then the deployment's). Returns a :class:`ViaPointRun` like the in-process run, its summary
-    marked ``distributed`` with the workers, the recording, each method's job id and
-    ``authenticated`` (whether the fresh deployment was; None when attached)."""
-    attached = None if client is None else client.namespace
-    authenticated = None
-    with contextlib.ExitStack() as stack:
-        if client is None:
-            dep = stack.enter_context(experiment_deployment("e1", secure=secure, workers=workers, robot="point2d",
-                                                            record=record))
-            client = stack.enter_context(ACNMPClient(dep.namespace, session=dep.session, timeout=30))
-            authenticated = dep.secure
-            if progress:
-                print(dep.describe(), flush=True)
-        skill = DeployedSkill(client, progress=False)
-        run = run_viapoint(seed, variant, budget=budget, train_steps=train_steps, backend=skill,
-                           progress=progress, adapt_overrides=adapt_overrides)
-    run.summary.update(distributed=True, workers=int(workers) if attached is None else None,
-                       recording=str(record) if record else None, attached_to=attached,
-                       authenticated=authenticated)
-    for method, job in skill.jobs.items():
-        run.summary["methods"][method]["job"] = job
-    return run
+    """:func:`run_viapoint_on` one seed on :func:`e1_deployment` (a fresh one, or ``client``'s)."""
+    with e1_deployment(workers=workers, record=record, secure=secure, progress=progress, client=client) as (c, facts):
+        return run_viapoint_on(c, facts, seed, variant, budget=budget, train_steps=train_steps, progress=progress,
+                               adapt_overrides=adapt_overrides)

@@ -30,7 +30,7 @@ from acnmp_core.robots.registry import robot
 from acnmp_core.transfer import TransferPair
 from acnmp_core.transfer_job import PairTrainJob
 from clients.client import ACNMPClient
-from clients.distributed import attach, evaluator_maker, experiment_deployment, patiently
+from clients.distributed import EvaluatorMaker, attach, experiment_deployment, patiently, started_facts
 
 ROBOT_A, ROBOT_B = "planar3", "planar4"
 #: Seconds a pair job may take (3000 steps: about a minute on a loaded core).
@@ -92,18 +92,19 @@ def transfer_deployment(workers: int = 2, record: str | None = None, progress: b
     :func:`clients.distributed.experiment_deployment`), or the running one of ``namespace``
     (:func:`clients.distributed.attach`, through the zenoh ``config`` file when given; it needs
     planar4 workers, a learner and a model service);
-    yields (:class:`DeployedPairs`, ``make(job, task_config, extra)``, the evaluator maker of
-    :func:`clients.distributed.evaluator_maker`)."""
+    yields (:class:`DeployedPairs`, ``make(job, task_config, extra)``, a
+    :class:`clients.distributed.EvaluatorMaker` whose ``deployment`` holds the deployment's facts)."""
     if namespace is not None:
         with attach(namespace, ROBOT_B, record=record, secure=secure, progress=progress, config=config) as joined:
-            yield DeployedPairs(joined.client), evaluator_maker(joined, ROBOT_B, "cube_gap",
-                                                                record=joined.events is not None)
+            yield DeployedPairs(joined.client), EvaluatorMaker(joined, ROBOT_B, "cube_gap", joined.facts,
+                                                               record=joined.events is not None)
         return
     with experiment_deployment("e4", secure=secure, workers=workers, robot=ROBOT_B, record=record) as dep, \
             ACNMPClient(dep.namespace, session=dep.session, timeout=30) as client:
         if progress:
             print(dep.describe(), flush=True)
-        yield DeployedPairs(client), evaluator_maker(dep, ROBOT_B, "cube_gap", record=bool(record))
+        yield DeployedPairs(client), EvaluatorMaker(dep, ROBOT_B, "cube_gap", started_facts(dep, workers, record),
+                                                    record=bool(record))
 
 
 def run_transfer_distributed(runs, *, workers: int = 2, record: str | None = None, progress: bool = True,
@@ -112,7 +113,8 @@ def run_transfer_distributed(runs, *, workers: int = 2, record: str | None = Non
     """:func:`~acnmp_core.experiments.transfer.run_transfer` on a fresh deployment (see the module
     docstring; authenticated unless ``secure`` is False); ``kwargs`` go to it (``cfg``, ``authors_data``, ``log``, ...). Every roll-out of
     robot B is recorded with robot A's demonstration of the new skill drawn beside it. Returns its
-    result, marked ``distributed`` with the workers, the recording and the pair jobs."""
+    result with the ``deployment``'s facts (:class:`clients.distributed.DeploymentFacts`) and the
+    pair jobs."""
     from acnmp_core.experiments.transfer import make_setup
 
     setup = make_setup()
@@ -121,6 +123,5 @@ def run_transfer_distributed(runs, *, workers: int = 2, record: str | None = Non
     with transfer_deployment(workers, record, progress, secure, namespace, config) as (pairs, make):
         result = run_transfer(runs, evaluator_factory=lambda cond: make(f"transfer-{cond}", task_config(), reference, method=cond),
                               pair_trainer=pairs.train, first_attempt=pairs.first_attempt, setup=setup, **kwargs)
-    result.update(distributed=True, workers=int(workers), recording=str(record) if record else None,
-                  pair_jobs=dict(pairs.jobs), authenticated=bool(secure))
+    result.update(deployment=make.deployment.to_dict(), pair_jobs=dict(pairs.jobs))
     return result

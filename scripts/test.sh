@@ -1,7 +1,32 @@
 #!/usr/bin/env bash
-# Sets up .venv (CPU torch pinned) and runs the whole test suite, on every core (pytest-xdist).
+# Sets up .venv (CPU torch pinned) and runs the tests on every core (pytest-xdist).
+#
+#   bash scripts/test.sh            # the default suite: every test but the slow ones
+#   bash scripts/test.sh --fast     # the inner loop: tests/unit without the slow and the heavy tests
+#   bash scripts/test.sh --slow     # only the slow tests (minutes each: the pinned regression runs,
+#                                   # E3's learning); before a release (docs/RELEASE.md)
+#
+# Any other argument goes to pytest as it is (paths, -k, -x, ...). A -m EXPR of yours selects among
+# the tests that are not slow: the slow ones run only when EXPR names them (tests/selection.py), so
+# `-m "not e2e"` never brings them in; the heavy ones (seconds of training each) are listed in
+# tests/selection.py. ACNMP_TEST_DRY_RUN=1 prints the pytest command instead.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+args=()
+for arg in "$@"; do
+  case "$arg" in
+    --fast) args+=(tests/unit --fast) ;;
+    --slow) args+=(-m slow) ;;
+    *) args+=("$arg") ;;
+  esac
+done
+# worksteal: a worker that runs out of tests takes queued ones from the other (the suite ends with a few
+# 20-30 s tests; plain load scheduling could leave one core idle behind them)
+command=(.venv/bin/python -m pytest -q -n auto --dist worksteal --durations=5 ${args[@]+"${args[@]}"})
+if [ "${ACNMP_TEST_DRY_RUN:-}" = 1 ]; then
+  printf '%s\n' "${command[@]}"
+  exit 0
+fi
 bash scripts/setup.sh
 export RERUN_ANALYTICS=0 PYTHONUNBUFFERED=1
 # One torch/BLAS thread per process: the suite's workers and the services they start already fill the
@@ -13,6 +38,4 @@ export OMP_NUM_THREADS=${OMP_NUM_THREADS:-1}
 unset PYTHONDONTWRITEBYTECODE
 # Turn Rerun analytics off for this user too: the machines are offline.
 .venv/bin/rerun analytics disable >/dev/null 2>&1 || true
-# worksteal: a worker that runs out of tests takes queued ones from the other (the suite ends with a few
-# 20-30 s tests; plain load scheduling could leave one core idle behind them)
-exec .venv/bin/python -m pytest -q -n auto --dist worksteal --durations=5 "$@"
+exec "${command[@]}"

@@ -1,8 +1,10 @@
 """Shared fixtures and the test layers.
 
 ``tests/unit``: one process, no zenoh session, no child process. ``tests/e2e``: real zenoh
-sessions on 127.0.0.1 and/or child processes; every test there is marked ``e2e`` (added below), so
-``pytest -m "not e2e"`` is the fast inner loop and plain ``pytest`` runs everything.
+sessions on 127.0.0.1 and/or child processes; every test there is marked ``e2e`` (added below).
+Tests marked ``slow`` (minutes each) run only when a ``-m`` expression names them (``-m slow``,
+``-m "slow or not slow"``) or their node id is given: any other selection, ``-m "not e2e"``
+included, leaves them out; ``--fast`` leaves out the heavy ones too (tests/selection.py).
 """
 from __future__ import annotations
 
@@ -15,6 +17,7 @@ from pathlib import Path
 
 import pytest
 import torch
+from selection import add_options, deselect
 
 os.environ.setdefault("RERUN_ANALYTICS", "0")
 torch.set_num_threads(1)
@@ -22,10 +25,15 @@ torch.set_num_threads(1)
 E2E = Path(__file__).parent / "e2e"
 
 
+def pytest_addoption(parser):
+    add_options(parser)
+
+
 def pytest_collection_modifyitems(config, items):
     for item in items:
         if E2E in Path(str(item.fspath)).parents:
             item.add_marker(pytest.mark.e2e)
+    deselect(config, items)
 
 
 @pytest.fixture(scope="session", autouse=True)

@@ -41,6 +41,29 @@ def robot_task(kind: str, task: str | None) -> str:
     return task
 
 
+def check_points(demos: DemoArrays, points: Sequence[Sequence[float]], name: str = "points") -> list[np.ndarray]:
+    """The test points as arrays (P,), P the demonstrations' task parameters; InputError, its
+    message starting with ``name``, when there is none or one has another length: the message
+    says what was given and shows the first demonstration's task parameters as an example."""
+    n_params = demos.task_params.shape[1]
+    pts = [np.asarray(p, dtype=np.float64).reshape(-1) for p in points]
+    bad = [p for p in pts if p.shape != (n_params,)]
+    if pts and not bad:
+        return pts
+    names = "" if demos.task_param_names is None else f" ({', '.join(demos.task_param_names)})"
+    given = "none" if not pts else "; ".join(f"{_csv(p)} ({p.size} value{'s' * (p.size != 1)})" for p in bad)
+    option = f"{name} " if name.startswith("-") else ""  # a command-line option: the example is one
+    example = (f"e.g. {option}{_csv(demos.task_params[0])}, the first demonstration's" if n_params else
+               "but the demonstrations have none, so there is nothing to vary")
+    raise InputError(f"{name}: expected points of {n_params} comma-separated task parameters{names}, as the "
+                     f"demonstrations have ({example}); got {given}")
+
+
+def _csv(values) -> str:
+    """Numbers as the command line takes them: ``0.6,0.45``."""
+    return ",".join(f"{float(v):g}" for v in values)
+
+
 def run_own_robot(kind: str, demos: DemoArrays, points: Sequence[Sequence[float]], *, task: str | None = None,
                   task_config: dict | None = None, seeds: int | list[int] = 1, train_steps: int = 3000,
                   budget: int = 300, evaluator_factory: Callable[[str, int, int], RolloutEvaluator] | None = None,
@@ -58,10 +81,7 @@ def run_own_robot(kind: str, demos: DemoArrays, points: Sequence[Sequence[float]
 
     task = robot_task(kind, task)
     spec = robot(kind)
-    pts = [np.asarray(p, dtype=np.float64).reshape(-1) for p in points]
-    if not pts or any(p.shape != (demos.task_params.shape[1],) for p in pts):
-        raise InputError(f"points: expected at least one point of {demos.task_params.shape[1]} task parameters "
-                         f"(as the demonstrations have), got {[p.size for p in pts]}")
+    pts = check_points(demos, points)
     seed_list = list(range(seeds)) if isinstance(seeds, int) else [int(s) for s in seeds]
     if not seed_list:
         raise InputError("seeds: expected at least one seed")

@@ -3,7 +3,7 @@
 Writes benchmarks/results/e1_viapoint.json (per-seed summaries, aggregates, provenance) and the
 figures of one seed. Usage:
     python benchmarks/experiments/e1_viapoint.py [--seeds 10] [--json FILE] [--figure-seed 0]
-The settings are the library's defaults, the same as ``acnmp experiment viapoint --seed S``.
+The settings are the library's defaults, the same as ``acnmp experiment viapoint --seeds N``.
 """
 from __future__ import annotations
 

@@ -78,7 +78,7 @@ def measure_layout(layout: str, args, work: Path) -> dict:
                              work_dir=work / layout) as dep:
         e1_json = work / f"{layout}_e1.json"
         t0 = time.perf_counter()
-        e1 = dep.acnmp("experiment", "viapoint", "--seed", str(args.seed), "--budget", str(args.budget),
+        e1 = dep.acnmp("experiment", "viapoint", "--seeds", f"{args.seed}-{args.seed}", "--budget", str(args.budget),
                        "--train-steps", str(args.train_steps), "--quiet", "--distributed", "--json", str(e1_json),
                        timeout=3600)
         command_s = time.perf_counter() - t0

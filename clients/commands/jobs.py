@@ -31,17 +31,19 @@ examples:
 
 def add_job_commands(sub) -> None:
     """Add ``train``, ``adapt``, ``jobs`` and ``watch`` to ``acnmp query``'s sub-commands."""
+    from acnmp_core.demo_io import format_help
+
     fmt = argparse.RawDescriptionHelpFormatter
     train = sub.add_parser("train", help="train (or retrain) a skill on a demonstrations .npz, on the learner",
                            description="Send a demonstration file to the learner and wait until the skill is "
                                        "trained; the model service then serves the new version. Needs the "
                                        "operator's credentials (found by the run file of `acnmp up`).",
-                           epilog=EPILOG, formatter_class=fmt)
+                           epilog=f"{format_help()}\n\n{EPILOG}", formatter_class=fmt)
     _common(train, skill=False)
     train.set_defaults(timeout=600.0)
     train.add_argument("--skill", "-s", required=True, type=non_empty, help="the skill to train")
     train.add_argument("--demos", required=True, metavar="FILE.npz",
-                       help="demonstrations (the format of `acnmp up --demos`; docs/ROBOTS.md)")
+                       help="the demonstrations: arrays times (N, T), values (N, T, D), task_params (N, P) (below)")
     train.add_argument("--steps", type=int_at_least(1), default=None, metavar="N",
                        help="training steps (default: the learner's TrainConfig, 5000)")
     train.add_argument("--seed", type=int_at_least(0), default=0, help="training seed (default 0)")

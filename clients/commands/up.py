@@ -9,8 +9,13 @@ def register(subparsers) -> None:
     """Add the ``up`` sub-command."""
     from services.transport.argtypes import int_at_least, key_name, non_empty, robot_help, robot_kind
 
+    import argparse
+
+    from acnmp_core.demo_io import format_help
+
     p = subparsers.add_parser("up", help="start a local deployment on 127.0.0.1 until Ctrl-C / SIGTERM",
-                              description=__doc__.splitlines()[0].split(": ", 1)[1])
+                              description=__doc__.splitlines()[0].split(": ", 1)[1], epilog=format_help(),
+                              formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--namespace", "-n", type=key_name("namespace"), default="default",
                    help="key prefix acnmp/<namespace>/ (default: %(default)s)")
     p.add_argument("--workers", type=int_at_least(0), default=2, help="number of workers (default: %(default)s)")

@@ -52,8 +52,8 @@ CATALOG: tuple[Experiment, ...] = (
         paper="ACNMP reaches the extrapolated via-point keeping the demonstrations' shape; RL alone distorts it",
         page="e1_viapoint.md",
         benchmark="benchmarks/experiments/e1_viapoint.py",
-        full=('--seed', '0'),
-        quick=('--seed', '0', '--train-steps', '200', '--budget', '10'),
+        full=('--seeds', '1'),
+        quick=('--seeds', '1', '--train-steps', '200', '--budget', '10'),
         target=targets.e1_target,
     ),
     Experiment(
@@ -101,7 +101,7 @@ CATALOG: tuple[Experiment, ...] = (
         paper="the transferred skill succeeds more often and sooner than learning from scratch",
         page="e4_transfer.md",
         benchmark="benchmarks/experiments/e4_transfer.py",
-        quick=('--runs', '1', '--pair-steps', '300', '--budget', '10', '--no-authors-data'),
+        quick=('--seeds', '1', '--pair-steps', '300', '--budget', '10', '--no-authors-data'),
     ),
     Experiment(
         'ur10',

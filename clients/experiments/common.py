@@ -5,7 +5,9 @@ import json
 import sys
 from pathlib import Path
 
-from services.transport.argtypes import check_output_path, int_at_least, non_empty
+import argparse
+
+from services.transport.argtypes import SEEDS_HELP, check_output_path, int_at_least, non_empty, seeds
 
 #: The options that name a file an experiment writes at its end (checked before it starts).
 OUTPUT_OPTIONS = ("json", "plot", "record")
@@ -17,12 +19,33 @@ def add_output_arguments(p, plot_help: str) -> None:
     p.add_argument("--plot", type=non_empty, metavar="FILE", help=plot_help)
 
 
+def add_seeds_argument(p, default: int, what: str = "seeds", old: str | None = None) -> None:
+    """Add ``--seeds SEEDS``, the one seed option of every experiment: a count N (seeds 0..N-1) or
+    the seeds themselves (:func:`services.transport.argtypes.seeds`); None when not given, resolved
+    by :func:`seed_list` (the help names ``default``, a count; ``what`` says what a seed is). ``old``
+    adds the spelling the experiment had before, hidden, to the same list: ``"--seed"`` (one seed S:
+    [S]) or ``"--runs"`` (a count)."""
+    p.add_argument("--seeds", type=seeds, default=None, metavar="SEEDS",
+                   help=f"the {what}: {SEEDS_HELP} (default {default}: " + ("seed 0" if default == 1 else
+                                                                           f"seeds 0..{default - 1}") + ")")
+    if old == "--seed":
+        p.add_argument("--seed", dest="seeds", type=lambda text: [int_at_least(0)(text)], help=argparse.SUPPRESS)
+    elif old == "--runs":
+        p.add_argument("--runs", dest="seeds", type=seeds, help=argparse.SUPPRESS)
+
+
+def seed_list(args, default: int) -> list[int]:
+    """The seeds ``--seeds`` named, or seeds 0..``default``-1."""
+    return list(range(default)) if args.seeds is None else list(args.seeds)
+
+
 def add_size_arguments(p, *, seeds: int, train_steps: int, budget: int, budget_help: str) -> None:
-    """Add ``--seeds N`` (default ``seeds``), ``--train-steps N`` and ``--budget N``; the last two
-    default to None, resolved by :func:`sizes` from the experiment module's constants (the help
-    names ``train_steps`` and ``budget``; importing the module here would load torch for ``--help``)."""
+    """Add ``--seeds SEEDS`` (:func:`add_seeds_argument`, default ``seeds``), ``--train-steps N`` and
+    ``--budget N``; the last two default to None, resolved by :func:`sizes` from the experiment
+    module's constants (the help names ``train_steps`` and ``budget``; importing the module here
+    would load torch for ``--help``)."""
     count = int_at_least(1)
-    p.add_argument("--seeds", type=count, default=seeds, help=f"number of seeds 0..N-1 (default {seeds})")
+    add_seeds_argument(p, seeds)
     p.add_argument("--train-steps", type=count, default=None, help=f"CNMP training steps (default {train_steps})")
     p.add_argument("--budget", type=count, default=None, help=f"{budget_help} (default {budget})")
 
@@ -81,6 +104,14 @@ def check_output_arguments(args) -> None:
         if suffix not in formats:
             raise ValueError(f"--plot {args.plot}: matplotlib cannot write .{suffix} files "
                              f"(give one of .{', .'.join(sorted(formats))})")
+
+
+def with_deployment(result: dict, make) -> dict:
+    """``result`` with the ``deployment`` facts of the evaluator maker ``make`` it ran with
+    (:class:`clients.distributed.EvaluatorMaker`): namespace, attached, workers, recording,
+    authenticated."""
+    result["deployment"] = make.deployment.to_dict()
+    return result
 
 
 def write_json(result: dict, path: str | None) -> None:

@@ -5,7 +5,7 @@ from __future__ import annotations
 from services.transport.argtypes import int_at_least
 
 from .common import (add_deployment_arguments, add_output_arguments, add_size_arguments,
-                     check_deployment_arguments, sizes, write_json)
+                     check_deployment_arguments, seed_list, sizes, with_deployment, write_json)
 
 
 def add_arguments(p) -> None:
@@ -41,10 +41,10 @@ def run(args) -> int:
 
         with remote_rollouts("pour", "pour", workers=args.workers, record=args.record, prefix="e6",
                              progress=not args.quiet, secure=not args.insecure, namespace=args.namespace, config=args.config) as make:
-            result = run_pour(args.seeds, evaluator_factory=lambda: make("pour", {"tolerance_g": TOLERANCE_G}, method="acnmp"),
-                              **kwargs)
+            result = with_deployment(run_pour(seed_list(args, 5), evaluator_factory=lambda: make(
+                "pour", {"tolerance_g": TOLERANCE_G}, method="acnmp"), **kwargs), make)
     else:
-        result = run_pour(args.seeds, jobs=args.jobs, **kwargs)
+        result = run_pour(seed_list(args, 5), jobs=args.jobs, **kwargs)
     a, s = result["acnmp"], result["assimilation"]
     print(f"E6 pour {result['test']['target_g']:.0f} g from {result['test']['weight_g']:.0f} g, "
           f"{result['seeds']} seed(s), {result['wall_time_s']:.1f} s")

@@ -3,7 +3,8 @@ from __future__ import annotations
 
 from services.transport.argtypes import int_at_least
 
-from .common import add_deployment_arguments, add_output_arguments, check_deployment_arguments, write_json
+from .common import (add_deployment_arguments, add_output_arguments, add_seeds_argument, check_deployment_arguments,
+                     seed_list, with_deployment, write_json)
 
 #: --quick: enough to see both methods run end to end in about a minute.
 QUICK = dict(train_steps=1500, acnmp_budget=60, promp_budget=150)
@@ -13,7 +14,7 @@ TRAIN_STEPS = 3000
 
 def add_arguments(p) -> None:
     """Add the ``push`` experiment's options to its parser ``p`` (made from its catalog entry)."""
-    p.add_argument("--seeds", type=int_at_least(1), default=3, help="number of seeds 0..N-1 (default 3)")
+    add_seeds_argument(p, 3)
     p.add_argument("--setting", choices=("paper", "authors"), default="paper",
                    help="task setting: 'paper' (default) or 'authors' (the authors' targets, scaled to "
                         "our arm, and their dense tracking reward for ACNMP)")
@@ -61,10 +62,10 @@ def run(args) -> int:
 
         with remote_rollouts("planar3", "push", workers=args.workers, record=args.record, prefix="e2",
                              progress=not args.quiet, secure=not args.insecure, namespace=args.namespace, config=args.config) as make:
-            result = run_push(args.seeds, evaluator_factory=lambda setup, method, case: make(
-                f"push-{method}-{case}", task_config(setup, method), method=method), **kwargs)
+            result = with_deployment(run_push(seed_list(args, 3), evaluator_factory=lambda setup, method, case: make(
+                f"push-{method}-{case}", task_config(setup, method), method=method), **kwargs), make)
     else:
-        result = run_push(args.seeds, **kwargs)
+        result = run_push(seed_list(args, 3), **kwargs)
     print(f"E2 push ({result['setting']} setting), {result['seeds']} seed(s), tolerance {result['tolerance']} m, {result['wall_time_s']:.1f} s")
     print(f"{'method':<9} {'case':<14} {'roll-outs (median)':>18} {'success':>8} {'error (m)':>10} {'initial (m)':>11}")
     for m, cases in result["methods"].items():

@@ -5,7 +5,7 @@ from __future__ import annotations
 from services.transport.argtypes import int_at_least
 
 from .common import (add_deployment_arguments, add_output_arguments, add_size_arguments,
-                     check_deployment_arguments, sizes, write_json)
+                     check_deployment_arguments, seed_list, sizes, with_deployment, write_json)
 
 #: --quick: every method end to end on two seeds in about a minute
 QUICK = dict(seeds=2, train_steps=1500, budget=100, promp_budget=150)
@@ -33,7 +33,7 @@ def run(args) -> int:
     check_deployment_arguments(args)
     q = QUICK if args.quick else {}
     train_steps, budget = sizes(args, q.get("train_steps", TRAIN_STEPS), q.get("budget", ACNMP_BUDGET))
-    seeds = q["seeds"] if args.quick and args.seeds == 10 else args.seeds
+    seeds = seed_list(args, q.get("seeds", 10))
     torch.set_num_threads(1)  # the CNMP is small; threads only contend with the simulator
     kwargs = dict(train_steps=train_steps, acnmp_budget=budget,
                   promp_budget=args.promp_budget or q.get("promp_budget", PROMP_BUDGET),
@@ -43,8 +43,8 @@ def run(args) -> int:
 
         with remote_rollouts("pusher", "pusher_push", workers=args.workers, record=args.record, prefix="pusher",
                              progress=not args.quiet, secure=not args.insecure, namespace=args.namespace, config=args.config) as make:
-            result = run_pusher(seeds, evaluator_factory=lambda method, seed: make(f"pusher-{method}-s{seed}", {}, method=method, seed=seed),
-                                **kwargs)
+            result = with_deployment(run_pusher(seeds, evaluator_factory=lambda method, seed: make(
+                f"pusher-{method}-s{seed}", {}, method=method, seed=seed), **kwargs), make)
     else:
         result = run_pusher(seeds, **kwargs)
     print(f"Pusher-v5, {result['seeds']} seed(s), success: the object within {result['tolerance']} m of the goal, "

@@ -5,7 +5,7 @@ from __future__ import annotations
 from services.transport.argtypes import non_empty, robot_kind
 
 from .common import (add_deployment_arguments, add_output_arguments, add_size_arguments,
-                     check_deployment_arguments, sizes, write_json)
+                     check_deployment_arguments, seed_list, sizes, with_deployment, write_json)
 
 
 def _point(text: str) -> list[float]:
@@ -25,7 +25,16 @@ def add_arguments(p) -> None:
     """Add the ``robot`` experiment's options to its parser ``p`` (made from its catalog entry)."""
     p.add_argument("--robot", required=True, type=robot_kind, help="robot kind or plugin package.module:attr")
     p.add_argument("--task", default=None, help="the robot's task (default: its only one)")
-    p.add_argument("--demos", required=True, type=non_empty, metavar="FILE.npz", help="demonstrations (.npz)")
+    import argparse
+    import textwrap
+
+    from acnmp_core.demo_io import format_help
+
+    p.formatter_class = argparse.RawDescriptionHelpFormatter  # the epilog's table keeps its lines
+    p.description = textwrap.fill(p.description or "", 90)
+    p.epilog = format_help()
+    p.add_argument("--demos", required=True, type=non_empty, metavar="FILE.npz",
+                   help="the demonstrations: arrays times (N, T), values (N, T, D), task_params (N, P) (below)")
     p.add_argument("--at", action="append", required=True, type=_point, metavar="P1,P2,...",
                    help="task parameters of a test point (repeatable)")
     add_size_arguments(p, seeds=1, train_steps=3000, budget=300, budget_help="ACNMP roll-out budget per point")
@@ -39,22 +48,23 @@ def run(args) -> int:
     import torch
 
     from acnmp_core.demo_io import load_demos
-    from acnmp_core.experiments.own_robot import plot_own_robot, robot_task, run_own_robot
+    from acnmp_core.experiments.own_robot import check_points, plot_own_robot, robot_task, run_own_robot
 
     check_deployment_arguments(args)
     demos = load_demos(args.demos)
+    check_points(demos, args.at, "--at")
     task = robot_task(args.robot, args.task)
     train_steps, budget = sizes(args, 3000, 300)
     torch.set_num_threads(1)
-    kwargs = dict(task=task, seeds=args.seeds, train_steps=train_steps, budget=budget,
+    kwargs = dict(task=task, seeds=seed_list(args, 1), train_steps=train_steps, budget=budget,
                   log=None if args.quiet else print)
     if args.distributed:
         from clients.distributed import remote_rollouts
 
         with remote_rollouts(args.robot, task, workers=args.workers, record=args.record, prefix="robot",
                              progress=not args.quiet, secure=not args.insecure, namespace=args.namespace, config=args.config) as make:
-            result = run_own_robot(args.robot, demos, args.at,
-                                   evaluator_factory=lambda m, s, i: make(f"{args.robot}-{m}-s{s}-p{i}", {}, method=m, seed=s), **kwargs)
+            result = with_deployment(run_own_robot(args.robot, demos, args.at, evaluator_factory=lambda m, s, i: make(
+                f"{args.robot}-{m}-s{s}-p{i}", {}, method=m, seed=s), **kwargs), make)
     else:
         result = run_own_robot(args.robot, demos, args.at, **kwargs)
     print(f"robot {result['robot']}, task {result['task']}, {len(result['points'])} point(s) x {result['seeds']} "

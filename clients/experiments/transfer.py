@@ -5,12 +5,13 @@ from pathlib import Path
 
 from services.transport.argtypes import int_at_least
 
-from .common import add_deployment_arguments, add_output_arguments, check_deployment_arguments, write_json
+from .common import (add_deployment_arguments, add_output_arguments, add_seeds_argument, check_deployment_arguments,
+                     seed_list, write_json)
 
 
 def add_arguments(p) -> None:
     """Add the ``transfer`` experiment's options to its parser ``p`` (made from its catalog entry)."""
-    p.add_argument("--runs", type=int_at_least(1), default=30, help="runs (seeds 0..N-1, default 30)")
+    add_seeds_argument(p, 30, "runs' seeds", old="--runs")
     p.add_argument("--pair-steps", type=int_at_least(1), default=None,
                    help="training steps of each transfer pair on our task (default 6000)")
     p.add_argument("--budget", type=int_at_least(1), default=None,
@@ -49,7 +50,7 @@ def run(args) -> int:
     if args.distributed:
         from clients.transfer_service import run_transfer_distributed
 
-        result = run_transfer_distributed(args.runs, workers=args.workers, record=args.record,
+        result = run_transfer_distributed(seed_list(args, 30), workers=args.workers, record=args.record,
                                           progress=not args.quiet, secure=not args.insecure,
                                           namespace=args.namespace, config=args.config, **kwargs)
         diffs = [r["first_attempt_diff"] for r in result["per_run"] if r.get("first_attempt_diff") is not None]
@@ -57,7 +58,7 @@ def run(args) -> int:
               f"attempt from the model service's transfer query, largest difference from the RL's start "
               f"{max(diffs) if diffs else 0.0:.3g} rad")
     else:
-        result = run_transfer(args.runs, **kwargs)
+        result = run_transfer(seed_list(args, 30), **kwargs)
     print(f"E4 transfer 3-DoF -> 4-DoF, {result['runs']} run(s), {result['wall_time_s']:.1f} s")
     print(f"{'condition':<13} " + " ".join(f"{'after ' + k:>9}" for k in result["paper"]["success_by_iteration"])
           + f" {'iterations (median)':>20} {'initial error (m)':>18}")

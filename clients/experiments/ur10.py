@@ -3,7 +3,7 @@ objects and obstacles; LfD only vs ACNMP, per-joint errors against the expert.""
 from __future__ import annotations
 
 from .common import (add_deployment_arguments, add_output_arguments, add_size_arguments,
-                     check_deployment_arguments, sizes, write_json)
+                     check_deployment_arguments, seed_list, sizes, with_deployment, write_json)
 
 
 def add_arguments(p) -> None:
@@ -37,9 +37,10 @@ def run(args) -> int:
 
         with remote_rollouts("ur10", "pick_place", workers=args.workers, record=args.record, prefix="e5",
                              progress=not args.quiet, secure=not args.insecure, namespace=args.namespace, config=args.config) as make:
-            result = run_ur10(args.seeds, evaluator_factory=lambda case: make(f"ur10-{case}", {}, method="acnmp"), **kwargs)
+            result = with_deployment(run_ur10(seed_list(args, 5), evaluator_factory=lambda case: make(
+                f"ur10-{case}", {}, method="acnmp"), **kwargs), make)
     else:
-        result = run_ur10(args.seeds, **kwargs)
+        result = run_ur10(seed_list(args, 5), **kwargs)
     print(f"E5 UR10, {result['seeds']} seed(s), {result['wall_time_s']:.1f} s; joint errors (deg, median over seeds) "
           f"{', '.join(result['joint_names'])}")
     print(f"{'case':<6} {'method':<9} {'success':>8} {'roll-outs':>9}  joint errors (deg)")

@@ -8,12 +8,13 @@ import numpy as np
 
 from services.transport.argtypes import int_at_least
 
-from .common import add_deployment_arguments, add_output_arguments, check_deployment_arguments, write_json
+from .common import (add_deployment_arguments, add_output_arguments, add_seeds_argument, check_deployment_arguments,
+                     seed_list, write_json)
 
 
 def add_arguments(p) -> None:
     """Add the ``viapoint`` experiment's options to its parser ``p`` (made from its catalog entry)."""
-    p.add_argument("--seed", type=int_at_least(0), default=0, help="seed of training and exploration (default 0)")
+    add_seeds_argument(p, 1, "seeds of training and exploration, one run each", old="--seed")
     p.add_argument("--variant", choices=("2d", "1d"), default="2d",
                    help="2d paths around obstacles (default) or the authors' 1-D two-bump function")
     p.add_argument("--budget", type=int_at_least(1), default=100, help="roll-out budget per method (default 100)")
@@ -27,31 +28,59 @@ def add_arguments(p) -> None:
 
 
 def run(args) -> int:
-    """Run E1 as asked by ``args`` and print a summary table; returns the exit code."""
+    """Run E1 as asked by ``args`` (each seed in turn) and print a summary table per seed; returns
+    the exit code. One seed's JSON is its summary; several seeds' holds each one's (``runs``) and
+    the aggregates over them (:func:`~acnmp_core.experiments.viapoint.summarise_seeds`)."""
     import torch
 
-    from acnmp_core.experiments.viapoint import run_viapoint
+    from acnmp_core.experiments.viapoint import run_viapoint, summarise_seeds
 
     # One intra-op thread: the learner's jobs run with one too, and float reductions then happen
     # in the same order, so the in-process and the distributed runs give the same numbers.
     torch.set_num_threads(1)
 
-    kwargs = dict(seed=args.seed, variant=args.variant, budget=args.budget, train_steps=args.train_steps,
-                  progress=not args.quiet)
+    seeds = seed_list(args, 1)
+    kwargs = dict(variant=args.variant, budget=args.budget, train_steps=args.train_steps, progress=not args.quiet)
     check_deployment_arguments(args)
     if args.fresh and not args.distributed:
         raise ValueError("--fresh: only with --distributed")
     if args.namespace is not None and args.fresh:
         raise ValueError("--namespace and --fresh: choose a running deployment or a fresh one")
+    runs = []
     if args.distributed:
-        from clients.distributed import run_viapoint_distributed
+        from clients.distributed import e1_deployment, run_viapoint_on
 
-        with _running_deployment(args) as client:
-            result = run_viapoint_distributed(workers=args.workers, record=args.record, client=client,
-                                              secure=not args.insecure, **kwargs)
+        with _running_deployment(args) as client, \
+                e1_deployment(workers=args.workers, record=args.record, secure=not args.insecure,
+                              progress=not args.quiet, client=client) as (deployed, facts):
+            for seed in seeds:
+                runs.append(run_viapoint_on(deployed, facts, seed, **kwargs))
+                _print_run(runs[-1].summary)
     else:
-        result = run_viapoint(**kwargs)
-    s = result.summary
+        for seed in seeds:
+            runs.append(run_viapoint(seed, **kwargs))
+            _print_run(runs[-1].summary)
+    if len(runs) == 1:
+        write_json(runs[0].summary, args.json)
+    else:
+        summaries = [r.summary for r in runs]
+        agg = summarise_seeds(summaries)
+        print(f"over seeds {', '.join(map(str, seeds))}: " + "; ".join(
+            f"{m} {100 * r['success_rate']:.0f}% succeed, median {r['rollouts_median']:.0f} roll-outs"
+            for m, r in agg["methods"].items()))
+        write_json({"experiment": "viapoint", "seeds": len(seeds), "seed_list": seeds, **agg, "runs": summaries},
+                   args.json)
+    if args.plot:
+        from acnmp_core.plots import plot_viapoint
+
+        for p in plot_viapoint(runs[0], args.plot):  # the first seed's
+            print(f"wrote {p}")
+    sys.stdout.flush()
+    return 0
+
+
+def _print_run(s: dict) -> None:
+    """One seed's table (a summary of :func:`~acnmp_core.experiments.viapoint.run_viapoint`)."""
     tol = ", ".join(f"{x:.4f}" for x in np.ravel(s["tolerance"]))
     print(f"E1 via-point ({s['variant']}), seed {s['seed']}, tolerance (start, via-point, end) {tol}, "
           f"{s['wall_time_s']:.1f} s")
@@ -63,14 +92,11 @@ def run(args) -> int:
     if a.get("performed"):
         print(f"assimilation: solved with no RL {a['success_after']} (error {a['error_after']:.4f}), old demos "
               f"RMSE {a['old_demos_reproduction_rmse_before']:.4f} -> {a['old_demos_reproduction_rmse_after']:.4f}")
-    write_json(s, args.json)
-    if args.plot:
-        from acnmp_core.plots import plot_viapoint
-
-        for p in plot_viapoint(result, args.plot):
-            print(f"wrote {p}")
-    sys.stdout.flush()
-    return 0
+    sk = s.get("skill")
+    if sk is not None:
+        print(f"skill {sk['name']}: " + (f"version {sk['version']} trained for this run" if sk["trained"] else
+                                          f"version {sk['version']} used as it was (already trained from these "
+                                          "demonstrations with these settings)"), flush=True)
 
 
 @contextlib.contextmanager

@@ -2,15 +2,18 @@
 (and the baseline after Ewerton et al. 2019), in the paper's or the authors' task setting."""
 from __future__ import annotations
 
+import numpy as np
+
 from services.transport.argtypes import int_at_least
 
-from .common import add_deployment_arguments, add_output_arguments, check_deployment_arguments, write_json
+from .common import (add_deployment_arguments, add_output_arguments, add_seeds_argument, check_deployment_arguments,
+                     seed_list, with_deployment, write_json)
 
 
 def add_arguments(p) -> None:
     """Add the ``wall`` experiment's options to its parser ``p`` (made from its catalog entry)."""
     p.add_argument("--envs", type=int_at_least(1), default=100, help="new environments in the loop (default 100)")
-    p.add_argument("--seed", type=int_at_least(0), default=0, help="seed of environments, training, exploration (default 0)")
+    add_seeds_argument(p, 1, "seeds of environments, training and exploration, one run each", old="--seed")
     p.add_argument("--initial", type=int_at_least(1), default=30, help="demonstrated environments (default 30)")
     p.add_argument("--test", type=int_at_least(1), default=1000, help="test environments (default 1000)")
     p.add_argument("--eval-every", type=int_at_least(1), default=10,
@@ -44,7 +47,8 @@ def add_arguments(p) -> None:
 
 
 def run(args) -> int:
-    """Run E3 as asked by ``args``, print the curve and a summary; returns the exit code."""
+    """Run E3 as asked by ``args`` (each seed in turn), print the curve and a summary per seed;
+    returns the exit code. One seed's JSON is its result; several seeds' holds each one's (``runs``)."""
     from acnmp_core.tasks.wall_settings import wall_setting
 
     # The arguments are checked before torch is imported, so a mistake is reported at once.
@@ -72,19 +76,41 @@ def run(args) -> int:
                   snap_outputs=args.snap_paths != "none", snap_rollouts=args.snap_paths == "all",
                   log=None if args.quiet else (lambda s: print(s, flush=True)))
     check_deployment_arguments(args)
+    seeds = seed_list(args, 1)
+    results = []
     if args.distributed:
         from clients.distributed import remote_rollouts
 
         with remote_rollouts("point2d", "wall", workers=args.workers, record=args.record, prefix="e3",
                              progress=not args.quiet, secure=not args.insecure, namespace=args.namespace, config=args.config) as make:
-            result = run_wall(args.envs, args.seed, evaluator_factory=lambda method: make(f"wall-{method}", method=method, seed=args.seed),
-                              **kwargs)
+            for seed in seeds:
+                results.append(with_deployment(run_wall(args.envs, seed, evaluator_factory=lambda method: make(
+                    f"wall-{method}", method=method, seed=seed), **kwargs), make))
+                _print_run(results[-1], args.snap_paths)
     else:
-        result = run_wall(args.envs, args.seed, **kwargs)
+        for seed in seeds:
+            results.append(run_wall(args.envs, seed, **kwargs))
+            _print_run(results[-1], args.snap_paths)
+    if len(results) == 1:
+        write_json(results[0], args.json)
+    else:
+        print(f"over seeds {', '.join(map(str, seeds))}: " + "; ".join(
+            f"{m} mean test success {100 * np.mean([r['methods'][m]['test_success_rate'] for r in results]):.1f}%"
+            for m in results[0]["methods"]))
+        write_json({"experiment": "wall", "seeds": len(seeds), "seed_list": seeds, "runs": results}, args.json)
+    if args.plot:
+        from acnmp_core.plots import plot_wall
+
+        print(f"wrote {plot_wall(results[0], args.plot)}", flush=True)  # the first seed's
+    return 0
+
+
+def _print_run(result: dict, snap_paths: str) -> None:
+    """One seed's summary table (a result of :func:`~acnmp_core.experiments.wall.run_wall`)."""
     snapped = {"none": "paths as generated (the paper's variant)", "generated": "boundary conditions enforced",
-               "all": "every executed path snapped"}[args.snap_paths]
-    print(f"E3 wall ({result['setting']} setting, {snapped}), {result['n_initial']} demonstrated + {result['envs']} "
-          f"new environments, {result['n_test']} test, {result['wall_time_s']:.1f} s")
+               "all": "every executed path snapped"}[snap_paths]
+    print(f"E3 wall ({result['setting']} setting, {snapped}), seed {result['seed']}, {result['n_initial']} demonstrated + "
+          f"{result['envs']} new environments, {result['n_test']} test, {result['wall_time_s']:.1f} s")
     print(f"{'method':<9} {'test success':>12} {'test error':>10} {'trajectories':>12} {'max/env':>8} "
           f"{'median/env':>10} {'paper-style':>11}")
     for m, s in result["methods"].items():
@@ -94,10 +120,4 @@ def run(args) -> int:
     print("paper-style = environments x the per-environment maximum, as the paper counts its totals")
     ratio = result["trajectory_ratio_promp_over_acnmp"]
     if ratio is not None:
-        print(f"ProMP+RL / ACNMP trajectories: {ratio:.2f}x")
-    write_json(result, args.json)
-    if args.plot:
-        from acnmp_core.plots import plot_wall
-
-        print(f"wrote {plot_wall(result, args.plot)}", flush=True)
-    return 0
+        print(f"ProMP+RL / ACNMP trajectories: {ratio:.2f}x", flush=True)

@@ -45,11 +45,13 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import hashlib
+import json
 import logging
 import os
 import threading
 import time
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from typing import Callable
 
 import numpy as np
@@ -133,6 +135,17 @@ class TrainSpec:
     model_cfg: CNMPConfig
     train_cfg: TrainConfig
     seed: int = 0
+
+
+def train_fingerprint(spec: TrainSpec) -> str:
+    """SHA-256 of what decides the weights a train request gives: the demonstrations' content
+    hash, the architecture (not the names of its inputs and outputs), every training setting and
+    the seed. Two requests with the same fingerprint train the same model."""
+    cfg = spec.model_cfg
+    what = {"demos": spec.demos.content_hash(), "seed": int(spec.seed), "train": asdict(spec.train_cfg),
+            "model": [cfg.n_outputs, cfg.n_task_params, list(cfg.encoder_widths), list(cfg.decoder_widths),
+                      float(cfg.std_floor)]}
+    return hashlib.sha256(json.dumps(what, sort_keys=True).encode()).hexdigest()
 
 
 def pair_latent_events(state: SkillState, robots: tuple[str | None, str | None]) -> list[dict]:
@@ -266,8 +279,18 @@ class LearnerCore:
                         on_validation=self._train_curve(skill, spec.train_cfg.steps), device=self.device)
         with self._lock:
             state = SkillState(skill, model, spec.demos, self.skill_store.next_version(skill),
-                               source_hash=spec.demos.content_hash())
+                               source_hash=spec.demos.content_hash(), trained_as=train_fingerprint(spec))
             self._commit_skill(state, loss=res.best_val, note="trained")
+        return state
+
+    def trained_from(self, skill: str, spec: TrainSpec) -> SkillState | None:
+        """``skill``'s current state if that version is what training on ``spec`` gives (trained
+        from the same demonstrations, architecture, settings and seed, not assimilated since), else
+        None: a train request that may reuse it (``reuse``) is answered with it without training."""
+        with self._lock:
+            state = self.skills.get(skill)
+        if state is None or state.trained_as is None or state.trained_as != train_fingerprint(spec):
+            return None
         return state
 
     def _train_curve(self, skill: str, steps: int) -> Callable[[int, float, float], None]:

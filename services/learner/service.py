@@ -221,14 +221,18 @@ class LearnerService:
 
     def _handle_train(self, msg: dict | None, query: zenoh.Query) -> dict:
         skill = self._skill_of(query, msg)
-        try:
-            state = self.core.train_skill(skill, parse_train_request(msg, self.limits))
-        except InterruptedError:  # the learner is stopping: a restarted one trains it when asked again
-            raise WireError("unavailable", "the learner is shutting down; send the request again") from None
-        except StateWriteError as exc:
-            raise WireError("write_failed", f"{exc}; nothing was committed") from None
+        spec = parse_train_request(msg, self.limits)
+        state = self.core.trained_from(skill, spec) if field(msg, "reuse", bool, default=False) else None
+        trained = state is None
+        if trained:
+            try:
+                state = self.core.train_skill(skill, spec)
+            except InterruptedError:  # the learner is stopping: a restarted one trains it when asked again
+                raise WireError("unavailable", "the learner is shutting down; send the request again") from None
+            except StateWriteError as exc:
+                raise WireError("write_failed", f"{exc}; nothing was committed") from None
         return {"v": 1, "skill": skill, "version": state.version, "data_hash": state.demos.content_hash(),
-                "n_demos": len(state.demos)}
+                "n_demos": len(state.demos), "trained": trained}
 
     def _handle_adapt(self, msg: dict | None, query: zenoh.Query) -> dict:
         skill = self._skill_of(query, msg)
@@ -448,7 +452,8 @@ class LearnerConfig(Service):
                                          "directory; ./runs/<namespace>/state while only it exists)", metavar="DIR")
     learner_id: str | None = option(None, "learner id (default: learner-<pid>)", flag="--id", metavar="ID")
     demos: list[str] = option([], "train SKILL from a demonstration file at start unless it was trained from "
-                                  "that file's demonstrations (a changed file retrains it; repeatable)",
+                                  "that file's demonstrations (a changed file retrains it; repeatable); the file's "
+                                  "arrays: `acnmp up --help`, docs/ROBOTS.md",
                               metavar="SKILL=FILE.npz")
     train_steps: int = option(3000, "steps for --demos (default: %(default)s)", metavar="N", type=int_at_least(1))
     wait_recorder: float = option(0.0, "wait up to S seconds for a recorder before the first event (default: 0)",

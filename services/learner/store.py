@@ -4,7 +4,8 @@ Layout of ``<state_dir>`` (docs/DEPLOYMENT.md, "State directory", tells the same
 operator)::
 
     skills/<skill>/model-v<N>.pt          checkpoint of version N (acnmp_core.checkpoint); meta:
-                                          version, demos file, n_demos, source_hash, partner files
+                                          version, demos file, n_demos, source_hash, trained_as,
+                                          partner files
     skills/<skill>/demos-v<N>.npz         its demonstrations (acnmp_core.demo_io, padded + lengths)
     skills/<skill>/partner-v<N>.pt        a paired skill's robot B model
     skills/<skill>/partner-demos-v<N>.npz and robot B's demonstrations
@@ -300,6 +301,10 @@ class SkillState:
     #: retraining); kept through assimilations, which add to ``demos``. None: not recorded (a
     #: skill saved before this field existed).
     source_hash: str | None = None
+    #: :func:`services.learner.core.train_fingerprint` of the training that made this version
+    #: (demonstrations, model, training settings, seed); None for a version an assimilation or a
+    #: pair training made, or one saved before this field existed.
+    trained_as: str | None = None
 
 
 class _Unusable(Exception):
@@ -373,6 +378,8 @@ class SkillStore:
             meta = {"skill": skill.name, "version": v, "demos": demo_file, "n_demos": len(skill.demos)}
             if skill.source_hash is not None:
                 meta["source_hash"] = skill.source_hash
+            if skill.trained_as is not None:
+                meta["trained_as"] = skill.trained_as
             if skill.partner is not None:
                 partner_file, partner_demos = f"partner-v{v}.pt", f"partner-demos-v{v}.npz"
                 put(partner_demos, demos_bytes(demo_set_to_arrays(skill.partner_demos, skill.partner.config.output_names)))
@@ -533,7 +540,7 @@ class SkillStore:
             raise _Unusable(ckpt, f"holds skill {meta.get('skill')!r} version {meta.get('version')!r}, its name says "
                                   f"{name} version {v}")
         state = SkillState(name, model, self._demos(d, meta.get("demos"), ckpt, info["data_hash"], "demonstrations"),
-                           v, source_hash=meta.get("source_hash"))
+                           v, source_hash=meta.get("source_hash"), trained_as=meta.get("trained_as"))
         if meta.get("partner"):
             partner = self._part(d, meta.get("partner"), ckpt, "robot B's checkpoint")
             try:

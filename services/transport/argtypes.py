@@ -40,6 +40,39 @@ def int_at_least(lo: int, hi: int = MAX_INT):
     return parse
 
 
+#: The most seeds one ``--seeds`` may name (each is a whole run of an experiment).
+MAX_SEEDS = 10_000
+#: What ``--seeds`` takes, for its help and its errors.
+SEEDS_HELP = "a count N (seeds 0..N-1) or the seeds themselves: A-B (A to B), A,B,C or a mix (0-4,100)"
+
+
+def seeds(text: str) -> list[int]:
+    """An argparse type: the seeds to run, in order. ``"N"`` alone is a count, seeds 0..N-1 (N >= 1);
+    otherwise comma-separated seeds and inclusive ranges ``A-B`` (``"3-3"`` is seed 3 alone,
+    ``"0-4,100"`` six seeds); each seed from 0 to :data:`MAX_INT`, none twice, at most
+    :data:`MAX_SEEDS` of them."""
+    bad = argparse.ArgumentTypeError(f"expected {SEEDS_HELP}, got {text!r}")
+    parts = [p.strip() for p in text.split(",")]
+    try:
+        if len(parts) == 1 and "-" not in parts[0]:
+            count = int(parts[0])
+            if not 1 <= count <= MAX_SEEDS:
+                raise bad
+            return list(range(count))
+        out: list[int] = []
+        for part in parts:
+            lo, dash, hi = part.partition("-")
+            first, last = int(lo), int(hi) if dash else int(lo)
+            if not 0 <= first <= last <= MAX_INT or len(out) + last - first >= MAX_SEEDS:
+                raise bad
+            out.extend(range(first, last + 1))
+    except ValueError:
+        raise bad from None
+    if len(set(out)) != len(out):
+        raise argparse.ArgumentTypeError(f"expected every seed once, got {text!r}")
+    return out
+
+
 def seconds(*, zero: bool = False, hi: float = MAX_SECONDS):
     """An argparse type: a finite number of seconds > 0 (``zero=True``: >= 0), at most ``hi``."""
     bound = ">= 0" if zero else "> 0"

@@ -22,7 +22,7 @@ def test_sigterm_unwinds_an_experiment_and_removes_its_generated_files(tmp_path)
     env = dict(os.environ, PYTHONPATH=str(ROOT), RERUN_ANALYTICS="0", TMPDIR=str(tmp), ACNMP_CACHE=str(cache))
     env.pop("ACNMP_TRACEBACK", None)
     # E4 builds its planar arms' URDFs (within ~8 s; E2 takes ~19 s to get there) before it trains for minutes
-    proc = subprocess.Popen([sys.executable, "-m", "clients.cli", "experiment", "transfer", "--runs", "1"], cwd=ROOT,
+    proc = subprocess.Popen([sys.executable, "-m", "clients.cli", "experiment", "transfer", "--seeds", "1"], cwd=ROOT,
                             env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     try:
         pattern = str(cache / "urdf" / "planar_arm_*.urdf")

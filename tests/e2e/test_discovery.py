@@ -20,7 +20,8 @@ from services.launcher import LocalDeployment
 from services.transport.runfile import DeploymentNotFound, find, running
 
 ROOT = Path(__file__).resolve().parents[2]
-E1_ARGS = ["--seed", "1", "--budget", "4", "--train-steps", "30", "--quiet"]
+# seed 0 and the deployment's --train-steps: E1's training is what `acnmp up` trained its skill e1 with
+E1_ARGS = ["--seeds", "1", "--budget", "4", "--train-steps", "20", "--quiet"]
 
 
 def _cli(*args: str, timeout: float = 60) -> subprocess.CompletedProcess:
@@ -72,7 +73,12 @@ def test_acnmp_up_then_query_with_no_arguments_20_of_20_and_ctrl_c(tmp_path, cap
         assert main(["experiment", "viapoint", *E1_ARGS, "--distributed", "--json", str(out_json)]) == 0
         assert "running E1 on deployment 'default'" in capsys.readouterr().out
         e1 = json.loads(out_json.read_text())
-        assert e1["attached_to"] == "default" and all(m["job"] for m in e1["methods"].values())
+        assert all(m["job"] for m in e1["methods"].values())
+        # what it ran on, as the deployment is: joined, its one worker, no recorder, authenticated
+        assert e1["deployment"] == {"namespace": "default", "attached": True, "workers": 1, "recording": None,
+                                    "authenticated": True}
+        # the skill e1 was already trained from E1's demonstrations with these settings: not again
+        assert e1["skill"] == {"name": "e1", "version": 0, "trained": False}
         # ... which records with its own recorder, and --namespace must name a running deployment
         assert main(["experiment", "viapoint", *E1_ARGS, "--distributed", "--record", str(tmp_path / "x.rrd")]) == 2
         assert main(["experiment", "viapoint", *E1_ARGS, "--distributed", "--namespace", "nope"]) == 2

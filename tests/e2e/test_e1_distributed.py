@@ -21,7 +21,7 @@ from services.recording.replay import summarize
 from services.recording.tables import read_recording
 
 SEED, BUDGET, STEPS = 2, 10, 300  # E1_SMALL of tests/conftest.py: e1_small_run is its in-process run
-ARGS = ["--seed", str(SEED), "--budget", str(BUDGET), "--train-steps", str(STEPS), "--quiet"]
+ARGS = ["--seeds", f"{SEED}-{SEED}", "--budget", str(BUDGET), "--train-steps", str(STEPS), "--quiet"]
 METHODS = ("lfd_only", "rl_only", "acnmp")
 
 
@@ -52,7 +52,11 @@ def test_distributed_e1_matches_in_process_and_its_recording_is_data(tmp_path, v
                  "--record", str(rrd), "--json", str(dist)]) == 0
     assert len(killed) == 1
     a, b = json.loads(json.dumps(local.summary)), json.loads(dist.read_text())
-    assert b["authenticated"] is True  # the deployment it started is authenticated, as `acnmp up` is
+    # the deployment it started: authenticated, as `acnmp up` is, its workers and recording; the skill
+    # is new there, so the learner trained it
+    assert {k: v for k, v in b["deployment"].items() if k != "namespace"} == {
+        "attached": False, "workers": 2, "recording": str(rrd), "authenticated": True}
+    assert b["skill"] == {"name": "e1", "version": 0, "trained": True}
     for m in METHODS:
         for k in ("rollouts", "success", "error", "shape_error"):
             assert a["methods"][m][k] == b["methods"][m][k], (m, k)

@@ -40,6 +40,9 @@ def test_push_runs_on_a_running_deployments_workers_and_recorder(tmp_path, capsy
     verify_rrd(rrd)
     jobs = summarize(rrd)["jobs"]
     result = json.loads(out.read_text())
+    # what it ran on, as the deployment is: joined, its worker, its recorder's file, authenticated
+    assert result["deployment"] == {"namespace": NS, "attached": True, "workers": 1, "recording": str(rrd),
+                                    "authenticated": True}
     assert jobs and all(j.startswith("push-") for j in jobs)
     assert {w for j in jobs.values() for w in j["workers"]} == {"planar3-0"}
     assert all(j["rollouts"] == j["unique_rollouts"] and not j["duplicates"] for j in jobs.values())

@@ -83,7 +83,7 @@ class Operator:
 
 def e1(dep: MultiHostDeployment, out) -> subprocess.Popen:
     """E1 (small) started on the client host, as an operator joining through its zenoh config."""
-    return dep.popen([sys.executable, "-m", "clients.cli", "experiment", "viapoint", "--seed", str(SEED),
+    return dep.popen([sys.executable, "-m", "clients.cli", "experiment", "viapoint", "--seeds", f"{SEED}-{SEED}",
                       "--budget", str(BUDGET), "--train-steps", str(STEPS), "--quiet", "--distributed",
                       "--namespace", dep.namespace, "--config", str(dep.config("operator")), "--json", str(out)],
                      stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)

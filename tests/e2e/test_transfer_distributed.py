@@ -15,11 +15,13 @@ from services.recording.replay import summarize
 
 def test_transfer_cli_distributed_records_every_rollout(tmp_path, verify_rrd):
     rrd, out = tmp_path / "e4.rrd", tmp_path / "e4.json"
-    assert main(["experiment", "transfer", "--runs", "1", "--pair-steps", "50", "--budget", "4", "--no-authors-data",
+    assert main(["experiment", "transfer", "--seeds", "1", "--pair-steps", "50", "--budget", "4", "--no-authors-data",
                  "--distributed", "--workers", "1", "--record", str(rrd), "--json", str(out), "--quiet"]) == 0
     verify_rrd(rrd)
     r = json.loads(out.read_text())
-    assert r["authenticated"] is True  # the deployment it started is authenticated, as `acnmp up` is
+    # the deployment it started: authenticated, as `acnmp up` is, its worker and recording
+    assert {k: v for k, v in r["deployment"].items() if k != "namespace"} == {
+        "attached": False, "workers": 1, "recording": str(rrd), "authenticated": True}
     summary = summarize(rrd)
     jobs = summary["jobs"]
     assert [x["condition"] for x in r["per_run"]] == ["transfer", "no_alignment", "no_transfer"]

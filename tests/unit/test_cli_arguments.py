@@ -8,6 +8,7 @@ import argparse
 import pytest
 
 from clients.cli import main
+from clients.experiments.catalog import CATALOG
 from services.transport.argtypes import MAX_INT, int_at_least, non_empty, seconds
 
 HUGE = "99999999999999999999"
@@ -25,8 +26,8 @@ def refused(argv: list[str], capsys) -> str:
 @pytest.mark.parametrize("argv, expected", [
     (["bogus"], ["invalid choice: 'bogus'", "(see acnmp --help)"]),
     (["experiment"], ["required: NAME"]),
-    (["experiment", "viapoint", "--seed", "-1"], ["argument --seed: expected an integer >= 0, got -1",
-                                                  "(see acnmp experiment viapoint --help)"]),
+    (["experiment", "viapoint", "--seeds", "-1"], ["argument --seeds: expected a count N (seeds 0..N-1) or the seeds",
+                                                   "(see acnmp experiment viapoint --help)"]),
     (["experiment", "push", "--setting", "x"], ["--setting", "'paper', 'authors'"]),
     (["query", "cancel"], ["required: JOB"]),
     (["serve", "worker", "--robot", "ur11"], ["--robot", "'point2d'"]),
@@ -55,8 +56,9 @@ def test_shared_types_have_bounds():
 
 
 @pytest.mark.parametrize("argv, option", [
-    (["experiment", "viapoint", "--seed", HUGE], "--seed"),          # was: Overflow when unpacking long long
-    (["experiment", "wall", "--seed", HUGE], "--seed"),
+    (["experiment", "viapoint", "--seeds", HUGE], "--seeds"),        # was: Overflow when unpacking long long
+    (["experiment", "wall", "--seeds", f"{HUGE}-{HUGE}"], "--seeds"),
+    (["experiment", "wall", "--seed", HUGE], "--seed"),              # the old spelling, still understood
     (["query", "predict", "--obs", "0:0", "--steps", HUGE], "--steps"),  # was: sent, cannot encode message
     (["query", "predict", "--obs", "0:0", "--samples", HUGE], "--samples"),
     (["query", "predict", "--obs", "0:0", "--seed", str(2**64)], "--seed"),  # the wire's uint64 holds 2**64 - 1
@@ -74,7 +76,7 @@ def test_out_of_range_values_are_refused_naming_the_option(argv, option, capsys)
     (["experiment", "push", "--seeds", HUGE], "--seeds"),           # was: OverflowError, exit 1
     (["experiment", "ur10", "--seeds", HUGE], "--seeds"),
     (["experiment", "pour", "--train-steps", HUGE], "--train-steps"),
-    (["experiment", "transfer", "--runs", HUGE], "--runs"),
+    (["experiment", "transfer", "--seeds", HUGE], "--seeds"),
     (["experiment", "wall", "--envs", HUGE], "--envs"),            # was: "Maximum allowed dimension exceeded"
     (["experiment", "wall", "--test", "0"], "--test"),
     (["experiment", "viapoint", "--distributed", "--workers", "0"], "--workers"),
@@ -357,3 +359,31 @@ def test_query_predict_refuses_what_is_not_a_list_of_numbers(argv, expected, cap
 def test_an_output_that_is_not_a_regular_file_is_refused_before_the_run(capsys):
     """/dev/full opens for writing; every write then fails: a result of minutes would be lost."""
     assert "--json /dev/full: not a regular file" in refused(["experiment", "viapoint", "--json", "/dev/full"], capsys)
+
+
+#: What each experiment needs besides --seeds to parse.
+REQUIRED = {"robot": ["--robot", "point2d", "--demos", "d.npz", "--at", "0.5"]}
+
+
+@pytest.mark.parametrize("name", [e.name for e in CATALOG])
+def test_every_experiment_takes_seeds_with_one_meaning(name, capsys):
+    """One seed option across `acnmp experiment`: --seeds N is seeds 0..N-1, --seeds A-B and lists
+    name the seeds; the spellings an experiment had before (viapoint and wall --seed S, transfer
+    --runs N) still parse to the same list, and the help shows --seeds only."""
+    from clients.cli import build_parser
+    from clients.experiments.common import seed_list
+
+    def seeds(*argv: str) -> list[int]:
+        return seed_list(build_parser().parse_args(["experiment", name, *REQUIRED.get(name, []), *argv]), 7)
+
+    assert seeds() == list(range(7))  # not given: the experiment's default count
+    assert seeds("--seeds", "3") == [0, 1, 2]
+    assert seeds("--seeds", "5-7") == [5, 6, 7] and seeds("--seeds", "9,0-1") == [9, 0, 1]
+    old = {"viapoint": ("--seed", "4", [4]), "wall": ("--seed", "4", [4]), "transfer": ("--runs", "2", [0, 1])}
+    if name in old:
+        flag, value, want = old[name]
+        assert seeds(flag, value) == want
+    with pytest.raises(SystemExit):
+        build_parser().parse_args(["experiment", name, "--help"])
+    text = capsys.readouterr().out
+    assert "--seeds SEEDS" in text and "--seed " not in text and "--runs" not in text

@@ -47,7 +47,9 @@ def test_a_plugin_robot_runs_lfd_and_acnmp_at_the_named_points(tmp_path, monkeyp
 
 
 @pytest.mark.parametrize("args, message", [
-    (["--at", "0.6"], "expected at least one point of 2 task parameters"),
+    (["--at", "0.6"], "--at: expected points of 2 comma-separated task parameters, as the demonstrations have "
+                      "(e.g. --at 0.6,-0.2, the first demonstration's); got 0.6 (1 value)"),
+    (["--at", "0.6,0.1", "--at", "1,2,3"], "got 1,2,3 (3 values)"),
     (["--at", "0.6,x"], "argument --at: expected comma-separated numbers"),
     (["--at", "0.6,0.1", "--task", "push"], "task: robot 'my_arm' runs ['reach'], not 'push'"),
 ])

@@ -235,3 +235,34 @@ def test_a_solution_found_on_an_older_version_is_assimilated_into_the_skills_new
     name, weights = next(iter(newer.model.named_parameters()))
     # one assimilation step at lr 1e-4 from version 1's weights, not from version 0's
     assert float((committed[name] - weights.detach()).abs().max()) < 1e-2
+
+
+def test_a_skill_is_found_trained_as_asked_until_another_version_replaces_it(tmp_path, setup):
+    """What a train request with ``reuse`` relies on: the current version is "trained from" the
+    request only when the same demonstrations, architecture (not its labels), settings and seed made
+    it; a restart keeps that; a later version made otherwise does not inherit it."""
+    from dataclasses import replace
+
+    from acnmp_core.data import DemoSet
+
+    core = _core(tmp_path, setup, [], [])
+    spec = TrainSpec(setup.demos, CNMPConfig(n_outputs=2, output_names=("x", "y"), **SMALL), TrainConfig(steps=20),
+                     seed=3)
+    assert core.trained_from("e1", spec) is None  # no skill yet
+    state = core.train_skill("e1", spec)
+    assert core.trained_from("e1", replace(spec, model_cfg=CNMPConfig(n_outputs=2, **SMALL))) is state  # labels only
+    for other in (replace(spec, seed=4), replace(spec, train_cfg=TrainConfig(steps=21)),
+                  replace(spec, model_cfg=CNMPConfig(n_outputs=2, encoder_widths=(16, 16), decoder_widths=(32, 32))),
+                  replace(spec, demos=DemoSet(setup.demos.demos[:-1]))):
+        assert core.trained_from("e1", other) is None
+    core.close()
+    again = _core(tmp_path, setup, [], [])
+    try:
+        assert again.trained_from("e1", spec).version == 0  # kept in the checkpoint
+        again.train_skill("e1", replace(spec, seed=4))
+        assert again.trained_from("e1", spec) is None and again.trained_from("e1", replace(spec, seed=4)).version == 1
+        # a version that is not a training's (an assimilation's, a pair's) is no training's
+        again._commit_skill(replace(again.skills["e1"], version=2, trained_as=None), note="assimilated")
+        assert again.trained_from("e1", replace(spec, seed=4)) is None
+    finally:
+        again.close()

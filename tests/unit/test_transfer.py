@@ -149,7 +149,7 @@ def test_summary_counts_success_within_k_iterations(tmp_path):
 def test_an_authors_data_directory_without_their_arrays_is_refused_before_any_training(tmp_path, capsys):
     from clients.cli import main
 
-    assert main(["experiment", "transfer", "--runs", "1", "--authors-data", str(tmp_path)]) == 2
+    assert main(["experiment", "transfer", "--seeds", "1", "--authors-data", str(tmp_path)]) == 2
     err = capsys.readouterr().err
     assert f"--authors-data {tmp_path}: the authors' four E4 arrays are not all there" in err
 

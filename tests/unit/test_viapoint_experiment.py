@@ -8,7 +8,7 @@ from clients.cli import main
 
 def test_viapoint_cli_writes_json_and_plots(tmp_path, saved_figures):
     out, png = tmp_path / "e1.json", tmp_path / "e1.png"
-    code = main(["experiment", "viapoint", "--seed", "1", "--budget", "30", "--train-steps", "1500",
+    code = main(["experiment", "viapoint", "--seeds", "1-1", "--budget", "30", "--train-steps", "1500",
                  "--json", str(out), "--plot", str(png), "--quiet"])
     assert code == 0
     s = json.loads(out.read_text())
@@ -48,8 +48,21 @@ def test_bad_cli_input_is_a_clear_error(capsys):
 
 
 @pytest.mark.parametrize("experiment", ["viapoint", "wall"])
-def test_a_negative_seed_is_refused_before_any_training(experiment, capsys):
+@pytest.mark.parametrize("argv, words", [(["--seeds", "-1"], "--seeds: expected a count N (seeds 0..N-1) or the seeds"),
+                                         (["--seed", "-1"], "--seed: expected an integer >= 0, got -1")])
+def test_a_negative_seed_is_refused_before_any_training(experiment, argv, words, capsys):
     # numpy refuses a negative seed only when the run first draws from it, after the training.
-    assert main(["experiment", experiment, "--seed", "-1"]) == 2
+    assert main(["experiment", experiment, *argv]) == 2
     err = capsys.readouterr().err
-    assert "--seed: expected an integer >= 0, got -1" in err and "Traceback" not in err
+    assert words in err and "Traceback" not in err
+
+
+def test_several_seeds_run_one_after_the_other_into_one_json(tmp_path, capsys):
+    out = tmp_path / "e1.json"
+    assert main(["experiment", "viapoint", "--seeds", "4,2", "--budget", "3", "--train-steps", "50", "--quiet",
+                 "--json", str(out)]) == 0
+    r = json.loads(out.read_text())
+    assert (r["seeds"], r["seed_list"]) == (2, [4, 2]) and [x["seed"] for x in r["runs"]] == [4, 2]
+    assert r["methods"]["acnmp"]["rollouts"] == [x["methods"]["acnmp"]["rollouts"] for x in r["runs"]]
+    printed = capsys.readouterr().out
+    assert "seed 4," in printed and "seed 2," in printed and "over seeds 4, 2:" in printed

@@ -1,0 +1,76 @@
+"""Which tests run.
+
+``slow`` tests (minutes each) run only when a ``-m`` expression names them (``-m slow``, ``-m "slow
+or not slow"``) or their node id is given. pytest's own ``-m`` replaces any other, so a default
+marker expression in the configuration was dropped by ``-m "not e2e"``, which then ran the slow
+tests too; deciding here keeps them out of any other selection.
+
+``--fast`` (``bash scripts/test.sh --fast``: the inner loop) also leaves out the tests of
+:data:`HEAVY`: those of the default suite that train networks or run simulations for seconds each.
+They are listed here, by file or by test, rather than marked in their files, so the list reads in
+one place; a new test is in the inner loop until it is listed. No torch here: the check of these
+rules loads this module without the suite's conftest.
+"""
+from __future__ import annotations
+
+import re
+
+#: Node-id prefixes (files, or tests) that ``--fast`` leaves out, relative to the repository: the
+#: unit tests that took a second or more each here (``pytest tests/unit --durations=0``), most of
+#: the time of tests/unit, and every user of the session's trained E1 model (``e1_model``, whose
+#: training the first of them pays).
+HEAVY: tuple[str, ...] = tuple(f"tests/unit/{name}" for name in (
+    "test_adaptation.py",
+    "test_benchmark_merge_inputs.py",
+    "test_cnmp.py",
+    "test_e6_fit_trace.py",
+    "test_experiment_own_robot.py",
+    "test_lr_schedule.py",
+    "test_planar_arm.py",
+    "test_pour.py",
+    "test_pour_experiment.py",
+    "test_published_numbers.py",
+    "test_push_experiment.py",
+    "test_push_settings.py",
+    "test_pusher_scene.py",
+    "test_reproduce.py::test_reproduce_quick_e1_writes_the_report_and_resumes",
+    "test_robot_plugins.py::test_the_command_line_says_one_line_for_a_broken_plugin",
+    "test_seen_events.py",
+    "test_snap.py::test_wall_run_counts_executed_snaps",
+    "test_threads.py::test_training_uses_one_thread",
+    "test_training_checkpoint.py",
+    "test_transfer.py",
+    "test_transfer_service_messages.py::test_a_pair_job_is_cancelled_while_queued_and_while_running",
+    "test_typed_api.py",
+    "test_ur10.py",
+    "test_ur10_experiment.py",
+    "test_viapoint_experiment.py",
+    "test_wall_experiment.py",
+    "test_wall_task.py::test_scoring_1000_environments_in_one_batch",
+    "test_wire.py::test_plain_messages_round_trip",
+))
+
+
+def add_options(parser) -> None:
+    """The ``--fast`` option (pytest_addoption)."""
+    parser.addoption("--fast", action="store_true",
+                     help="the inner loop: leave out the heavy tests (tests/selection.py HEAVY) besides the slow ones")
+
+
+def deselect(config, items: list) -> None:
+    """Remove from ``items`` (and report deselected) the ``slow`` tests unless ``config``'s ``-m``
+    expression names ``slow``, and with ``--fast`` the tests of :data:`HEAVY`; a test whose node id
+    was given as an argument stays either way."""
+    named = tuple(arg for arg in config.args if "::" in arg)
+
+    def asked(item) -> bool:
+        return any(item.nodeid.startswith(arg) or arg.endswith(item.nodeid) for arg in named)
+
+    slow_decided = re.search(r"\bslow\b", config.getoption("markexpr") or "")
+    fast = config.getoption("fast", False)
+    dropped = [item for item in items if not asked(item) and (
+        (not slow_decided and item.get_closest_marker("slow")) or (fast and item.nodeid.startswith(HEAVY)))]
+    if dropped:
+        config.hook.pytest_deselected(items=dropped)
+        gone = set(map(id, dropped))
+        items[:] = [item for item in items if id(item) not in gone]
