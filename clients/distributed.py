@@ -107,13 +107,16 @@ def started_facts(dep: LocalDeployment, workers: int, record: str | None) -> Dep
 def joined_facts(client: ACNMPClient, robot: str, workers: int | None = None, discover: float = 2.0) -> DeploymentFacts:
     """The facts of the running deployment ``client`` joined: its live ``robot`` workers (``workers``
     when already counted, else looked for up to ``discover`` seconds) and its recorder's file (asked
-    of the recorder; None without one)."""
+    of the recorder once; None without one, or when it does not answer within 5 s: the file is a
+    fact for the run's JSON, not a reason to hold the run up while the recorder is unreachable)."""
     if workers is None:
         workers = len(alive_tokens(client.session, client.keys.worker_token(robot), discover))
     recording = None
     if alive_tokens(client.session, client.keys.tokens("recorder"), discover):
-        recording = patiently(lambda: client.request(client.keys.recorder_status(), None, 10.0),
-                              "recorder status", 30.0)["path"]
+        try:
+            recording = client.request(client.keys.recorder_status(), None, 5.0)["path"]
+        except ClientError:
+            recording = None
     return DeploymentFacts(client.namespace, True, workers, recording, bool(client.authenticated))
 
 
