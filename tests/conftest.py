@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 import torch
-from selection import add_options, deselect
+from tests.selection import add_options, deselect
 
 os.environ.setdefault("RERUN_ANALYTICS", "0")
 torch.set_num_threads(1)

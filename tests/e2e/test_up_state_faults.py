@@ -16,7 +16,6 @@ import subprocess
 import sys
 import time
 import uuid
-from pathlib import Path
 
 from acnmp_core.adapt_job import AdaptJob
 from acnmp_core.adaptation import AdaptConfig
@@ -32,8 +31,8 @@ from services.learner.service import bootstrap
 from services.learner.store import demo_set_to_arrays
 from services.recording.replay import summarize
 from services.transport.runfile import find, pid_alive
+from tests.paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[2]
 
 
 def test_up_quarantines_bad_files_serves_the_rest_and_is_up_once_the_changed_file_is_served(tmp_path, acnmp_up,

@@ -9,8 +9,8 @@ import shutil
 import subprocess
 import sys
 from pathlib import Path
+from tests.paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[2]
 
 
 def _lint_imports() -> str:

@@ -4,15 +4,14 @@ numpy, and the ``--help`` of each command taking ``--demos`` lists the arrays.""
 from __future__ import annotations
 
 import re
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from acnmp_core.demo_io import FIELDS, load_demos
 from clients.cli import main
+from tests.paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[2]
 
 
 def _section(text: str, title: str) -> str:

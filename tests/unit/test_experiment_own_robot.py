@@ -3,15 +3,15 @@ ACNMP at named task parameters, in one process; wrong inputs are one line."""
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from clients.cli import main
+from tests.paths import ROOT
 
 pytest.importorskip("gymnasium", reason="gymnasium is not installed (scripts/setup.sh installs it)")
-EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "my_robot"
+EXAMPLE = ROOT / "examples" / "my_robot"
 
 
 def test_a_failed_adaptation_reports_what_it_executed(tmp_path, monkeypatch, capsys):

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import dataclasses
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -16,8 +15,9 @@ gym = pytest.importorskip("gymnasium", reason="gymnasium is not installed (scrip
 from acnmp_core.errors import InputError  # noqa: E402
 from acnmp_core.robots.gym_robot import GymRobotConfig, GymRolloutEvaluator, gym_robot  # noqa: E402
 from acnmp_core.robots.spec import DrawnTarget, EndEffectorPathDrawing  # noqa: E402
+from tests.paths import ROOT  # noqa: E402
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "examples" / "my_robot"))
+sys.path.insert(0, str(ROOT / "examples" / "my_robot"))
 from my_robot.env import ReachEnv, hand  # noqa: E402
 from my_robot.make_demos import demos  # noqa: E402
 from my_robot.plugin import CONFIG  # noqa: E402  (the example's configuration, as a user copies it)

@@ -6,7 +6,7 @@ import pytest
 from acnmp_core.promp_rl import AdaptiveProMP, PrompRLConfig, adapt_promp
 
 # tests/unit is on sys.path (pytest's default prepend import mode): reuse the analytic task.
-from test_promp_rl import T, T_VIA, ViaPointTask, _demos
+from tests.unit.test_promp_rl import T, T_VIA, ViaPointTask, _demos
 
 
 def _library(effects):

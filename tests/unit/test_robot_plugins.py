@@ -16,8 +16,8 @@ import acnmp_core.tasks.registry as tasks
 from acnmp_core.errors import UnknownRobotError
 from acnmp_core.robots.registry import plugin_problems, robot, robot_kinds, robot_source
 from services.worker.core import Worker, rollout_request
+from tests.paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[2]
 
 GOOD = '''
 import numpy as np

@@ -16,8 +16,8 @@ from pathlib import Path
 import pytest
 
 import acnmp_core
+from tests.paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[2]
 
 # torch, numpy and friends are typed but large; the check is about acnmp_core's own names
 MYPY_INI = """[mypy]

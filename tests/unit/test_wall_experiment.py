@@ -10,6 +10,7 @@ from acnmp_core.cnmp import CNMP
 from acnmp_core.experiments import wall as E
 from acnmp_core.tasks import wall as W
 from acnmp_core.training import TrainConfig, train
+from tests.paths import ROOT
 
 
 @pytest.fixture(autouse=True)
@@ -174,12 +175,11 @@ def test_thread_count_changes_the_time_not_the_numbers():
     the BLAS may split its sums differently by thread count, as runs already differ across CPUs
     (benchmarks/regression.py), so the check is skipped until that benchmark has run on the CPU."""
     import json
-    from pathlib import Path
 
     from benchmarks.regression import machine_key
     from clients.provenance import provenance
 
-    bench = json.loads((Path(__file__).resolve().parents[2] / "benchmarks" / "results"
+    bench = json.loads((ROOT / "benchmarks" / "results"
                         / "bench_e3_threads.json").read_text())
     measured_on = machine_key(bench["provenance"]["machine"])
     if machine_key(provenance()["machine"]) != measured_on:
