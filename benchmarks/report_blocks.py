@@ -865,8 +865,8 @@ def experiments_table() -> str:
 
 @renderer("demo-format")
 def demo_format() -> str:
-    """docs/ROBOTS.md's table of the demonstration file's arrays (acnmp_core.demo_io.FIELDS)."""
-    from acnmp_core.demo_io import format_table
+    """docs/ROBOTS.md's table of the demonstration file's arrays (acnmp_core.data.demo_io.FIELDS)."""
+    from acnmp_core.data.demo_io import format_table
 
     return format_table()
 

@@ -99,9 +99,9 @@ def _once(path: Path):
 def e1_model(e1_demos, tmp_path_factory):
     """A CNMP trained on the E1 demonstrations (3000 steps, seed 0). Tests must deep-copy before
     changing it. Trained once per run (the first xdist worker saves it, the others load it)."""
-    from acnmp_core.checkpoint import load_checkpoint, save_checkpoint
-    from acnmp_core.cnmp import CNMP, CNMPConfig
-    from acnmp_core.training import TrainConfig, train
+    from acnmp_core.model.checkpoint import load_checkpoint, save_checkpoint
+    from acnmp_core.model.cnmp import CNMP, CNMPConfig
+    from acnmp_core.model.training import TrainConfig, train
 
     path = _run_dir(tmp_path_factory) / "e1_model_3000.pt"
     with _once(path) as todo:
@@ -139,8 +139,8 @@ def e1_small_run(tmp_path_factory):
 def small_model(e1_demos):
     """A small CNMP on the E1 demos (2 x 32 units, 50 steps): fast to train, for tests where only
     its determinism matters."""
-    from acnmp_core.cnmp import CNMP, CNMPConfig
-    from acnmp_core.training import TrainConfig, train
+    from acnmp_core.model.cnmp import CNMP, CNMPConfig
+    from acnmp_core.model.training import TrainConfig, train
 
     model = CNMP(CNMPConfig(n_outputs=2, encoder_widths=(32, 32), decoder_widths=(32, 32)), seed=0)
     train(model, e1_demos, TrainConfig(steps=50), seed=0, progress=False)

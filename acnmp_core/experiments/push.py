@@ -6,9 +6,9 @@ the held-out **interpolation** target (inside the 9 training targets' range) and
 
 * ACNMP: a CNMP trained on the 9 joint-space demonstrations (task parameters: target x, y) is
   conditioned on the test target and on the start configuration (an observation at t = 0); its
-  mean trajectory is executed once (LfD). If it misses, :func:`~acnmp_core.adaptation.adapt`
+  mean trajectory is executed once (LfD). If it misses, :func:`~acnmp_core.adapt.adaptation.adapt`
   (mode "acnmp": RL with simultaneous SL on the demos) runs until success or the budget.
-* ProMP + RL: :func:`~acnmp_core.promp_rl.adapt_promp`, initialised from the nearest demonstrated
+* ProMP + RL: :func:`~acnmp_core.baselines.promp_rl.adapt_promp`, initialised from the nearest demonstrated
   skill (Stark et al. 2019), episodic REPS over the ProMP weights until success or the budget.
 
 Both run through the same :class:`~acnmp_core.rollout.RolloutEvaluator` (by default one in-process
@@ -34,14 +34,15 @@ from typing import Callable
 
 import numpy as np
 
-from ..adaptation import AdaptConfig, AdaptTarget, adapt
-from ..cnmp import CNMP, CNMPConfig
-from ..data import DemoSet
-from ..demo_io import DemoArrays
-from ..promp_rl import PrompRLConfig, adapt_promp
+from ..adapt.adaptation import adapt
+from ..adapt.config import AdaptConfig, AdaptTarget
+from ..baselines.promp_rl import PrompRLConfig, adapt_promp
+from ..data.demo_io import DemoArrays
+from ..data.demos import DemoSet
+from ..model.cnmp import CNMP, CNMPConfig
+from ..model.training import TrainConfig, train
 from ..rollout import RolloutEvaluator
 from ..tasks.push_settings import PAPER, PushSetting
-from ..training import TrainConfig, train
 
 METHODS = ("acnmp", "promp_rl")
 CASES = ("interpolation", "extrapolation")

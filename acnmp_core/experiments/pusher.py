@@ -8,9 +8,9 @@ extrapolation region (0.20-0.25 m beyond the demonstrations) with the seed's gen
 methods face it, all executing on the ``pusher`` robot (:mod:`acnmp_core.robots.pusher`):
 
 * **LfD-only**: the CNMP's mean trajectory for the test position, executed once;
-* **ACNMP**: that roll-out, then :func:`~acnmp_core.adaptation.adapt` (RL with simultaneous SL on
+* **ACNMP**: that roll-out, then :func:`~acnmp_core.adapt.adaptation.adapt` (RL with simultaneous SL on
   the demonstrations) until success or :data:`ACNMP_BUDGET` roll-outs;
-* **ProMP + RL**: :func:`~acnmp_core.promp_rl.adapt_promp` from the nearest demonstration, episodic
+* **ProMP + RL**: :func:`~acnmp_core.baselines.promp_rl.adapt_promp` from the nearest demonstration, episodic
   REPS, until success or :data:`PROMP_BUDGET` roll-outs (E2's baseline settings).
 
 Success: the object's final distance to the goal is at most
@@ -27,11 +27,11 @@ from typing import Callable
 
 import numpy as np
 
-from ..adaptation import AdaptConfig
-from ..cnmp import CNMP, CNMPConfig
-from ..promp_rl import PrompRLConfig
+from ..adapt.config import AdaptConfig
+from ..baselines.promp_rl import PrompRLConfig
+from ..model.cnmp import CNMP, CNMPConfig
+from ..model.training import TrainConfig, train
 from ..rollout import RolloutEvaluator
-from ..training import TrainConfig, train
 from .push import PROMP_DEFAULTS, PushSetup, _plain, _summarise, record_run, run_acnmp_case, run_promp_case
 
 METHODS = ("lfd", "acnmp", "promp_rl")

@@ -8,8 +8,8 @@ t = 0. At each test case (:data:`CASES`: the paper's (8, 10) and (9, 11) cm, and
 out, all outside the demonstrations):
 
 * **LfD only**: the conditioned mean is executed once.
-* **ACNMP**: :func:`~acnmp_core.adaptation.adapt` with the project's default
-  :class:`~acnmp_core.adaptation.AdaptConfig` and a budget of :data:`BUDGET` roll-outs; its first
+* **ACNMP**: :func:`~acnmp_core.adapt.adaptation.adapt` with the project's default
+  :class:`~acnmp_core.adapt.config.AdaptConfig` and a budget of :data:`BUDGET` roll-outs; its first
   roll-out is the LfD one, so a case the LfD trajectory already solves costs one roll-out.
 
 Measures (the paper's Table 2, left): the mean absolute error (deg) per joint between the executed
@@ -33,11 +33,12 @@ from typing import Callable
 
 import numpy as np
 
-from ..adaptation import AdaptConfig, AdaptTarget, adapt
-from ..cnmp import CNMP, CNMPConfig
-from ..data import DemoSet
+from ..adapt.adaptation import adapt
+from ..adapt.config import AdaptConfig, AdaptTarget
+from ..data.demos import DemoSet
+from ..model.cnmp import CNMP, CNMPConfig
+from ..model.training import TrainConfig, train
 from ..rollout import RolloutEvaluator
-from ..training import TrainConfig, train
 
 #: Test cases: name -> (h_obj, h_obs) in metres: the paper's (8, 10) and (9, 11) cm, and (10, 12) cm,
 #: 4 cm beyond the demonstrated object and obstacle heights (issue 37: E5's headline case, chosen
@@ -105,7 +106,7 @@ def train_ur10_cnmp(demos: DemoSet, seed: int, steps: int = TRAIN_STEPS, progres
     trained ``steps`` steps (batch 32) with the rate decaying along a half cosine to ``lr_final``
     (None: constant), the task parameters jittered by ``task_param_jitter`` (normalised std) and
     episodes blending two demonstrations with probability ``mixup`` (see
-    :class:`~acnmp_core.training.TrainConfig`)."""
+    :class:`~acnmp_core.model.training.TrainConfig`)."""
     model = CNMP(CNMPConfig(n_outputs=demos.n_outputs, n_task_params=demos.n_task_params,
                             task_param_names=["h_obj", "h_obs"]), seed=seed)
     train(model, demos, TrainConfig(steps=steps, lr_final=lr_final, task_param_jitter=task_param_jitter,

@@ -24,8 +24,8 @@ from importlib import import_module
 
 from ..errors import InputError, UnknownRobotError, UnknownTaskError
 from . import plugins
-from .spec import (DrawnTarget, EndEffectorPathDrawing, Joint, MeshChainDrawing,  # noqa: F401 (re-exported)
-                   PlanarChainDrawing, PointSetDrawing, RobotBody, RobotSpec, TaskFactory)
+from .spec import (DrawnTarget, EndEffectorPathDrawing, Joint, MeshChainDrawing, PlanarChainDrawing, PointSetDrawing,
+                   RobotBody, RobotSpec, TaskFactory)
 
 _ROBOTS: dict[str, RobotSpec] = {}
 #: kind -> where it came from ("built in", "entry point ...", "reference ...")

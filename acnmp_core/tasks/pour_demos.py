@@ -19,7 +19,7 @@ import os
 
 import numpy as np
 
-from ..demo_io import DemoArrays, load_demos, save_demos
+from ..data.demo_io import DemoArrays, load_demos, save_demos
 from ..robots.pour import PourConfig, PourTask
 from ..validation import check_positive_int
 
@@ -83,7 +83,7 @@ def demo_weights_g(config: PourConfig | None = None) -> np.ndarray:
 def make_pour_demos(config: PourConfig | None = None) -> DemoArrays:
     """Run the expert for the 16 (weight, angle) pairs of :func:`demo_weights_g` and :data:`DEMO_ANGLES_DEG`.
 
-    Returns a :class:`~acnmp_core.demo_io.DemoArrays` with times (16, 240) phase, values (16, 240, 1)
+    Returns a :class:`~acnmp_core.data.demo_io.DemoArrays` with times (16, 240) phase, values (16, 240, 1)
     wrist angle (rad), task_params (16, 2) = (initial weight g, measured poured mass g), roles all
     "train". About 15 s of CPU (16 worlds settle, 16 roll-outs).
     """

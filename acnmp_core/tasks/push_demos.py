@@ -31,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..demo_io import DemoArrays, load_demos, save_demos
+from ..data.demo_io import DemoArrays, load_demos, save_demos
 from ..robots.kinematics import planar_fk, planar_ik, wrap_angle
 from ..robots.planar_arm import PlanarArmSim, PushObject, default_geometry
 from ..robots.urdf import ArmGeometry
@@ -209,7 +209,7 @@ def make_push_demos(n_joints: int = 3, *, trials: int = 4, geometry: ArmGeometry
 
     Returns
     -------
-    demos : :class:`~acnmp_core.demo_io.DemoArrays` with times (11, 300) phase, values (11, 300, N)
+    demos : :class:`~acnmp_core.data.demo_io.DemoArrays` with times (11, 300) phase, values (11, 300, N)
         joint angles (rad), task_params (11, 2) target (m), names and ``roles``.
     final_errors : (11,) distance (m) between the cylinder's final position and its target.
     """

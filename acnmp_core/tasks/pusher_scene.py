@@ -196,9 +196,9 @@ def pusher_expert(params: np.ndarray, n_steps: int = N_STEPS) -> np.ndarray:
 
 def pusher_demos():
     """The demonstration set: :func:`training_params` pushes by the expert, as
-    :class:`~acnmp_core.demo_io.DemoArrays` (times (12, 100) phase 0..1, values (12, 100, 7) rad,
+    :class:`~acnmp_core.data.demo_io.DemoArrays` (times (12, 100) phase 0..1, values (12, 100, 7) rad,
     task parameters (12, 4) m, named)."""
-    from ..demo_io import DemoArrays
+    from ..data.demo_io import DemoArrays
 
     params = training_params()
     values = np.stack([pusher_expert(p) for p in params])

@@ -29,18 +29,11 @@ import os
 
 import numpy as np
 
-from ..demo_io import DemoArrays, load_demos, save_demos
+from ..data.demo_io import DemoArrays, load_demos, save_demos
 from ..robots.ur10 import UR10Sim
 from ..robots.ur10_description import UR10_ARM_JOINTS
-from .ur10_pick_place import (
-    GRASP_DEPTH,
-    N_STEPS,
-    SEGMENTS,
-    UR10PickPlaceTask,
-    avoidance_point,
-    check_task_params,
-    grasp_point,
-)
+from .ur10_pick_place import (GRASP_DEPTH, N_STEPS, SEGMENTS, UR10PickPlaceTask, avoidance_point, check_task_params,
+                              grasp_point)
 
 #: TCP rotation (columns: its x, y, z axes in the world): z down, fingers closing along world x.
 TOOL_ROTATION = np.array([[-1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, -1.0]])
@@ -119,7 +112,7 @@ def make_ur10_demos(heights=None, *, task: UR10PickPlaceTask | None = None) -> t
 
     Returns
     -------
-    demos : :class:`~acnmp_core.demo_io.DemoArrays`, times (N, 625) phase, values (N, 625, 6) rad,
+    demos : :class:`~acnmp_core.data.demo_io.DemoArrays`, times (N, 625) phase, values (N, 625, 6) rad,
         task_params (N, 2) m, roles "train" / "extrapolation" (for the default heights).
     success : (N,) bool, the task's success of each executed demonstration.
     errors : (N,) the task's error (m): grasp distance + avoidance distance of the executed TCP.

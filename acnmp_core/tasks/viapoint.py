@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..data import DemoSet
+from ..data.demos import DemoSet
 from ..rollout import RolloutBatch
 from ..validation import check_array
 

@@ -39,18 +39,18 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
-from acnmp_core.data import DemoSet, Demonstration  # noqa: E402
+from acnmp_core.data.demos import DemoSet, Demonstration  # noqa: E402
 from acnmp_core.experiments.pour import (  # noqa: E402
     TOLERANCE_G, PourSetup, make_setup, make_target, mean_errors_g, train_pour_cnmp,
 )
-from acnmp_core.exploration import SmoothNoise  # noqa: E402
+from acnmp_core.adapt.exploration import SmoothNoise  # noqa: E402
 from acnmp_core.robots.pour import PourConfig, PourTask  # noqa: E402
 from acnmp_core.tasks.pour_demos import (  # noqa: E402
     N_STEPS, NOMINAL_WEIGHTS_G, TILT_STEPS, HOLD_STEPS, demo_weights_g, expert_pour_trajectory,
 )
 from benchmarks._results import provenance, save_result  # noqa: E402
-from benchmarks.studies.pour_sensitivity import shifted  # noqa: E402
 from benchmarks.studies.e1_assimilation import seed_range  # noqa: E402
+from benchmarks.studies.pour_sensitivity import shifted  # noqa: E402
 
 #: The expert's range of tilts (deg), the paper's.
 ANGLE_RANGE_DEG = (85.0, 95.0)

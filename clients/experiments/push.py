@@ -36,9 +36,9 @@ def run(args) -> int:
     """Run E2 as asked by ``args`` and print a summary table; returns the exit code."""
     import torch
 
-    from acnmp_core.adaptation import AdaptConfig
+    from acnmp_core.adapt.config import AdaptConfig
+    from acnmp_core.baselines.promp_rl import PrompRLConfig
     from acnmp_core.experiments.push import ACNMP_BUDGET, PROMP_DEFAULTS, run_push, task_config
-    from acnmp_core.promp_rl import PrompRLConfig
     from acnmp_core.tasks.push_settings import push_setting
 
     torch.set_num_threads(1)  # the CNMP is small; threads only contend with the simulator

@@ -13,7 +13,7 @@ import uuid
 import numpy as np
 
 import clients.client
-from acnmp_core.demo_io import save_demos
+from acnmp_core.data.demo_io import save_demos
 from acnmp_core.tasks.viapoint import obstacle_demos
 from clients.client import ACNMPClient
 from services.learner.store import demo_set_to_arrays

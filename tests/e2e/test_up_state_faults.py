@@ -17,14 +17,14 @@ import sys
 import time
 import uuid
 
-from acnmp_core.adapt_job import AdaptJob
-from acnmp_core.adaptation import AdaptConfig
-from acnmp_core.cnmp import CNMPConfig
-from acnmp_core.data import DemoSet, Demonstration
-from acnmp_core.demo_io import save_demos
+from acnmp_core.adapt.config import AdaptConfig
+from acnmp_core.data.demo_io import save_demos
+from acnmp_core.data.demos import DemoSet, Demonstration
 from acnmp_core.experiments.viapoint import make_setup
+from acnmp_core.jobs.adapt import AdaptJob
+from acnmp_core.model.cnmp import CNMPConfig
+from acnmp_core.model.training import TrainConfig
 from acnmp_core.tasks.viapoint import obstacle_demos
-from acnmp_core.training import TrainConfig
 from clients.client import ACNMPClient
 from services.learner.core import LearnerCore, TrainSpec
 from services.learner.service import bootstrap

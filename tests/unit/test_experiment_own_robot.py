@@ -64,7 +64,7 @@ def test_wrong_inputs_are_one_line(args, message, monkeypatch, capsys):
 def test_demonstrations_shorter_than_the_episode_say_so_in_one_line(tmp_path, capsys):
     """Issue 54 item 4: 50-row demonstrations on a 100-step environment ended in `KeyError:
     'goal_error'` from the user's error function; now one line says what happened and what to do."""
-    from acnmp_core.demo_io import DemoArrays, save_demos
+    from acnmp_core.data.demo_io import DemoArrays, save_demos
 
     s = np.linspace(0.0, 1.0, 50)
     demos = save_demos(tmp_path / "demos.npz", DemoArrays(np.tile(s, (3, 1)), np.stack([a * s[:, None] for a in (0.5, 1.0, 1.5)]),

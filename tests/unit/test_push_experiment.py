@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 import torch
 
-from acnmp_core.adaptation import AdaptConfig
+from acnmp_core.adapt.config import AdaptConfig
+from acnmp_core.baselines.promp_rl import PrompRLConfig
 from acnmp_core.experiments.push import CASES, METHODS, curve_band, make_setup, make_target, run_push
 from acnmp_core.plots import plot_push
-from acnmp_core.promp_rl import PrompRLConfig
 
 torch.set_num_threads(1)
 

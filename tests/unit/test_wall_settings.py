@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
+from acnmp_core.baselines.promp_rl import PrompRLConfig
 from acnmp_core.experiments import wall as E
-from acnmp_core.promp_rl import PrompRLConfig
 from acnmp_core.tasks import wall as W
 from acnmp_core.tasks.wall_settings import AUTHORS, PAPER, SETTING_NAMES, wall_setting
 from clients.cli import main

@@ -163,7 +163,7 @@ def test_random_variation_changes_the_demonstration_but_keeps_success():
 
 
 def test_demo_set_loads_into_a_demoset():
-    from acnmp_core.data import DemoSet
+    from acnmp_core.data.demos import DemoSet
 
     times, values, params = W.make_demo_set(4, np.random.default_rng(4), n_steps=50)
     demos = DemoSet.from_arrays(times, values, params)
