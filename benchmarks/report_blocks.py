@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from benchmarks.report import RESULTS, fmt, frac, load, pct, renderer, source, table
+from benchmarks.report_kit import RESULTS, fmt, frac, load, pct, renderer, source, table
 
 E1_LABELS = {"lfd_only": "LfD-only", "rl_only": "RL-only", "acnmp": "ACNMP"}
 TWO_LABELS = {"acnmp": "ACNMP", "promp_rl": "ProMP + RL (REPS)"}

@@ -72,7 +72,7 @@ def run_cli(capsys):
 
 @pytest.fixture(scope="session")
 def e1_demos():
-    from acnmp_core.tasks.viapoint import obstacle_demos
+    from acnmp_core.tasks.viapoint.task import obstacle_demos
 
     return obstacle_demos()
 
@@ -151,7 +151,7 @@ def small_model(e1_demos):
 def ur10_demo_file(tmp_path_factory):
     """Path of the E5 demonstration set, generated once per run (~6 s; shared by the xdist workers) in a temporary folder
     under its default name (with ``ACNMP_CACHE`` set to that folder, the default loads it)."""
-    from acnmp_core.tasks.ur10_demos import default_demo_path, ur10_demos
+    from acnmp_core.tasks.ur10_pick_place.demos import default_demo_path, ur10_demos
 
     path = _run_dir(tmp_path_factory) / "ur10_demos" / Path(default_demo_path()).name
     with _once(path) as todo:
@@ -164,7 +164,7 @@ def ur10_demo_file(tmp_path_factory):
 def pour_demo_file(tmp_path_factory):
     """Path of the E6 demonstration set, generated once per run (~15-25 s; shared by the xdist workers) in a temporary folder
     under its default name (with ``ACNMP_CACHE`` set to that folder, the default loads it)."""
-    from acnmp_core.tasks.pour_demos import default_demo_path, pour_demos
+    from acnmp_core.tasks.pour.demos import default_demo_path, pour_demos
 
     path = _run_dir(tmp_path_factory) / "pour_demos" / Path(default_demo_path()).name
     with _once(path) as todo:

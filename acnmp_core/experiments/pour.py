@@ -2,7 +2,7 @@
 Table 2 right).
 
 Per seed, a CNMP is trained on the 16 demonstrations of the scripted expert
-(:mod:`acnmp_core.tasks.pour_demos`: initial weights 650-1200 g, tilts 85-95 deg, 240 rows of the
+(:mod:`acnmp_core.tasks.pour.demos`: initial weights 650-1200 g, tilts 85-95 deg, 240 rows of the
 wrist angle, rad), conditioned on the task parameters (initial weight g, target amount g) and the
 upright start at t = 0. At the test (:data:`TEST`: 1400 g, pour 1322 g, outside the demonstrations):
 
@@ -10,7 +10,7 @@ upright start at t = 0. At the test (:data:`TEST`: 1400 g, pour 1322 g, outside 
 * **ACNMP**: :func:`~acnmp_core.adapt.adaptation.adapt` with E6's settings (:func:`e6_adapt_config`: the
   project's defaults except the exploration, the policy rate and its steps per update) and a budget of :data:`BUDGET`
   roll-outs. The only reward is minus the final error (g), so
-  :class:`~acnmp_core.robots.pour.PourTask` credits every action with the rewards after it
+  :class:`~acnmp_core.tasks.pour.task.PourTask` credits every action with the rewards after it
   (``credit = "future"``).
 * **Assimilation**: a successful solution joins the demonstrations
   (:func:`~acnmp_core.adapt.assimilation.assimilate`, anchored on the test's conditions); then the model
@@ -155,7 +155,7 @@ class TimedEvaluator:
 
 def make_setup(demo_path: str | None = None) -> PourSetup:
     """Load (or generate and cache, ~15-30 s) the E6 demonstrations."""
-    from ..tasks.pour_demos import pour_demos
+    from ..tasks.pour.demos import pour_demos
 
     arrays = pour_demos(path=demo_path)
     return PourSetup(demos=arrays.to_demo_set(), times=arrays.times[0].copy(), q0=arrays.values[0, 0].copy())
@@ -265,7 +265,7 @@ def _seed_job(args: tuple) -> tuple[dict, list[float]]:
     AdaptConfig, AssimilationConfig or None); its own rig, one thread for torch."""
     import torch
 
-    from ..robots.pour import PourTask
+    from ..tasks.pour.task import PourTask
 
     seed, demo_path, train_steps, cfg, acfg, assimilate_from = args
     torch.set_num_threads(1)
@@ -302,7 +302,7 @@ def run_pour(
         adaptation, "adapted" into the adapted model (see :func:`run_seed`).
     demo_path : demonstration file (default: the cached generated set).
     evaluator_factory : ``() -> RolloutEvaluator`` (e.g. remote ``pour`` workers), called once per
-        seed; default: one in-process :class:`~acnmp_core.robots.pour.PourTask` shared by all runs.
+        seed; default: one in-process :class:`~acnmp_core.tasks.pour.task.PourTask` shared by all runs.
         Its ``credit`` reaches adapt() (PourTask's and a remote ``pour`` evaluator's are "future").
     on_iteration : ``seed -> callback`` for adapt(), e.g. to record.
     progress : training progress bars. log : called with one line per finished seed.
@@ -362,7 +362,7 @@ def run_pour(
             for run, seed_cpu in pool.map(_seed_job, args):
                 done(run, seed_cpu)
     else:
-        from ..robots.pour import PourTask
+        from ..tasks.pour.task import PourTask
 
         shared = PourTask(tolerance_g=TOLERANCE_G) if evaluator_factory is None else None
         try:

@@ -26,7 +26,7 @@ from typing import Callable
 
 from ..adapt.config import AdaptConfig
 from ..baselines.promp_rl import PrompRLConfig
-from ..tasks.push_settings import PAPER, PushSetting
+from ..tasks.push.settings import PAPER, PushSetting
 from .push import (CASES, PROMP_DEFAULTS, _plain, _summarise, demo_effects, make_setup, make_task, record_run,
                    run_acnmp_case, run_promp_case, train_push_cnmp)
 

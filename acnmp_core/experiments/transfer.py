@@ -3,11 +3,11 @@
 Per run (seed):
 
 1. Two :class:`~acnmp_core.transfer.pair.TransferPair` s are trained on the 12 paired proxy
-   demonstrations of :mod:`acnmp_core.tasks.transfer_demos` (time the only input): one with the
+   demonstrations of :mod:`acnmp_core.tasks.transfer.demos` (time the only input): one with the
    latent alignment term (``TransferConfig.latent_weight``), one without it (weight 0); a few
    pair seeds (``pair_seeds``) are shared by the runs, each run adapting fresh copies.
 2. Three conditions run the same RL in robot B (the 4-DoF arm) on the cube-through-the-gap task
-   (:class:`~acnmp_core.tasks.transfer_scene.CubeGapTask`), with :func:`~acnmp_core.adapt.adaptation.adapt`
+   (:class:`~acnmp_core.tasks.transfer.scene.CubeGapTask`), with :func:`~acnmp_core.adapt.adaptation.adapt`
    training robot B's decoder only (its supervised steps on B's proxy demonstrations):
 
    * ``transfer``: 11 points of robot A's demonstration of the new skill through A's encoder, B's
@@ -147,8 +147,8 @@ class E4Setup:
 
 def make_setup() -> E4Setup:
     """Generate E4's demonstrations (about 2 s; deterministic)."""
-    from ..tasks.transfer_demos import expert_new_skill, make_transfer_demos
-    from ..tasks.transfer_scene import CubeGapSim
+    from ..tasks.transfer.demos import expert_new_skill, make_transfer_demos
+    from ..tasks.transfer.scene import CubeGapSim
 
     d = make_transfer_demos()
     with CubeGapSim(4) as sim:
@@ -361,7 +361,7 @@ def run_transfer(
     setup = setup or make_setup()
     shared = None
     if evaluator_factory is None:
-        from ..tasks.transfer_scene import CubeGapTask
+        from ..tasks.transfer.scene import CubeGapTask
 
         shared = CubeGapTask(**task_config())
     per_run: list[dict] = []

@@ -2,7 +2,7 @@
 obstacles (paper Sec. 4.4, Table 2 left).
 
 Per seed, a CNMP is trained on the 8 demonstrations of the scripted expert
-(:mod:`acnmp_core.tasks.ur10_demos`: h_obj in {2, 6} cm x h_obs in {2, 4, 6, 8} cm, 625 rows of six
+(:mod:`acnmp_core.tasks.ur10_pick_place.demos`: h_obj in {2, 6} cm x h_obs in {2, 4, 6, 8} cm, 625 rows of six
 joint angles, rad), conditioned on the task parameters (h_obj, h_obs) (m) and the start pose at
 t = 0. At each test case (:data:`CASES`: the paper's (8, 10) and (9, 11) cm, and (10, 12) cm further
 out, all outside the demonstrations):
@@ -78,7 +78,7 @@ class UR10Setup:
 def make_setup(demo_path: str | None = None) -> UR10Setup:
     """Load (or generate and cache, ~10 s) the E5 demonstrations: the "train" rows become the
     demonstration set, the "extrapolation" rows the expert at each test case."""
-    from ..tasks.ur10_demos import ur10_demos
+    from ..tasks.ur10_pick_place.demos import ur10_demos
 
     arrays = ur10_demos(path=demo_path)
     train_arr = arrays.with_role("train")
@@ -195,7 +195,7 @@ def run_ur10(
     cases : a subset of :data:`CASES`.
     demo_path : demonstration file (default: the cached generated set).
     evaluator_factory : ``case -> RolloutEvaluator``, called once per (seed, case); default: one
-        in-process :class:`~acnmp_core.tasks.ur10_pick_place.UR10PickPlaceTask` shared by all runs.
+        in-process :class:`~acnmp_core.tasks.ur10_pick_place.task.UR10PickPlaceTask` shared by all runs.
     on_iteration : ``(case, seed) -> callback`` for adapt(), e.g. to record.
     progress : training progress bars. log : called with one line per finished run.
 
@@ -219,7 +219,7 @@ def run_ur10(
     setup = make_setup(demo_path)
     shared = None
     if evaluator_factory is None:
-        from ..tasks.ur10_pick_place import UR10PickPlaceTask
+        from ..tasks.ur10_pick_place.task import UR10PickPlaceTask
 
         shared = UR10PickPlaceTask()
     runs: list[dict] = []

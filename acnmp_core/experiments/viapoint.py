@@ -19,7 +19,7 @@ from ..data.demos import DemoSet, Demonstration
 from ..model.cnmp import CNMP, CNMPConfig, Prediction
 from ..model.training import TrainConfig, reproduction_error, train
 from ..rollout import RolloutEvaluator
-from ..tasks.viapoint import ViaPointTask, extrapolation_conditions, obstacle_demos, shape_error, two_bump_demos
+from ..tasks.viapoint.task import ViaPointTask, extrapolation_conditions, obstacle_demos, shape_error, two_bump_demos
 
 METHODS = ("lfd_only", "rl_only", "acnmp")
 #: Success: the via-point error is at most this fraction of the demonstrations' extent ...

@@ -3,13 +3,13 @@
 The loop (paper Sec. 4.2, Fig. 5 d, e), run for each method on the *same* stream of environments:
 
 1. Start from ``n_initial`` random environments with one demonstration each
-   (:func:`~acnmp_core.tasks.wall.make_demo_set`; uniform speed, so the demonstrations cross the wall
+   (:func:`~acnmp_core.tasks.wall.task.make_demo_set`; uniform speed, so the demonstrations cross the wall
    at different times) and learn the skill from them.
 2. Repeatedly draw a new environment and generate one trajectory for it (one roll-out). When it
    fails, adapt until success or the budget; when the adaptation succeeds, add the solution to the
    demonstration set and update the skill; go on.
 3. Every ``eval_every`` new environments, generate (without any roll-out) a trajectory for each of
-   the fixed test environments (:func:`~acnmp_core.tasks.wall.test_environments`) and record the
+   the fixed test environments (:func:`~acnmp_core.tasks.wall.task.test_environments`) and record the
    success rate and the mean test error against environments seen and trajectories sampled.
 
 Methods:
@@ -52,8 +52,8 @@ from ..model.cnmp import CNMP, CNMPConfig
 from ..model.training import TrainConfig, train
 from ..rollout import RolloutBatch
 from ..rollout import RolloutEvaluator
-from ..tasks import wall as W
-from ..tasks.wall_settings import PAPER, WallSetting
+from ..tasks.wall import task as W
+from ..tasks.wall.settings import PAPER, WallSetting
 from ..validation import check_array, check_positive_int
 
 #: The methods run by default (the pinned regression runs these).
@@ -342,7 +342,7 @@ def evaluate_test(generate: Callable[[np.ndarray], np.ndarray], test: np.ndarray
     """Score ``generate`` on the test environments (N, 4), without executing anything.
 
     ``generate`` maps (N, 4) task parameters to (N, T, 2) trajectories; the analytic scoring of
-    :mod:`acnmp_core.tasks.wall` in ``setting``'s geometry is used, so no roll-out counts.
+    :mod:`acnmp_core.tasks.wall.task` in ``setting``'s geometry is used, so no roll-out counts.
 
     Returns ``{"test_success_rate", "test_error_mean", "test_goal_error_mean",
     "test_through_hole_rate"}``: success share (by the setting's trigger: a test environment
@@ -518,9 +518,9 @@ def run_wall(
         ACNMP_BUDGET)``, the same budget per environment); its seed is set per env.
     n_basis : ProMP basis functions per dimension.
     methods : subset of ALL_METHODS, run one after the other (default METHODS).
-    setting : the task setting (:mod:`~acnmp_core.tasks.wall_settings`; default the paper's).
+    setting : the task setting (:mod:`~acnmp_core.tasks.wall.settings`; default the paper's).
     evaluator_factory : ``method -> RolloutEvaluator`` executing the roll-outs (e.g. remote workers);
-        default an in-process :class:`~acnmp_core.tasks.wall.WallTask` of ``setting``.
+        default an in-process :class:`~acnmp_core.tasks.wall.task.WallTask` of ``setting``.
     progress : training progress bars. log : called with one line per test evaluation.
 
     Returns

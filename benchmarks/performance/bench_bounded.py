@@ -32,7 +32,7 @@ import json, resource, sys, time
 import numpy as np, torch
 torch.set_num_threads(1)
 from acnmp_core.model.cnmp import CNMP, CNMPConfig
-from acnmp_core.tasks.viapoint import obstacle_demos
+from acnmp_core.tasks.viapoint.task import obstacle_demos
 from services.transport import WireError, decode, encode
 case, items = sys.argv[1], int(sys.argv[2])
 demos = obstacle_demos()

@@ -46,8 +46,8 @@ def measure(device, args) -> dict:
     from acnmp_core.experiments.wall import TRAIN_DEFAULTS, make_wall_cnmp
     from acnmp_core.model.cnmp import CNMP, CNMPConfig
     from acnmp_core.model.training import TrainConfig, train
-    from acnmp_core.tasks.viapoint import obstacle_demos
-    from acnmp_core.tasks.wall import make_demo_set
+    from acnmp_core.tasks.viapoint.task import obstacle_demos
+    from acnmp_core.tasks.wall.task import make_demo_set
 
     torch.set_num_threads(1)
     demos = obstacle_demos()

@@ -25,8 +25,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 from acnmp_core.robots.registry import robot  # noqa: E402
-from acnmp_core.tasks import wall as W  # noqa: E402
-from acnmp_core.tasks.push_demos import push_demos  # noqa: E402
+from acnmp_core.tasks.wall import task as W  # noqa: E402
+from acnmp_core.tasks.push.demos import push_demos  # noqa: E402
 from clients.experiments.common import write_json  # noqa: E402
 
 

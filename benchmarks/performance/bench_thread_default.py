@@ -40,7 +40,7 @@ def _cell(workload: str, steps: int, envs: int) -> dict:
     if workload == "e1_train":
         from acnmp_core.model.cnmp import CNMP, CNMPConfig
         from acnmp_core.model.training import TrainConfig, train
-        from acnmp_core.tasks.viapoint import obstacle_demos
+        from acnmp_core.tasks.viapoint.task import obstacle_demos
         model = CNMP(CNMPConfig(n_outputs=2), seed=0)
         r = train(model, obstacle_demos(), TrainConfig(steps=steps), seed=0, progress=False)
         for v in model.state_dict().values():

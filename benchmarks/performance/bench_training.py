@@ -70,7 +70,7 @@ def warm_up() -> dict:
     imports torch's compiler stack (seconds of CPU), which no workload below should be charged."""
     from acnmp_core.model.cnmp import CNMP, CNMPConfig
     from acnmp_core.model.training import TrainConfig, train
-    from acnmp_core.tasks.viapoint import obstacle_demos
+    from acnmp_core.tasks.viapoint.task import obstacle_demos
 
     with _Clock() as c:
         train(CNMP(CNMPConfig(n_outputs=2, encoder_widths=(8,), decoder_widths=(8,))), obstacle_demos(),
@@ -115,7 +115,7 @@ def bench_adaptation(model, setup, max_rollouts: int) -> dict:
     from acnmp_core.adapt.adaptation import adapt
     from acnmp_core.adapt.config import AdaptConfig, AdaptTarget
     from acnmp_core.experiments.wall import cnmp_trajectories, wall_conditions
-    from acnmp_core.tasks.wall import WallTask
+    from acnmp_core.tasks.wall.task import WallTask
 
     ev = WallTask()
     c = next(c for c in setup.stream
@@ -183,7 +183,7 @@ def _add_ratios(result: dict, before_path: str) -> None:
 def main(argv: list[str] | None = None) -> int:
     from acnmp_core.experiments.wall import make_wall_cnmp, make_setup
     from acnmp_core.model.cnmp import CNMP, CNMPConfig
-    from acnmp_core.tasks.viapoint import obstacle_demos
+    from acnmp_core.tasks.viapoint.task import obstacle_demos
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--train-steps", type=int, default=3000, help="E3's first training (E1: a third)")

@@ -27,7 +27,7 @@ STAGES = {
     "first_training": ("acnmp_core/model/training.py", "train"),
     "adaptation": ("acnmp_core/adapt/adaptation.py", "adapt"),
     "adaptation_supervised_steps": ("acnmp_core/adapt/adaptation.py", "sl"),
-    "rollouts": ("acnmp_core/tasks/wall.py", "evaluate"),
+    "rollouts": ("acnmp_core/tasks/wall/task.py", "evaluate"),
     "assimilation": ("acnmp_core/adapt/assimilation.py", "assimilate"),
     "test_evaluation": ("acnmp_core/experiments/wall.py", "evaluate_test"),
 }

@@ -23,7 +23,7 @@ sys.path.insert(0, str(ROOT))
 
 from acnmp_core.experiments.transfer import (BLIND_TOLERANCE, TransferExperimentConfig, make_setup,  # noqa: E402
                                              run_condition)
-from acnmp_core.tasks.transfer_scene import CubeGapTask  # noqa: E402
+from acnmp_core.tasks.transfer.scene import CubeGapTask  # noqa: E402
 from benchmarks._results import provenance, save_result  # noqa: E402
 from benchmarks.studies.e4_sweep import _memo_trainer  # noqa: E402
 

@@ -52,7 +52,7 @@ def _seed(job: tuple[int, str, tuple[str, ...]]) -> dict:
     from acnmp_core.data.demos import Demonstration
     from acnmp_core.experiments.pour import (TEST, TOLERANCE_G, e6_adapt_config, make_setup, make_target,
                                              mean_errors_g, train_pour_cnmp)
-    from acnmp_core.robots.pour import PourTask
+    from acnmp_core.tasks.pour.task import PourTask
 
     seed, noise, names = job
     torch.set_num_threads(1)

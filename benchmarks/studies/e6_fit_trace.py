@@ -70,7 +70,7 @@ def traced_update(original, trace: list[dict], cfg: adaptation.AdaptConfig):
 
 def main(argv: list[str] | None = None) -> int:
     """Trace the updates of ``--candidate`` on ``--seeds``; print a line per update, write the JSON."""
-    from acnmp_core.robots.pour import PourTask
+    from acnmp_core.tasks.pour.task import PourTask
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", default="104,115")

@@ -100,7 +100,7 @@ def seed_job(args: tuple[int, list[str], int]) -> list[dict]:
     """Train seed's LfD model once and adapt a copy of it with every named candidate; in a child
     process (one torch thread, its own rig). Returns one dict per candidate (run_seed's, with
     ``candidate`` and ``seed``)."""
-    from acnmp_core.robots.pour import PourTask
+    from acnmp_core.tasks.pour.task import PourTask
 
     seed, names, budget = args
     torch.set_num_threads(1)

@@ -17,7 +17,7 @@ from clients.client import JobSummary
 from services.transport import jsonable
 from services.transport.argtypes import int_at_least, non_empty, seconds
 
-from .query import _ask, _client, _common, _fail, _floats, _skill, condition_arguments, parse_obs, parse_obs_json
+from .common import _ask, _client, _common, _fail, _floats, _skill, condition_arguments, parse_obs, parse_obs_json
 
 EPILOG = """\
 examples:

@@ -14,7 +14,7 @@ import numpy as np
 
 import clients.client
 from acnmp_core.data.demo_io import save_demos
-from acnmp_core.tasks.viapoint import obstacle_demos
+from acnmp_core.tasks.viapoint.task import obstacle_demos
 from clients.client import ACNMPClient
 from services.learner.store import demo_set_to_arrays
 from services.transport import wait_for_liveliness

@@ -9,7 +9,7 @@ import numpy as np
 
 from acnmp_core.data.demo_io import save_demos
 from acnmp_core.data.demos import DemoSet, Demonstration
-from acnmp_core.tasks.viapoint import obstacle_demos
+from acnmp_core.tasks.viapoint.task import obstacle_demos
 from services.learner.core import LearnerCore
 from services.learner.service import bootstrap
 from services.learner.store import SkillState, SkillStore, demo_set_to_arrays

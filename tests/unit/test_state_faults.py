@@ -23,7 +23,7 @@ import torch
 from acnmp_core.data.demo_io import demos_bytes
 from acnmp_core.model.cnmp import CNMP, CNMPConfig
 from acnmp_core.model.training import TrainConfig
-from acnmp_core.tasks.viapoint import obstacle_demos
+from acnmp_core.tasks.viapoint.task import obstacle_demos
 from services.learner.core import LearnerCore, TrainSpec
 from services.learner.store import QUARANTINE, SkillState, demo_set_to_arrays
 

@@ -70,7 +70,7 @@ def test_wall_run_counts_executed_snaps_and_by_default_every_generated_path_ends
 
 def test_snap_wall_paths_moves_each_path_onto_its_own_start_and_goal():
     from acnmp_core.experiments.wall import snap_wall_paths
-    from acnmp_core.tasks import wall as W
+    from acnmp_core.tasks.wall import task as W
 
     paths = np.stack([PATH, PATH + 0.3])
     c = np.array([[5.0, 5.0, 9.0, 2.0], [5.0, 5.0, 8.0, 7.0]])

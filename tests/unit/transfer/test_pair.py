@@ -13,10 +13,10 @@ from acnmp_core.adapt.adaptation import adapt
 from acnmp_core.adapt.config import AdaptConfig, AdaptTarget
 from acnmp_core.data.demos import DemoSet
 from acnmp_core.experiments.transfer import summarise
-from acnmp_core.plots import plot_transfer
-from acnmp_core.tasks.push_demos import follow_poses, ik_from_seeds
-from acnmp_core.tasks.transfer_demos import home_pose, new_skill_path
-from acnmp_core.tasks.transfer_scene import CubeGapScene, CubeGapTask, transfer_geometry
+from acnmp_core.experiments.plots import plot_transfer
+from acnmp_core.tasks.push.demos import follow_poses, ik_from_seeds
+from acnmp_core.tasks.transfer.demos import home_pose, new_skill_path
+from acnmp_core.tasks.transfer.scene import CubeGapScene, CubeGapTask, transfer_geometry
 from acnmp_core.transfer.pair import TransferConfig, TransferPair, TransferredSkill, spread_observations, train_pair
 
 torch.set_num_threads(1)
@@ -159,7 +159,7 @@ def test_checkpoints_beyond_the_iterations_run_are_not_reported(tmp_path):
     the plot ran to iteration 19; a checkpoint no unfinished run reached is now None ("not run"),
     and the plot ends at the last iteration run."""
     from acnmp_core.experiments.transfer import summarise
-    from acnmp_core.plots import plot_transfer
+    from acnmp_core.experiments.plots import plot_transfer
 
     def run(success_at, last):
         return {"iterations": success_at, "success": success_at is not None, "rollouts": 2 * last + 1,
