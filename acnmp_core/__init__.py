@@ -17,21 +17,23 @@ import importlib
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # what a type checker sees; at run time the same names come from __getattr__
-    from .adaptation import AdaptConfig, AdaptResult, AdaptTarget, adapt
-    from .checkpoint import load_checkpoint, save_checkpoint
-    from .cnmp import CNMP, CNMPConfig, Prediction
-    from .data import Demonstration, DemoSet
+    from .adapt.adaptation import adapt
+    from .adapt.config import AdaptConfig, AdaptResult, AdaptTarget
+    from .data.demos import Demonstration, DemoSet
+    from .model.checkpoint import load_checkpoint, save_checkpoint
+    from .model.cnmp import CNMP, CNMPConfig, Prediction
+    from .model.training import TrainConfig, train
     from .rollout import RolloutBatch, RolloutEvaluator
-    from .training import TrainConfig, train
 
 #: public name -> submodule that defines it
 _EXPORTS = {
-    "AdaptConfig": "adaptation", "AdaptResult": "adaptation", "AdaptTarget": "adaptation", "adapt": "adaptation",
-    "load_checkpoint": "checkpoint", "save_checkpoint": "checkpoint",
-    "CNMP": "cnmp", "CNMPConfig": "cnmp", "Prediction": "cnmp",
-    "DemoSet": "data", "Demonstration": "data",
+    "AdaptConfig": "adapt.config", "AdaptResult": "adapt.config", "AdaptTarget": "adapt.config",
+    "adapt": "adapt.adaptation",
+    "load_checkpoint": "model.checkpoint", "save_checkpoint": "model.checkpoint",
+    "CNMP": "model.cnmp", "CNMPConfig": "model.cnmp", "Prediction": "model.cnmp",
+    "DemoSet": "data.demos", "Demonstration": "data.demos",
     "RolloutBatch": "rollout", "RolloutEvaluator": "rollout",
-    "TrainConfig": "training", "train": "training",
+    "TrainConfig": "model.training", "train": "model.training",
 }
 
 __all__ = ["AdaptConfig", "AdaptResult", "AdaptTarget", "adapt", "load_checkpoint", "save_checkpoint", "CNMP",

@@ -101,10 +101,10 @@ def canary_runs() -> dict[str, Any]:
     """Short versions of the pinned runs (seed 0): E1 (60 training steps, budget 10) and E2
     extrapolation (60 steps, budgets 10 and 20). Returns their JSON-ready results with floats in
     exact hex form (about 8 s of work)."""
-    from acnmp_core.adaptation import AdaptConfig
+    from acnmp_core.adapt.config import AdaptConfig
+    from acnmp_core.baselines.promp_rl import PrompRLConfig
     from acnmp_core.experiments.push import run_push
     from acnmp_core.experiments.viapoint import run_viapoint
-    from acnmp_core.promp_rl import PrompRLConfig
 
     e1 = run_viapoint(0, train_steps=60, budget=10, assimilation_steps=0, progress=False)
     e2 = run_push([0], train_steps=60, cases=("extrapolation",), adapt_config=AdaptConfig(max_rollouts=10),

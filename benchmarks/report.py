@@ -15,68 +15,16 @@ Usage::
 from __future__ import annotations
 
 import argparse
-import json
 import re
 import sys
 from pathlib import Path
-from typing import Callable
 
-import numpy as np
+if __name__ == "__main__":  # as a script: the repository root on the path, for the benchmarks package
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from benchmarks import report_blocks  # noqa: E402,F401  (registers the renderers in report_kit.RENDERERS)
+from benchmarks.report_kit import RENDERERS, ROOT  # noqa: E402
 
-ROOT = Path(__file__).resolve().parents[1]
-RESULTS = ROOT / "benchmarks" / "results"
 BLOCK = re.compile(r"(<!-- BEGIN report:([\w-]+) -->\n)(.*?)(<!-- END report:\2 -->)", re.S)
-RENDERERS: dict[str, Callable[[], str]] = {}
-
-
-def renderer(name: str):
-    """Register ``fn() -> markdown`` as the renderer of blocks named ``name``."""
-
-    def deco(fn):
-        RENDERERS[name] = fn
-        return fn
-
-    return deco
-
-
-def load(name: str) -> dict:
-    """The result file ``benchmarks/results/<name>.json``."""
-    return json.loads((RESULTS / f"{name}.json").read_text())
-
-
-def source(result: dict, file: str) -> str:
-    """One line naming the JSON file, its command and commit."""
-    p = result.get("provenance") or {}
-    commit = (p.get("commit") or "unknown")[:10] + (" (dirty tree)" if p.get("dirty") else "")
-    return f"*From `benchmarks/results/{file}.json`: `{p.get('command', '?')}` at commit {commit}, " \
-           f"{result.get('wall_time_s', float('nan')):.0f} s on {p.get('machine', {}).get('cpu_count', '?')} cores.*"
-
-
-def fmt(x, digits: int = 3) -> str:
-    """A number for a table: '-' for None, integers as such, floats to ``digits`` significant places."""
-    if x is None:
-        return "-"
-    if isinstance(x, (int, np.integer)) or float(x).is_integer() and abs(x) >= 1:
-        return f"{int(x)}"
-    return f"{x:.{digits}g}"
-
-
-def pct(x, digits: int = 0) -> str:
-    """A rate in [0, 1] as a percentage with ``digits`` decimals (E3's test success, out of 1000
-    environments, takes one: 94.8 % must not read as the 95 % target)."""
-    return "-" if x is None else f"{100 * x:.{digits}f} %"
-
-
-def frac(rate: float, n: int) -> str:
-    """A rate over n runs as 'k/n'."""
-    return f"{round(rate * n)}/{n}"
-
-
-def table(header: list[str], rows: list[list]) -> str:
-    """A markdown table."""
-    lines = ["| " + " | ".join(header) + " |", "| " + " | ".join("---" for _ in header) + " |"]
-    lines += ["| " + " | ".join(str(c) for c in r) + " |" for r in rows]
-    return "\n".join(lines)
 
 
 def pages() -> list[Path]:
@@ -131,14 +79,5 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
-# --------------------------------------------------------------------------------------------------
-# Renderers
-# --------------------------------------------------------------------------------------------------
 if __name__ == "__main__":
-    # As a script this file is __main__; the renderers register on the importable module.
-    sys.path.insert(0, str(ROOT))
-    from benchmarks import report as _report  # noqa: E402
-
-    sys.exit(_report.main())
-else:
-    from benchmarks import report_blocks  # noqa: E402,F401  (registers the renderers)
+    sys.exit(main())

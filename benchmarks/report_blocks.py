@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from benchmarks.report import RESULTS, fmt, frac, load, pct, renderer, source, table
+from benchmarks.report_kit import RESULTS, fmt, frac, load, pct, renderer, source, table
 
 E1_LABELS = {"lfd_only": "LfD-only", "rl_only": "RL-only", "acnmp": "ACNMP"}
 TWO_LABELS = {"acnmp": "ACNMP", "promp_rl": "ProMP + RL (REPS)"}
@@ -865,8 +865,8 @@ def experiments_table() -> str:
 
 @renderer("demo-format")
 def demo_format() -> str:
-    """docs/ROBOTS.md's table of the demonstration file's arrays (acnmp_core.demo_io.FIELDS)."""
-    from acnmp_core.demo_io import format_table
+    """docs/ROBOTS.md's table of the demonstration file's arrays (acnmp_core.data.demo_io.FIELDS)."""
+    from acnmp_core.data.demo_io import format_table
 
     return format_table()
 

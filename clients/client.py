@@ -23,8 +23,8 @@ from typing import Any, Callable, Sequence
 import numpy as np
 import zenoh
 
-from acnmp_core.adapt_job import AdaptJob
-from acnmp_core.transfer_job import PairTrainJob
+from acnmp_core.jobs.adapt import AdaptJob
+from acnmp_core.jobs.transfer import PairTrainJob
 from services.transport import DEFAULT_NAMESPACE, Keyspace, WireError, alive_tokens, open_session
 from services.transport.keys import is_concrete, last_chunk
 from services.transport.rpc import call
@@ -288,12 +288,12 @@ class ACNMPClient:
         return self.request(self.keys.train(skill), req, timeout)
 
     def adapt(self, skill: str, job: AdaptJob, timeout: float | None = None) -> str:
-        """Queue adaptation ``job`` (:class:`~acnmp_core.adapt_job.AdaptJob`) on ``skill``; returns the
+        """Queue adaptation ``job`` (:class:`~acnmp_core.jobs.adapt.AdaptJob`) on ``skill``; returns the
         job id. The request is ``job.to_dict()`` (docs/PROTOCOL.md, ``skill/<skill>/adapt``)."""
         return self._job(self.request(self.keys.adapt(skill), {"v": 1, **job.to_dict()}, timeout))
 
     def train_pair(self, skill: str, job: PairTrainJob, timeout: float | None = None) -> str:
-        """Queue the training of paired skill ``skill`` (:class:`~acnmp_core.transfer_job.PairTrainJob`:
+        """Queue the training of paired skill ``skill`` (:class:`~acnmp_core.jobs.transfer.PairTrainJob`:
         two robots' paired demonstrations, a TransferConfig, a seed) on the learner; returns the job
         id (follow it with :meth:`wait_job`; its status' ``committed_version`` is the new version)."""
         return self._job(self.request(self.keys.train_pair(skill), {"v": 1, **job.to_dict()}, timeout))

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from acnmp_core.demo_io import load_demos, save_demos
-from acnmp_core.tasks.viapoint import obstacle_demos
+from acnmp_core.data.demo_io import load_demos, save_demos
+from acnmp_core.tasks.viapoint.task import obstacle_demos
 from services.learner.store import StateDir, demo_set_to_arrays, reason_of
 
 #: The default skill's name (the same as ``acnmp experiment viapoint --distributed`` trains).

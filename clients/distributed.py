@@ -35,9 +35,9 @@ from typing import Callable, Iterator, TypeVar
 import numpy as np
 import zenoh
 
-from acnmp_core.adapt_job import AdaptJob, result_from_dict
-from acnmp_core.adaptation import AdaptResult
+from acnmp_core.adapt.config import AdaptResult
 from acnmp_core.experiments.viapoint import ViaPointRun, ViaPointSetup, run_viapoint
+from acnmp_core.jobs.adapt import AdaptJob, result_from_dict
 from clients.client import RETRY_CODES, ACNMPClient, ClientError
 from services.launcher import LocalDeployment
 from services.recording.publisher import EventPublisher

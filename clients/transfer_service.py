@@ -13,7 +13,7 @@ learner, a model service, ``planar4`` workers and (with ``--record``) a recorder
   (``first_attempt_diff`` per run: 0 when they are the same);
 * robot B's roll-outs on the workers, each recorded with robot A's demonstration drawn beside it.
 
-The learner trains with the library's :func:`~acnmp_core.transfer.train_pair`, one torch thread,
+The learner trains with the library's :func:`~acnmp_core.transfer.pair.train_pair`, one torch thread,
 the same seeds: the numbers are those of the in-process run (tests/e2e/test_transfer_service.py).
 """
 from __future__ import annotations
@@ -24,11 +24,11 @@ from typing import Iterator
 
 import numpy as np
 
-from acnmp_core.adaptation import AdaptTarget
+from acnmp_core.adapt.config import AdaptTarget
 from acnmp_core.experiments.transfer import E4Setup, TransferExperimentConfig, run_transfer, task_config
+from acnmp_core.jobs.transfer import PairTrainJob
 from acnmp_core.robots.registry import robot
-from acnmp_core.transfer import TransferPair
-from acnmp_core.transfer_job import PairTrainJob
+from acnmp_core.transfer.pair import TransferPair
 from clients.client import ACNMPClient
 from clients.distributed import EvaluatorMaker, attach, experiment_deployment, patiently, started_facts
 

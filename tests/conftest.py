@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 import torch
-from selection import add_options, deselect
+from tests.selection import add_options, deselect
 
 os.environ.setdefault("RERUN_ANALYTICS", "0")
 torch.set_num_threads(1)
@@ -72,7 +72,7 @@ def run_cli(capsys):
 
 @pytest.fixture(scope="session")
 def e1_demos():
-    from acnmp_core.tasks.viapoint import obstacle_demos
+    from acnmp_core.tasks.viapoint.task import obstacle_demos
 
     return obstacle_demos()
 
@@ -99,9 +99,9 @@ def _once(path: Path):
 def e1_model(e1_demos, tmp_path_factory):
     """A CNMP trained on the E1 demonstrations (3000 steps, seed 0). Tests must deep-copy before
     changing it. Trained once per run (the first xdist worker saves it, the others load it)."""
-    from acnmp_core.checkpoint import load_checkpoint, save_checkpoint
-    from acnmp_core.cnmp import CNMP, CNMPConfig
-    from acnmp_core.training import TrainConfig, train
+    from acnmp_core.model.checkpoint import load_checkpoint, save_checkpoint
+    from acnmp_core.model.cnmp import CNMP, CNMPConfig
+    from acnmp_core.model.training import TrainConfig, train
 
     path = _run_dir(tmp_path_factory) / "e1_model_3000.pt"
     with _once(path) as todo:
@@ -139,8 +139,8 @@ def e1_small_run(tmp_path_factory):
 def small_model(e1_demos):
     """A small CNMP on the E1 demos (2 x 32 units, 50 steps): fast to train, for tests where only
     its determinism matters."""
-    from acnmp_core.cnmp import CNMP, CNMPConfig
-    from acnmp_core.training import TrainConfig, train
+    from acnmp_core.model.cnmp import CNMP, CNMPConfig
+    from acnmp_core.model.training import TrainConfig, train
 
     model = CNMP(CNMPConfig(n_outputs=2, encoder_widths=(32, 32), decoder_widths=(32, 32)), seed=0)
     train(model, e1_demos, TrainConfig(steps=50), seed=0, progress=False)
@@ -151,7 +151,7 @@ def small_model(e1_demos):
 def ur10_demo_file(tmp_path_factory):
     """Path of the E5 demonstration set, generated once per run (~6 s; shared by the xdist workers) in a temporary folder
     under its default name (with ``ACNMP_CACHE`` set to that folder, the default loads it)."""
-    from acnmp_core.tasks.ur10_demos import default_demo_path, ur10_demos
+    from acnmp_core.tasks.ur10_pick_place.demos import default_demo_path, ur10_demos
 
     path = _run_dir(tmp_path_factory) / "ur10_demos" / Path(default_demo_path()).name
     with _once(path) as todo:
@@ -164,7 +164,7 @@ def ur10_demo_file(tmp_path_factory):
 def pour_demo_file(tmp_path_factory):
     """Path of the E6 demonstration set, generated once per run (~15-25 s; shared by the xdist workers) in a temporary folder
     under its default name (with ``ACNMP_CACHE`` set to that folder, the default loads it)."""
-    from acnmp_core.tasks.pour_demos import default_demo_path, pour_demos
+    from acnmp_core.tasks.pour.demos import default_demo_path, pour_demos
 
     path = _run_dir(tmp_path_factory) / "pour_demos" / Path(default_demo_path()).name
     with _once(path) as todo:

@@ -16,12 +16,12 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from ..adaptation import AdaptConfig
-from ..cnmp import CNMP, CNMPConfig
-from ..demo_io import DemoArrays
+from ..adapt.config import AdaptConfig
+from ..data.demo_io import DemoArrays
 from ..errors import InputError
+from ..model.cnmp import CNMP, CNMPConfig
+from ..model.training import TrainConfig, train
 from ..rollout import RolloutEvaluator
-from ..training import TrainConfig, train
 from .push import PushSetup, _summarise, record_run, run_acnmp_case
 
 METHODS = ("lfd", "acnmp")

@@ -2,18 +2,18 @@
 Table 2 right).
 
 Per seed, a CNMP is trained on the 16 demonstrations of the scripted expert
-(:mod:`acnmp_core.tasks.pour_demos`: initial weights 650-1200 g, tilts 85-95 deg, 240 rows of the
+(:mod:`acnmp_core.tasks.pour.demos`: initial weights 650-1200 g, tilts 85-95 deg, 240 rows of the
 wrist angle, rad), conditioned on the task parameters (initial weight g, target amount g) and the
 upright start at t = 0. At the test (:data:`TEST`: 1400 g, pour 1322 g, outside the demonstrations):
 
 * **LfD only**: the conditioned mean is executed once.
-* **ACNMP**: :func:`~acnmp_core.adaptation.adapt` with E6's settings (:func:`e6_adapt_config`: the
+* **ACNMP**: :func:`~acnmp_core.adapt.adaptation.adapt` with E6's settings (:func:`e6_adapt_config`: the
   project's defaults except the exploration, the policy rate and its steps per update) and a budget of :data:`BUDGET`
   roll-outs. The only reward is minus the final error (g), so
-  :class:`~acnmp_core.robots.pour.PourTask` credits every action with the rewards after it
+  :class:`~acnmp_core.tasks.pour.task.PourTask` credits every action with the rewards after it
   (``credit = "future"``).
 * **Assimilation**: a successful solution joins the demonstrations
-  (:func:`~acnmp_core.assimilation.assimilate`, anchored on the test's conditions); then the model
+  (:func:`~acnmp_core.adapt.assimilation.assimilate`, anchored on the test's conditions); then the model
   conditioned on the test pours without RL, and each demonstration is reproduced (conditioned on
   its own weight and poured amount, executed, error against that amount).
 
@@ -29,12 +29,13 @@ from typing import Callable
 
 import numpy as np
 
-from ..adaptation import AdaptConfig, AdaptTarget, adapt
-from ..assimilation import AssimilationConfig, assimilate, check_assimilate_from
-from ..cnmp import CNMP, CNMPConfig
-from ..data import DemoSet, Demonstration
+from ..adapt.adaptation import adapt
+from ..adapt.assimilation import AssimilationConfig, assimilate, check_assimilate_from
+from ..adapt.config import AdaptConfig, AdaptTarget
+from ..data.demos import DemoSet, Demonstration
+from ..model.cnmp import CNMP, CNMPConfig
+from ..model.training import TrainConfig, train
 from ..rollout import RolloutBatch, RolloutEvaluator
-from ..training import TrainConfig, train
 
 #: The test: initial weight and target amount (g).
 TEST = {"weight_g": 1400.0, "target_g": 1322.0}
@@ -89,7 +90,7 @@ def e6_adapt_config(max_rollouts: int = BUDGET) -> AdaptConfig:
         (their first roll-out within 30 g came at 5, 20, 15, 15 and 24 with "mean"); it changes
         nothing before the first success, so the tuning above is unaffected.
     noise "demos" (setting T: S exploring along the demonstrations' deviations from their mean,
-        :class:`~acnmp_core.exploration.DemoNoise`, each roll-out credited with its whole return):
+        :class:`~acnmp_core.adapt.exploration.DemoNoise`, each roll-out credited with its whole return):
         within 20 roll-outs on the tuning seeds 100-115 in 15 of 16 (S: 12 of 16,
         ``e6_settings_demos.json``) and on the reported seeds in 4 of 5 (S: 2 of 5). Its solutions,
         assimilated into the adapted model as S's were, kept all 16 demonstrations within 50 g in no
@@ -154,7 +155,7 @@ class TimedEvaluator:
 
 def make_setup(demo_path: str | None = None) -> PourSetup:
     """Load (or generate and cache, ~15-30 s) the E6 demonstrations."""
-    from ..tasks.pour_demos import pour_demos
+    from ..tasks.pour.demos import pour_demos
 
     arrays = pour_demos(path=demo_path)
     return PourSetup(demos=arrays.to_demo_set(), times=arrays.times[0].copy(), q0=arrays.values[0, 0].copy())
@@ -264,7 +265,7 @@ def _seed_job(args: tuple) -> tuple[dict, list[float]]:
     AdaptConfig, AssimilationConfig or None); its own rig, one thread for torch."""
     import torch
 
-    from ..robots.pour import PourTask
+    from ..tasks.pour.task import PourTask
 
     seed, demo_path, train_steps, cfg, acfg, assimilate_from = args
     torch.set_num_threads(1)
@@ -301,7 +302,7 @@ def run_pour(
         adaptation, "adapted" into the adapted model (see :func:`run_seed`).
     demo_path : demonstration file (default: the cached generated set).
     evaluator_factory : ``() -> RolloutEvaluator`` (e.g. remote ``pour`` workers), called once per
-        seed; default: one in-process :class:`~acnmp_core.robots.pour.PourTask` shared by all runs.
+        seed; default: one in-process :class:`~acnmp_core.tasks.pour.task.PourTask` shared by all runs.
         Its ``credit`` reaches adapt() (PourTask's and a remote ``pour`` evaluator's are "future").
     on_iteration : ``seed -> callback`` for adapt(), e.g. to record.
     progress : training progress bars. log : called with one line per finished seed.
@@ -361,7 +362,7 @@ def run_pour(
             for run, seed_cpu in pool.map(_seed_job, args):
                 done(run, seed_cpu)
     else:
-        from ..robots.pour import PourTask
+        from ..tasks.pour.task import PourTask
 
         shared = PourTask(tolerance_g=TOLERANCE_G) if evaluator_factory is None else None
         try:

@@ -1,25 +1,25 @@
 """E2: a 3-DoF planar arm pushes a cylinder to a target; ACNMP vs adaptive ProMP + RL (paper Sec. 4.2).
 
-Per seed, both methods face two test targets of :func:`~acnmp_core.tasks.push_demos.push_targets`:
+Per seed, both methods face two test targets of :func:`~acnmp_core.tasks.push.demos.push_targets`:
 the held-out **interpolation** target (inside the 9 training targets' range) and the
 **extrapolation** target (outside it).
 
 * ACNMP: a CNMP trained on the 9 joint-space demonstrations (task parameters: target x, y) is
   conditioned on the test target and on the start configuration (an observation at t = 0); its
-  mean trajectory is executed once (LfD). If it misses, :func:`~acnmp_core.adaptation.adapt`
+  mean trajectory is executed once (LfD). If it misses, :func:`~acnmp_core.adapt.adaptation.adapt`
   (mode "acnmp": RL with simultaneous SL on the demos) runs until success or the budget.
-* ProMP + RL: :func:`~acnmp_core.promp_rl.adapt_promp`, initialised from the nearest demonstrated
+* ProMP + RL: :func:`~acnmp_core.baselines.promp_rl.adapt_promp`, initialised from the nearest demonstrated
   skill (Stark et al. 2019), episodic REPS over the ProMP weights until success or the budget.
 
 Both run through the same :class:`~acnmp_core.rollout.RolloutEvaluator` (by default one in-process
-:class:`~acnmp_core.robots.planar_arm.PlanarPushTask`; ``evaluator_factory`` plugs remote workers in).
+:class:`~acnmp_core.tasks.push.task.PlanarPushTask`; ``evaluator_factory`` plugs remote workers in).
 Reward (:data:`REWARDS`): ACNMP gets minus the cylinder's distance (m) to the target at every step
 (over T), credited to the actions before it; ProMP + RL, an episodic method, gets minus the final
 distance, exactly the objective it was tuned on (with the dense reward its return would mix the
 approach phase into the search and it needs ~3x more roll-outs). Success, for both: the final
 distance is at most ``tolerance`` (0.03 m, the cylinder's radius).
 
-The task setting (:mod:`~acnmp_core.tasks.push_settings`: "paper", the default, or "authors")
+The task setting (:mod:`~acnmp_core.tasks.push.settings`: "paper", the default, or "authors")
 fixes the cylinder's start, the targets and ACNMP's reward ("tracking" in the authors' setting: the
 squared distance to the cylinder's path in the held-out demonstration, :func:`reference_path`).
 
@@ -34,14 +34,15 @@ from typing import Callable
 
 import numpy as np
 
-from ..adaptation import AdaptConfig, AdaptTarget, adapt
-from ..cnmp import CNMP, CNMPConfig
-from ..data import DemoSet
-from ..demo_io import DemoArrays
-from ..promp_rl import PrompRLConfig, adapt_promp
+from ..adapt.adaptation import adapt
+from ..adapt.config import AdaptConfig, AdaptTarget
+from ..baselines.promp_rl import PrompRLConfig, adapt_promp
+from ..data.demo_io import DemoArrays
+from ..data.demos import DemoSet
+from ..model.cnmp import CNMP, CNMPConfig
+from ..model.training import TrainConfig, train
 from ..rollout import RolloutEvaluator
-from ..tasks.push_settings import PAPER, PushSetting
-from ..training import TrainConfig, train
+from ..tasks.push.settings import PAPER, PushSetting
 
 METHODS = ("acnmp", "promp_rl")
 CASES = ("interpolation", "extrapolation")
@@ -85,9 +86,9 @@ def make_setup(demo_path: str | None = None, n_joints: int = 3, setting: PushSet
     """Load (or generate and cache, ~2 s) the E2 demonstrations of ``setting`` and split them by role.
 
     ``demo_path`` : .npz in the project's demo format (default: the cache of
-    :func:`~acnmp_core.tasks.push_demos.push_demos`).
+    :func:`~acnmp_core.tasks.push.demos.push_demos`).
     """
-    from ..tasks.push_demos import push_demos
+    from ..tasks.push.demos import push_demos
 
     arrays: DemoArrays = push_demos(n_joints, path=demo_path, setting=setting)
     train_arr = arrays.with_role("train")
@@ -100,7 +101,7 @@ def make_setup(demo_path: str | None = None, n_joints: int = 3, setting: PushSet
 def demo_effects(setup: PushSetup) -> np.ndarray:
     """(9, 2) m: each training demonstration's effect, the cylinder's final position when it is
     executed (Stark et al.'s effect description; prior experience, not counted as roll-outs)."""
-    from ..tasks.push_demos import object_paths
+    from ..tasks.push.demos import object_paths
 
     return object_paths(setup.demo_arrays.with_role("train").values, setup.setting)[:, -1]
 
@@ -108,7 +109,7 @@ def demo_effects(setup: PushSetup) -> np.ndarray:
 def reference_path(setup: PushSetup, case: str) -> np.ndarray:
     """(T, 2) m: the cylinder's path in the expert's demonstration for ``case``'s target, the
     reference of the authors' tracking reward (the held-out demonstration, never trained on)."""
-    from ..tasks.push_demos import object_paths
+    from ..tasks.push.demos import object_paths
 
     return object_paths(setup.demo_arrays.with_role(case).values, setup.setting)[0]
 
@@ -222,7 +223,8 @@ def task_config(setup: "PushSetup", method: str) -> dict:
 def make_task(setup: PushSetup, method: str, case: str):
     """An in-process PlanarPushTask for ``method`` on ``case`` in ``setup.setting`` (its cylinder
     start, ``method``'s reward and, for "tracking", the case's :func:`reference_path`)."""
-    from ..robots.planar_arm import PlanarPushTask, PushObject
+    from ..sim.planar_arm import PushObject
+    from ..tasks.push.task import PlanarPushTask
 
     reward = reward_for(setup.setting, method)
     ref = reference_path(setup, case) if reward == "tracking" else None
@@ -262,7 +264,7 @@ def run_push(
         PlanarPushTask per method shared by all runs (closed at the end).
     on_iteration : ``(method, case, seed) -> callback`` for adapt() (ACNMP only), e.g. to record.
     progress : training progress bars. log : called with one line per finished run.
-    setting : the task setting (default :data:`~acnmp_core.tasks.push_settings.PAPER`).
+    setting : the task setting (default :data:`~acnmp_core.tasks.push.settings.PAPER`).
 
     Returns
     -------

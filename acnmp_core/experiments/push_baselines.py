@@ -24,11 +24,11 @@ import time
 from dataclasses import replace
 from typing import Callable
 
-from ..adaptation import AdaptConfig
-from ..promp_rl import PrompRLConfig
-from ..tasks.push_settings import PAPER, PushSetting
-from .push import CASES, PROMP_DEFAULTS, _plain, _summarise, demo_effects, make_setup, make_task, \
-    record_run, run_acnmp_case, run_promp_case, train_push_cnmp
+from ..adapt.config import AdaptConfig
+from ..baselines.promp_rl import PrompRLConfig
+from ..tasks.push.settings import PAPER, PushSetting
+from .push import (CASES, PROMP_DEFAULTS, _plain, _summarise, demo_effects, make_setup, make_task, record_run,
+                   run_acnmp_case, run_promp_case, train_push_cnmp)
 
 #: Prior std (rad per ProMP weight) of the from-scratch baseline: broad against the demos' spread.
 SCRATCH_STD = 0.3

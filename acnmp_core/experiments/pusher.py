@@ -3,18 +3,18 @@ extrapolated beyond its demonstrations (issue 33; the standard environment close
 
 Per seed: a CNMP (joint targets (100, 7) rad over phase, task parameters (object x, y, goal x, y)
 m) is trained on the 12 scripted demonstrations of
-:mod:`~acnmp_core.tasks.pusher_scene` (training region), and one test position is drawn from the
+:mod:`~acnmp_core.tasks.pusher.scene` (training region), and one test position is drawn from the
 extrapolation region (0.20-0.25 m beyond the demonstrations) with the seed's generator. Three
 methods face it, all executing on the ``pusher`` robot (:mod:`acnmp_core.robots.pusher`):
 
 * **LfD-only**: the CNMP's mean trajectory for the test position, executed once;
-* **ACNMP**: that roll-out, then :func:`~acnmp_core.adaptation.adapt` (RL with simultaneous SL on
+* **ACNMP**: that roll-out, then :func:`~acnmp_core.adapt.adaptation.adapt` (RL with simultaneous SL on
   the demonstrations) until success or :data:`ACNMP_BUDGET` roll-outs;
-* **ProMP + RL**: :func:`~acnmp_core.promp_rl.adapt_promp` from the nearest demonstration, episodic
+* **ProMP + RL**: :func:`~acnmp_core.baselines.promp_rl.adapt_promp` from the nearest demonstration, episodic
   REPS, until success or :data:`PROMP_BUDGET` roll-outs (E2's baseline settings).
 
 Success: the object's final distance to the goal is at most
-:data:`~acnmp_core.tasks.pusher_scene.PUSHER_SUCCESS_M` (0.05 m). Rewards: Pusher's own per step.
+:data:`~acnmp_core.tasks.pusher.scene.PUSHER_SUCCESS_M` (0.05 m). Rewards: Pusher's own per step.
 The per-method code is E2's (:mod:`acnmp_core.experiments.push`), whose setup type fits any task
 "demonstrations, test targets as task parameters, a start posture".
 """
@@ -27,11 +27,11 @@ from typing import Callable
 
 import numpy as np
 
-from ..adaptation import AdaptConfig
-from ..cnmp import CNMP, CNMPConfig
-from ..promp_rl import PrompRLConfig
+from ..adapt.config import AdaptConfig
+from ..baselines.promp_rl import PrompRLConfig
+from ..model.cnmp import CNMP, CNMPConfig
+from ..model.training import TrainConfig, train
 from ..rollout import RolloutEvaluator
-from ..training import TrainConfig, train
 from .push import PROMP_DEFAULTS, PushSetup, _plain, _summarise, record_run, run_acnmp_case, run_promp_case
 
 METHODS = ("lfd", "acnmp", "promp_rl")
@@ -46,14 +46,14 @@ TRAIN_STEPS = 3000
 
 def test_params(seed: int) -> np.ndarray:
     """(4,) m: seed ``seed``'s test position, drawn from the extrapolation region."""
-    from ..tasks.pusher_scene import extrapolation_params
+    from ..tasks.pusher.scene import extrapolation_params
 
     return extrapolation_params(1, np.random.default_rng(seed))[0]
 
 
 def make_setup(seed: int, demos=None) -> PushSetup:
     """The demonstrations (generated, ~2 s, unless ``demos`` DemoArrays are given) and seed's test position."""
-    from ..tasks.pusher_scene import PUSHER_SUCCESS_M, pusher_demos
+    from ..tasks.pusher.scene import PUSHER_SUCCESS_M, pusher_demos
 
     arrays = demos if demos is not None else pusher_demos()
     return PushSetup(demos=arrays.to_demo_set(), targets={CASE: test_params(seed)}, times=arrays.times[0].copy(),
@@ -92,7 +92,7 @@ def run_pusher(seeds: int | list[int] = 10, *, train_steps: int = TRAIN_STEPS, a
     unknown = sorted(set(methods) - set(METHODS))
     if not seed_list or unknown:
         raise ValueError(f"seeds/methods: expected at least one seed and methods among {METHODS}, got {unknown}")
-    from ..tasks.pusher_scene import pusher_demos
+    from ..tasks.pusher.scene import pusher_demos
 
     t0 = time.perf_counter()
     demos = pusher_demos()
@@ -127,7 +127,7 @@ def run_pusher(seeds: int | list[int] = 10, *, train_steps: int = TRAIN_STEPS, a
         a, p = summary["acnmp"], summary["promp_rl"]
         if a["success_rate"] > 0.5 and p["success_rate"] > 0.5:
             ratio = round(p["rollouts_median"] / a["rollouts_median"], 3)
-    from ..tasks.pusher_scene import EXTRAPOLATION_REGION, PUSHER_SUCCESS_M, TRAINING_REGION
+    from ..tasks.pusher.scene import EXTRAPOLATION_REGION, PUSHER_SUCCESS_M, TRAINING_REGION
 
     return {
         "experiment": "pusher", "seeds": len(seed_list), "seed_list": seed_list,

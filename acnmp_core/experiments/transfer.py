@@ -2,16 +2,16 @@
 
 Per run (seed):
 
-1. Two :class:`~acnmp_core.transfer.TransferPair` s are trained on the 12 paired proxy
-   demonstrations of :mod:`acnmp_core.tasks.transfer_demos` (time the only input): one with the
+1. Two :class:`~acnmp_core.transfer.pair.TransferPair` s are trained on the 12 paired proxy
+   demonstrations of :mod:`acnmp_core.tasks.transfer.demos` (time the only input): one with the
    latent alignment term (``TransferConfig.latent_weight``), one without it (weight 0); a few
    pair seeds (``pair_seeds``) are shared by the runs, each run adapting fresh copies.
 2. Three conditions run the same RL in robot B (the 4-DoF arm) on the cube-through-the-gap task
-   (:class:`~acnmp_core.tasks.transfer_scene.CubeGapTask`), with :func:`~acnmp_core.adaptation.adapt`
+   (:class:`~acnmp_core.tasks.transfer.scene.CubeGapTask`), with :func:`~acnmp_core.adapt.adaptation.adapt`
    training robot B's decoder only (its supervised steps on B's proxy demonstrations):
 
    * ``transfer``: 11 points of robot A's demonstration of the new skill through A's encoder, B's
-     decoder (:class:`~acnmp_core.transfer.TransferredSkill`), from the aligned pair;
+     decoder (:class:`~acnmp_core.transfer.pair.TransferredSkill`), from the aligned pair;
    * ``no_alignment`` (control a): the same from the pair trained without the alignment term;
    * ``no_transfer`` (control b): robot B's own LfD model (the unaligned pair's B, i.e. a CNMP on
      B's proxy demonstrations), conditioned on B's start posture at t = 0 only.
@@ -37,17 +37,19 @@ from typing import Callable
 
 import numpy as np
 
-from ..adaptation import AdaptConfig, AdaptTarget, adapt, per_step_advantages
-from ..data import DemoSet
+from ..adapt.adaptation import adapt
+from ..adapt.config import AdaptConfig, AdaptTarget
+from ..adapt.credit import per_step_advantages
+from ..data.demos import DemoSet
 from ..rollout import RolloutEvaluator
-from ..transfer import TransferConfig, TransferPair, TransferredSkill, spread_observations, train_pair
+from ..transfer.pair import TransferConfig, TransferPair, TransferredSkill, spread_observations, train_pair
 from ..validation import check_positive_int
 
 CONDITIONS = ("transfer", "no_alignment", "no_transfer")
 #: RL iterations at which the paper reports success: 23, 73, 90 and 100 %.
 CHECKPOINTS = (3, 7, 11, 19)
 PAPER_SUCCESS = {3: 0.23, 7: 0.73, 11: 0.90, 19: 1.00}
-#: Reward difference (credited, see adaptation.per_step_advantages) below which E4's roll-outs count
+#: Reward difference (credited, see credit.per_step_advantages) below which E4's roll-outs count
 #: as the same: an untouched cube still jitters in PyBullet, its rewards differing by about 1e-6,
 #: while a touch differs by 1e-2 (benchmarks/results/e4_sweep.json, docs/studies/e4_transfer.md).
 BLIND_TOLERANCE = 1e-4
@@ -67,7 +69,7 @@ def e4_adapt_config() -> AdaptConfig:
     30..59 100 % against 90 % after 19 iterations; docs/studies/e4_transfer.md,
     benchmarks/results/e4_failures.json).
     noise "cubic", explore_scale 0.35 : the authors' E4 noise shape, 20 samples smoothed into one
-    cubic per joint (:class:`~acnmp_core.exploration.CubicNoise`), at about the std per step of
+    cubic per joint (:class:`~acnmp_core.adapt.exploration.CubicNoise`), at about the std per step of
     E4's 20-knot noise before (0.15 x the demonstrations' std; the cubic keeps 0.42 of its
     samples' std per step on average): on fresh RL seeds 30..89 success after 3 / 7 / 11 / 19
     iterations 38 / 75 / 88 / 95 % against 35 / 58 / 77 / 95 % (issue 13, fourth round;
@@ -145,8 +147,8 @@ class E4Setup:
 
 def make_setup() -> E4Setup:
     """Generate E4's demonstrations (about 2 s; deterministic)."""
-    from ..tasks.transfer_demos import expert_new_skill, make_transfer_demos
-    from ..tasks.transfer_scene import CubeGapSim
+    from ..tasks.transfer.demos import expert_new_skill, make_transfer_demos
+    from ..tasks.transfer.scene import CubeGapSim
 
     d = make_transfer_demos()
     with CubeGapSim(4) as sim:
@@ -359,7 +361,7 @@ def run_transfer(
     setup = setup or make_setup()
     shared = None
     if evaluator_factory is None:
-        from ..tasks.transfer_scene import CubeGapTask
+        from ..tasks.transfer.scene import CubeGapTask
 
         shared = CubeGapTask(**task_config())
     per_run: list[dict] = []

@@ -2,14 +2,14 @@
 obstacles (paper Sec. 4.4, Table 2 left).
 
 Per seed, a CNMP is trained on the 8 demonstrations of the scripted expert
-(:mod:`acnmp_core.tasks.ur10_demos`: h_obj in {2, 6} cm x h_obs in {2, 4, 6, 8} cm, 625 rows of six
+(:mod:`acnmp_core.tasks.ur10_pick_place.demos`: h_obj in {2, 6} cm x h_obs in {2, 4, 6, 8} cm, 625 rows of six
 joint angles, rad), conditioned on the task parameters (h_obj, h_obs) (m) and the start pose at
 t = 0. At each test case (:data:`CASES`: the paper's (8, 10) and (9, 11) cm, and (10, 12) cm further
 out, all outside the demonstrations):
 
 * **LfD only**: the conditioned mean is executed once.
-* **ACNMP**: :func:`~acnmp_core.adaptation.adapt` with the project's default
-  :class:`~acnmp_core.adaptation.AdaptConfig` and a budget of :data:`BUDGET` roll-outs; its first
+* **ACNMP**: :func:`~acnmp_core.adapt.adaptation.adapt` with the project's default
+  :class:`~acnmp_core.adapt.config.AdaptConfig` and a budget of :data:`BUDGET` roll-outs; its first
   roll-out is the LfD one, so a case the LfD trajectory already solves costs one roll-out.
 
 Measures (the paper's Table 2, left): the mean absolute error (deg) per joint between the executed
@@ -33,11 +33,12 @@ from typing import Callable
 
 import numpy as np
 
-from ..adaptation import AdaptConfig, AdaptTarget, adapt
-from ..cnmp import CNMP, CNMPConfig
-from ..data import DemoSet
+from ..adapt.adaptation import adapt
+from ..adapt.config import AdaptConfig, AdaptTarget
+from ..data.demos import DemoSet
+from ..model.cnmp import CNMP, CNMPConfig
+from ..model.training import TrainConfig, train
 from ..rollout import RolloutEvaluator
-from ..training import TrainConfig, train
 
 #: Test cases: name -> (h_obj, h_obs) in metres: the paper's (8, 10) and (9, 11) cm, and (10, 12) cm,
 #: 4 cm beyond the demonstrated object and obstacle heights (issue 37: E5's headline case, chosen
@@ -77,7 +78,7 @@ class UR10Setup:
 def make_setup(demo_path: str | None = None) -> UR10Setup:
     """Load (or generate and cache, ~10 s) the E5 demonstrations: the "train" rows become the
     demonstration set, the "extrapolation" rows the expert at each test case."""
-    from ..tasks.ur10_demos import ur10_demos
+    from ..tasks.ur10_pick_place.demos import ur10_demos
 
     arrays = ur10_demos(path=demo_path)
     train_arr = arrays.with_role("train")
@@ -105,7 +106,7 @@ def train_ur10_cnmp(demos: DemoSet, seed: int, steps: int = TRAIN_STEPS, progres
     trained ``steps`` steps (batch 32) with the rate decaying along a half cosine to ``lr_final``
     (None: constant), the task parameters jittered by ``task_param_jitter`` (normalised std) and
     episodes blending two demonstrations with probability ``mixup`` (see
-    :class:`~acnmp_core.training.TrainConfig`)."""
+    :class:`~acnmp_core.model.training.TrainConfig`)."""
     model = CNMP(CNMPConfig(n_outputs=demos.n_outputs, n_task_params=demos.n_task_params,
                             task_param_names=["h_obj", "h_obs"]), seed=seed)
     train(model, demos, TrainConfig(steps=steps, lr_final=lr_final, task_param_jitter=task_param_jitter,
@@ -194,7 +195,7 @@ def run_ur10(
     cases : a subset of :data:`CASES`.
     demo_path : demonstration file (default: the cached generated set).
     evaluator_factory : ``case -> RolloutEvaluator``, called once per (seed, case); default: one
-        in-process :class:`~acnmp_core.tasks.ur10_pick_place.UR10PickPlaceTask` shared by all runs.
+        in-process :class:`~acnmp_core.tasks.ur10_pick_place.task.UR10PickPlaceTask` shared by all runs.
     on_iteration : ``(case, seed) -> callback`` for adapt(), e.g. to record.
     progress : training progress bars. log : called with one line per finished run.
 
@@ -218,7 +219,7 @@ def run_ur10(
     setup = make_setup(demo_path)
     shared = None
     if evaluator_factory is None:
-        from ..tasks.ur10_pick_place import UR10PickPlaceTask
+        from ..tasks.ur10_pick_place.task import UR10PickPlaceTask
 
         shared = UR10PickPlaceTask()
     runs: list[dict] = []

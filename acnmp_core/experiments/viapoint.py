@@ -12,13 +12,14 @@ from typing import Callable, Protocol
 
 import numpy as np
 
-from ..adaptation import AdaptConfig, AdaptResult, AdaptTarget, adapt
-from ..assimilation import AssimilationConfig, assimilate
-from ..cnmp import CNMP, CNMPConfig, Prediction
-from ..data import DemoSet, Demonstration
+from ..adapt.adaptation import adapt
+from ..adapt.assimilation import AssimilationConfig, assimilate
+from ..adapt.config import AdaptConfig, AdaptResult, AdaptTarget
+from ..data.demos import DemoSet, Demonstration
+from ..model.cnmp import CNMP, CNMPConfig, Prediction
+from ..model.training import TrainConfig, reproduction_error, train
 from ..rollout import RolloutEvaluator
-from ..tasks.viapoint import ViaPointTask, extrapolation_conditions, obstacle_demos, shape_error, two_bump_demos
-from ..training import TrainConfig, reproduction_error, train
+from ..tasks.viapoint.task import ViaPointTask, extrapolation_conditions, obstacle_demos, shape_error, two_bump_demos
 
 METHODS = ("lfd_only", "rl_only", "acnmp")
 #: Success: the via-point error is at most this fraction of the demonstrations' extent ...

@@ -3,25 +3,25 @@
 The loop (paper Sec. 4.2, Fig. 5 d, e), run for each method on the *same* stream of environments:
 
 1. Start from ``n_initial`` random environments with one demonstration each
-   (:func:`~acnmp_core.tasks.wall.make_demo_set`; uniform speed, so the demonstrations cross the wall
+   (:func:`~acnmp_core.tasks.wall.task.make_demo_set`; uniform speed, so the demonstrations cross the wall
    at different times) and learn the skill from them.
 2. Repeatedly draw a new environment and generate one trajectory for it (one roll-out). When it
    fails, adapt until success or the budget; when the adaptation succeeds, add the solution to the
    demonstration set and update the skill; go on.
 3. Every ``eval_every`` new environments, generate (without any roll-out) a trajectory for each of
-   the fixed test environments (:func:`~acnmp_core.tasks.wall.test_environments`) and record the
+   the fixed test environments (:func:`~acnmp_core.tasks.wall.task.test_environments`) and record the
    success rate and the mean test error against environments seen and trajectories sampled.
 
 Methods:
 
 * **ACNMP**: a CNMP conditioned, as the authors, on the start point at t = 0 and the goal at t = 1
-  (two observations) and the four task parameters. Adaptation is :func:`~acnmp_core.adaptation.adapt` (mode "acnmp": RL with
+  (two observations) and the four task parameters. Adaptation is :func:`~acnmp_core.adapt.adaptation.adapt` (mode "acnmp": RL with
   simultaneous SL on the current demonstrations) on a copy of the model; a successful copy replaces
   the model, its solution is added to the DemoSet and training continues for ``assimilate_steps``.
 * **ProMP + RL** (``promp_rl``): a ProMP over all demonstrations with a joint Gaussian over (weights,
   task parameters), conditioned on the new task parameters (linear regression from task to weights,
-  :meth:`~acnmp_core.promp_rl.AdaptiveProMP.initial_promp` with ``init="conditional"``). Adaptation is
-  episodic REPS over the ProMP weights (:func:`~acnmp_core.promp_rl.promp_rl`) from that conditional
+  :meth:`~acnmp_core.baselines.promp_rl.AdaptiveProMP.initial_promp` with ``init="conditional"``). Adaptation is
+  episodic REPS over the ProMP weights (:func:`~acnmp_core.baselines.promp_rl.promp_rl`) from that conditional
   distribution; a solution is added to the demonstrations and the ProMP is refitted.
 
 Roll-out accounting is the same for both: the generated trajectory of each new environment is one
@@ -42,17 +42,18 @@ from typing import Callable
 import numpy as np
 import torch
 
-from ..adaptation import AdaptConfig, AdaptTarget, adapt
-from ..assimilation import AssimilationConfig, assimilate, check_assimilate_from, snap_path, snap_to_observations
-from ..cnmp import CNMP, CNMPConfig
-from ..data import Demonstration, DemoSet
-from ..promp_rl import AdaptiveProMP, PrompRLConfig, promp_rl
-from ..promp_selfimprove import GPWeights, SelfImproveConfig, fit_gp, initial_distribution, pro
+from ..adapt.adaptation import adapt
+from ..adapt.assimilation import AssimilationConfig, assimilate, check_assimilate_from, snap_path, snap_to_observations
+from ..adapt.config import AdaptConfig, AdaptTarget
+from ..baselines.promp_rl import AdaptiveProMP, PrompRLConfig, promp_rl
+from ..baselines.promp_selfimprove import GPWeights, SelfImproveConfig, fit_gp, initial_distribution, pro
+from ..data.demos import Demonstration, DemoSet
+from ..model.cnmp import CNMP, CNMPConfig
+from ..model.training import TrainConfig, train
 from ..rollout import RolloutBatch
 from ..rollout import RolloutEvaluator
-from ..tasks import wall as W
-from ..tasks.wall_settings import PAPER, WallSetting
-from ..training import TrainConfig, train
+from ..tasks.wall import task as W
+from ..tasks.wall.settings import PAPER, WallSetting
 from ..validation import check_array, check_positive_int
 
 #: The methods run by default (the pinned regression runs these).
@@ -261,7 +262,7 @@ class _PrompLearner:
 
 
 def snap_wall_paths(paths: np.ndarray, times: np.ndarray, task_params) -> np.ndarray:
-    """E3 paths moved onto their start and goal (:func:`~acnmp_core.assimilation.snap_path` with
+    """E3 paths moved onto their start and goal (:func:`~acnmp_core.adapt.assimilation.snap_path` with
     :func:`wall_conditions`): paths (B, T, 2), times (T,), task_params (B, 4) or one row (4,) for all.
     Returns (B, T, 2), world units."""
     c = np.asarray(task_params, dtype=np.float64)
@@ -341,7 +342,7 @@ def evaluate_test(generate: Callable[[np.ndarray], np.ndarray], test: np.ndarray
     """Score ``generate`` on the test environments (N, 4), without executing anything.
 
     ``generate`` maps (N, 4) task parameters to (N, T, 2) trajectories; the analytic scoring of
-    :mod:`acnmp_core.tasks.wall` in ``setting``'s geometry is used, so no roll-out counts.
+    :mod:`acnmp_core.tasks.wall.task` in ``setting``'s geometry is used, so no roll-out counts.
 
     Returns ``{"test_success_rate", "test_error_mean", "test_goal_error_mean",
     "test_through_hole_rate"}``: success share (by the setting's trigger: a test environment
@@ -480,7 +481,7 @@ def run_wall(
     batch_size, n_targets : episodes per supervised step and target points per episode in the
         first training. assimilate_batch_size, assimilate_targets : the same in each assimilation.
     assimilate_anchor_weight : weight of the anchor (the solution given its own conditions) in
-        each assimilation step (:class:`~acnmp_core.assimilation.AssimilationConfig`).
+        each assimilation step (:class:`~acnmp_core.adapt.assimilation.AssimilationConfig`).
     assimilate_from : "skill" (the default): a successful adaptation contributes its solution
         only; the assimilation continues training the skill as it was before the adaptation (on
         the demonstrations, the solution and its anchor). "adapted": it continues from the adapted
@@ -493,11 +494,11 @@ def run_wall(
         every assimilation (its moments carry over; "adapted" starts a new one with each adapted copy);
         False: a fresh Adam per assimilation.
     snap_solutions : before a solution is assimilated, move it onto its start and goal
-        (:func:`~acnmp_core.assimilation.snap_to_observations`), execute the moved path (one more
+        (:func:`~acnmp_core.adapt.assimilation.snap_to_observations`), execute the moved path (one more
         roll-out, counted) and assimilate it instead when it succeeds; False: the solution as found.
     targets_include_obs : the CNMP's supervised steps (first training and assimilations; not the
         adaptations' interleaved ones) also target the episodes' observations
-        (:class:`~acnmp_core.data.EpisodeSampler`); False: never (the authors').
+        (:class:`~acnmp_core.model.episodes.EpisodeSampler`); False: never (the authors').
     consolidate_steps : after the stream, ACNMP's skill trains this many more supervised steps on all
         its demonstrations (assimilate_batch_size episodes of assimilate_targets points, the rate
         decaying from assimilate_lr to ``consolidate_lr_final`` along a half cosine, its optimiser
@@ -517,9 +518,9 @@ def run_wall(
         ACNMP_BUDGET)``, the same budget per environment); its seed is set per env.
     n_basis : ProMP basis functions per dimension.
     methods : subset of ALL_METHODS, run one after the other (default METHODS).
-    setting : the task setting (:mod:`~acnmp_core.tasks.wall_settings`; default the paper's).
+    setting : the task setting (:mod:`~acnmp_core.tasks.wall.settings`; default the paper's).
     evaluator_factory : ``method -> RolloutEvaluator`` executing the roll-outs (e.g. remote workers);
-        default an in-process :class:`~acnmp_core.tasks.wall.WallTask` of ``setting``.
+        default an in-process :class:`~acnmp_core.tasks.wall.task.WallTask` of ``setting``.
     progress : training progress bars. log : called with one line per test evaluation.
 
     Returns

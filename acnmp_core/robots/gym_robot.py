@@ -20,7 +20,7 @@ gives ``q <- q + kp * dt * (target - q)``: ``kp = 1 / dt`` lands each step exact
 (while ``(target - q) / dt`` stays inside the action bounds, else the clipped command catches up
 over the next steps); a smaller kp leaves ``1 - kp * dt`` of the error at every step and trails a
 moving trajectory by ``1 / kp - dt`` s; ``kp > 2 / dt`` overshoots without settling. For torque
-actions the gains are the usual tuning (Pusher's: :mod:`acnmp_core.tasks.pusher_scene`); for
+actions the gains are the usual tuning (Pusher's: :mod:`acnmp_core.tasks.pusher.scene`); for
 position actions use ``control="position"``.
 
 What an environment needs (:class:`GymRobotConfig`):
@@ -191,7 +191,7 @@ class GymRolloutEvaluator:
 
     def __init__(self, config: GymRobotConfig, credit: str = "step"):
         self.config = config
-        #: how the rewards depend on the actions, for :func:`~acnmp_core.adaptation.adapt`
+        #: how the rewards depend on the actions, for :func:`~acnmp_core.adapt.adaptation.adapt`
         self.credit = credit
         self._env = None
         self._vector = None

@@ -1,11 +1,11 @@
 """The robot kind ``pusher``: Gymnasium's MuJoCo ``Pusher-v5`` through the Gymnasium adapter.
 
 Its task ``pusher_push`` executes joint targets (T, 7) rad, one per environment step, with the PD
-gains of :mod:`acnmp_core.tasks.pusher_scene`; the task parameters (4,) place the object and the
+gains of :mod:`acnmp_core.tasks.pusher.scene`; the task parameters (4,) place the object and the
 goal (world m); the rewards are Pusher's own per step (minus the object's distance to the goal,
 minus half the hand's distance to the object, minus a small control cost), credited to every
 earlier step ("future": a push pays off late); success is the object's final distance to the goal
-within :data:`~acnmp_core.tasks.pusher_scene.PUSHER_SUCCESS_M`, which is also the reported error.
+within :data:`~acnmp_core.tasks.pusher.scene.PUSHER_SUCCESS_M`, which is also the reported error.
 """
 from __future__ import annotations
 
@@ -23,7 +23,7 @@ def object_goal_distance(ep: Episode) -> float:
 
 def pusher_config() -> GymRobotConfig:
     """The adapter's configuration of Pusher-v5 (imports the scene, not gymnasium itself)."""
-    from ..tasks.pusher_scene import ENV_ID, PUSHER_KD, PUSHER_KP, PUSHER_SUCCESS_M, set_pusher_task
+    from ..tasks.pusher.scene import ENV_ID, PUSHER_KD, PUSHER_KP, PUSHER_SUCCESS_M, set_pusher_task
 
     return GymRobotConfig(
         ENV_ID, joint_positions=lambda o: o[:7], joint_velocities=lambda o: o[7:14], kp=PUSHER_KP, kd=PUSHER_KD,

@@ -24,8 +24,8 @@ from importlib import import_module
 
 from ..errors import InputError, UnknownRobotError, UnknownTaskError
 from . import plugins
-from .spec import (DrawnTarget, EndEffectorPathDrawing, Joint, MeshChainDrawing,  # noqa: F401 (re-exported)
-                   PlanarChainDrawing, PointSetDrawing, RobotBody, RobotSpec, TaskFactory)
+from .spec import (DrawnTarget, EndEffectorPathDrawing, Joint, MeshChainDrawing, PlanarChainDrawing, PointSetDrawing,
+                   RobotBody, RobotSpec, TaskFactory)
 
 _ROBOTS: dict[str, RobotSpec] = {}
 #: kind -> where it came from ("built in", "entry point ...", "reference ...")
@@ -149,8 +149,8 @@ def robot(kind: str) -> RobotSpec:
 
 
 def _planar_arm_body(n_joints: int) -> RobotBody:
-    """The planar arms of :mod:`acnmp_core.robots.planar_arm` (imports PyBullet)."""
-    from .planar_arm import PlanarArmSim, PushObject, default_geometry
+    """The planar arms of :mod:`acnmp_core.sim.planar_arm` (imports PyBullet)."""
+    from ..sim.planar_arm import PlanarArmSim, PushObject, default_geometry
 
     geometry, obj = default_geometry(n_joints), PushObject()
     joints = tuple(Joint(f"joint{i}", lo, hi) for i, (lo, hi) in enumerate(geometry.joint_limits))

@@ -1,0 +1,2 @@
+"""The tasks: each folder holds one task's scene, evaluator (reward and success), demonstrations and
+settings together; :mod:`acnmp_core.tasks.registry` maps a task name to its evaluator."""

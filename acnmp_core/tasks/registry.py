@@ -18,7 +18,7 @@ _CREDITS: dict[str, str] = {}
 def register_task(name: str, credit: str = "step"):
     """Decorator: register ``factory(params: dict) -> RolloutEvaluator`` under ``name``.
 
-    ``credit`` is the task's credit for :func:`~acnmp_core.adaptation.adapt` ("step" or "future",
+    ``credit`` is the task's credit for :func:`~acnmp_core.adapt.adaptation.adapt` ("step" or "future",
     the ``credit`` attribute of the evaluators it builds), so an evaluator that only forwards
     roll-outs to where the task runs (a remote worker) can carry it too.
     """
@@ -70,7 +70,7 @@ def make_task(name: str, params: dict[str, Any] | None = None) -> RolloutEvaluat
 @register_task("viapoint")
 def _viapoint(p: dict) -> RolloutEvaluator:
     """params: t_v (float or K floats), point (D floats or K lists of D), tolerance (float or K floats)."""
-    from .viapoint import ViaPointTask
+    from .viapoint.task import ViaPointTask
 
     return ViaPointTask(np.asarray(p["t_v"], dtype=np.float64), np.asarray(p["point"], dtype=np.float64),
                         np.asarray(p["tolerance"], dtype=np.float64))
@@ -79,7 +79,7 @@ def _viapoint(p: dict) -> RolloutEvaluator:
 @register_task("wall")
 def _wall(p: dict) -> RolloutEvaluator:
     """params: optional hole_width, wall_thickness, start_tolerance, goal_tolerance (floats)."""
-    from .wall import WallTask
+    from .wall.task import WallTask
 
     return WallTask(**{k: float(v) for k, v in p.items()})
 
@@ -88,7 +88,7 @@ def _wall(p: dict) -> RolloutEvaluator:
 def _push(p: dict) -> RolloutEvaluator:
     """params: n_joints (int, default 3), tolerance (float, metres, default 0.03), reward
     ("distance", the default, or "final"; see PlanarPushTask)."""
-    from ..robots.planar_arm import PlanarPushTask
+    from .push.task import PlanarPushTask
 
     return PlanarPushTask(int(p.get("n_joints", 3)), tolerance=float(p.get("tolerance", 0.03)),
                           reward=str(p.get("reward", "distance")))
@@ -97,7 +97,7 @@ def _push(p: dict) -> RolloutEvaluator:
 @register_task("pick_place")
 def _pick_place(p: dict) -> RolloutEvaluator:
     """params: optional place_tolerance, lift_tolerance (floats, metres, default 0.02 each)."""
-    from .ur10_pick_place import UR10PickPlaceTask
+    from .ur10_pick_place.task import UR10PickPlaceTask
 
     _known(p, "place_tolerance", "lift_tolerance")
     return UR10PickPlaceTask(**{k: float(p[k]) for k in ("place_tolerance", "lift_tolerance") if k in p})
@@ -106,7 +106,7 @@ def _pick_place(p: dict) -> RolloutEvaluator:
 @register_task("pour", credit="future")
 def _pour(p: dict) -> RolloutEvaluator:
     """params: optional tolerance_g (float, grams, default 30), max_worlds (int, default 2)."""
-    from ..robots.pour import PourTask
+    from .pour.task import PourTask
 
     _known(p, "tolerance_g", "max_worlds")
     return PourTask(tolerance_g=float(p.get("tolerance_g", 30.0)), max_worlds=int(p.get("max_worlds", 2)))
@@ -122,7 +122,7 @@ def _known(params: dict, *names: str) -> None:
 @register_task("cube_gap", credit="future")
 def _cube_gap(p: dict) -> RolloutEvaluator:
     """params: n_joints (int, default 3). E4's scene: a cube pushed through the gap between two
-    walls to a goal (see acnmp_core.tasks.transfer_scene.CubeGapTask)."""
-    from .transfer_scene import CubeGapTask
+    walls to a goal (see acnmp_core.tasks.transfer.scene.CubeGapTask)."""
+    from .transfer.scene import CubeGapTask
 
     return CubeGapTask(int(p.get("n_joints", 3)))

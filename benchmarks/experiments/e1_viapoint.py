@@ -19,7 +19,7 @@ sys.path.insert(0, str(ROOT))
 
 from acnmp_core.experiments.viapoint import (  # noqa: E402
     ASSIMILATION_STEPS, METHODS, adapt_config, run_viapoint, summarise_seeds)
-from acnmp_core.plots import plot_viapoint  # noqa: E402
+from acnmp_core.experiments.plots import plot_viapoint  # noqa: E402
 from benchmarks._results import provenance, save_result  # noqa: E402
 
 BUDGET, TRAIN_STEPS = 100, 3000

@@ -23,7 +23,7 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 from acnmp_core.experiments.push_baselines import BUDGET, run_push_baselines  # noqa: E402
-from acnmp_core.tasks.push_settings import SETTING_NAMES, push_setting  # noqa: E402
+from acnmp_core.tasks.push.settings import SETTING_NAMES, push_setting  # noqa: E402
 from benchmarks._results import provenance, save_result  # noqa: E402
 
 

@@ -18,8 +18,8 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 from acnmp_core.experiments.push import run_push  # noqa: E402
-from acnmp_core.plots import plot_push  # noqa: E402
-from acnmp_core.tasks.push_settings import SETTING_NAMES, push_setting  # noqa: E402
+from acnmp_core.experiments.plots import plot_push  # noqa: E402
+from acnmp_core.tasks.push.settings import SETTING_NAMES, push_setting  # noqa: E402
 from benchmarks._results import provenance, save_result  # noqa: E402
 
 

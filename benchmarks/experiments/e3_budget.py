@@ -31,7 +31,7 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 from acnmp_core.experiments.wall import ALL_METHODS, TRAIN_DEFAULTS, run_wall  # noqa: E402
-from acnmp_core.tasks.wall_settings import PAPER, WallSetting  # noqa: E402
+from acnmp_core.tasks.wall.settings import PAPER, WallSetting  # noqa: E402
 from benchmarks._results import provenance, save_result  # noqa: E402
 
 #: name -> run_wall keyword arguments that differ from the defaults ("baseline": none).

@@ -23,8 +23,8 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 from acnmp_core.experiments.wall import ALL_METHODS, run_wall  # noqa: E402
-from acnmp_core.plots import plot_wall  # noqa: E402
-from acnmp_core.tasks.wall_settings import SETTING_NAMES, wall_setting  # noqa: E402
+from acnmp_core.experiments.plots import plot_wall  # noqa: E402
+from acnmp_core.tasks.wall.settings import SETTING_NAMES, wall_setting  # noqa: E402
 from benchmarks._results import provenance, save_result  # noqa: E402
 
 #: The numbers kept per method in the comparison table.

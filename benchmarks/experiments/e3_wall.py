@@ -18,9 +18,9 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
-from acnmp_core.assimilation import ASSIMILATE_FROM  # noqa: E402
+from acnmp_core.adapt.assimilation import ASSIMILATE_FROM  # noqa: E402
 from acnmp_core.experiments.wall import TRAIN_DEFAULTS, run_wall  # noqa: E402
-from acnmp_core.plots import plot_wall  # noqa: E402
+from acnmp_core.experiments.plots import plot_wall  # noqa: E402
 from acnmp_core.threads import set_training_threads  # noqa: E402
 from benchmarks._results import provenance, save_result  # noqa: E402
 

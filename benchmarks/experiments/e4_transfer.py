@@ -20,7 +20,7 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 from acnmp_core.experiments.transfer import run_transfer  # noqa: E402
-from acnmp_core.plots import plot_transfer  # noqa: E402
+from acnmp_core.experiments.plots import plot_transfer  # noqa: E402
 from benchmarks._results import provenance, save_result  # noqa: E402
 
 

@@ -25,7 +25,7 @@ from benchmarks._results import provenance, save_result  # noqa: E402
 def rollout_seconds(n: int = 5) -> dict:
     """Wall and CPU time (s) of one 625-step roll-out of the expert at (9, 11) cm, in-process
     (median over ``n``, after one warm-up roll-out that builds the object and the obstacle)."""
-    from acnmp_core.tasks.ur10_pick_place import UR10PickPlaceTask
+    from acnmp_core.tasks.ur10_pick_place.task import UR10PickPlaceTask
 
     setup = make_setup()
     traj, tp = setup.experts["9_11"][None], np.asarray(CASES["9_11"])

@@ -31,8 +31,8 @@ CHILD = r"""
 import json, resource, sys, time
 import numpy as np, torch
 torch.set_num_threads(1)
-from acnmp_core.cnmp import CNMP, CNMPConfig
-from acnmp_core.tasks.viapoint import obstacle_demos
+from acnmp_core.model.cnmp import CNMP, CNMPConfig
+from acnmp_core.tasks.viapoint.task import obstacle_demos
 from services.transport import WireError, decode, encode
 case, items = sys.argv[1], int(sys.argv[2])
 demos = obstacle_demos()
@@ -47,7 +47,7 @@ if case == "batch":
     payload = encode({"batch": [one] * items})
     run = lambda: handle_predict(reg, "e1", decode(payload))
 else:
-    from acnmp_core.checkpoint import model_to_arrays
+    from acnmp_core.model.checkpoint import model_to_arrays
     from services.model.weights import decode_weights
     small = CNMP(CNMPConfig(n_outputs=2, encoder_widths=(8,), decoder_widths=(8,)), seed=0)
     small.fit_normalization(demos)

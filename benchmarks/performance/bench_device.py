@@ -1,6 +1,6 @@
 """A training step, an E3 assimilation and a batched predict on every device this machine has.
 
-For each device of :func:`acnmp_core.device.available_devices` (the CPU; each CUDA device where
+For each device of :func:`acnmp_core.model.device.available_devices` (the CPU; each CUDA device where
 there is one), on one thread (as the services run):
 
 * ``train_step_ms``: one of E1's training steps (its CNMP, batch 32): the time of ``train`` with
@@ -41,13 +41,13 @@ def measure(device, args) -> dict:
     """The three timings on ``device`` (a torch.device)."""
     import torch
 
-    from acnmp_core.assimilation import AssimilationConfig, assimilate
-    from acnmp_core.cnmp import CNMP, CNMPConfig
-    from acnmp_core.data import DemoSet, Demonstration
+    from acnmp_core.adapt.assimilation import AssimilationConfig, assimilate
+    from acnmp_core.data.demos import DemoSet, Demonstration
     from acnmp_core.experiments.wall import TRAIN_DEFAULTS, make_wall_cnmp
-    from acnmp_core.tasks.viapoint import obstacle_demos
-    from acnmp_core.tasks.wall import make_demo_set
-    from acnmp_core.training import TrainConfig, train
+    from acnmp_core.model.cnmp import CNMP, CNMPConfig
+    from acnmp_core.model.training import TrainConfig, train
+    from acnmp_core.tasks.viapoint.task import obstacle_demos
+    from acnmp_core.tasks.wall.task import make_demo_set
 
     torch.set_num_threads(1)
     demos = obstacle_demos()
@@ -69,7 +69,7 @@ def measure(device, args) -> dict:
     times, values, params = make_demo_set(20, np.random.default_rng(0))
     wall = DemoSet([Demonstration(times[i], values[i], params[i]) for i in range(len(values))])
     solution = wall[0]
-    from acnmp_core.adaptation import AdaptTarget
+    from acnmp_core.adapt.config import AdaptTarget
 
     # conditioned as E3 conditions: on the start and the goal
     target = AdaptTarget(solution.times[[0, -1]], solution.values[[0, -1]], solution.task_params, solution.times)
@@ -114,7 +114,7 @@ def main() -> int:
     parser.add_argument("--batch", type=int, default=64, help="predicts in one batch (default %(default)s)")
     parser.add_argument("--out", default="benchmarks/results/bench_device.json")
     args = parser.parse_args()
-    from acnmp_core.device import available_devices
+    from acnmp_core.model.device import available_devices
 
     result = {"provenance": provenance(sys.argv), "config": vars(args), "devices": []}
     for device in available_devices():

@@ -34,9 +34,9 @@ NS = "flood"
 
 
 def _checkpoint(path: Path) -> Path:
-    from acnmp_core.checkpoint import save_checkpoint
-    from acnmp_core.cnmp import CNMP, CNMPConfig
-    from acnmp_core.tasks.viapoint import obstacle_demos
+    from acnmp_core.model.checkpoint import save_checkpoint
+    from acnmp_core.model.cnmp import CNMP, CNMPConfig
+    from acnmp_core.tasks.viapoint.task import obstacle_demos
 
     model = CNMP(CNMPConfig(n_outputs=2), seed=0)
     model.fit_normalization(obstacle_demos())

@@ -28,8 +28,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
-from acnmp_core.robots.pour import PourTask  # noqa: E402
-from acnmp_core.tasks.pour_demos import (DEMO_ANGLES_DEG, HOLD_STEPS, N_STEPS, RETURN_STEPS,  # noqa: E402
+from acnmp_core.tasks.pour.task import PourTask  # noqa: E402
+from acnmp_core.tasks.pour.demos import (DEMO_ANGLES_DEG, HOLD_STEPS, N_STEPS, RETURN_STEPS,  # noqa: E402
                                          TILT_STEPS, expert_pour_trajectory, pour_demos)
 
 ANGLES_DEG = (95, 100, 105, 110, 120, 130, 140, 150, 160, 170, 180)

@@ -92,10 +92,10 @@ def _route(endpoint: str, ready, stop) -> None:
 
 
 def _train_checkpoint(path: Path, steps: int):
-    from acnmp_core.checkpoint import save_checkpoint
-    from acnmp_core.cnmp import CNMP, CNMPConfig
-    from acnmp_core.tasks.viapoint import obstacle_demos
-    from acnmp_core.training import TrainConfig, train
+    from acnmp_core.model.checkpoint import save_checkpoint
+    from acnmp_core.model.cnmp import CNMP, CNMPConfig
+    from acnmp_core.model.training import TrainConfig, train
+    from acnmp_core.tasks.viapoint.task import obstacle_demos
 
     demos = obstacle_demos()
     model = CNMP(CNMPConfig(n_outputs=2), seed=0)

@@ -29,7 +29,7 @@ sys.path.insert(0, str(ROOT))
 
 from acnmp_core.robots.gym_robot import GymRolloutEvaluator  # noqa: E402
 from acnmp_core.robots.pusher import TASK, pusher_config  # noqa: E402
-from acnmp_core.tasks.pusher_scene import PUSHER_KD, PUSHER_KP, pusher_expert, set_pusher_task, training_params  # noqa: E402
+from acnmp_core.tasks.pusher.scene import PUSHER_KD, PUSHER_KP, pusher_expert, set_pusher_task, training_params  # noqa: E402
 from benchmarks._results import provenance, save_result  # noqa: E402
 
 BATCH = 40

@@ -97,7 +97,7 @@ def main() -> int:
     args = p.parse_args()
     prov = provenance()
     os.environ.setdefault("ACNMP_RUNTIME_DIR", tempfile.mkdtemp(prefix="acnmp-bench-run-"))
-    from acnmp_core.tasks.viapoint import obstacle_demos
+    from acnmp_core.tasks.viapoint.task import obstacle_demos
     from clients.client import ACNMPClient
     from services.launcher import LocalDeployment
 

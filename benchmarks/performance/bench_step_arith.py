@@ -36,8 +36,8 @@ def child(threads: int, flush: bool, steps: int) -> dict:
     if flush:
         torch.set_flush_denormal(True)
     from acnmp_core.experiments.wall import make_wall_cnmp, make_setup
-    from acnmp_core.optim_step import Stepper
-    from acnmp_core.training import TrainConfig, make_sampler, nll_loss
+    from acnmp_core.model.optim_step import Stepper
+    from acnmp_core.model.training import TrainConfig, make_sampler, nll_loss
 
     setup = make_setup(1, 0)
     model = make_wall_cnmp(0)

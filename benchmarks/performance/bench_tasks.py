@@ -25,8 +25,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 from acnmp_core.robots.registry import robot  # noqa: E402
-from acnmp_core.tasks import wall as W  # noqa: E402
-from acnmp_core.tasks.push_demos import push_demos  # noqa: E402
+from acnmp_core.tasks.wall import task as W  # noqa: E402
+from acnmp_core.tasks.push.demos import push_demos  # noqa: E402
 from clients.experiments.common import write_json  # noqa: E402
 
 
@@ -55,7 +55,7 @@ def wall_scoring_s(n: int = 1000, steps: int = 200) -> tuple[float, bool]:
 
 def e1_adaptation(budget: int = 30, train_steps: int = 1000) -> dict:
     """Seconds per iteration and per roll-out of E1's ACNMP adaptation (seed 0, in-process task)."""
-    from acnmp_core.adaptation import adapt
+    from acnmp_core.adapt.adaptation import adapt
     from acnmp_core.experiments.viapoint import adapt_config, make_setup, train_lfd
 
     setup = make_setup()

@@ -38,9 +38,9 @@ def _cell(workload: str, steps: int, envs: int) -> dict:
     h = hashlib.sha256()
     t0, c0 = time.perf_counter(), time.process_time()
     if workload == "e1_train":
-        from acnmp_core.cnmp import CNMP, CNMPConfig
-        from acnmp_core.tasks.viapoint import obstacle_demos
-        from acnmp_core.training import TrainConfig, train
+        from acnmp_core.model.cnmp import CNMP, CNMPConfig
+        from acnmp_core.model.training import TrainConfig, train
+        from acnmp_core.tasks.viapoint.task import obstacle_demos
         model = CNMP(CNMPConfig(n_outputs=2), seed=0)
         r = train(model, obstacle_demos(), TrainConfig(steps=steps), seed=0, progress=False)
         for v in model.state_dict().values():

@@ -68,9 +68,9 @@ def _per_step(clock: _Clock, steps: int) -> dict:
 def warm_up() -> dict:
     """A 5-step training of a tiny CNMP before anything is timed: the first optimiser of a process
     imports torch's compiler stack (seconds of CPU), which no workload below should be charged."""
-    from acnmp_core.cnmp import CNMP, CNMPConfig
-    from acnmp_core.tasks.viapoint import obstacle_demos
-    from acnmp_core.training import TrainConfig, train
+    from acnmp_core.model.cnmp import CNMP, CNMPConfig
+    from acnmp_core.model.training import TrainConfig, train
+    from acnmp_core.tasks.viapoint.task import obstacle_demos
 
     with _Clock() as c:
         train(CNMP(CNMPConfig(n_outputs=2, encoder_widths=(8,), decoder_widths=(8,))), obstacle_demos(),
@@ -80,7 +80,7 @@ def warm_up() -> dict:
 
 def bench_train(name: str, model, demos, steps: int) -> tuple[dict, object]:
     """train() for ``steps`` steps at batch 32 x 10 targets; returns the figures and the model."""
-    from acnmp_core.training import TrainConfig, train
+    from acnmp_core.model.training import TrainConfig, train
 
     with _Clock() as c:
         r = train(model, demos, TrainConfig(steps=steps, batch_size=32, n_targets=10), seed=0, progress=False)
@@ -90,9 +90,9 @@ def bench_train(name: str, model, demos, steps: int) -> tuple[dict, object]:
 
 def bench_assimilation(model, setup, steps: int) -> dict:
     """One E3 assimilation (anchor included) of the model's own trajectory for the first new environment."""
-    from acnmp_core.adaptation import AdaptTarget
-    from acnmp_core.assimilation import AssimilationConfig, assimilate
-    from acnmp_core.data import Demonstration
+    from acnmp_core.adapt.assimilation import AssimilationConfig, assimilate
+    from acnmp_core.adapt.config import AdaptTarget
+    from acnmp_core.data.demos import Demonstration
     from acnmp_core.experiments.wall import TRAIN_DEFAULTS, cnmp_trajectories, wall_conditions
 
     c = setup.stream[0]
@@ -111,10 +111,11 @@ def bench_assimilation(model, setup, steps: int) -> dict:
 def bench_adaptation(model, setup, max_rollouts: int) -> dict:
     """One E3 adaptation (library defaults, ``max_rollouts``) on the first new environment the model
     fails, with its supervised steps timed apart."""
-    from acnmp_core import adaptation
-    from acnmp_core.adaptation import AdaptConfig, AdaptTarget, adapt
+    from acnmp_core.adapt import adaptation
+    from acnmp_core.adapt.adaptation import adapt
+    from acnmp_core.adapt.config import AdaptConfig, AdaptTarget
     from acnmp_core.experiments.wall import cnmp_trajectories, wall_conditions
-    from acnmp_core.tasks.wall import WallTask
+    from acnmp_core.tasks.wall.task import WallTask
 
     ev = WallTask()
     c = next(c for c in setup.stream
@@ -180,9 +181,9 @@ def _add_ratios(result: dict, before_path: str) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from acnmp_core.cnmp import CNMP, CNMPConfig
     from acnmp_core.experiments.wall import make_wall_cnmp, make_setup
-    from acnmp_core.tasks.viapoint import obstacle_demos
+    from acnmp_core.model.cnmp import CNMP, CNMPConfig
+    from acnmp_core.tasks.viapoint.task import obstacle_demos
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--train-steps", type=int, default=3000, help="E3's first training (E1: a third)")

@@ -23,8 +23,8 @@ import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
-from acnmp_core.tasks.ur10_demos import expert_trajectory, make_ur10_demos  # noqa: E402
-from acnmp_core.tasks.ur10_pick_place import N_STEPS, UR10PickPlaceTask  # noqa: E402
+from acnmp_core.tasks.ur10_pick_place.demos import expert_trajectory, make_ur10_demos  # noqa: E402
+from acnmp_core.tasks.ur10_pick_place.task import N_STEPS, UR10PickPlaceTask  # noqa: E402
 
 
 def _smooth_noise(rng, std: float, n_knots: int = 20) -> np.ndarray:

@@ -24,11 +24,11 @@ from benchmarks._results import provenance, save_result  # noqa: E402
 
 #: stage -> (module file suffix, function name) whose cumulative time is the stage's.
 STAGES = {
-    "first_training": ("acnmp_core/training.py", "train"),
-    "adaptation": ("acnmp_core/adaptation.py", "adapt"),
-    "adaptation_supervised_steps": ("acnmp_core/adaptation.py", "sl"),
-    "rollouts": ("acnmp_core/tasks/wall.py", "evaluate"),
-    "assimilation": ("acnmp_core/assimilation.py", "assimilate"),
+    "first_training": ("acnmp_core/model/training.py", "train"),
+    "adaptation": ("acnmp_core/adapt/adaptation.py", "adapt"),
+    "adaptation_supervised_steps": ("acnmp_core/adapt/adaptation.py", "sl"),
+    "rollouts": ("acnmp_core/tasks/wall/task.py", "evaluate"),
+    "assimilation": ("acnmp_core/adapt/assimilation.py", "assimilate"),
     "test_evaluation": ("acnmp_core/experiments/wall.py", "evaluate_test"),
 }
 

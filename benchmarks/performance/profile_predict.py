@@ -32,16 +32,16 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
-from benchmarks.performance import bench_predict as B  # noqa: E402
 from benchmarks._results import provenance, save_result  # noqa: E402
+from benchmarks.performance import bench_predict as B  # noqa: E402
 
 #: (stage, file suffix, function) markers, matched from the innermost frame outwards: a sample
 #: belongs to the first marker found. Order matters only where one marker calls another.
 STAGES = (
     ("reply: msgpack encode of the reply", "services/transport/wire.py", "encode"),
     ("reply: zenoh query.reply and the query's drop", "services/transport/rpc.py", "RpcQueryable._answer"),
-    ("request: query tensors (normalise, time grid)", "acnmp_core/cnmp.py", "CNMP.make_query"),
-    ("forward: encoder + decoder (torch)", "acnmp_core/cnmp.py", "CNMP.predict_queries"),
+    ("request: query tensors (normalise, time grid)", "acnmp_core/model/cnmp.py", "CNMP.make_query"),
+    ("forward: encoder + decoder (torch)", "acnmp_core/model/cnmp.py", "CNMP.predict_queries"),
     ("request: msgpack decode", "services/transport/wire.py", "decode"),
     ("request: validation and limits", "services/model/handlers.py", "prepare_predict"),
     ("batching: collecting, futures", "services/model/batching.py", "PredictBatcher._take"),

@@ -23,7 +23,7 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 from acnmp_core.experiments import wall as E  # noqa: E402
-from acnmp_core.training import TrainConfig, train  # noqa: E402
+from acnmp_core.model.training import TrainConfig, train  # noqa: E402
 from benchmarks._results import provenance, save_result  # noqa: E402
 
 #: TrainConfig fields per budget: E3's default first training, then larger budgets, a rate decayed

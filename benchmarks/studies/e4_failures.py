@@ -25,9 +25,9 @@ import torch
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
-from acnmp_core.adaptation import per_step_advantages  # noqa: E402
+from acnmp_core.adapt.credit import per_step_advantages  # noqa: E402
 from acnmp_core.experiments.transfer import BLIND_TOLERANCE, CHECKPOINTS, make_setup, run_condition  # noqa: E402
-from acnmp_core.tasks.transfer_scene import CubeGapTask  # noqa: E402
+from acnmp_core.tasks.transfer.scene import CubeGapTask  # noqa: E402
 from benchmarks._results import provenance, save_result  # noqa: E402
 from benchmarks.studies.e4_sweep import VARIANTS, _memo_trainer  # noqa: E402
 

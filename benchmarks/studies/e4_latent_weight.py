@@ -24,8 +24,8 @@ sys.path.insert(0, str(ROOT))
 
 from acnmp_core.experiments.transfer import (AUTHORS_DATA, TransferExperimentConfig, authors_data_check,  # noqa: E402
                                              make_setup, paired_latent_distance, task_config)
-from acnmp_core.tasks.transfer_scene import CubeGapTask  # noqa: E402
-from acnmp_core.transfer import TransferPair, spread_observations, train_pair  # noqa: E402
+from acnmp_core.tasks.transfer.scene import CubeGapTask  # noqa: E402
+from acnmp_core.transfer.pair import TransferPair, spread_observations, train_pair  # noqa: E402
 from benchmarks._results import provenance, save_result  # noqa: E402
 
 

@@ -25,7 +25,7 @@ sys.path.insert(0, str(ROOT))
 
 from acnmp_core.experiments.transfer import (TransferExperimentConfig, authors_data_check,  # noqa: E402
                                              load_authors_data, make_setup, run_transfer)
-from acnmp_core.transfer import TransferPair, train_pair  # noqa: E402
+from acnmp_core.transfer.pair import TransferPair, train_pair  # noqa: E402
 from benchmarks._results import provenance  # noqa: E402
 
 OUT = ROOT / "benchmarks" / "results" / "e4_sweep.json"

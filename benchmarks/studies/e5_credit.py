@@ -20,7 +20,7 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 from acnmp_core.experiments.ur10 import run_ur10  # noqa: E402
-from acnmp_core.tasks.ur10_pick_place import UR10PickPlaceTask  # noqa: E402
+from acnmp_core.tasks.ur10_pick_place.task import UR10PickPlaceTask  # noqa: E402
 from benchmarks._results import provenance, save_result  # noqa: E402
 
 

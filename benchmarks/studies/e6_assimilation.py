@@ -27,7 +27,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
-from acnmp_core.assimilation import AssimilationConfig  # noqa: E402
+from acnmp_core.adapt.assimilation import AssimilationConfig  # noqa: E402
 from benchmarks._results import provenance, save_result  # noqa: E402
 from benchmarks.studies.e6_settings import parse_seeds  # noqa: E402
 
@@ -47,12 +47,12 @@ def _seed(job: tuple[int, str, tuple[str, ...]]) -> dict:
     reproduction, the adaptation, then each named candidate's checks."""
     import torch
 
-    from acnmp_core.adaptation import adapt
-    from acnmp_core.assimilation import assimilate
-    from acnmp_core.data import Demonstration
+    from acnmp_core.adapt.adaptation import adapt
+    from acnmp_core.adapt.assimilation import assimilate
+    from acnmp_core.data.demos import Demonstration
     from acnmp_core.experiments.pour import (TEST, TOLERANCE_G, e6_adapt_config, make_setup, make_target,
                                              mean_errors_g, train_pour_cnmp)
-    from acnmp_core.robots.pour import PourTask
+    from acnmp_core.tasks.pour.task import PourTask
 
     seed, noise, names = job
     torch.set_num_threads(1)

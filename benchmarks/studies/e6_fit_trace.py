@@ -24,7 +24,7 @@ import torch
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
-from acnmp_core import adaptation  # noqa: E402
+from acnmp_core.adapt import adaptation  # noqa: E402
 from acnmp_core.experiments.pour import TOLERANCE_G, make_setup, run_seed, train_pour_cnmp  # noqa: E402
 from benchmarks._results import provenance, save_result  # noqa: E402
 from benchmarks.studies.e6_settings import candidate_config, parse_seeds  # noqa: E402
@@ -70,7 +70,7 @@ def traced_update(original, trace: list[dict], cfg: adaptation.AdaptConfig):
 
 def main(argv: list[str] | None = None) -> int:
     """Trace the updates of ``--candidate`` on ``--seeds``; print a line per update, write the JSON."""
-    from acnmp_core.robots.pour import PourTask
+    from acnmp_core.tasks.pour.task import PourTask
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", default="104,115")

@@ -42,8 +42,8 @@ import torch
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
-from acnmp_core.adaptation import AdaptConfig  # noqa: E402
-from acnmp_core.exploration import CubicNoise  # noqa: E402
+from acnmp_core.adapt.config import AdaptConfig  # noqa: E402
+from acnmp_core.adapt.exploration import CubicNoise  # noqa: E402
 from acnmp_core.experiments.pour import TOLERANCE_G, WITHIN, make_setup, run_seed, train_pour_cnmp  # noqa: E402
 from benchmarks._results import provenance, save_result  # noqa: E402
 
@@ -100,7 +100,7 @@ def seed_job(args: tuple[int, list[str], int]) -> list[dict]:
     """Train seed's LfD model once and adapt a copy of it with every named candidate; in a child
     process (one torch thread, its own rig). Returns one dict per candidate (run_seed's, with
     ``candidate`` and ``seed``)."""
-    from acnmp_core.robots.pour import PourTask
+    from acnmp_core.tasks.pour.task import PourTask
 
     seed, names, budget = args
     torch.set_num_threads(1)

@@ -18,7 +18,7 @@ trained on it reproduce it, beside the current set, in one run:
 3. **16 weights** among the robust ones, in order, as near as possible to the current weights
    (:func:`pick`).
 4. **Reproduction**: for each of ``--seeds``, E6's LfD model (:func:`~acnmp_core.experiments.pour.train_pour_cnmp`)
-   is trained on that set and on the current set (:func:`~acnmp_core.tasks.pour_demos.pour_demos`),
+   is trained on that set and on the current set (:func:`~acnmp_core.tasks.pour.demos.pour_demos`),
    and each demonstration is reproduced (conditioned on its weight and poured amount, executed once):
    how many pour within 30 g, and how far the model's held tilt is from the demonstration's.
 
@@ -39,18 +39,19 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
-from acnmp_core.data import DemoSet, Demonstration  # noqa: E402
+from acnmp_core.data.demos import DemoSet, Demonstration  # noqa: E402
 from acnmp_core.experiments.pour import (  # noqa: E402
     TOLERANCE_G, PourSetup, make_setup, make_target, mean_errors_g, train_pour_cnmp,
 )
-from acnmp_core.exploration import SmoothNoise  # noqa: E402
-from acnmp_core.robots.pour import PourConfig, PourTask  # noqa: E402
-from acnmp_core.tasks.pour_demos import (  # noqa: E402
+from acnmp_core.adapt.exploration import SmoothNoise  # noqa: E402
+from acnmp_core.sim.pour import PourConfig  # noqa: E402
+from acnmp_core.tasks.pour.task import PourTask  # noqa: E402
+from acnmp_core.tasks.pour.demos import (  # noqa: E402
     N_STEPS, NOMINAL_WEIGHTS_G, TILT_STEPS, HOLD_STEPS, demo_weights_g, expert_pour_trajectory,
 )
 from benchmarks._results import provenance, save_result  # noqa: E402
-from benchmarks.studies.pour_sensitivity import shifted  # noqa: E402
 from benchmarks.studies.e1_assimilation import seed_range  # noqa: E402
+from benchmarks.studies.pour_sensitivity import shifted  # noqa: E402
 
 #: The expert's range of tilts (deg), the paper's.
 ANGLE_RANGE_DEG = (85.0, 95.0)

@@ -1,6 +1,6 @@
 """How sensitive is the pouring rig's pour to small changes of the demonstrated wrist motion?
 
-Replays each of the 16 E6 demonstrations (:func:`~acnmp_core.tasks.pour_demos.make_pour_demos`:
+Replays each of the 16 E6 demonstrations (:func:`~acnmp_core.tasks.pour.demos.make_pour_demos`:
 the expert's tilt to 85-95 deg at 650-1200 g) exactly, with the held tilt offset by the given
 angles (deg) and with the whole motion shifted by whole rows in time (one row = 1/60 s), and
 records the poured grams of each. A demonstration is "robust" when every perturbation of at most
@@ -13,7 +13,7 @@ for the E6 test's two needs: the demonstrated motions pour far less than the tar
 extrapolation) and some tilt pours the target.
 
 ``--rig`` chooses rig configurations from :data:`RIGS` (``default`` is the library's
-:class:`~acnmp_core.robots.pour.PourConfig`), so variants can be compared in one session.
+:class:`~acnmp_core.sim.pour.PourConfig`), so variants can be compared in one session.
 
 Usage::
 
@@ -33,8 +33,10 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
-from acnmp_core.robots.pour import TEST_WEIGHT_G, PourConfig, PourTask  # noqa: E402
-from acnmp_core.tasks.pour_demos import DEMO_ANGLES_DEG, N_STEPS, demo_weights_g, expert_pour_trajectory  # noqa: E402
+from acnmp_core.sim.pour import TEST_WEIGHT_G, PourConfig  # noqa: E402
+
+from acnmp_core.tasks.pour.task import PourTask  # noqa: E402
+from acnmp_core.tasks.pour.demos import DEMO_ANGLES_DEG, N_STEPS, demo_weights_g, expert_pour_trajectory  # noqa: E402
 from benchmarks._results import provenance, save_result  # noqa: E402
 
 OFFSETS_DEG = (-0.5, -0.25, -0.01, 0.01, 0.25, 0.5)

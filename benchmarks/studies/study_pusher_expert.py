@@ -1,6 +1,6 @@
 """How good is the Pusher-v5 expert, and is the extrapolation a real one (issue 33)?
 
-Executes the scripted expert (acnmp_core/tasks/pusher_scene.py) through the pusher robot at the
+Executes the scripted expert (acnmp_core/tasks/pusher/scene.py) through the pusher robot at the
 12 demonstration positions, at 100 random positions of the training region and 100 of the
 extrapolation region; and, at the extrapolation positions, the nearest demonstration's
 trajectory (what a method that only recalls its demonstrations would do). Also the feasibility
@@ -18,7 +18,7 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 from acnmp_core.robots.registry import robot  # noqa: E402
-from acnmp_core.tasks import pusher_scene as scene  # noqa: E402
+from acnmp_core.tasks.pusher import scene  # noqa: E402
 from benchmarks._results import provenance, save_result  # noqa: E402
 
 

@@ -32,9 +32,9 @@ def trace(steps: int) -> list[dict]:
     import torch
     from torch.utils._python_dispatch import TorchDispatchMode
 
-    from acnmp_core.cnmp import CNMP, CNMPConfig
-    from acnmp_core.tasks.viapoint import obstacle_demos
-    from acnmp_core.training import TrainConfig, train
+    from acnmp_core.model.cnmp import CNMP, CNMPConfig
+    from acnmp_core.model.training import TrainConfig, train
+    from acnmp_core.tasks.viapoint.task import obstacle_demos
 
     torch.set_num_threads(1)
     ops: list[dict] = []

@@ -32,7 +32,7 @@ def register(subparsers) -> None:
 
 
 def _run_from_recording(args) -> int:
-    from acnmp_core.demo_io import save_demos
+    from acnmp_core.data.demo_io import save_demos
     from services.recording.tables import read_recording
     from services.transport.argtypes import check_output_path
 

@@ -17,7 +17,7 @@ from clients.client import JobSummary
 from services.transport import jsonable
 from services.transport.argtypes import int_at_least, non_empty, seconds
 
-from .query import _ask, _client, _common, _fail, _floats, _skill, condition_arguments, parse_obs, parse_obs_json
+from .common import _ask, _client, _common, _fail, _floats, _skill, condition_arguments, parse_obs, parse_obs_json
 
 EPILOG = """\
 examples:
@@ -31,7 +31,7 @@ examples:
 
 def add_job_commands(sub) -> None:
     """Add ``train``, ``adapt``, ``jobs`` and ``watch`` to ``acnmp query``'s sub-commands."""
-    from acnmp_core.demo_io import format_help
+    from acnmp_core.data.demo_io import format_help
 
     fmt = argparse.RawDescriptionHelpFormatter
     train = sub.add_parser("train", help="train (or retrain) a skill on a demonstrations .npz, on the learner",
@@ -99,7 +99,7 @@ def _wait_timeout(parser, prefix: str = "") -> None:
 
 
 def _run_train(args) -> int:
-    from acnmp_core.demo_io import load_demos
+    from acnmp_core.data.demo_io import load_demos
 
     try:
         arrays = load_demos(args.demos)
@@ -127,10 +127,10 @@ def _run_train(args) -> int:
 
 
 def _adapt_job(args, client):
-    """The :class:`~acnmp_core.adapt_job.AdaptJob` of ``args``; the query times from the skill's
+    """The :class:`~acnmp_core.jobs.adapt.AdaptJob` of ``args``; the query times from the skill's
     trained time range (its ``info``) unless ``--times`` gives them."""
-    from acnmp_core.adapt_job import AdaptJob
-    from acnmp_core.adaptation import AdaptConfig, AdaptTarget
+    from acnmp_core.adapt.config import AdaptConfig, AdaptTarget
+    from acnmp_core.jobs.adapt import AdaptJob
 
     times, values, mask = parse_obs_json(args.obs_json) if args.obs_json else parse_obs(args.obs)
     query_times = _floats(args.times, "--times")

@@ -11,7 +11,7 @@ def register(subparsers) -> None:
 
     import argparse
 
-    from acnmp_core.demo_io import format_help
+    from acnmp_core.data.demo_io import format_help
 
     p = subparsers.add_parser("up", help="start a local deployment on 127.0.0.1 until Ctrl-C / SIGTERM",
                               description=__doc__.splitlines()[0].split(": ", 1)[1], epilog=format_help(),
@@ -62,8 +62,8 @@ def run(args) -> int:
     from services.learner.service import load_demos_spec, parse_demos_spec
     from services.learner.store import StateDirInUse
     from services.transport import install_shutdown_handlers
-    from services.transport.state_dir import default_state_dir
     from services.transport.argtypes import check_output_path
+    from services.transport.state_dir import default_state_dir
 
     for spec in args.demos:  # the learner would exit at its start, be restarted, and exit again
         load_demos_spec(spec)

@@ -36,10 +36,10 @@ def run(args) -> int:
     """Run E2 as asked by ``args`` and print a summary table; returns the exit code."""
     import torch
 
-    from acnmp_core.adaptation import AdaptConfig
+    from acnmp_core.adapt.config import AdaptConfig
+    from acnmp_core.baselines.promp_rl import PrompRLConfig
     from acnmp_core.experiments.push import ACNMP_BUDGET, PROMP_DEFAULTS, run_push, task_config
-    from acnmp_core.promp_rl import PrompRLConfig
-    from acnmp_core.tasks.push_settings import push_setting
+    from acnmp_core.tasks.push.settings import push_setting
 
     torch.set_num_threads(1)  # the CNMP is small; threads only contend with the simulator
     q = QUICK if args.quick else {}
@@ -76,7 +76,7 @@ def run(args) -> int:
         print(f"ProMP+RL / ACNMP roll-outs ({c}): {'-' if ratio is None else f'{ratio:.2f}x'}")
     write_json(result, args.json)
     if args.plot:
-        from acnmp_core.plots import plot_push
+        from acnmp_core.experiments.plots import plot_push
 
         print(f"wrote {plot_push(result, args.plot)}", flush=True)
     return 0

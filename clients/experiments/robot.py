@@ -28,7 +28,7 @@ def add_arguments(p) -> None:
     import argparse
     import textwrap
 
-    from acnmp_core.demo_io import format_help
+    from acnmp_core.data.demo_io import format_help
 
     p.formatter_class = argparse.RawDescriptionHelpFormatter  # the epilog's table keeps its lines
     p.description = textwrap.fill(p.description or "", 90)
@@ -47,7 +47,7 @@ def run(args) -> int:
     """Run it as asked by ``args`` and print one row per method; returns the exit code."""
     import torch
 
-    from acnmp_core.demo_io import load_demos
+    from acnmp_core.data.demo_io import load_demos
     from acnmp_core.experiments.own_robot import check_points, plot_own_robot, robot_task, run_own_robot
 
     check_deployment_arguments(args)

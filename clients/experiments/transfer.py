@@ -78,7 +78,7 @@ def run(args) -> int:
         print(f"authors' data check skipped: their arrays are not in {data_dir} (--authors-data DIR)")
     write_json(result, args.json)
     if args.plot:
-        from acnmp_core.plots import plot_transfer
+        from acnmp_core.experiments.plots import plot_transfer
 
         print(f"wrote {plot_transfer(result, args.plot)}", flush=True)
     return 0

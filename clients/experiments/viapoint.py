@@ -71,7 +71,7 @@ def run(args) -> int:
         write_json({"experiment": "viapoint", "seeds": len(seeds), "seed_list": seeds, **agg, "runs": summaries},
                    args.json)
     if args.plot:
-        from acnmp_core.plots import plot_viapoint
+        from acnmp_core.experiments.plots import plot_viapoint
 
         for p in plot_viapoint(runs[0], args.plot):  # the first seed's
             print(f"wrote {p}")

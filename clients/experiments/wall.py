@@ -49,7 +49,7 @@ def add_arguments(p) -> None:
 def run(args) -> int:
     """Run E3 as asked by ``args`` (each seed in turn), print the curve and a summary per seed;
     returns the exit code. One seed's JSON is its result; several seeds' holds each one's (``runs``)."""
-    from acnmp_core.tasks.wall_settings import wall_setting
+    from acnmp_core.tasks.wall.settings import wall_setting
 
     # The arguments are checked before torch is imported, so a mistake is reported at once.
     try:
@@ -99,7 +99,7 @@ def run(args) -> int:
             for m in results[0]["methods"]))
         write_json({"experiment": "wall", "seeds": len(seeds), "seed_list": seeds, "runs": results}, args.json)
     if args.plot:
-        from acnmp_core.plots import plot_wall
+        from acnmp_core.experiments.plots import plot_wall
 
         print(f"wrote {plot_wall(results[0], args.plot)}", flush=True)  # the first seed's
     return 0

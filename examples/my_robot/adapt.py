@@ -8,8 +8,8 @@ import sys
 import numpy as np
 
 from acnmp_core import AdaptConfig, AdaptTarget
-from acnmp_core.adapt_job import AdaptJob
 from acnmp_core.errors import InputError
+from acnmp_core.jobs.adapt import AdaptJob
 from clients.client import ACNMPClient, ClientError
 
 

@@ -2,7 +2,7 @@
 paired-skill jobs.
 
 :class:`LearnerCore` owns the durable state (services/learner/store.py) and runs one job at a time
-on a background thread: :func:`acnmp_core.adaptation.adapt` on a copy of the skill's model, with the
+on a background thread: :func:`acnmp_core.adapt.adaptation.adapt` on a copy of the skill's model, with the
 evaluator its ``evaluator_for`` callable builds for the job (the service passes a
 :class:`~services.worker.remote.RemoteEvaluator` over the workers; a test may pass the in-process
 task). With ``commit`` a successful solution is assimilated: added to the demonstrations, the model
@@ -10,8 +10,8 @@ trains on (``fit_normalization=False``) and a new version is committed. Everythi
 sees goes through two callables: ``publish(event)`` for events (services/recording/events.py) and
 ``on_version(state)`` when a skill version is committed (the service puts the weights).
 
-A ``train_pair`` job (:class:`~acnmp_core.transfer_job.PairTrainJob`) runs on the same queue:
-:func:`acnmp_core.transfer.train_pair` on a fresh pair, progress every 5 % of its steps, and the
+A ``train_pair`` job (:class:`~acnmp_core.jobs.transfer.PairTrainJob`) runs on the same queue:
+:func:`acnmp_core.transfer.pair.train_pair` on a fresh pair, progress every 5 % of its steps, and the
 pair committed as the skill's next version (robot A's CNMP as its model, robot B's as its
 ``partner``), with the latents of both robots' demonstrations published.
 
@@ -57,15 +57,16 @@ from typing import Callable
 import numpy as np
 import torch
 
-from acnmp_core.adapt_job import AdaptJob
-from acnmp_core.adaptation import AdaptTarget, IterationLog, adapt
-from acnmp_core.assimilation import AssimilationConfig, assimilate
-from acnmp_core.cnmp import CNMP, CNMPConfig
-from acnmp_core.data import DemoSet, Demonstration
+from acnmp_core.adapt.adaptation import adapt
+from acnmp_core.adapt.assimilation import AssimilationConfig, assimilate
+from acnmp_core.adapt.config import AdaptTarget, IterationLog
+from acnmp_core.data.demos import DemoSet, Demonstration
+from acnmp_core.jobs.adapt import AdaptJob
+from acnmp_core.jobs.transfer import PairJobResult, PairTrainJob
+from acnmp_core.model.cnmp import CNMP, CNMPConfig
+from acnmp_core.model.training import TrainConfig, train
 from acnmp_core.rollout import RolloutBatch, RolloutEvaluator
-from acnmp_core.training import TrainConfig, train
-from acnmp_core.transfer import PairTrainResult, TransferPair, latent_plane, train_pair
-from acnmp_core.transfer_job import PairJobResult, PairTrainJob
+from acnmp_core.transfer.pair import PairTrainResult, TransferPair, latent_plane, train_pair
 from services.recording.events import (batch_rollout_events, job_event, job_progress_event, latent_event,
                                        model_version_event, robot_drawing)
 
@@ -176,7 +177,7 @@ class LearnerCore:
     publish : ``event -> None``; every event the learner emits (versions, latents, roll-outs, progress).
     on_version : ``SkillState -> None``; called after a new version is checkpointed, before its events.
     device : where the skills' networks train, adapt and assimilate (``cpu``, ``cuda``, ``auto``;
-        acnmp_core/device.py): a skill loaded from the state directory or newly trained is moved
+        acnmp_core/model/device.py): a skill loaded from the state directory or newly trained is moved
         there once; its checkpoints load on any device.
     state_limits : queue limit, job records and checkpoints kept (services/learner/limits.py).
     """
@@ -185,7 +186,7 @@ class LearnerCore:
                  publish: Callable[[dict], None] = lambda _event: None,
                  on_version: Callable[[SkillState], None] = lambda _state: None, device: str = "cpu",
                  state_limits: StateLimits = StateLimits()):
-        from acnmp_core.device import resolve_device
+        from acnmp_core.model.device import resolve_device
 
         self.device = resolve_device(device)  # before anything is locked: a bad device changes nothing
         # one learner per state directory: a second one would restart the first one's jobs
@@ -576,7 +577,7 @@ class LearnerCore:
             with self._train_lock:
                 losses = train_pair(pair, req.demos_a, req.demos_b, req.config, seed=req.seed,
                                     on_step=self._pair_progress(job))
-            # a pair trains on the CPU (acnmp_core/transfer.py); served and adapted where the skills are
+            # a pair trains on the CPU (acnmp_core/transfer/pair.py); served and adapted where the skills are
             pair.model_a.to_device(self.device)
             pair.model_b.to_device(self.device)
             with self._lock:

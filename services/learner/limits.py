@@ -16,10 +16,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from acnmp_core.adapt_job import AdaptJob
-from acnmp_core.cnmp import CNMPConfig
-from acnmp_core.training import TrainConfig
-from acnmp_core.transfer_job import PairTrainJob
+from acnmp_core.jobs.adapt import AdaptJob
+from acnmp_core.jobs.transfer import PairTrainJob
+from acnmp_core.model.cnmp import CNMPConfig
+from acnmp_core.model.training import TrainConfig
 from services.model.weights import MAX_PARAMETERS
 from services.transport.wire import WireError
 from services.worker.core import MAX_BATCH as WORKER_MAX_BATCH

@@ -19,8 +19,8 @@ that stops by an error ends the process (exit 1), so a launcher restarts it.
 ``weights/latest`` does not answer them, so a model service starting meanwhile serves the skill
 only once it is the one trained from the file (``acnmp up`` says "deployment is up" then).
 
-An adapt request is decoded once into an :class:`~acnmp_core.adapt_job.AdaptJob`
-(:meth:`~acnmp_core.adapt_job.AdaptJob.from_dict`); the core runs it with a
+An adapt request is decoded once into an :class:`~acnmp_core.jobs.adapt.AdaptJob`
+(:meth:`~acnmp_core.jobs.adapt.AdaptJob.from_dict`); the core runs it with a
 :class:`~services.worker.remote.RemoteEvaluator` over the workers of the job's robot kind.
 """
 from __future__ import annotations
@@ -37,12 +37,12 @@ from typing import ClassVar, Sequence
 
 import zenoh
 
-from acnmp_core.adapt_job import AdaptJob
-from acnmp_core.cnmp import CNMPConfig
-from acnmp_core.data import DemoSet
-from acnmp_core.demo_io import DemoArrays, load_demos
-from acnmp_core.training import TrainConfig
-from acnmp_core.transfer_job import PairTrainJob
+from acnmp_core.data.demo_io import DemoArrays, load_demos
+from acnmp_core.data.demos import DemoSet
+from acnmp_core.jobs.adapt import AdaptJob
+from acnmp_core.jobs.transfer import PairTrainJob
+from acnmp_core.model.cnmp import CNMPConfig
+from acnmp_core.model.training import TrainConfig
 from services.model.weights import encode_weights
 from services.recording.publisher import EventPublisher
 from services.transport import Keyspace, Ready, Service, WireError, declare_rpc, option
@@ -125,7 +125,7 @@ def parse_train_request(msg: dict | None, limits: LearnerLimits = LearnerLimits(
 
 def parse_pair_request(msg: dict | None, limits: LearnerLimits = LearnerLimits()) -> PairTrainJob:
     """Validate a ``train_pair`` request (docs/PROTOCOL.md; the layout of
-    :class:`~acnmp_core.transfer_job.PairTrainJob`); returns the job. Raises WireError: the code of
+    :class:`~acnmp_core.jobs.transfer.PairTrainJob`); returns the job. Raises WireError: the code of
     the library's typed error (``bad_shape``, ``non_finite``, ``too_large``, else ``bad_request``),
     or ``too_large`` over a limit of the learner."""
     msg = require_payload(msg, "a train_pair request")

@@ -3,10 +3,10 @@
 Layout of ``<state_dir>`` (docs/DEPLOYMENT.md, "State directory", tells the same story to an
 operator)::
 
-    skills/<skill>/model-v<N>.pt          checkpoint of version N (acnmp_core.checkpoint); meta:
+    skills/<skill>/model-v<N>.pt          checkpoint of version N (acnmp_core.model.checkpoint); meta:
                                           version, demos file, n_demos, source_hash, trained_as,
                                           partner files
-    skills/<skill>/demos-v<N>.npz         its demonstrations (acnmp_core.demo_io, padded + lengths)
+    skills/<skill>/demos-v<N>.npz         its demonstrations (acnmp_core.data.demo_io, padded + lengths)
     skills/<skill>/partner-v<N>.pt        a paired skill's robot B model
     skills/<skill>/partner-demos-v<N>.npz and robot B's demonstrations
     skills/<skill>/versions.json          {"format": 1, "skill", "highest"}: the highest version
@@ -53,12 +53,12 @@ from pathlib import Path
 
 import numpy as np
 
-from acnmp_core.checkpoint import checkpoint_bytes, load_checkpoint
-from acnmp_core.cnmp import CNMP
-from acnmp_core.data import DemoSet
-from acnmp_core.demo_io import DemoArrays, demos_bytes, load_demos
+from acnmp_core.data.demo_io import DemoArrays, demos_bytes, load_demos
+from acnmp_core.data.demos import DemoSet
 from acnmp_core.errors import UnreadableFileError
 from acnmp_core.files import atomic_write_bytes, fsync_directory, stale_temp_files
+from acnmp_core.model.checkpoint import checkpoint_bytes, load_checkpoint
+from acnmp_core.model.cnmp import CNMP
 from services.transport.keys import check_name
 
 from .jobs import JobRecord, RecordFormatError
@@ -286,7 +286,7 @@ def demo_set_to_arrays(demos: DemoSet, value_names=None, task_param_names=None) 
 class SkillState:
     """A skill as the learner holds it: the model, its demonstrations and its version.
 
-    A **paired skill** (a :class:`~acnmp_core.transfer.TransferPair` trained by a ``train_pair``
+    A **paired skill** (a :class:`~acnmp_core.transfer.pair.TransferPair` trained by a ``train_pair``
     job) holds robot A's CNMP and demonstrations as ``model`` and ``demos`` and robot B's as
     ``partner`` and ``partner_demos``; an ordinary skill has neither.
     """

@@ -5,7 +5,7 @@ with a *preparation*: a callable that decodes and checks the request
 (:func:`services.model.handlers.prepare_predict`). The batcher's own threads (``threads``, default
 1) each take every predict waiting (up to ``max_items``, after an optional collection window),
 prepare them, and run those of one model (the same :class:`SkillModel` entry, so one version)
-through :meth:`acnmp_core.cnmp.CNMP.predict_queries` in one pass; each predict's future is
+through :meth:`acnmp_core.model.cnmp.CNMP.predict_queries` in one pass; each predict's future is
 completed with its own reply, which sends it (services/transport/rpc.py).
 
 Why the preparation runs here rather than on the receiving thread: a batch can only hold what is

@@ -14,8 +14,8 @@ from typing import Iterable
 import numpy as np
 import torch
 
-from acnmp_core.cnmp import CNMP, Prediction, Query
-from acnmp_core.transfer import TransferPair, TransferredSkill
+from acnmp_core.model.cnmp import CNMP, Prediction, Query
+from acnmp_core.transfer.pair import TransferPair, TransferredSkill
 from services.transport.errors import wire_error
 from services.transport.wire import DEFAULT_MAX_BYTES, WireError, array_field, field, require_payload
 
@@ -322,7 +322,7 @@ def handle_predict(registry: ModelRegistry, skill: str, request) -> dict:
 
 def transfer_view(entry: SkillModel) -> SkillModel:
     """``entry`` with its model replaced by A's encoder -> B's decoder
-    (:class:`~acnmp_core.transfer.TransferredSkill`, which has the CNMP's ``config`` of robot B,
+    (:class:`~acnmp_core.transfer.pair.TransferredSkill`, which has the CNMP's ``config`` of robot B,
     ``make_query`` and ``predict_query``), so the predict path's cost check and computation run on
     it unchanged. WireError ``bad_request`` for a skill that is not a paired skill."""
     if entry.partner is None:
@@ -340,7 +340,7 @@ def handle_transfer(registry: ModelRegistry, skill: str, request) -> dict:
     model and its cost by :func:`check_cost` against robot B's outputs. The reply is a predict
     reply: ``times`` (T,), ``mean``/``std`` (T, D_B) robot B's raw units, ``latent`` (L,) the
     latent A's encoder gave, ``samples`` when asked. Equals
-    :meth:`acnmp_core.transfer.TransferPair.transfer` on the same weights. Raises WireError.
+    :meth:`acnmp_core.transfer.pair.TransferPair.transfer` on the same weights. Raises WireError.
     """
     request = require_payload(request, "a transfer request (obs_times, obs_values of robot A, ...)")
     if "batch" in request:

@@ -36,7 +36,7 @@ from typing import ClassVar, Sequence
 
 import zenoh
 
-from acnmp_core.checkpoint import load_checkpoint
+from acnmp_core.model.checkpoint import load_checkpoint
 from services.transport import Keyspace, Ready, Service, declare_rpc, option, wait_until_stopped
 from services.transport.argtypes import device, int_at_least, seconds
 from services.transport.auth import authenticated_user
@@ -85,7 +85,7 @@ class ModelService:
     batch_threads : batcher threads (default 1); each takes the predicts waiting and computes them.
         More than one only fight over the GIL on 2 cores (mode ``threads2`` of
         benchmarks/results/bench_predict.json).
-    device : where the served networks run (``cpu``, ``cuda``, ``auto``; acnmp_core/device.py): each
+    device : where the served networks run (``cpu``, ``cuda``, ``auto``; acnmp_core/model/device.py): each
         model is moved there once, when it is swapped in; ValueError for a device not present.
     """
 
@@ -94,7 +94,7 @@ class ModelService:
                  max_queue: int = MAX_QUEUE, weights_source: str = "learner",
                  batch_max: int = DEFAULT_BATCH_MAX, batch_window: float = DEFAULT_BATCH_WINDOW,
                  batch_threads: int = 1, device: str = "cpu"):
-        from acnmp_core.device import resolve_device
+        from acnmp_core.model.device import resolve_device
 
         self.device = resolve_device(device)
         self.session = session
@@ -214,7 +214,7 @@ class ModelService:
         return True
 
     def load_checkpoint(self, path: str | Path, skill: str | None = None) -> SkillModel:
-        """Serve a checkpoint file (acnmp_core.checkpoint format). The skill name is ``skill``, else
+        """Serve a checkpoint file (acnmp_core.model.checkpoint format). The skill name is ``skill``, else
         the checkpoint's ``meta["skill"]``, else the file stem; version from ``meta["version"]``
         (default 0). Returns the entry; raises ValueError for a bad file or name."""
         model, info = load_checkpoint(path)
@@ -305,7 +305,7 @@ class ModelConfig(Service):
         None, "serve only this skill (repeatable; default: every skill the learner publishes)",
         flag="--skill", metavar="NAME")
     checkpoints: list[str] = option(
-        [], "start from a checkpoint file (acnmp_core.checkpoint format; skill name from SKILL=, the "
+        [], "start from a checkpoint file (acnmp_core.model.checkpoint format; skill name from SKILL=, the "
             "checkpoint's meta, or the file name). Repeatable", flag="--checkpoint", metavar="[SKILL=]FILE")
     workers: int = option(2, "threads answering predict queries with batching off (--batch-max 1); batched "
                                 "predicts are computed on the --batch-threads (default: %(default)s)", metavar="N",

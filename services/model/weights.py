@@ -10,8 +10,8 @@ Published by the learner on ``acnmp/<ns>/skill/<skill>/weights`` and answered on
 ``partner`` is robot B's CNMP of a **paired skill** (a transfer pair: ``config``/``state`` are
 robot A's); both have no task parameters and latents of one size.
 
-``state`` is :func:`acnmp_core.checkpoint.model_to_arrays` (float32 weights, float64 normaliser
-buffers, a 0-d bool ``fitted``); :func:`acnmp_core.checkpoint.model_from_arrays` rebuilds the model
+``state`` is :func:`acnmp_core.model.checkpoint.model_to_arrays` (float32 weights, float64 normaliser
+buffers, a 0-d bool ``fitted``); :func:`acnmp_core.model.checkpoint.model_from_arrays` rebuilds the model
 and checks every name and shape against ``config``, so a message can never run code or smuggle in
 a half-built model.
 """
@@ -21,10 +21,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from acnmp_core.checkpoint import model_from_arrays, model_to_arrays
-from acnmp_core.cnmp import CNMP, CNMPConfig
-from services.transport.keys import check_name
+from acnmp_core.model.checkpoint import model_from_arrays, model_to_arrays
+from acnmp_core.model.cnmp import CNMP, CNMPConfig
 from services.transport.errors import wire_error
+from services.transport.keys import check_name
 from services.transport.wire import WireError, decode, encode, field
 
 #: Largest model accepted over the wire (parameters + buffers); ~256 MB of float32.

@@ -32,7 +32,7 @@ Drawer = Callable[[rr.RecordingStream, str, int, dict, tuple], None]
 
 def draw_planar_chain(rec: rr.RecordingStream, job: str, idx: int, msg: dict, color) -> None:
     """A planar arm: ``joint_angles`` (T, N) rad and ``link_lengths`` (N,) m, drawn in 3D (forward
-    kinematics of acnmp_core/robots/kinematics.py, links at ``ARM_Z`` above the table); with
+    kinematics of acnmp_core/sim/kinematics.py, links at ``ARM_Z`` above the table); with
     ``object_xy`` (T, 2) m, ``object_radius`` and ``object_height`` (m) the pushed object as a
     cylinder; with ``task_params`` (x, y) the target as a point; with ``reference_joint_angles``
     (T, N') rad and ``reference_link_lengths`` (N',) m another arm's pose at the same steps, in grey
@@ -80,7 +80,7 @@ def draw_planar_chain(rec: rr.RecordingStream, job: str, idx: int, msg: dict, co
 def _send_chain(rec: rr.RecordingStream, entity: str, q: np.ndarray, lengths: np.ndarray, indexes: list,
                 color, radius: float) -> None:
     """A planar chain's links, base to tip, one strip per step: q (T, N) rad, lengths (N,) m."""
-    from acnmp_core.robots.kinematics import planar_fk
+    from acnmp_core.sim.kinematics import planar_fk
 
     steps, n = q.shape
     # Base, then the end of every link: the FK of each prefix of the chain.
@@ -126,8 +126,8 @@ def _pitch_quats(pitch: np.ndarray) -> np.ndarray:
 
 @functools.lru_cache(maxsize=4)
 def _link_poser(robot_kind: str):
-    """The :class:`~acnmp_core.robots.physics.LinkPoser` of a mesh robot kind (built once)."""
-    from acnmp_core.robots.physics import LinkPoser
+    """The :class:`~acnmp_core.sim.physics.LinkPoser` of a mesh robot kind (built once)."""
+    from acnmp_core.sim.physics import LinkPoser
     from acnmp_core.robots.registry import robot
 
     drawing = robot(robot_kind).drawing

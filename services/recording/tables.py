@@ -24,7 +24,7 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from acnmp_core.demo_io import DemoArrays
+from acnmp_core.data.demo_io import DemoArrays
 
 from .replay import _column, _open
 

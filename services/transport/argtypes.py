@@ -132,8 +132,8 @@ def robot_help(what: str) -> str:
 
 def device(text: str) -> str:
     """``--device``: ``cpu``, ``cuda``, ``cuda:N`` or ``auto``, present on this machine
-    (:func:`acnmp_core.device.resolve_device`); returns the name as given."""
-    from acnmp_core.device import resolve_device
+    (:func:`acnmp_core.model.device.resolve_device`); returns the name as given."""
+    from acnmp_core.model.device import resolve_device
 
     try:
         resolve_device(text)

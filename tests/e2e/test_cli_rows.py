@@ -6,7 +6,6 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -14,8 +13,8 @@ import pytest
 from services.recording.events import rollout_event
 from services.recording.rrd_writer import RrdWriter
 from services.transport import loopback_endpoint
+from tests.paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[2]
 
 
 def acnmp(*argv: str, stdout=subprocess.PIPE) -> subprocess.CompletedProcess:

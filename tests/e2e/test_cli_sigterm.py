@@ -11,9 +11,8 @@ import signal
 import subprocess
 import sys
 import time
-from pathlib import Path
+from tests.paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[2]
 
 
 def test_sigterm_unwinds_an_experiment_and_removes_its_generated_files(tmp_path):

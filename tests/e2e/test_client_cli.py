@@ -6,9 +6,9 @@ import json
 import numpy as np
 import pytest
 
-from acnmp_core.checkpoint import save_checkpoint
-from acnmp_core.cnmp import CNMP, CNMPConfig
-from acnmp_core.training import TrainConfig, train
+from acnmp_core.model.checkpoint import save_checkpoint
+from acnmp_core.model.cnmp import CNMP, CNMPConfig
+from acnmp_core.model.training import TrainConfig, train
 from clients.cli import main
 from services.model import ModelConfig
 from services.transport import SessionOptions, free_port, loopback_endpoint

@@ -18,8 +18,8 @@ from clients.cli import main
 from clients.client import ACNMPClient
 from services.launcher import LocalDeployment
 from services.transport.runfile import DeploymentNotFound, find, running
+from tests.paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[2]
 # seed 0 and the deployment's --train-steps: E1's training is what `acnmp up` trained its skill e1 with
 E1_ARGS = ["--seeds", "1", "--budget", "4", "--train-steps", "20", "--quiet"]
 

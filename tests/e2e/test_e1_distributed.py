@@ -11,10 +11,10 @@ import psutil
 import pyarrow.parquet as pq
 import torch
 
-from acnmp_core.cnmp import CNMP, CNMPConfig
-from acnmp_core.demo_io import load_demos
+from acnmp_core.data.demo_io import load_demos
 from acnmp_core.experiments.viapoint import make_setup
-from acnmp_core.training import TrainConfig, train
+from acnmp_core.model.cnmp import CNMP, CNMPConfig
+from acnmp_core.model.training import TrainConfig, train
 from clients.cli import main
 from clients.distributed import DeployedSkill
 from services.recording.replay import summarize

@@ -9,8 +9,8 @@ import msgpack
 import numpy as np
 import pytest
 
-from acnmp_core.checkpoint import save_checkpoint
-from acnmp_core.cnmp import CNMP
+from acnmp_core.model.checkpoint import save_checkpoint
+from acnmp_core.model.cnmp import CNMP
 from clients.client import ACNMPClient, ClientError
 from services.model import ModelConfig, ModelService
 from services.model.batching import DEFAULT_BATCH_MAX
@@ -51,7 +51,7 @@ def publish(session, skill: str, version: int, model: CNMP) -> None:
 
 def perturbed(model: CNMP, scale: float, seed: int) -> CNMP:
     """A copy of ``model`` with its decoder's last bias shifted: a visibly different version."""
-    from acnmp_core.checkpoint import model_from_arrays, model_to_arrays
+    from acnmp_core.model.checkpoint import model_from_arrays, model_to_arrays
 
     cfg, state = model_to_arrays(model)
     key = [k for k in state if k.startswith("decoder.") and k.endswith("bias")][-1]

@@ -98,7 +98,7 @@ def finished(proc: subprocess.Popen) -> str:
 def ur10_batch(demo_file) -> dict:
     """Three UR10 trajectories at one demonstration's heights: the demonstration and two perturbed
     copies."""
-    from acnmp_core.tasks.ur10_demos import ur10_demos
+    from acnmp_core.tasks.ur10_pick_place.demos import ur10_demos
 
     demo = ur10_demos(path=str(demo_file)).demo(0)
     rng = np.random.default_rng(0)
@@ -108,7 +108,7 @@ def ur10_batch(demo_file) -> dict:
 
 
 def test_a_deployment_over_hosts_survives_cut_links_and_keeps_strangers_out(tmp_path, ur10_demo_file, e1_small_run):
-    from acnmp_core.tasks.ur10_pick_place import UR10PickPlaceTask
+    from acnmp_core.tasks.ur10_pick_place.task import UR10PickPlaceTask
 
     torch.set_num_threads(1)
     rrd = tmp_path / "hosts.rrd"

@@ -14,8 +14,8 @@ from pathlib import Path
 import pytest
 
 from tests.e2e.test_up_demos import ctrl_c_at_the_end
+from tests.paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE = ROOT / "examples" / "my_robot"
 
 pytest.importorskip("gymnasium", reason="gymnasium is not installed (scripts/setup.sh installs it)")

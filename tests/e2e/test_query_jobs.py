@@ -7,7 +7,7 @@ import json
 
 import numpy as np
 
-from acnmp_core.demo_io import save_demos
+from acnmp_core.data.demo_io import save_demos
 from acnmp_core.experiments.viapoint import make_setup
 from clients.client import ACNMPClient, JobSummary
 from services.launcher import LocalDeployment

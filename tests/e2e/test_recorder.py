@@ -7,7 +7,6 @@ import signal
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -16,8 +15,8 @@ from services.recording.events import job_progress_event, latent_event, model_ve
 from services.recording.publisher import EventPublisher
 from services.recording.replay import format_summary, summarize
 from services.transport import Keyspace, call, encode, free_port, loopback_endpoint, open_session
+from tests.paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[2]
 
 
 def _env() -> dict:

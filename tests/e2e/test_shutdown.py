@@ -7,7 +7,6 @@ import json
 import os
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -16,8 +15,8 @@ from acnmp_core.experiments.viapoint import make_setup
 from services.launcher import LocalDeployment
 from services.learner.store import StateDirInUse
 from services.transport import call
+from tests.paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[2]
 NS = "stop"
 SMALL = {"encoder_widths": [32, 32], "decoder_widths": [32, 32]}
 

@@ -12,8 +12,8 @@ from pathlib import Path
 import pytest
 
 from services.transport import free_port, open_session
+from tests.paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[2]
 pytestmark = pytest.mark.skipif(shutil.which("openssl") is None, reason="needs openssl to make certificates")
 
 

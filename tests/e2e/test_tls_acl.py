@@ -7,15 +7,14 @@ import json
 import shutil
 import subprocess
 import threading
-from pathlib import Path
 
 import pytest
 import zenoh
 
 from services.transport import free_port, open_session
 from services.transport.auth import write_router_deployment
+from tests.paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[2]
 pytestmark = pytest.mark.skipif(shutil.which("openssl") is None, reason="needs openssl to make certificates")
 WEIGHTS = "acnmp/tls-acl/skill/s/weights"
 

@@ -8,9 +8,9 @@ import json
 
 import numpy as np
 
-from acnmp_core.data import DemoSet
-from acnmp_core.transfer import TransferConfig, TransferPair, train_pair
-from acnmp_core.transfer_job import PairTrainJob
+from acnmp_core.data.demos import DemoSet
+from acnmp_core.jobs.transfer import PairTrainJob
+from acnmp_core.transfer.pair import TransferConfig, TransferPair, train_pair
 from clients.cli import main
 from clients.client import ACNMPClient
 from services.launcher import LocalDeployment

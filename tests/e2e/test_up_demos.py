@@ -9,16 +9,16 @@ import signal
 import subprocess
 import sys
 import uuid
-from pathlib import Path
 
 import numpy as np
 
 import clients.client
-from acnmp_core.demo_io import save_demos
-from acnmp_core.tasks.viapoint import obstacle_demos
+from acnmp_core.data.demo_io import save_demos
+from acnmp_core.tasks.viapoint.task import obstacle_demos
 from clients.client import ACNMPClient
 from services.learner.store import demo_set_to_arrays
 from services.transport import wait_for_liveliness
+from tests.paths import ROOT
 
 
 @contextlib.contextmanager
@@ -73,10 +73,9 @@ def test_ctrl_c_while_the_learner_trains_stops_it_without_a_kill(tmp_path, acnmp
     """Row 10: `acnmp up` took 8-14 s to stop when its learner was training (the default skill at a
     first start, a train request, an assimilation): SIGTERM was not seen until the training ended,
     so the launcher SIGKILLed the learner after its stop timeout. Training now stops at its next step."""
-    root = Path(__file__).resolve().parents[2]
     proc = subprocess.Popen([sys.executable, "-m", "clients.cli", "up", "--namespace", f"t-{uuid.uuid4().hex[:8]}",
                              "--workers", "0", "--train-steps", "1000000", "--state-dir", str(tmp_path / "state")],
-                            cwd=root, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+                            cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     with ctrl_c_at_the_end(proc) as out:
         for line in proc.stdout:  # the learner is live and trains the default skill
             if "waiting for the model service to serve skill 'e1'" in line:

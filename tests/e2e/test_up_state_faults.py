@@ -16,24 +16,23 @@ import subprocess
 import sys
 import time
 import uuid
-from pathlib import Path
 
-from acnmp_core.adapt_job import AdaptJob
-from acnmp_core.adaptation import AdaptConfig
-from acnmp_core.cnmp import CNMPConfig
-from acnmp_core.data import DemoSet, Demonstration
-from acnmp_core.demo_io import save_demos
+from acnmp_core.adapt.config import AdaptConfig
+from acnmp_core.data.demo_io import save_demos
+from acnmp_core.data.demos import DemoSet, Demonstration
 from acnmp_core.experiments.viapoint import make_setup
-from acnmp_core.tasks.viapoint import obstacle_demos
-from acnmp_core.training import TrainConfig
+from acnmp_core.jobs.adapt import AdaptJob
+from acnmp_core.model.cnmp import CNMPConfig
+from acnmp_core.model.training import TrainConfig
+from acnmp_core.tasks.viapoint.task import obstacle_demos
 from clients.client import ACNMPClient
 from services.learner.core import LearnerCore, TrainSpec
 from services.learner.service import bootstrap
 from services.learner.store import demo_set_to_arrays
 from services.recording.replay import summarize
 from services.transport.runfile import find, pid_alive
+from tests.paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[2]
 
 
 def test_up_quarantines_bad_files_serves_the_rest_and_is_up_once_the_changed_file_is_served(tmp_path, acnmp_up,

@@ -9,7 +9,6 @@ import subprocess
 import sys
 import threading
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -20,8 +19,8 @@ from services.transport import Keyspace, WireError, call, encode, free_port, loo
 from services.transport import wait_for_liveliness
 from services.worker.core import rollout_request
 from services.worker.remote import RemoteEvaluator
+from tests.paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(scope="module")

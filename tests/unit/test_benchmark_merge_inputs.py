@@ -1,11 +1,10 @@
 """Merging earlier benchmark results: a bad input file is a one-line error, not a traceback."""
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
+from tests.paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.mark.parametrize("flag", ["--combine", "--combine-seeds"])

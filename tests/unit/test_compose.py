@@ -6,12 +6,11 @@ from __future__ import annotations
 import argparse
 import re
 import shlex
-from pathlib import Path
 
 import pytest
 import yaml
+from tests.paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[2]
 PROCESSES = {"recorder", "learner", "model", "worker"}
 
 

@@ -5,15 +5,14 @@ from __future__ import annotations
 
 import json
 import shlex
-from pathlib import Path
 
 import yaml
 import zenoh
 
 from clients.cli import build_parser
 from services.transport.auth import ROLES, write_router_deployment
+from tests.paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[2]
 MOUNT = "./deploy/secrets:/etc/acnmp:ro"
 
 

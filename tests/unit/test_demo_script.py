@@ -5,13 +5,13 @@ from __future__ import annotations
 import os
 import shlex
 import uuid
-from pathlib import Path
 
 from clients.cli import build_parser
 from clients.experiments.viapoint import _running_deployment
 from services.transport.runfile import RUNTIME_ENV, RunFile, find
+from tests.paths import ROOT
 
-DEMO = Path(__file__).resolve().parents[2] / "scripts" / "demo.sh"
+DEMO = ROOT / "scripts" / "demo.sh"
 
 
 def demo_experiment_argv() -> list[str]:

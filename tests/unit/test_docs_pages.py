@@ -3,13 +3,12 @@ of the paper's six experiments, and each experiment page's first screen saying w
 command that runs it, its generated results table and its figure; the rest is in docs/studies/."""
 from __future__ import annotations
 
-from pathlib import Path
 
 import pytest
 
 from clients.experiments.catalog import CATALOG, PAPER
+from tests.paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[2]
 #: What a first screen holds: the page's opening lines, up to the end of its first results block.
 FIRST_SCREEN_LINES = 40
 

@@ -4,12 +4,11 @@ from __future__ import annotations
 
 import ast
 import re
-from pathlib import Path
 
 from services.transport.errors import CODES
 from services.transport.wire import ERROR_CODES
+from tests.paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[2]
 PROTOCOL = ROOT / "docs" / "PROTOCOL.md"
 #: Calls whose first argument is an error code.
 CODE_CALLS = {"WireError", "ClientError", "error_payload", "_fail"}

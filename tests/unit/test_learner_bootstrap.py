@@ -7,9 +7,9 @@ import logging
 
 import numpy as np
 
-from acnmp_core.data import DemoSet, Demonstration
-from acnmp_core.demo_io import save_demos
-from acnmp_core.tasks.viapoint import obstacle_demos
+from acnmp_core.data.demo_io import save_demos
+from acnmp_core.data.demos import DemoSet, Demonstration
+from acnmp_core.tasks.viapoint.task import obstacle_demos
 from services.learner.core import LearnerCore
 from services.learner.service import bootstrap
 from services.learner.store import SkillState, SkillStore, demo_set_to_arrays
@@ -78,9 +78,9 @@ def test_a_stop_interrupts_training_and_assimilation_at_their_next_step(tmp_path
 
     import pytest
 
-    from acnmp_core.assimilation import AssimilationConfig, assimilate
-    from acnmp_core.cnmp import CNMP, CNMPConfig
-    from acnmp_core.training import TrainConfig, train
+    from acnmp_core.adapt.assimilation import AssimilationConfig, assimilate
+    from acnmp_core.model.cnmp import CNMP, CNMPConfig
+    from acnmp_core.model.training import TrainConfig, train
 
     stop = threading.Event()
     stop.set()

@@ -7,11 +7,11 @@ import threading
 
 import pytest
 
-from acnmp_core.adapt_job import AdaptJob
-from acnmp_core.adaptation import AdaptConfig
-from acnmp_core.cnmp import CNMPConfig
+from acnmp_core.adapt.config import AdaptConfig
 from acnmp_core.experiments.viapoint import make_setup
-from acnmp_core.training import TrainConfig
+from acnmp_core.jobs.adapt import AdaptJob
+from acnmp_core.model.cnmp import CNMPConfig
+from acnmp_core.model.training import TrainConfig
 from services.learner.core import LearnerCore, TrainSpec, UnknownJobError, UnknownSkillError
 from services.learner.store import JobStore
 from services.recording.events import validate_event
@@ -243,7 +243,7 @@ def test_a_skill_is_found_trained_as_asked_until_another_version_replaces_it(tmp
     it; a restart keeps that; a later version made otherwise does not inherit it."""
     from dataclasses import replace
 
-    from acnmp_core.data import DemoSet
+    from acnmp_core.data.demos import DemoSet
 
     core = _core(tmp_path, setup, [], [])
     spec = TrainSpec(setup.demos, CNMPConfig(n_outputs=2, output_names=("x", "y"), **SMALL), TrainConfig(steps=20),

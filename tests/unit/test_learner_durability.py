@@ -18,12 +18,12 @@ import tracemalloc
 import numpy as np
 import pytest
 
-from acnmp_core.adapt_job import AdaptJob
-from acnmp_core.adaptation import AdaptConfig
-from acnmp_core.cnmp import CNMPConfig
+from acnmp_core.adapt.config import AdaptConfig
 from acnmp_core.experiments.viapoint import make_setup
-from acnmp_core.tasks.viapoint import obstacle_demos
-from acnmp_core.training import TrainConfig
+from acnmp_core.jobs.adapt import AdaptJob
+from acnmp_core.model.cnmp import CNMPConfig
+from acnmp_core.model.training import TrainConfig
+from acnmp_core.tasks.viapoint.task import obstacle_demos
 from services.learner import store
 from services.learner.core import LearnerBusy, LearnerCore, TrainSpec
 from services.learner.limits import StateLimits

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from acnmp_core.adapt_job import AdaptJob
-from acnmp_core.adaptation import AdaptConfig
+from acnmp_core.adapt.config import AdaptConfig
 from acnmp_core.experiments.viapoint import make_setup
+from acnmp_core.jobs.adapt import AdaptJob
 from services.learner.limits import LearnerLimits, check_job
 from services.learner.service import parse_train_request
 from services.transport import WireError

@@ -7,11 +7,11 @@ import logging
 
 import pytest
 
-from acnmp_core.adapt_job import AdaptJob
-from acnmp_core.adaptation import AdaptConfig
-from acnmp_core.cnmp import CNMPConfig
+from acnmp_core.adapt.config import AdaptConfig
 from acnmp_core.experiments.viapoint import make_setup
-from acnmp_core.training import TrainConfig
+from acnmp_core.jobs.adapt import AdaptJob
+from acnmp_core.model.cnmp import CNMPConfig
+from acnmp_core.model.training import TrainConfig
 from services.learner.core import LearnerCore, TrainSpec
 from services.learner.metrics import MetricsReporter
 from services.recording.events import metric_values, metrics_event, validate_event

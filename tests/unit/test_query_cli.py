@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from clients.cli import main
-from clients.commands.query import parse_obs, parse_obs_json
+from clients.commands.common import parse_obs, parse_obs_json
 
 
 def test_query_help_explains_the_observation_syntax(capsys):

@@ -8,7 +8,7 @@ import numpy as np
 import pyarrow.parquet as pq
 import pytest
 
-from acnmp_core.demo_io import load_demos
+from acnmp_core.data.demo_io import load_demos
 from acnmp_core.experiments.viapoint import make_setup
 from clients.cli import main
 from services.recording.events import batch_rollout_events, job_event, validate_event

@@ -47,7 +47,7 @@ def test_the_targets_follow_from_the_published_json():
     """Each decided target is read from the experiment's JSON: the committed E5 and E6 results meet
     the restated ones ((9, 11) within 2 deg in 3/5; all 16 demonstrations within 50 g in 4/5 and the
     median within 30 g at most one below LfD only's), and one seed fewer fails each."""
-    from benchmarks.report import load
+    from benchmarks.report_kit import load
 
     e5, e6 = load("e5_ur10"), load("e6_pour")
     text, passed = _step("E5").target(e5)
@@ -72,7 +72,7 @@ def test_the_targets_follow_from_the_published_json():
 
 
 def test_the_predict_target_is_two_processes_against_the_ceiling_with_one_beside_it():
-    from benchmarks.report import load
+    from benchmarks.report_kit import load
     from clients.experiments.targets import predict_target
 
     r = load("bench_predict_routed")
@@ -84,7 +84,7 @@ def test_the_predict_target_is_two_processes_against_the_ceiling_with_one_beside
 
 
 def test_the_e3_target_is_checked_only_at_the_default_boundary_conditions():
-    from benchmarks.report import load
+    from benchmarks.report_kit import load
 
     r = load("e3_wall")
     r["config"]["snap_outputs"] = False
@@ -103,7 +103,7 @@ def test_the_e3_target_is_checked_only_at_the_default_boundary_conditions():
 def _report(tmp_path, name: str, ident: str, quick: bool) -> str:
     """The report of ``benchmarks/results/<name>.json`` kept as experiment ``ident``'s result of a
     run at full size or at quick sizes (as its meta file says)."""
-    from benchmarks.report import RESULTS
+    from benchmarks.report_kit import RESULTS
     from clients.commands.reproduce import write_report
 
     tmp_path.mkdir(parents=True, exist_ok=True)
@@ -122,7 +122,7 @@ def test_pass_and_fail_are_for_runs_at_the_targets_sizes_only(tmp_path):
 
 
 def test_a_quick_run_whose_counts_do_not_add_up_says_so():
-    from benchmarks.report import load
+    from benchmarks.report_kit import load
     from clients.experiments.targets import quick_check
 
     r = load("e6_pour")

@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from acnmp_core.robots.planar_arm import DEFAULT_LINK_LENGTHS, PlanarPushTask
-from acnmp_core.tasks.wall import WallTask
+from acnmp_core.sim.planar_arm import DEFAULT_LINK_LENGTHS
+
+from acnmp_core.tasks.push.task import PlanarPushTask
+from acnmp_core.tasks.wall.task import WallTask
 from services.recording.events import batch_rollout_events, robot_drawing
 from services.recording.recorded import RecordedEvaluator
 from services.worker.core import ExecutedBatch

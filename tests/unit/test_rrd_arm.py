@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import rerun as rr
 
-from acnmp_core.robots.kinematics import planar_fk
+from acnmp_core.sim.kinematics import planar_fk
 from acnmp_core.robots.registry import robot
 from services.recording.drawings import ARM_Z, STEP_STRIDE
 from services.recording.events import decode_event, rollout_event

@@ -8,7 +8,7 @@ import pytest
 import rerun as rr
 
 from acnmp_core.robots.registry import robot
-from acnmp_core.robots.ur10 import START_POSE_DEG
+from acnmp_core.sim.ur10 import START_POSE_DEG
 from services.recording.events import batch_rollout_events, decode_event
 from services.recording.rrd_writer import RrdWriter
 from services.transport import encode

@@ -20,10 +20,10 @@ import numpy as np
 import pytest
 import torch
 
-from acnmp_core.cnmp import CNMP, CNMPConfig
-from acnmp_core.demo_io import demos_bytes
-from acnmp_core.tasks.viapoint import obstacle_demos
-from acnmp_core.training import TrainConfig
+from acnmp_core.data.demo_io import demos_bytes
+from acnmp_core.model.cnmp import CNMP, CNMPConfig
+from acnmp_core.model.training import TrainConfig
+from acnmp_core.tasks.viapoint.task import obstacle_demos
 from services.learner.core import LearnerCore, TrainSpec
 from services.learner.store import QUARANTINE, SkillState, demo_set_to_arrays
 
@@ -54,9 +54,9 @@ def _core(path) -> LearnerCore:
 def baseline(tmp_path_factory):
     """A state directory with skills e1 (v0, v1), e2 (v0), paired p (v0, v1) and two job records: a
     done one that committed e1 v1 and a queued one. Returns (path, id of the done job)."""
-    from acnmp_core.adapt_job import AdaptJob
-    from acnmp_core.adaptation import AdaptConfig
+    from acnmp_core.adapt.config import AdaptConfig
     from acnmp_core.experiments.viapoint import make_setup
+    from acnmp_core.jobs.adapt import AdaptJob
 
     path = tmp_path_factory.mktemp("state")
     core = _core(path)

@@ -5,12 +5,11 @@ from __future__ import annotations
 
 import os
 import subprocess
-from pathlib import Path
 
 import pytest
+from tests.paths import ROOT
 
 pytest_plugins = ["pytester"]
-ROOT = Path(__file__).resolve().parents[2]
 
 
 def _pytest_argv(*args: str) -> list[str]:
@@ -39,7 +38,7 @@ def project(pytester, monkeypatch):
     (no plugins of the environment: loading them took seconds per run)."""
     monkeypatch.setenv("PYTEST_DISABLE_PLUGIN_AUTOLOAD", "1")
     pytester.makeini("[pytest]\nmarkers =\n    slow: minutes\n    e2e: processes\n")
-    pytester.makeconftest("from selection import add_options, deselect\n\n"
+    pytester.makeconftest("from tests.selection import add_options, deselect\n\n"
                           "def pytest_addoption(parser):\n    add_options(parser)\n\n"
                           "def pytest_collection_modifyitems(config, items):\n    deselect(config, items)\n")
     pytester.makepyfile(test_x="import pytest\n\n"
@@ -68,7 +67,7 @@ def test_a_marker_expression_of_ones_own_leaves_the_slow_tests_out_unless_it_nam
 
 
 def test_fast_leaves_out_the_heavy_tests_listed_too(project, monkeypatch):
-    import selection
+    from tests import selection
 
     monkeypatch.setattr(selection, "HEAVY", ("test_x.py::test_heavy",))
     assert _collected(project, "--fast") == {"test_quick", "test_process"}
@@ -79,7 +78,7 @@ def test_fast_leaves_out_the_heavy_tests_listed_too(project, monkeypatch):
 
 def test_every_heavy_entry_names_a_test_that_exists():
     """A renamed file or test would silently come back into the inner loop."""
-    import selection
+    from tests import selection
 
     for entry in selection.HEAVY:
         path, _, name = entry.partition("::")

@@ -5,9 +5,9 @@ from __future__ import annotations
 import pytest
 import torch
 
-from acnmp_core.cnmp import CNMP, CNMPConfig
+from acnmp_core.model.cnmp import CNMP, CNMPConfig
+from acnmp_core.model.training import TrainConfig, train
 from acnmp_core.threads import set_training_threads, training_threads
-from acnmp_core.training import TrainConfig, train
 
 
 def _threads_seen_by_training(monkeypatch, e1_demos) -> int:

@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 import rerun as rr
 
-from acnmp_core.checkpoint import model_to_arrays
-from acnmp_core.data import DemoSet
-from acnmp_core.transfer import TransferConfig, TransferPair, latent_plane, train_pair
-from acnmp_core.transfer_job import PairTrainJob
+from acnmp_core.data.demos import DemoSet
+from acnmp_core.jobs.transfer import PairTrainJob
+from acnmp_core.model.checkpoint import model_to_arrays
+from acnmp_core.transfer.pair import TransferConfig, TransferPair, latent_plane, train_pair
 from services.learner.core import LearnerCore
 from services.learner.jobs import JobRecord
 from services.learner.limits import LearnerLimits

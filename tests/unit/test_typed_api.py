@@ -16,8 +16,8 @@ from pathlib import Path
 import pytest
 
 import acnmp_core
+from tests.paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[2]
 
 # torch, numpy and friends are typed but large; the check is about acnmp_core's own names
 MYPY_INI = """[mypy]
@@ -43,7 +43,7 @@ def test_a_type_checker_passes_a_correct_user_script(tmp_path):
                         "def fit(demos: DemoSet) -> None:\n"
                         "    reveal_type(train(CNMP(CNMPConfig(n_outputs=2)), demos, TrainConfig(steps=10)))\n")
     assert r.returncode == 0, r.stdout + r.stderr
-    assert 'Revealed type is "acnmp_core.training.TrainResult"' in r.stdout
+    assert 'Revealed type is "acnmp_core.model.training.TrainResult"' in r.stdout
 
 
 def test_a_type_checker_reports_a_wrong_argument_to_the_public_api(tmp_path):

@@ -13,6 +13,7 @@ import pytest
 
 from services.recording.web_viewer import WebViewer, rerun_binary
 from services.transport import free_port
+from tests.paths import ROOT
 
 pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc/net/tcp")
 
@@ -71,7 +72,7 @@ def test_the_viewer_goes_with_a_recorder_killed_by_sigkill(tmp_path):
          f"v = WebViewer('rerun+http://127.0.0.1:9/proxy', {port}).start()\n"
          "print(v.proc.pid, flush=True)\n"
          "time.sleep(600)\n"],
-        cwd=Path(__file__).resolve().parents[2], stdout=subprocess.PIPE, text=True)
+        cwd=ROOT, stdout=subprocess.PIPE, text=True)
     try:
         child = int(starter.stdout.readline())
         assert listening_addresses(port) == {"0100007F"}

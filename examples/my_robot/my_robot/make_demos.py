@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from acnmp_core.demo_io import DemoArrays, save_demos
+from acnmp_core.data.demo_io import DemoArrays, save_demos
 
 from .env import LINKS, START, STEPS
 

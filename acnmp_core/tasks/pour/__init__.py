@@ -1,0 +1,1 @@
+"""The pouring task: the evaluator (grams poured against the target) and the expert demonstrations."""

@@ -1,0 +1,1 @@
+"""The MuJoCo Pusher task (Gymnasium ``Pusher-v5``): the scene, its gains and its demonstrations."""

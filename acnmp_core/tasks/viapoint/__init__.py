@@ -1,0 +1,1 @@
+"""The via-point task: 1-D trajectories through a via-point (the evaluator and the demonstrations)."""

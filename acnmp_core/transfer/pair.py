@@ -1,0 +1,283 @@
+"""Skill transfer between two robots through a shared latent space (ACNMP paper Sec. 3.3).
+
+A :class:`TransferPair` is two :class:`~acnmp_core.model.cnmp.CNMP` s, one per robot (robot A with D_A
+outputs, robot B with D_B), with latents of the same size L. :func:`train_pair` trains them together
+on paired demonstrations (demonstration i of A and of B show the same skill with the same
+end-effector path): the Gaussian NLL of each robot's decoder on its own demonstrations plus
+``latent_weight`` times the mean squared difference between the latents of paired episodes, so
+both encoders map the same skill to the same latent. A skill shown on robot A only is then encoded
+by A's encoder and decoded by B's decoder (:meth:`TransferPair.transfer`).
+
+:class:`TransferredSkill` presents "A's observations -> A's encoder -> B's decoder" with the
+interface :func:`~acnmp_core.adapt.adaptation.adapt` uses, so robot B can refine the transferred skill by
+RL (with ``params`` = B's decoder, the authors' choice), its supervised steps on B's own
+demonstrations.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass, field, fields
+from typing import Any, Callable
+
+import numpy as np
+import torch
+from torch import nn
+
+from ..data.demos import DemoSet
+from ..errors import InputError
+from ..model.cnmp import CNMP, CNMPConfig, Prediction, Query
+from ..model.episodes import Episode
+from ..model.optim_step import Stepper
+from ..model.training import TrainConfig, make_sampler, nll_loss
+from ..validation import check_array, check_positive_int, check_type
+
+
+@dataclass
+class TransferConfig:
+    """Training of a :class:`TransferPair`.
+
+    latent_weight : weight of the latent alignment term (the authors': 5e6); 0 trains the two CNMPs
+        independently (the "no alignment" control).
+    steps : gradient steps. batch_size : paired episodes per step (the authors: 1).
+    min_obs, max_obs : observations per episode, uniform in [min_obs, max_obs] (the authors' 9..12).
+    n_targets : target points per episode. lr : Adam learning rate.
+    widths : hidden widths of every encoder and decoder; the last is the latent size L.
+    """
+
+    latent_weight: float = 5e6
+    steps: int = 3000
+    batch_size: int = 16
+    min_obs: int = 9
+    max_obs: int = 12
+    n_targets: int = 10
+    lr: float = 1e-3
+    widths: tuple[int, ...] = (128, 128, 128)
+
+    def __post_init__(self) -> None:
+        check_positive_int("steps", self.steps, minimum=0)
+        for name in ("batch_size", "min_obs", "max_obs", "n_targets"):
+            check_positive_int(name, getattr(self, name))
+        if self.max_obs < self.min_obs:
+            raise ValueError(f"max_obs: expected >= min_obs ({self.min_obs}), got {self.max_obs}")
+        if not (self.latent_weight >= 0) or not math.isfinite(self.latent_weight):
+            raise ValueError(f"latent_weight: expected a finite number >= 0, got {self.latent_weight}")
+        if not (self.lr > 0):
+            raise ValueError(f"lr: expected > 0, got {self.lr}")
+        self.widths = tuple(check_positive_int("widths", w) for w in self.widths)
+
+    def to_dict(self) -> dict:
+        """Plain JSON-ready dict of every field."""
+        d = asdict(self)
+        d["widths"] = list(self.widths)
+        return d
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> "TransferConfig":
+        """Inverse of :meth:`to_dict`: any subset of the fields (the rest take their defaults).
+        An unknown field or an invalid value raises :class:`~acnmp_core.errors.InputError`."""
+        check_type("config", d, Mapping)
+        names = {f.name for f in fields(cls)}
+        unknown = sorted(set(d) - names)
+        if unknown:
+            raise InputError(f"config: unknown setting(s) {unknown}; allowed: {sorted(names)}")
+        values = dict(d)
+        if "widths" in values:
+            check_type("config.widths", values["widths"], (list, tuple))
+            values["widths"] = tuple(values["widths"])
+        try:
+            return cls(**values)
+        except (TypeError, ValueError) as exc:
+            raise InputError(f"config: {exc}") from None
+
+    def sampling(self) -> TrainConfig:
+        """The episode sampling of this config as a :class:`TrainConfig` (full observations only)."""
+        return TrainConfig(batch_size=self.batch_size, min_obs=self.min_obs, max_obs=self.max_obs,
+                           n_targets=self.n_targets, lr=self.lr, partial_obs_prob=0.0)
+
+
+@dataclass
+class PairTrainResult:
+    """Per-step losses of :func:`train_pair`: NLL of A's and B's decoders (normalised units) and
+    the latent alignment MSE (unweighted)."""
+
+    nll_a: list[float] = field(default_factory=list)
+    nll_b: list[float] = field(default_factory=list)
+    align: list[float] = field(default_factory=list)
+
+
+class TransferPair:
+    """Robot A's and robot B's CNMPs over time (no task parameters), latents of one size.
+
+    Parameters: ``n_a`` = D_A and ``n_b`` = D_B outputs, ``cfg`` (:class:`TransferConfig`, for the
+    widths), ``seed`` for the weight initialisation. ``model_a`` and ``model_b`` are plain CNMPs.
+    """
+
+    def __init__(self, n_a: int, n_b: int, cfg: TransferConfig | None = None, seed: int = 0) -> None:
+        cfg = cfg or TransferConfig()
+        self.model_a = CNMP(CNMPConfig(n_a, 0, cfg.widths, cfg.widths), seed=seed)
+        self.model_b = CNMP(CNMPConfig(n_b, 0, cfg.widths, cfg.widths), seed=seed + 1)
+
+    @classmethod
+    def from_models(cls, model_a: CNMP, model_b: CNMP) -> "TransferPair":
+        """A pair of two existing CNMPs (e.g. rebuilt from a weights message), used as they are.
+        Raises InputError unless both have no task parameters and latents of one size."""
+        if model_a.config.n_task_params or model_b.config.n_task_params:
+            raise InputError("models: a transfer pair's CNMPs have no task parameters")
+        if model_a.config.latent_dim != model_b.config.latent_dim:
+            raise InputError(f"model_b: latent size {model_b.config.latent_dim} differs from model_a's "
+                             f"{model_a.config.latent_dim}")
+        pair = cls.__new__(cls)
+        pair.model_a, pair.model_b = model_a, model_b
+        return pair
+
+    def latent_a(self, times, values_a) -> np.ndarray:
+        """Latent (L,) of robot A's observations: times (N,), values_a (N, D_A) raw units."""
+        return self.model_a.encode_demo(times, values_a)
+
+    def latent_b(self, times, values_b) -> np.ndarray:
+        """Latent (L,) of robot B's observations: times (N,), values_b (N, D_B) raw units."""
+        return self.model_b.encode_demo(times, values_b)
+
+    def transfer(self, obs_times, obs_values_a, query_times) -> Prediction:
+        """Robot B's trajectory for the skill robot A shows in its observations.
+
+        obs_times (N,), obs_values_a (N, D_A) robot A's observations (raw units); query_times (T,).
+        Returns a :class:`~acnmp_core.model.cnmp.Prediction` of robot B: times (T,), mean (T, D_B),
+        std (T, D_B) raw units, latent (L,) the latent A's encoder gave.
+        """
+        view = TransferredSkill(self)
+        return view.predict_query(view.make_query(obs_times, obs_values_a, None, query_times))
+
+
+def _paired_episodes(samplers, batch_size: int, n_demos: int, gen: torch.Generator) -> tuple[Episode, Episode]:
+    """One batch of episodes from A's and B's samplers drawn from the same demonstrations."""
+    idx = torch.randint(0, n_demos, (batch_size,), generator=gen)
+    return samplers[0].sample(batch_size, gen, idx), samplers[1].sample(batch_size, gen, idx)
+
+
+def train_pair(pair: TransferPair, demos_a: DemoSet, demos_b: DemoSet, cfg: TransferConfig | None = None, *,
+               seed: int = 0, on_step: Callable[[int, PairTrainResult], None] | None = None) -> PairTrainResult:
+    """Train both CNMPs of ``pair`` in place on paired demonstrations.
+
+    demos_a (n demos of (T, D_A)) and demos_b (n of (T, D_B)), raw units; demonstration i of one
+    pairs with demonstration i of the other. Each step draws ``batch_size`` demonstrations, an
+    episode of each robot from each (its own observation and target times), and minimises
+    ``NLL_A + NLL_B + latent_weight * mean((r_A - r_B)^2)``. Deterministic given ``seed``.
+    ``on_step(steps_done, losses_so_far)`` is called after every step (a service reports progress
+    from it, or raises to stop the training; the models are then left half-trained, in train mode).
+    Returns the per-step losses.
+    """
+    cfg = cfg or TransferConfig()
+    if len(demos_a) != len(demos_b):
+        raise ValueError(f"demos_b: expected {len(demos_a)} demonstrations paired with demos_a, got {len(demos_b)}")
+    a, b = pair.model_a, pair.model_b
+    a.fit_normalization(demos_a)
+    b.fit_normalization(demos_b)
+    scfg = cfg.sampling()
+    samplers = (make_sampler(a, demos_a, scfg), make_sampler(b, demos_b, scfg))
+    gen = torch.Generator().manual_seed(seed)
+    opt = Stepper(torch.optim.Adam([*a.parameters(), *b.parameters()], lr=cfg.lr))
+    result = PairTrainResult()
+    a.train()
+    b.train()
+    for _ in range(cfg.steps):
+        ep_a, ep_b = _paired_episodes(samplers, cfg.batch_size, len(demos_a), gen)
+        la, lb = nll_loss(a, ep_a), nll_loss(b, ep_b)
+        align = ((a.encode(ep_a.obs_x, ep_a.obs_mask) - b.encode(ep_b.obs_x, ep_b.obs_mask)) ** 2).mean()
+        loss = la + lb + cfg.latent_weight * align if cfg.latent_weight > 0 else la + lb
+        opt.zero_grad()
+        loss.backward()
+        opt.step()
+        result.nll_a.append(la.item())
+        result.nll_b.append(lb.item())
+        result.align.append(align.item())
+        if on_step is not None:
+            on_step(len(result.align), result)
+    a.eval()
+    b.eval()
+    return result
+
+
+class TransferredSkill(nn.Module):
+    """Robot B's skill conditioned on robot A's observations: A's encoder, then B's decoder.
+
+    The interface :func:`~acnmp_core.adapt.adaptation.adapt` uses on a model: :meth:`make_query` takes
+    robot A's observations (N, D_A) and gives a :class:`~acnmp_core.model.cnmp.Query` whose targets are
+    B's (``config`` and ``value_norm`` are B's, so trajectories come out as (T, D_B));
+    :meth:`mean_normalized` runs A's encoder and B's decoder; ``forward`` and :meth:`pack` are
+    robot B's own CNMP's, so adapt()'s supervised steps train on B's demonstrations. Pass
+    ``params=view.decoder_parameters()`` to adapt() to train B's decoder only.
+    """
+
+    def __init__(self, pair: TransferPair) -> None:
+        super().__init__()
+        self.model_a, self.model_b = pair.model_a, pair.model_b
+        self.config = self.model_b.config
+        self.value_norm = self.model_b.value_norm
+
+    def decoder_parameters(self) -> list[nn.Parameter]:
+        """Robot B's decoder's parameters (what the authors' RL in robot B trains)."""
+        return list(self.model_b.decoder.parameters())
+
+    def make_query(self, obs_times, obs_values, task_params=None, query_times=None, *, n_steps=None,
+                   obs_dims_mask=None) -> Query:
+        """Robot A's observations obs_times (N,), obs_values (N, D_A) raw; query_times (T,) or
+        n_steps. Returns the :class:`Query`: obs_x normalised for A's encoder, tgt_x for B's decoder."""
+        if task_params is not None and np.asarray(task_params).size:
+            raise ValueError("task_params: a transferred skill has none (time is its only input)")
+        qa = self.model_a.make_query(obs_times, obs_values, None, query_times, n_steps=n_steps,
+                                     obs_dims_mask=obs_dims_mask)
+        # B's targets (normalised by B's own time statistics); the dummy observation is never encoded.
+        qb = self.model_b.make_query(qa.times[:1], np.zeros((1, self.config.n_outputs)), None, qa.times)
+        return Query(obs_x=qa.obs_x, obs_mask=qa.obs_mask, tgt_x=qb.tgt_x, times=qa.times)
+
+    def forward(self, obs_x, obs_mask, tgt_x):
+        """Robot B's own CNMP (B's observations (B, N, 1+2 D_B)): used on B's demonstrations."""
+        return self.model_b(obs_x, obs_mask, tgt_x)
+
+    def pack(self, demos: DemoSet):
+        """Robot B's demonstrations packed for B's CNMP (see :meth:`CNMP.pack`)."""
+        return self.model_b.pack(demos)
+
+    def latent(self, query: Query) -> torch.Tensor:
+        """Latent (1, L) of A's observations in ``query`` (A's encoder is not trained here)."""
+        with torch.no_grad():
+            return self.model_a.encode(query.obs_x, query.obs_mask)
+
+    def mean_normalized(self, query: Query) -> torch.Tensor:
+        """Differentiable (in B's decoder) mean (T, D_B), normalised units."""
+        mean, _ = self.model_b.decode(self.latent(query), query.tgt_x)
+        return mean[0]
+
+    def predict_query(self, query: Query) -> Prediction:
+        """Robot B's trajectory for ``query``, raw units: mean, std (T, D_B), latent (L,)."""
+        with torch.no_grad():
+            latent = self.latent(query)
+            mean, std = self.model_b.decode(latent, query.tgt_x)
+            mean = self.value_norm.denormalize(mean[0].double())
+            std = self.value_norm.denormalize_std(std[0].double())
+        return Prediction(query.times.copy(), mean.numpy(), std.numpy(), latent[0].double().numpy())
+
+
+def spread_observations(times, values, n_obs: int) -> tuple[np.ndarray, np.ndarray]:
+    """``n_obs`` points of a trajectory spread evenly in time: times (T,), values (T, D) ->
+    (n_obs,), (n_obs, D) (the conditioning the authors' transfer uses, 11 points)."""
+    times = check_array("times", times, ndim=1, min_size=2)
+    values = check_array("values", values, ndim=2, shape=(len(times), None))
+    n_obs = check_positive_int("n_obs", n_obs)
+    idx = np.linspace(0, len(times) - 1, n_obs).round().astype(int)
+    return times[idx], values[idx]
+
+
+def latent_plane(latents) -> np.ndarray:
+    """Latents (M, L) -> (M, 2): their coordinates on the plane of their first two principal
+    components (centred; a zero column where fewer than two directions vary). The map the paper's
+    Fig. 6 draws: paired demonstrations of two robots land on (nearly) the same point when aligned."""
+    x = check_array("latents", latents, ndim=2, min_size=1)
+    x = x - x.mean(axis=0)
+    _, _, vt = np.linalg.svd(x, full_matrices=False)
+    out = np.zeros((len(x), 2))
+    k = min(2, vt.shape[0])
+    out[:, :k] = x @ vt[:k].T
+    return out
