@@ -147,6 +147,21 @@ CATALOG: tuple[Experiment, ...] = (
         benchmark="benchmarks/experiments/pusher.py",
     ),
     Experiment(
+        'peers',
+        help="ACNMP beside SB3 PPO/SAC (+BC), black-box ProMP + CMA-ES and ProMP + RL on Meta-World",
+        description=("On Meta-World's reach, push and pick-place (demonstrations by Meta-World's scripted "
+                     "policies in its own training region), per seed at one position beyond the region and one "
+                     "inside: LfD only, ACNMP, the project's ProMP + RL, black-box ProMP + CMA-ES (fancy_gym's "
+                     "recipe), and stable-baselines3 PPO and SAC from scratch or warm-started by behaviour "
+                     "cloning. One metric: episodes until the method's deterministic output first succeeds "
+                     "(\"> budget\" when it does not). Needs the peers extra. docs/experiments/peers.md "
+                     "explains it."),
+        page="peers.md",
+        benchmark="benchmarks/experiments/peers.py",
+        full=(),
+        quick=('--quick',),
+    ),
+    Experiment(
         'robot',
         help="any robot kind (a plugin too): train on your demonstrations, then LfD only vs ACNMP at --at points",
         description=("Train a CNMP on a demonstration file, then per seed and test point: execute its mean "
