@@ -540,7 +540,7 @@ def merge_results(results: list[dict], header: dict | None = None) -> dict:
     from ..tasks.metaworld.scene import TASKS
 
     for key, order in (("tasks", tuple(TASKS)), ("methods", METHODS), ("seeds", None), ("cases", CASES)):
-        values = {v for res in results for v in res["config"][key]}
+        values = {v for res in results for v in res["config"][key]} | {getattr(r, key[:-1]) for r in runs.values()}
         config[key] = sorted(values, key=(order.index if order else None) or (lambda v: v))
     planned = {(t, m, s, c) for res in results for t in res["config"]["tasks"] for m in res["config"]["methods"]
                for s in res["config"]["seeds"] for c in res["config"]["cases"]}
