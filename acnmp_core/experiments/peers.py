@@ -249,16 +249,16 @@ def _train(task: _Task, seed: int, steps: int):
     return model
 
 
-def _trajectory_runs(task: _Task, config: PeersConfig, seed: int, case: str, todo: set[str], state: dict) -> list[PeerRun]:
-    """The trajectory methods of ``todo`` at ``seed``'s ``case`` position; ``state`` keeps the seed's
-    CNMP (trained once for both cases)."""
+def _trajectory_runs(task: _Task, config: PeersConfig, seed: int, case: str, todo: set[str], state: dict,
+                     emit: Callable[[PeerRun], None]) -> None:
+    """The trajectory methods of ``todo`` at ``seed``'s ``case`` position, each given to ``emit`` as
+    it finishes; ``state`` keeps the seed's CNMP (trained once for both cases)."""
     from ..peers.black_box import BlackBoxConfig, DemoProMP, run_black_box
     from .push import make_target, run_acnmp_case, run_promp_case
 
     p = task.position(seed, case)
     setup = task.setup(seed)
     expert = task.expert_path(seed, case)
-    out: list[PeerRun] = []
     if {"lfd", "acnmp"} & todo:
         if state.get("model_seed") != seed:
             t0 = time.perf_counter()
@@ -277,7 +277,7 @@ def _trajectory_runs(task: _Task, config: PeersConfig, seed: int, case: str, tod
                        "curve": r["curve"]}
             if method == "lfd":
                 details["path_error_to_expert"] = path
-            out.append(PeerRun(task.kind, method, seed, case, p.tolist(), int(r["rollouts"]), bool(r["success"]),
+            emit(PeerRun(task.kind, method, seed, case, p.tolist(), int(r["rollouts"]), bool(r["success"]),
                                budget, round(time.perf_counter() - t0, 2), details))
     if "promp_rl" in todo:
         t0 = time.perf_counter()
@@ -285,7 +285,7 @@ def _trajectory_runs(task: _Task, config: PeersConfig, seed: int, case: str, tod
 
         cfg = PrompRLConfig(**{**PROMP_DEFAULTS, "max_rollouts": config.promp_budget, "seed": seed})
         r = run_promp_case(setup, case, task.evaluator, cfg)
-        out.append(PeerRun(task.kind, "promp_rl", seed, case, p.tolist(), int(r["rollouts"]), bool(r["success"]),
+        emit(PeerRun(task.kind, "promp_rl", seed, case, p.tolist(), int(r["rollouts"]), bool(r["success"]),
                            config.promp_budget, round(time.perf_counter() - t0, 2),
                            {"final_error": r["final_error"], "lfd_error": r["lfd_error"], "curve": r["curve"]}))
     if "promp_cma" in todo:
@@ -294,12 +294,11 @@ def _trajectory_runs(task: _Task, config: PeersConfig, seed: int, case: str, tod
         promp = DemoProMP(a.times[0], a.values, a.task_params)
         r = run_black_box(promp, task.evaluator, p, BlackBoxConfig(budget=config.cma_budget), seed)
         start = promp.trajectories(promp.conditioned_mean(p)[None])[0]
-        out.append(PeerRun(task.kind, "promp_cma", seed, case, p.tolist(), r.episodes, r.success, config.cma_budget,
+        emit(PeerRun(task.kind, "promp_cma", seed, case, p.tolist(), r.episodes, r.success, config.cma_budget,
                            round(time.perf_counter() - t0, 2),
                            {"final_error": r.curve[-1][1], "lfd_error": r.curve[0][1], "curve": r.curve,
                             "sigma0": r.sigma0, "dimension": r.dimension,
                             "path_error_to_expert": _path_error(start, expert)}))
-    return out
 
 
 def _step_based_run(task: _Task, config: PeersConfig, seed: int, case: str, method: str, budget: int) -> PeerRun:
@@ -406,6 +405,11 @@ def run_peers(config: PeersConfig, *, out: str | Path | None = None, resume: boo
                 "wall_time_s": round(before + time.perf_counter() - t_start, 1),
                 "runs": [r.to_json() for r in runs], "summary": summarise(runs), "not_run": missing}
 
+    if config.sb3_budget is None and "acnmp" not in config.methods:
+        known = runs + (load_runs(budgets_from) if budgets_from is not None else [])
+        for kind, seed, case, method in todo:  # refused before anything runs, not after an hour
+            if method in STEP_BASED_METHODS:
+                sb3_budget(config, known, kind, case)
     bar = None
     if progress:
         from tqdm import tqdm
@@ -413,6 +417,16 @@ def run_peers(config: PeersConfig, *, out: str | Path | None = None, resume: boo
         bar = tqdm(total=len(todo), desc="peers", unit="run")
     tasks: dict[str, _Task] = {}
     state: dict = {}
+
+    def emit(r: PeerRun) -> None:
+        runs.append(r)
+        if path is not None:
+            _write(path, result())
+        if bar is not None:
+            bar.update(1)
+        if on_run:
+            on_run(r)
+
     try:
         i = 0
         while i < len(todo):
@@ -422,21 +436,12 @@ def run_peers(config: PeersConfig, *, out: str | Path | None = None, resume: boo
             if method in TRAJECTORY_METHODS:
                 # the trajectory methods of one (task, seed, case) run together (they share the CNMP)
                 group = [item for item in todo[i:] if item[:3] == (kind, seed, case) and item[3] in TRAJECTORY_METHODS]
-                new = _trajectory_runs(tasks[kind], config, seed, case, {g[3] for g in group}, state)
+                _trajectory_runs(tasks[kind], config, seed, case, {g[3] for g in group}, state, emit)
                 i += len(group)
             else:
                 known = runs + (load_runs(budgets_from) if budgets_from is not None else [])
-                budget = sb3_budget(config, known, kind, case)
-                new = [_step_based_run(tasks[kind], config, seed, case, method, budget)]
+                emit(_step_based_run(tasks[kind], config, seed, case, method, sb3_budget(config, known, kind, case)))
                 i += 1
-            for r in new:
-                runs.append(r)
-                if on_run:
-                    on_run(r)
-            if bar is not None:
-                bar.update(len(new))
-            if path is not None:
-                _write(path, result())
     finally:
         if bar is not None:
             bar.close()
