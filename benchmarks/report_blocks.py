@@ -1613,6 +1613,11 @@ def _short(task: str) -> str:
     return task.removeprefix("metaworld-")
 
 
+def _peer_block(tbl: str, note: str, r: dict) -> str:
+    """A table, its note in italics and the source line."""
+    return "\n".join([tbl, "", f"*{note}*", "", source(r, "peers")])
+
+
 @renderer("peers-losses")
 def peers_losses() -> str:
     """Where ACNMP loses: per task and case, the peers whose median episodes are below ACNMP's."""
@@ -1652,18 +1657,13 @@ def peers_study() -> str:
             rows.append([_short(task), case, len(lfd), path(lfd), path(cma), first(lfd), first(cma),
                          f"{sum(x['success'] for x in lfd)}/{len(lfd)}",
                          f"{sum(x['success'] and x['episodes'] == 1 for x in cma)}/{len(cma)}"])
-    return "\n".join([
-        table(["task", "case", "seeds", "CNMP mean to expert (m)", "conditioned ProMP to expert (m)",
-               "CNMP first episode's error (m)", "ProMP first episode's error (m)", "CNMP succeeds at once",
-               "ProMP succeeds at once"], rows),
-        "",
-        "*Distances: root mean square over the 100 steps of the hand's distance (x, y, z) between the trajectory "
-        "each method starts from and the scripted expert's own hand path at the test position; medians over the "
-        "seeds. Errors: the smallest distance to the goal (reach) or of the puck to the goal (push, pick-place) "
-        "in the first executed episode, medians.*",
-        "",
-        source(r, "peers"),
-    ])
+    return _peer_block(table(["task", "case", "seeds", "CNMP mean to expert (m)", "conditioned ProMP to expert (m)",
+                              "CNMP first episode's error (m)", "ProMP first episode's error (m)",
+                              "CNMP succeeds at once", "ProMP succeeds at once"], rows),
+                       "Distances: root mean square over the 100 steps of the hand's distance (x, y, z) between the "
+                       "trajectory each method starts from and the scripted expert's own hand path at the test "
+                       "position; medians over the seeds. Errors: the smallest distance to the goal (reach) or of the "
+                       "puck to the goal (push, pick-place) in the first executed episode, medians.", r)
 
 
 @renderer("peers-results")
@@ -1683,16 +1683,12 @@ def peers_results() -> str:
                              fmt(med) if np.isfinite(med) else f"> {max(budgets)}",
                              ", ".join(x["shown"] for x in runs), "/".join(map(str, budgets)),
                              fmt(float(np.median([x["time_s"] for x in runs])))])
-    return "\n".join([
-        table(["task", "case", "method", "success", "episodes (median)", "per seed (0, 1, ...)", "budget",
-               "wall time (median, s)"], rows),
-        "",
-        "*Episodes: executed until the method's deterministic output first succeeded, evaluation episodes "
-        "included; \"> B\": no success within the budget B (a median is \"> B\" when half of the runs or more "
-        "are). Wall time per run on the shared 2-core machine, without the CNMP's training (LfD only, ACNMP).*",
-        "",
-        source(r, "peers"),
-    ])
+    return _peer_block(table(["task", "case", "method", "success", "episodes (median)", "per seed (0, 1, ...)",
+                              "budget", "wall time (median, s)"], rows),
+                       "Episodes: executed until the method's deterministic output first succeeded, evaluation "
+                       "episodes included; \"> B\": no success within the budget B (a median is \"> B\" when half of "
+                       "the runs or more are). Wall time per run on the shared 2-core machine, without the CNMP's "
+                       "training (LfD only, ACNMP).", r)
 
 
 @renderer("peers-targets")
