@@ -26,7 +26,7 @@ export PIP_DISABLE_PIP_VERSION_CHECK=1
 # No byte-compiling of every installed module (torch alone: 40 s -> 14 s here); Python compiles
 # what is imported, once, on first use.
 PIP_FLAGS=(-q --no-compile)
-EXTRAS=".[test,gym]"
+EXTRAS=".[test,gym,peers]"
 
 pip_setting() {  # the values of one pip configuration key, split on white space
   python -m pip config get "$1" 2>/dev/null | tr ' ' '\n' | grep -v '^$' || true

@@ -96,7 +96,9 @@ class GymRobotConfig:
     joint_positions : obs -> (D,) joint positions; default ``obs[:D]``.
     joint_velocities : obs -> (D,) joint velocities; default: finite differences over ``dt``.
     control : "pd" (action = kp (target - q) - kd qdot, clipped to the action space) or
-        "position" (action = target, clipped).
+        "position" (action = target, clipped); or one of them per output (D,), e.g.
+        ``("pd", "pd", "pd", "position")`` for a hand tracked by PD whose gripper command is sent
+        as it is.
     kp, kd : PD gains, a number or (D,); for joint-velocity actions kp = 1 / dt and kd = 0 (the
         module docstring derives it).
     set_task : ``(env, task_params (P,)) -> obs`` placing the task after ``reset`` and returning
@@ -126,7 +128,7 @@ class GymRobotConfig:
     env_kwargs: Mapping[str, Any] = field(default_factory=dict)
     joint_positions: ObsReader | None = None
     joint_velocities: ObsReader | None = None
-    control: str = "pd"
+    control: str | tuple[str, ...] = "pd"
     kp: float | Sequence[float] = 1.0
     kd: float | Sequence[float] = 0.0
     set_task: Callable[[Any, np.ndarray], np.ndarray] | None = None
@@ -145,8 +147,9 @@ class GymRobotConfig:
         if not (isinstance(self.env, str) or callable(self.env)):
             raise InputError(f"env: expected an environment id or a function returning an environment, "
                              f"got {type(self.env).__name__}")
-        if self.control not in ("pd", "position"):
-            raise InputError(f"control: expected 'pd' or 'position', got {self.control!r}")
+        controls = (self.control,) if isinstance(self.control, str) else tuple(self.control)
+        if not controls or any(c not in ("pd", "position") for c in controls):
+            raise InputError(f"control: expected 'pd' or 'position', or one of them per output, got {self.control!r}")
         if not isinstance(self.vector_envs, int) or self.vector_envs < 0:
             raise InputError(f"vector_envs: expected an integer >= 0, got {self.vector_envs!r}")
         if self.success is not None and not (isinstance(self.success, str) or callable(self.success)):
@@ -284,14 +287,15 @@ class GymRolloutEvaluator:
         ended = np.zeros(n, dtype=bool)  # the environment terminated or truncated it
         finals: list[Any] = [None] * n
         final_obs = obs.copy()
+        position = _position_outputs(cfg.control, dims)
         for t in range(steps):
             target = trajs[:, t]
-            if cfg.control == "position":
+            if position.all():
                 action = target
             else:
                 qd = (np.array([read_qd(o) for o in obs], dtype=np.float64) if read_qd is not None
                       else (q - q_prev) / dt)
-                action = kp * (target - q) - kd * qd
+                action = np.where(position, target, kp * (target - q) - kd * qd)
             action = np.clip(action, low, high)
             obs_t, reward, term, trunc, info = env.step(action.astype(box.dtype) if vector else action[0].astype(box.dtype))
             obs_t = np.asarray(obs_t, dtype=np.float64).reshape(n, -1)
@@ -347,6 +351,16 @@ class GymRolloutEvaluator:
         if value.shape != ep.rewards.shape:
             raise InputError(f"reward: expected a float or shape {ep.rewards.shape}, got {value.shape}")
         return value
+
+
+def _position_outputs(control: str | tuple[str, ...], dims: int) -> np.ndarray:
+    """(D,) bool: the outputs sent as position commands (the others are PD-tracked); InputError
+    when a per-output ``control`` does not name D outputs."""
+    if isinstance(control, str):
+        return np.full(dims, control == "position")
+    if len(control) != dims:
+        raise InputError(f"control: {len(control)} entries for trajectories of D={dims} outputs; give one per output")
+    return np.array([c == "position" for c in control])
 
 
 def _user_call(role: str, fn: Callable[[Episode], Any], ep: Episode) -> Any:

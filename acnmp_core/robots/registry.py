@@ -170,3 +170,6 @@ register_robot(RobotSpec("pour", "a wrist pouring marbles from a cup into anothe
                          tasks={"pour": {}}, body=lambda: import_module(".pour", __package__).pour_body()))
 # through the Gymnasium adapter, as a plugin would (gymnasium is imported on first use only)
 register_robot(import_module(".pusher", __package__).PUSHER)
+# Meta-World's Sawyer tasks, the same way (metaworld is imported on first use only)
+for _spec in import_module("..tasks.metaworld.kinds", __package__).KINDS:
+    register_robot(_spec)

@@ -1,5 +1,6 @@
 """``acnmp demos from-recording FILE.rrd -o demos.npz``: demonstrations out of what a deployment
-recorded, in the format ``acnmp up --demos SKILL=demos.npz`` trains on."""
+recorded, in the format ``acnmp up --demos SKILL=demos.npz`` trains on (``acnmp demos make KIND``:
+a built-in kind's scripted ones)."""
 from __future__ import annotations
 
 import argparse
@@ -16,7 +17,7 @@ examples:
 
 def register(subparsers) -> None:
     """Add ``demos`` with its ``from-recording`` sub-command."""
-    parser = subparsers.add_parser("demos", help="make demonstration files (from a recording)",
+    parser = subparsers.add_parser("demos", help="make demonstration files (from a recording, or a kind's scripted expert)",
                                    description="Make demonstration files.")
     sub = parser.add_subparsers(dest="demos_command", metavar="WHAT", required=True)
     rec = sub.add_parser("from-recording", help="the recorded roll-outs as a demonstrations .npz",
@@ -29,6 +30,37 @@ def register(subparsers) -> None:
     rec.add_argument("--best-per-job", action="store_true",
                      help="one roll-out per job: its highest return (the successful ones with --successful)")
     rec.set_defaults(func=_run_from_recording)
+    make = sub.add_parser("make", help="the scripted demonstrations of a built-in kind as a .npz",
+                          description="Write the demonstrations a built-in kind's scripted expert makes (the ones "
+                                      "its experiment trains on; failed ones are left out), to serve the kind's "
+                                      "skill: acnmp up --robot KIND --demos SKILL=FILE.npz.")
+    make.add_argument("kind", choices=SCRIPTED, metavar="KIND", help=f"one of {', '.join(SCRIPTED)}")
+    make.add_argument("-o", "--output", required=True, type=non_empty, metavar="DEMOS.npz", help="file to write")
+    make.set_defaults(func=_run_make)
+
+
+#: the kinds whose scripted expert makes demonstrations (the Meta-World ones need the metaworld extra)
+SCRIPTED = ("pusher", "metaworld-reach", "metaworld-push", "metaworld-pick-place")
+
+
+def _run_make(args) -> int:
+    from acnmp_core.demo_io import save_demos
+    from services.transport.argtypes import check_output_path
+
+    check_output_path(args.output, "--output")
+    if args.kind == "pusher":
+        from acnmp_core.tasks.pusher_scene import pusher_demos
+
+        demos = pusher_demos()
+    else:
+        from acnmp_core.tasks.metaworld.demos import metaworld_demos
+
+        demos = metaworld_demos(args.kind)
+    path = save_demos(args.output, demos)
+    n, t, d = demos.values.shape
+    print(f"wrote {path}: {n} demonstrations of {t} steps x {d} dims, {demos.task_params.shape[1]} task parameters "
+          f"(serve them: acnmp up --robot {args.kind} --demos SKILL={path})")
+    return 0
 
 
 def _run_from_recording(args) -> int:

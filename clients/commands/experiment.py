@@ -18,7 +18,7 @@ def register(subparsers) -> None:
     parser = subparsers.add_parser(
         "experiment",
         help="reproduce one of the paper's experiments ("
-             + ", ".join(f"{e.ident} {e.name}" for e in CATALOG if e.ident) + "), or run your robot's",
+             + ", ".join(f"{e.ident} {e.name}" for e in CATALOG if e.ident and not e.optional) + "), or run your robot's",
         description="Reproduce one of the paper's experiments in simulation; --json and --plot save results.",
     )
     sub = parser.add_subparsers(dest="experiment", metavar="NAME", required=True)

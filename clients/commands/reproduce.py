@@ -18,7 +18,7 @@ import sys
 import time
 from pathlib import Path
 
-from clients.experiments.catalog import PAPER, Experiment
+from clients.experiments.catalog import OPTIONAL, PAPER, Experiment
 from clients.experiments.targets import quick_check
 from services.transport.argtypes import int_at_least, non_empty
 
@@ -42,6 +42,10 @@ def register(subparsers) -> None:
                "  acnmp reproduce -o paper/ --only E3,E5 --force")
     p.add_argument("-o", "--out", required=True, type=non_empty, metavar="DIR", help="where the results and report go")
     p.add_argument("--only", default=None, metavar="E1,E3", help="these experiments only (default: all six)")
+    p.add_argument("--with", dest="with_", default=None, metavar="NAME",
+                   help="also run these experiments (comma-separated) after the chosen ones: "
+                        + ", ".join(f"{e.name} ({e.help.split(':')[0]})" for e in OPTIONAL)
+                        + " (run only when named here, with or without --quick)")
     p.add_argument("--quick", action="store_true",
                    help="smaller sizes (minutes), a smoke test: each experiment runs, its accounting holds, the report "
                         "renders; judged against the decided targets only at the full sizes")
@@ -63,6 +67,17 @@ def _chosen(only: str | None) -> list[Experiment]:
     return [known[w] for w in wanted]
 
 
+def _extra(names: str | None) -> list[Experiment]:
+    """The optional experiments ``--with`` names (none by default)."""
+    if names is None:
+        return []
+    wanted = [w.strip() for w in names.split(",") if w.strip()]
+    known = {e.name: e for e in OPTIONAL}
+    if not wanted or any(w not in known for w in wanted):
+        raise ValueError(f"--with {names!r}: expected some of {', '.join(known)} separated by commas")
+    return [known[w] for w in wanted]
+
+
 def run(args) -> int:
     """Run the chosen experiments (those without results in ``--out`` unless ``--force``), ``--jobs``
     at once, then write the report; 1 when an experiment failed (the report says which)."""
@@ -70,7 +85,7 @@ def run(args) -> int:
 
     from tqdm import tqdm
 
-    steps = _chosen(args.only)
+    steps = _chosen(args.only) + _extra(args.with_)
     out = Path(args.out).resolve()
     out.mkdir(parents=True, exist_ok=True)
     todo = []

@@ -15,11 +15,13 @@ class Experiment:
     """One ``acnmp experiment``.
 
     name : the sub-command, and its module in :mod:`clients.experiments`. help, description : its
-    parser's. ident : E1..E6 for the paper's experiments (``acnmp reproduce`` runs those), else None.
+    parser's. ident : E1..E6 for the paper's experiments (``acnmp reproduce`` runs those), the report's
+    name of an optional one, else None.
     title, paper : what it is and what the paper reports. page : its page in docs/experiments/.
     benchmark : the script(s) writing its published JSON. full, quick : ``acnmp reproduce``'s
     options at the documented size and at a smoke-test size. target : the decided targets read
     from its JSON (:mod:`clients.experiments.targets`), None when the numbers are only reported.
+    optional : ``acnmp reproduce`` runs it only when asked (``--with NAME``), not with the paper's six.
     """
 
     name: str
@@ -33,6 +35,7 @@ class Experiment:
     full: tuple[str, ...] = ()
     quick: tuple[str, ...] = ()
     target: Callable[[dict], tuple[str, bool | None]] | None = None
+    optional: bool = False
 
     @property
     def module(self) -> str:
@@ -147,6 +150,25 @@ CATALOG: tuple[Experiment, ...] = (
         benchmark="benchmarks/experiments/pusher.py",
     ),
     Experiment(
+        'peers',
+        help="ACNMP beside SB3 PPO/SAC (+BC), black-box ProMP + CMA-ES and ProMP + RL on Meta-World",
+        description=("On Meta-World's reach, push and pick-place (demonstrations by Meta-World's scripted "
+                     "policies in its own training region), per seed at one position beyond the region and one "
+                     "inside: LfD only, ACNMP, the project's ProMP + RL, black-box ProMP + CMA-ES (fancy_gym's "
+                     "recipe), and stable-baselines3 PPO and SAC from scratch or warm-started by behaviour "
+                     "cloning. One metric: episodes until the method's deterministic output first succeeds "
+                     "(\"> budget\" when it does not). Needs the peers extra. docs/experiments/peers.md "
+                     "explains it."),
+        ident="peers",
+        title="ACNMP beside SB3, black-box ProMP + CMA-ES and ProMP + RL on Meta-World",
+        paper="not in the paper: the peers a robot-learning user would pick instead",
+        page="peers.md",
+        benchmark="benchmarks/experiments/peers.py",
+        full=(),
+        quick=('--quick',),
+        optional=True,
+    ),
+    Experiment(
         'robot',
         help="any robot kind (a plugin too): train on your demonstrations, then LfD only vs ACNMP at --at points",
         description=("Train a CNMP on a demonstration file, then per seed and test point: execute its mean "
@@ -156,4 +178,6 @@ CATALOG: tuple[Experiment, ...] = (
 )
 
 #: The paper's experiments in order (what ``acnmp reproduce`` runs).
-PAPER: tuple[Experiment, ...] = tuple(e for e in CATALOG if e.ident)
+PAPER: tuple[Experiment, ...] = tuple(e for e in CATALOG if e.ident and not e.optional)
+#: What ``acnmp reproduce --with NAME`` adds (long, or needing an extra).
+OPTIONAL: tuple[Experiment, ...] = tuple(e for e in CATALOG if e.optional)

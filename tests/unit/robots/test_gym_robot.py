@@ -67,6 +67,28 @@ def test_position_control_sends_the_targets_and_a_setter_places_the_task():
     assert len(seen) == 1 and seen[0].tolist() == [0.1, 0.2]
 
 
+def test_a_per_output_control_tracks_some_outputs_and_sends_the_others_as_they_are():
+    """A hand PD-tracked and a gripper command passed through (the Meta-World kinds): the "position"
+    output's action is its row, whatever the joint reading and the gain; the "pd" one is the PD
+    command. The default (one control for all) is unchanged, and a tuple of the wrong length is one line."""
+    d = demos()
+    traj = d.values[:1].copy()
+    cfg = dataclasses.replace(CONFIG, control=("pd", "position"))
+    mixed = GymRolloutEvaluator(cfg).evaluate(traj, d.times[0], d.task_params[0])
+    pd = GymRolloutEvaluator(CONFIG).evaluate(traj, d.times[0], d.task_params[0])
+    box = ReachEnv().action_space
+    np.testing.assert_allclose(mixed.states["actions"][0, :, 1], np.clip(traj[0, :, 1], box.low[1], box.high[1]), atol=1e-6)
+    # the first step of both starts from the same state: the tracked output gets the same PD command
+    np.testing.assert_allclose(mixed.states["actions"][0, 0, 0], pd.states["actions"][0, 0, 0])
+    assert not np.allclose(mixed.states["actions"][0, :, 1], pd.states["actions"][0, :, 1])
+    with pytest.raises(InputError, match="control: 3 entries for trajectories of D=2") as err:
+        GymRolloutEvaluator(dataclasses.replace(CONFIG, control=("pd", "pd", "position"))).evaluate(
+            traj, d.times[0], d.task_params[0])
+    assert "\n" not in str(err.value)
+    with pytest.raises(InputError, match="control: expected 'pd' or 'position'"):
+        dataclasses.replace(CONFIG, control=("pd", "torque"))
+
+
 class _Marked(gym.Wrapper):
     """The user's own wrapper: what ``set_task`` must receive (the environment as the factory made it)."""
 

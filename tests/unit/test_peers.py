@@ -1,0 +1,224 @@
+"""The peers and ``acnmp experiment peers``: the accounting, not the outcome. Episodes are counted with
+the evaluation episodes, budgets are honoured, a run that did not succeed is marked censored and shown
+as "> budget" (never as a number it did not reach), the SB3 budget follows ACNMP's median, the result
+is written after every run and resumed, and bad inputs are one line with exit 2."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from acnmp_core.errors import InputError
+from acnmp_core.experiments.peers import PeerRun, PeersConfig, merge_results, sb3_budget, summarise
+from acnmp_core.rollout import RolloutBatch
+
+
+class _Counting:
+    """An evaluator that counts the trajectories it executes and succeeds from the ``succeed_at``-th on."""
+
+    def __init__(self, succeed_at: int | None = None):
+        self.executed = 0
+        self.succeed_at = succeed_at
+
+    def evaluate(self, trajectories, times, task_params=None):
+        n, t, _ = np.shape(trajectories)
+        index = self.executed + np.arange(1, n + 1)
+        self.executed += n
+        success = np.zeros(n, dtype=bool) if self.succeed_at is None else index >= self.succeed_at
+        rewards = -np.abs(np.asarray(trajectories)).mean(axis=(1, 2))[:, None] * np.ones((n, t))
+        return RolloutBatch(rewards=rewards, success=success, errors=np.ones(n))
+
+
+def _run(method="acnmp", seed=0, episodes=10, success=True, budget=400, case="extrapolation", task="metaworld-reach"):
+    return PeerRun(task, method, seed, case, [0.0], episodes, success, budget, 1.0)
+
+
+def test_a_censored_run_is_shown_as_beyond_its_budget_and_a_censored_median_is_no_number():
+    runs = [_run(episodes=30), _run(seed=1, episodes=400, success=False), _run(seed=2, episodes=400, success=False)]
+    assert [r.shown for r in runs] == ["30", "> 400", "> 400"]
+    assert [r.to_json()["censored"] for r in runs] == [False, True, True]
+    s = summarise(runs)["metaworld-reach"]["extrapolation"]["acnmp"]
+    assert s["successes"] == 1 and s["median_episodes"] is None and s["median_shown"] == "> 400"
+    s = summarise(runs[:2] + [_run(seed=2, episodes=50)])["metaworld-reach"]["extrapolation"]["acnmp"]
+    assert s["median_episodes"] == 50 and s["median_shown"] == "50"
+
+
+def test_the_sb3_budget_is_twenty_times_acnmps_median_a_censored_run_counting_as_its_budget():
+    config = PeersConfig(tasks=("metaworld-reach",))
+    runs = [_run(episodes=30), _run(seed=1, episodes=55), _run(seed=2, episodes=400, success=False)]
+    assert sb3_budget(config, runs, "metaworld-reach", "extrapolation") == 20 * 55
+    assert sb3_budget(config, [_run(episodes=3)], "metaworld-reach", "extrapolation") == 200  # the floor
+    assert sb3_budget(config, runs[:1] + [_run(seed=1, episodes=400, success=False)], "metaworld-reach",
+                      "extrapolation") == 20 * 215
+    with pytest.raises(InputError, match="no ACNMP run is recorded"):
+        sb3_budget(config, runs, "metaworld-reach", "interpolation")
+    fixed = PeersConfig(tasks=("metaworld-reach",), sb3_budget=7)
+    assert sb3_budget(fixed, [], "metaworld-push", "interpolation") == 7
+
+
+def test_black_box_cma_counts_every_mean_and_population_episode_and_stops_at_its_budget():
+    pytest.importorskip("cma")
+    pytest.importorskip("mp_pytorch")
+    from acnmp_core.peers.black_box import BlackBoxConfig, DemoProMP, run_black_box
+
+    rng = np.random.default_rng(0)
+    times = np.linspace(0.0, 1.0, 30)
+    params = rng.uniform(-1, 1, (6, 2))
+    values = np.stack([np.c_[p[0] * times, p[1] * times ** 2] for p in params]) + 0.01 * rng.normal(size=(6, 30, 2))
+    promp = DemoProMP(times, values, params)
+    for budget in (1, 2, 9, 25):
+        ev = _Counting()
+        r = run_black_box(promp, ev, np.array([0.5, 0.5]), BlackBoxConfig(budget=budget), seed=0)
+        assert (r.episodes, r.success, ev.executed) == (budget, False, budget)
+    ev = _Counting(succeed_at=1)
+    r = run_black_box(promp, ev, np.array([0.5, 0.5]), BlackBoxConfig(budget=50), seed=0)
+    assert (r.episodes, r.success, ev.executed) == (1, True, 1)
+    # the mean is executed first in every generation: success at the third generation's mean
+    pop = 4 + int(3 * np.log(promp.weights.shape[1]))
+    ev = _Counting(succeed_at=2 * (1 + pop) + 1)
+    r = run_black_box(promp, ev, np.array([0.5, 0.5]), BlackBoxConfig(budget=500), seed=0)
+    assert r.success and r.episodes == ev.executed == 2 * (1 + pop) + 1 and len(r.curve) == 3
+    # the conditioned mean is the linear regression of the weights on the task parameters
+    fit = np.linalg.lstsq(np.c_[np.ones(6), params], promp.weights, rcond=None)[0]
+    np.testing.assert_allclose(promp.conditioned_mean(np.array([0.3, -0.2])), np.r_[1.0, 0.3, -0.2] @ fit, atol=1e-8)
+
+
+@pytest.mark.parametrize("algorithm, warm", [("ppo", "bc"), pytest.param("ppo", None, marks=pytest.mark.slow),
+                                             pytest.param("sac", "bc", marks=pytest.mark.slow)])
+def test_sb3_counts_training_and_evaluation_episodes_and_honours_its_budget(algorithm, warm):
+    pytest.importorskip("stable_baselines3")
+    pytest.importorskip("metaworld")
+    from acnmp_core.peers.step_based import StepBasedConfig, run_step_based
+    from acnmp_core.tasks.metaworld.demos import expert_transitions
+
+    demos = expert_transitions("metaworld-reach", n=2) if warm else None
+    cfg = StepBasedConfig(algorithm, budget=4, eval_every=1, warm_start=warm, bc_steps=5)
+    r = run_step_based("metaworld-reach", np.array([0.24, 0.85, 0.2]), cfg, seed=0, demonstrations=demos)
+    assert r.episodes <= 4 and r.episodes == r.train_episodes + r.eval_episodes
+    assert r.eval_episodes == len(r.curve) and r.curve[0][0] == 1  # the first evaluation is episode 1
+    assert [c[0] for c in r.curve] == sorted(c[0] for c in r.curve)
+    if not r.success:
+        assert r.episodes == 4
+    assert (r.bc_loss is not None) == (warm == "bc")
+
+
+def test_the_runs_are_planned_trajectory_methods_first_written_one_by_one_and_resumed(tmp_path, monkeypatch):
+    """The orchestration with stand-in methods (no simulator): the SB3 runs come after every trajectory
+    run, their budget from ACNMP's median at the same task and case; the file holds every run as soon
+    as it finished; a resumed run skips what the file holds."""
+    from acnmp_core.experiments import peers
+
+    out = tmp_path / "peers.json"
+    ran = []
+
+    class FakeTask:
+        def __init__(self, kind):
+            self.kind = kind
+
+        def close(self):
+            pass
+
+    def trajectory_runs(task, config, seed, case, todo, state, emit):
+        for method in peers.TRAJECTORY_METHODS:
+            if method in todo:
+                ran.append((method, seed, case))
+                emit(PeerRun(task.kind, method, seed, case, [0.0], 10 * (seed + 1), True, 400, 0.1))
+                assert [r["method"] for r in json.loads(out.read_text())["runs"]][-1] == method
+
+    def step_based_run(task, config, seed, case, method, budget):
+        ran.append((method, seed, case, budget))
+        return PeerRun(task.kind, method, seed, case, [0.0], budget, False, budget, 0.1)
+
+    monkeypatch.setattr(peers, "_Task", FakeTask)
+    monkeypatch.setattr(peers, "_trajectory_runs", trajectory_runs)
+    monkeypatch.setattr(peers, "_step_based_run", step_based_run)
+    config = PeersConfig(tasks=("metaworld-reach",), methods=("acnmp", "ppo", "lfd"), seeds=(0, 2), cases=("extrapolation",))
+    result = peers.run_peers(config, out=out)
+    assert ran == [("lfd", 0, "extrapolation"), ("acnmp", 0, "extrapolation"), ("lfd", 2, "extrapolation"),
+                   ("acnmp", 2, "extrapolation"), ("ppo", 0, "extrapolation", 400), ("ppo", 2, "extrapolation", 400)]
+    assert [r["shown"] for r in result["runs"] if r["method"] == "ppo"] == ["> 400", "> 400"]
+    assert json.loads(out.read_text())["runs"] == result["runs"] and result["not_run"] == []
+    ran.clear()
+    more = PeersConfig(**{**config.__dict__, "seeds": (0, 1, 2)})
+    resumed = peers.run_peers(more, out=out, resume=True)
+    assert ran == [("lfd", 1, "extrapolation"), ("acnmp", 1, "extrapolation"), ("ppo", 1, "extrapolation", 400)]
+    assert len(resumed["runs"]) == 9
+    # an SB3 run alone takes its budget from another result's ACNMP runs, or is refused before it starts
+    ran.clear()
+    alone = PeersConfig(tasks=("metaworld-reach",), methods=("sac",), seeds=(3,), cases=("extrapolation",))
+    peers.run_peers(alone, out=tmp_path / "sac.json", budgets_from=out)
+    assert ran == [("sac", 3, "extrapolation", 400)]
+    with pytest.raises(InputError, match="no ACNMP run is recorded"):
+        peers.run_peers(alone, out=tmp_path / "none.json")
+    assert not (tmp_path / "none.json").exists()
+
+
+@pytest.mark.slow
+def test_the_experiment_writes_after_every_run_and_resume_runs_only_what_is_missing(tmp_path):
+    pytest.importorskip("metaworld")
+    pytest.importorskip("cma")
+    from acnmp_core.experiments.peers import run_peers
+
+    out = tmp_path / "peers.json"
+    seen = []
+    config = PeersConfig(tasks=("metaworld-reach",), methods=("lfd", "promp_cma"), seeds=(0,), cases=("interpolation",),
+                         train_steps=20, cma_budget=2)
+
+    def on_run(r):  # the file already holds every run so far
+        seen.append(r.method)
+        assert [x["method"] for x in json.loads(out.read_text())["runs"]] == seen
+
+    first = run_peers(config, out=out, on_run=on_run)
+    assert seen == ["lfd", "promp_cma"]
+    for r in first["runs"]:
+        assert r["episodes"] <= r["budget"] and r["censored"] == (not r["success"])
+        assert r["shown"] == (str(r["episodes"]) if r["success"] else f"> {r['budget']}")
+        assert r["details"]["path_error_to_expert"] > 0
+    assert first["runs"][0]["budget"] == 1 and first["not_run"] == []
+    assert first["versions"]["mujoco"] == "3.3.0"
+    more = PeersConfig(**{**config.__dict__, "seeds": (0, 1)})
+    seen.clear()
+    resumed = run_peers(more, out=out, resume=True, on_run=lambda r: seen.append((r.method, r.seed)))
+    assert seen == [("lfd", 1), ("promp_cma", 1)] and len(resumed["runs"]) == 4
+    assert json.loads(out.read_text())["runs"] == resumed["runs"]
+    merged = merge_results([{**resumed, "runs": resumed["runs"][:2]}, {**resumed, "runs": resumed["runs"][2:]}])
+    assert len(merged["runs"]) == 4 and merged["summary"] == resumed["summary"]
+    with pytest.raises(ValueError, match="in two results"):
+        merge_results([resumed, resumed])
+
+
+@pytest.mark.slow
+def test_every_peer_runs_end_to_end_at_the_quick_size(tmp_path, capsys):
+    """``acnmp experiment peers --quick``: every method once on reach, the accounting of each run."""
+    pytest.importorskip("stable_baselines3")
+    from clients.cli import main
+
+    out = tmp_path / "q.json"
+    assert main(["experiment", "peers", "--quick", "--quiet", "--out", str(out), "--plot", str(tmp_path / "q.png")]) == 0
+    result = json.loads(out.read_text())
+    assert [r["method"] for r in result["runs"]] == ["lfd", "acnmp", "promp_rl", "promp_cma", "ppo", "ppo_bc",
+                                                     "sac_bc", "sac"]
+    for r in result["runs"]:
+        assert 1 <= r["episodes"] <= r["budget"] and r["censored"] == (not r["success"])
+    assert {r["budget"] for r in result["runs"] if r["method"] in ("ppo", "sac")} == {3}
+    assert result["quick"] and (tmp_path / "q.png").stat().st_size > 0
+    assert "metaworld-reach" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("argv, expected", [
+    (["--tasks", "metaworld-door"], "tasks: expected some of metaworld-reach"),
+    (["--methods", "acnmp,dqn"], "methods: expected some of lfd"),
+    (["--cases", "both"], "cases: expected some of extrapolation"),
+    (["--resume"], "--resume: only with --out FILE"),
+    (["--budget", "0"], "--budget"),
+    (["--methods", "ppo"], "no ACNMP run is recorded"),
+])
+def test_bad_inputs_are_one_line_and_exit_2(argv, expected, capsys, tmp_path):
+    from clients.cli import main
+
+    assert main(["experiment", "peers", "--quiet", "--out", str(tmp_path / "x.json"), *argv]
+                if argv != ["--resume"] else ["experiment", "peers", "--resume"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and expected in err[0], err
+    assert not (tmp_path / "x.json").exists()
