@@ -7,9 +7,9 @@ the demonstrations' region (*extrapolation*) and one inside (*interpolation*), d
 positions of the training region, the failed ones dropped) and the same test positions:
 
 * ``lfd``: the CNMP trained on the demonstrations, conditioned on the test position, executed once;
-* ``acnmp``: from that model, :func:`~acnmp_core.adaptation.adapt` (RL with simultaneous SL) with
+* ``acnmp``: from that model, :func:`~acnmp_core.adapt.adaptation.adapt` (RL with simultaneous SL) with
   the project's defaults until its mean trajectory succeeds;
-* ``promp_rl``: the project's adaptive ProMP + episodic REPS (:mod:`acnmp_core.promp_rl`, E2's settings);
+* ``promp_rl``: the project's adaptive ProMP + episodic REPS (:mod:`acnmp_core.baselines.promp_rl`, E2's settings);
 * ``promp_cma``: black-box ProMP + CMA-ES, fancy_gym's recipe with ``mp_pytorch`` and ``cma``,
   started from the demonstrations' ProMP conditioned on the test position
   (:mod:`acnmp_core.peers.black_box`);
@@ -46,9 +46,9 @@ from typing import Callable
 
 import numpy as np
 
-from ..adaptation import AdaptConfig
+from ..adapt.config import AdaptConfig
 from ..errors import InputError
-from ..promp_rl import PrompRLConfig
+from ..baselines.promp_rl import PrompRLConfig
 
 TRAJECTORY_METHODS = ("lfd", "acnmp", "promp_rl", "promp_cma")
 STEP_BASED_METHODS = ("ppo", "ppo_bc", "sac_bc", "sac")
@@ -203,7 +203,7 @@ class _Task:
     def __init__(self, kind: str):
         from ..robots.registry import robot
         from ..tasks.metaworld.demos import expert_transitions, metaworld_demos
-        from ..tasks.metaworld.kinds import task_name
+        from ..robots.metaworld import task_name
         from ..tasks.metaworld.scene import task
 
         self.kind, self.spec = kind, task(kind)
@@ -238,8 +238,8 @@ class _Task:
 
 
 def _train(task: _Task, seed: int, steps: int):
-    from ..cnmp import CNMP, CNMPConfig
-    from ..training import TrainConfig, train
+    from ..model.cnmp import CNMP, CNMPConfig
+    from ..model.training import TrainConfig, train
 
     a = task.arrays
     model = CNMP(CNMPConfig(n_outputs=a.values.shape[2], n_task_params=a.task_params.shape[1],

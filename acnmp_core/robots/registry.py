@@ -171,5 +171,5 @@ register_robot(RobotSpec("pour", "a wrist pouring marbles from a cup into anothe
 # through the Gymnasium adapter, as a plugin would (gymnasium is imported on first use only)
 register_robot(import_module(".pusher", __package__).PUSHER)
 # Meta-World's Sawyer tasks, the same way (metaworld is imported on first use only)
-for _spec in import_module("..tasks.metaworld.kinds", __package__).KINDS:
+for _spec in import_module(".metaworld", __package__).KINDS:
     register_robot(_spec)

@@ -44,12 +44,12 @@ SCRIPTED = ("pusher", "metaworld-reach", "metaworld-push", "metaworld-pick-place
 
 
 def _run_make(args) -> int:
-    from acnmp_core.demo_io import save_demos
+    from acnmp_core.data.demo_io import save_demos
     from services.transport.argtypes import check_output_path
 
     check_output_path(args.output, "--output")
     if args.kind == "pusher":
-        from acnmp_core.tasks.pusher_scene import pusher_demos
+        from acnmp_core.tasks.pusher.scene import pusher_demos
 
         demos = pusher_demos()
     else:

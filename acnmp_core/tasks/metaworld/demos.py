@@ -87,9 +87,9 @@ def expert_episodes(kind: str, n: int = N_DEMOS, seed: int = DEMO_SEED) -> tuple
 
 
 def metaworld_demos(kind: str, n: int = N_DEMOS, seed: int = DEMO_SEED):
-    """The demonstrations of ``kind`` as :class:`~acnmp_core.demo_io.DemoArrays`: times the phase
+    """The demonstrations of ``kind`` as :class:`~acnmp_core.data.demo_io.DemoArrays`: times the phase
     (T,) in [0, 1], values (N, T, 4) (hand x, y, z m; gripper command), task parameters (N, P) m."""
-    from ...demo_io import DemoArrays
+    from ...data.demo_io import DemoArrays
 
     episodes = expert_episodes(kind, n, seed)
     spec = task(kind)

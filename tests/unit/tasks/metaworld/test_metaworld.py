@@ -14,7 +14,7 @@ pytest.importorskip("metaworld", reason="the metaworld extra is not installed (s
 from acnmp_core.errors import InputError  # noqa: E402
 from acnmp_core.robots.registry import robot, robot_kinds  # noqa: E402
 from acnmp_core.tasks.metaworld import demos as mw_demos  # noqa: E402
-from acnmp_core.tasks.metaworld.kinds import task_name  # noqa: E402
+from acnmp_core.robots.metaworld import task_name  # noqa: E402
 from acnmp_core.tasks.metaworld.scene import (EXTRAPOLATION_X, MIN_SEPARATION, N_STEPS, TASKS, make_env,  # noqa: E402
                                               set_task, task)
 

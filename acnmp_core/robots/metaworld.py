@@ -3,17 +3,17 @@ Sawyer tasks through the Gymnasium adapter (:mod:`acnmp_core.robots.gym_robot`).
 
 Each kind runs one task (``metaworld_reach``, ``metaworld_push``, ``metaworld_pick_place``) that
 executes trajectories (T, 4): the hand's target position (x, y, z) m after each environment step,
-PD-tracked with :data:`~.scene.KP`, and the gripper command, sent as it is (:data:`~.scene.CONTROL`).
-The task parameters place the puck and the goal (:class:`~.scene.MetaWorldTask`); the rewards are
+PD-tracked with :data:`~acnmp_core.tasks.metaworld.scene.KP`, and the gripper command, sent as it is (:data:`~acnmp_core.tasks.metaworld.scene.CONTROL`).
+The task parameters place the puck and the goal (:class:`~acnmp_core.tasks.metaworld.scene.MetaWorldTask`); the rewards are
 Meta-World's own per step; success is Meta-World's success at any step of the episode, and the
 error the smallest distance to the goal it reached (m). Building a kind's evaluator without the
 ``metaworld`` extra fails with one line naming it.
 """
 from __future__ import annotations
 
-from ...robots.gym_robot import GymRobotConfig, gym_robot
-from ...robots.spec import Joint, RobotSpec
-from .scene import CONTROL, KP, TASKS, MetaWorldTask, make_env, require_metaworld, set_task
+from .gym_robot import GymRobotConfig, gym_robot
+from .spec import Joint, RobotSpec
+from ..tasks.metaworld.scene import CONTROL, KP, TASKS, MetaWorldTask, make_env, require_metaworld, set_task
 
 #: the hand's reach (m; Meta-World's mocap limits) and the gripper command's range
 JOINTS = (Joint("hand_x", -0.5, 0.5), Joint("hand_y", 0.4, 1.0), Joint("hand_z", 0.05, 0.5), Joint("gripper", -1.0, 1.0))
