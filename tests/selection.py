@@ -36,6 +36,7 @@ HEAVY: tuple[str, ...] = tuple(f"tests/unit/{name}" for name in (
     "test_reproduce.py::test_reproduce_quick_e1_writes_the_report_and_resumes",
     "test_robot_plugins.py::test_the_command_line_says_one_line_for_a_broken_plugin",
     "test_seen_events.py",
+    "services/learner/test_concurrent_jobs.py",
     "test_snap.py::test_wall_run_counts_executed_snaps",
     "test_threads.py::test_training_uses_one_thread",
     "test_training_checkpoint.py",

@@ -55,6 +55,7 @@ from services.worker.remote import RemoteEvaluator
 
 from .core import LearnerBusy, LearnerCore, TrainSpec, UnknownJobError, UnknownSkillError
 from .limits import LearnerLimits, StateLimits, check_job, check_pair, check_train
+from .runner import DEFAULT_JOBS, DEFAULT_RUNNER, RUNNERS
 from .store import SkillState, StateWriteError
 
 log = logging.getLogger(__name__)
@@ -153,12 +154,15 @@ class LearnerService:
         whose file changed is withheld from ``weights/latest`` until it is retrained.
     ready : the process's :class:`~services.transport.Ready`: the learner reports its health
         through it before its token appears.
+    jobs, job_runner : how many jobs run at once, and where their adaptations compute
+        (:class:`~services.learner.core.LearnerCore`, services/learner/runner.py).
     """
 
     def __init__(self, session: zenoh.Session, keys: Keyspace, state_dir: str | os.PathLike, *,
                  learner_id: str | None = None, wait_recorder: float = 0.0, chunk_timeout: float = 60.0,
                  limits: LearnerLimits = LearnerLimits(), device: str = "cpu",
-                 state_limits: StateLimits = StateLimits(), demos: Sequence[str] = (), ready: Ready | None = None):
+                 state_limits: StateLimits = StateLimits(), demos: Sequence[str] = (), ready: Ready | None = None,
+                 jobs: int = 1, job_runner: str = "thread"):
         self.session, self.keys = session, keys
         self.limits = limits
         self.learner_id = check_name("learner id", learner_id or f"learner-{os.getpid()}")
@@ -167,7 +171,8 @@ class LearnerService:
         self.chunk_timeout = float(chunk_timeout)
         self._recorder_checked = wait_recorder <= 0
         self.core = LearnerCore(state_dir, evaluator_for=self._evaluator, publish=self._publish,
-                                on_version=self._put_weights, device=device, state_limits=state_limits)
+                                on_version=self._put_weights, device=device, state_limits=state_limits,
+                                jobs=jobs, job_runner=job_runner)
         if ready is not None:
             ready.report_health(lambda: self.core.health().problems())
         #: skills not served until retrained from their changed --demos file
@@ -477,6 +482,12 @@ class LearnerConfig(Service):
     keep_job_days: float = option(StateLimits.keep_finished_days,
                                   "remove a finished job's record this many days after its last change "
                                   "(default: %(default)s)", metavar="DAYS", type=seconds(zero=True))
+    jobs: int = option(DEFAULT_JOBS, "adaptation jobs run at once, each with its own model copy, optimiser and "
+                                     "random streams (default: %(default)s)", metavar="N", type=int_at_least(1))
+    job_runner: str = option(DEFAULT_RUNNER, "where a job's adaptation computes: process (a child process per "
+                                             "running job, so jobs use several cores) or thread (the learner's "
+                                             "own, jobs share one core) (default: %(default)s)",
+                             choices=RUNNERS)
     keep_versions: int = option(StateLimits.keep_versions,
                                 "checkpoints kept per skill, the newest (default: %(default)s)", metavar="N",
                                 type=int_at_least(1))
@@ -498,7 +509,8 @@ class LearnerConfig(Service):
                             wait_recorder=self.wait_recorder, chunk_timeout=self.chunk_timeout,
                             limits=LearnerLimits(max_train_steps=self.max_train_steps,
                                                  max_rollouts=self.max_rollouts), device=self.device,
-                            state_limits=state_limits, demos=self.demos, ready=ready) as learner:
+                            state_limits=state_limits, demos=self.demos, ready=ready, jobs=self.jobs,
+                            job_runner=self.job_runner) as learner:
             # a stop interrupts what the core runs at once (training included), not after it
             threading.Thread(target=lambda: (stop.wait(), learner.core.interrupt()), name="stop-watch",
                              daemon=True).start()
