@@ -74,6 +74,30 @@ def _spread(values: list[float]) -> dict:
 
 
 # ----- part 1: threads against processes ------------------------------------------------------
+def _spin(n: int = 3_000_000) -> None:
+    x = 0
+    for i in range(n):
+        x += i
+
+
+def _parallel_ceiling(k: int) -> float:
+    """What K-way parallelism gives on this machine now: the wall time of K processes each
+    spinning a fixed pure-Python loop at once, over K times one spinning alone (1.0: no core to
+    spare; 1/K: K free cores)."""
+    import multiprocessing
+
+    ctx = multiprocessing.get_context("fork")  # no session or job thread lives yet: a fork starts in ms
+    t0 = time.perf_counter()
+    _spin()
+    alone = time.perf_counter() - t0
+    procs = [ctx.Process(target=_spin) for _ in range(k)]
+    t0 = time.perf_counter()
+    for p in procs:
+        p.start()
+    for p in procs:
+        p.join()
+    return (time.perf_counter() - t0) / (k * alone)
+
 def part_runner(args) -> dict:
     from acnmp_core.adapt_job import AdaptJob
     from acnmp_core.adaptation import AdaptConfig
@@ -100,18 +124,18 @@ def part_runner(args) -> dict:
                                          TrainConfig(steps=TRAIN_STEPS), seed=3))
         core.close()
 
-        def job(seed):
+        def job(seed, budget=args.budget):
             return AdaptJob(setup.target, "viapoint", "point2d", setup.task_config,
-                            AdaptConfig(max_rollouts=args.budget, stop_on_success=False), seed=seed)
+                            AdaptConfig(max_rollouts=budget, stop_on_success=False), seed=seed)
 
         def run(k: int, jobs: int, runner: str, tag: str) -> dict:
             state = tmp / tag
             shutil.copytree(trained, state, ignore=shutil.ignore_patterns("*.lock"))
             core = LearnerCore(state, evaluator_for=lambda job: Local(), jobs=jobs, job_runner=runner).start()
             try:
-                # the children start (and, the first time, the fork server imports torch) before the clock
-                for r in core._runners:
-                    r.start()
+                # warm-up, off the clock: every job slot runs a tiny job (its child process starts)
+                warm = [core.submit("e1", job(1, budget=2)).job for _ in range(jobs)]
+                assert core.wait_idle(WAIT) and all(core.status(w)["state"] == "done" for w in warm)
                 pids = [os.getpid()]
                 cpu0, t0 = _cpu(pids), time.perf_counter()
                 ids = [core.submit("e1", job(100 + i)).job for i in range(k)]
@@ -127,8 +151,10 @@ def part_runner(args) -> dict:
         rounds = []
         for rep in range(args.reps):
             for k in args.ks:
+                ceiling = _parallel_ceiling(k)
                 seq = run(k, 1, "thread", f"seq-{rep}-{k}")
-                row = {"rep": rep, "k": k, "sequential": {x: seq[x] for x in ("wall_s", "cpu_s")}}
+                row = {"rep": rep, "k": k, "sequential": {x: seq[x] for x in ("wall_s", "cpu_s")},
+                       "ceiling_wall_ratio": ceiling}
                 for name, runner in (("threads", "thread"), ("processes", "process")):
                     got = run(k, k, runner, f"{name}-{rep}-{k}")
                     row[name] = {"wall_s": got["wall_s"], "cpu_s": got["cpu_s"],
@@ -136,7 +162,7 @@ def part_runner(args) -> dict:
                                  "bit_equal": all(np.array_equal(a, b) for a, b in
                                                   zip(got["trajectories"], seq["trajectories"]))}
                 print(f"rep {rep} K={k}: sequential {seq['wall_s']:.1f}s, threads x{row['threads']['wall_ratio']:.2f}, "
-                      f"processes x{row['processes']['wall_ratio']:.2f}", flush=True)
+                      f"processes x{row['processes']['wall_ratio']:.2f}, ceiling x{ceiling:.2f}", flush=True)
                 rounds.append(row)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
@@ -147,6 +173,9 @@ def part_runner(args) -> dict:
                                   "bit_equal": all(r[name]["bit_equal"] for r in rows)}
                            for name in ("threads", "processes")}
         summary[str(k)]["sequential_wall_s"] = _spread([r["sequential"]["wall_s"] for r in rows])
+        summary[str(k)]["ceiling_wall_ratio"] = _spread([r["ceiling_wall_ratio"] for r in rows])
+        for name in ("threads", "processes"):
+            summary[str(k)][name]["cpu_ratio"] = _spread([r[name]["cpu_s"] / r["sequential"]["cpu_s"] for r in rows])
     return {"rounds": rounds, "summary": summary}
 
 
@@ -193,46 +222,47 @@ class _Deployed:
                 "trajectories": [st[i]["result"]["trajectory"] for i in ids]}
 
 
-def _sweep(ns: str, jobs: int, ks, budget: int, delay: float, workers: int) -> dict:
+def _sweep(ns: str, jobs: int, runner: str, ks, budget: int, delay: float, workers: int) -> dict:
     from acnmp_core.experiments.viapoint import make_setup
     from services.launcher import LocalDeployment
 
     setup = make_setup()
     with LocalDeployment(ns, workers=workers, model=False, worker_delay=delay,
-                         learner_args=["--jobs", str(jobs)]) as dep:
+                         learner_args=["--jobs", str(jobs), "--job-runner", runner]) as dep:
         d = _Deployed(dep, setup, budget)
         d.run([1] * min(jobs, 2))  # warm-up: the job processes start, the first optimiser imports
         alone = d.run([100])
-        out = {"jobs": jobs, "one_alone_s": alone["wall_s"], "k": {}}
+        out = {"jobs": jobs, "runner": runner, "one_alone_s": alone["wall_s"], "k": {}}
         for k in ks:
             got = d.run([100 + i for i in range(k)])
             out["k"][str(k)] = {"wall_s": got["wall_s"], "ratio_to_k_alone": got["wall_s"] / (k * alone["wall_s"]),
                                 "learner_cpu_s": got["learner_cpu_s"], "worker_cpu_s": got["worker_cpu_s"],
                                 "trajectories": got["trajectories"]}
-            print(f"  --jobs {jobs} K={k}: {got['wall_s']:.1f}s ({got['wall_s'] / (k * alone['wall_s']):.2f} x K alone)",
+            print(f"  --jobs {jobs} --job-runner {runner} K={k}: {got['wall_s']:.1f}s ({got['wall_s'] / (k * alone['wall_s']):.2f} x K alone)",
                   flush=True)
     return out
 
 
 def part_deploy(args) -> dict:
-    from services.learner.runner import DEFAULT_JOBS
-
     out = {}
     for kind, delay in (("e1", 0.0), ("rollout_heavy", args.rollout_delay)):
         rows = {}
-        for jobs in (1, DEFAULT_JOBS):
-            print(f"{kind}: --jobs {jobs}", flush=True)
-            rows[str(jobs)] = _sweep(f"bjobs-{os.getpid()}-{kind}-{jobs}", jobs, args.ks, args.budget, delay,
-                                     args.workers)
-        seq, par = rows["1"], rows[str(DEFAULT_JOBS)]
-        for k in map(str, args.ks):
-            par["k"][k]["ratio_to_jobs_1"] = par["k"][k]["wall_s"] / seq["k"][k]["wall_s"]
-            par["k"][k]["bit_equal_to_jobs_1"] = all(
-                np.array_equal(a, b) for a, b in zip(par["k"][k]["trajectories"], seq["k"][k]["trajectories"]))
+        for conf in args.configs:  # "--jobs:--job-runner"; the first one is the baseline
+            jobs, runner = conf.split(":")
+            print(f"{kind}: --jobs {jobs} --job-runner {runner}", flush=True)
+            rows[conf] = _sweep(f"bjobs-{os.getpid()}-{kind}-{jobs}-{runner}", int(jobs), runner, args.ks,
+                                args.budget, delay, args.workers)
+        seq = rows[args.configs[0]]
+        for conf in args.configs[1:]:
+            par = rows[conf]
+            for k in map(str, args.ks):
+                par["k"][k]["ratio_to_baseline"] = par["k"][k]["wall_s"] / seq["k"][k]["wall_s"]
+                par["k"][k]["bit_equal_to_baseline"] = all(
+                    np.array_equal(a, b) for a, b in zip(par["k"][k]["trajectories"], seq["k"][k]["trajectories"]))
         for row in rows.values():
             for k in row["k"].values():
                 k.pop("trajectories")
-        out[kind] = {"rollout_delay_s": delay, "by_jobs": rows}
+        out[kind] = {"rollout_delay_s": delay, "baseline": args.configs[0], "by_config": rows}
     return out
 
 
@@ -291,9 +321,12 @@ def main(argv: list[str] | None = None) -> int:
                    help="deploy: seconds per roll-out of the roll-out-heavy jobs (default: %(default)s)")
     p.add_argument("--kill-delay", type=float, default=0.05,
                    help="kill: seconds per roll-out, so the kill lands mid-job (default: %(default)s)")
+    p.add_argument("--configs", nargs="+", default=["1:thread", "2:thread", "2:process"],
+                   help="deploy: learner settings JOBS:RUNNER, the first the baseline (default: %(default)s)")
     p.add_argument("--out", default=None)
     args = p.parse_args(argv)
     args.ks = args.ks or ([2, 4] if args.part == "runner" else [1, 2, 4, 8])
+    started = time.perf_counter()
     prov = provenance(sys.argv if argv is None else ["benchmarks/performance/bench_jobs.py", *argv])
     config = {"part": args.part, "ks": args.ks, "budget": args.budget, "model": SMALL, "train_steps": TRAIN_STEPS,
               "task": "viapoint (E1), AdaptConfig defaults, stop_on_success false"}
@@ -301,13 +334,14 @@ def main(argv: list[str] | None = None) -> int:
         config["reps"] = args.reps
         result = part_runner(args)
     elif args.part == "deploy":
-        config.update(workers=args.workers, rollout_delay_s=args.rollout_delay)
+        config.update(workers=args.workers, rollout_delay_s=args.rollout_delay, configs=args.configs)
         result = part_deploy(args)
     else:
         config.update(workers=args.workers, rollout_delay_s=args.kill_delay)
         result = part_kill(args)
     out = args.out or ROOT / "benchmarks" / "results" / {"runner": "bench_jobs_runner.json", "deploy": "bench_jobs.json",
                                                          "kill": "bench_jobs_kill.json"}[args.part]
+    result["wall_time_s"] = time.perf_counter() - started
     save_result({"benchmark": f"jobs_{args.part}", "provenance": prov, "config": config, **result}, out,
                 headline=("summary", "all_done_equal", "recording_each_rollout_once"))
     return 0

@@ -177,9 +177,15 @@ class ProcessRunner:
         self._ctx = _context()
         self._proc = None
         self._conn = None
+        self._lock = threading.Lock()  # start() from two threads makes one child
 
     def start(self) -> "ProcessRunner":
         """Start the child now if none runs; returns self."""
+        with self._lock:
+            self._start()
+        return self
+
+    def _start(self) -> None:
         if self._proc is None or not self._proc.is_alive():
             self._discard()
             parent, child = self._ctx.Pipe()
@@ -187,7 +193,6 @@ class ProcessRunner:
             proc.start()
             child.close()
             self._proc, self._conn = proc, parent
-        return self
 
     def run(self, task: AdaptTask, evaluator: RolloutEvaluator, on_iteration: OnIteration,
             stop: threading.Event) -> AdaptResult:
