@@ -13,7 +13,7 @@ Three parts, each one run writing one JSON:
     alone (measured in the same deployment just before), and against ``--jobs 1``'s time for the
     same K. Then the same with roll-out-heavy jobs (each roll-out takes ``--rollout-delay`` s of
     the worker: a robot whose motion takes time). Learner and worker CPU seconds per round.
-``kill``: 4 jobs at once with the default, undisturbed; the same 4 jobs again with the learner
+``kill``: 4 jobs at once (``--jobs 4``, the default runner), undisturbed; the same 4 jobs again with the learner
     killed by SIGKILL once all 4 run (the launcher restarts it): every job must end ``done`` with
     the undisturbed result, and the recording must hold every executed roll-out once.
 
@@ -278,7 +278,8 @@ def part_kill(args) -> dict:
     seeds = [100, 101, 102, 103]
     try:
         with LocalDeployment(f"bjobk-{os.getpid()}", workers=args.workers, model=False, record=rrd,
-                             state_dir=tmp / "state", worker_delay=args.kill_delay) as dep:
+                             state_dir=tmp / "state", worker_delay=args.kill_delay,
+                             learner_args=["--jobs", str(len(seeds))]) as dep:
             d = _Deployed(dep, setup, args.budget)
             t0 = time.perf_counter()
             calm = d.run(seeds)
