@@ -93,6 +93,17 @@ def _result(core, job_id):
     return status["result"]
 
 
+def _alone(trained, tmp_path, setup, seeds) -> dict:
+    """The result of each seed's job run alone (one job at a time, on the job thread), by seed."""
+    core = _core(trained, tmp_path / "alone", Gate(setup.task))
+    try:
+        jobs = {seed: core.submit("e1", _job(setup, seed)).job for seed in seeds}
+        assert core.wait_idle(WAIT)
+        return {seed: _result(core, job) for seed, job in jobs.items()}
+    finally:
+        core.close()
+
+
 def _same(a: dict, b: dict) -> None:
     np.testing.assert_array_equal(a["trajectory"], b["trajectory"])
     assert [h["mean_return"] for h in a["history"]] == [h["mean_return"] for h in b["history"]]
@@ -101,14 +112,7 @@ def _same(a: dict, b: dict) -> None:
 
 @pytest.mark.parametrize("runner", ["process", "thread"])
 def test_a_job_gives_the_same_numbers_alone_and_beside_others(trained, tmp_path, setup, runner):
-    gate = Gate(setup.task)
-    alone_core = _core(trained, tmp_path / "alone", gate)  # one job at a time, on its thread
-    try:
-        alone = {seed: alone_core.submit("e1", _job(setup, seed)).job for seed in (5, 6, 7)}
-        assert alone_core.wait_idle(WAIT)
-        alone = {seed: _result(alone_core, job) for seed, job in alone.items()}
-    finally:
-        alone_core.close()
+    alone = _alone(trained, tmp_path, setup, (5, 6, 7))
 
     gate = Gate(setup.task)
     gate.open.clear()
@@ -149,14 +153,7 @@ def test_the_queue_bound_counts_every_job_in_flight(trained, tmp_path, setup):
 
 
 def test_cancelling_one_of_several_running_jobs_leaves_the_others_as_alone(trained, tmp_path, setup):
-    gate = Gate(setup.task)
-    alone_core = _core(trained, tmp_path / "alone", gate)
-    try:
-        alone = {seed: alone_core.submit("e1", _job(setup, seed)).job for seed in (5, 7)}
-        assert alone_core.wait_idle(WAIT)
-        alone = {seed: _result(alone_core, job) for seed, job in alone.items()}
-    finally:
-        alone_core.close()
+    alone = _alone(trained, tmp_path, setup, (5, 7))
 
     gate = Gate(setup.task)
     gate.open.clear()
