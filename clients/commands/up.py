@@ -36,6 +36,10 @@ def register(subparsers) -> None:
                         "use up to N cores (default: %(default)s)")
     p.add_argument("--jobs", type=int_at_least(1), default=None, metavar="N",
                    help="adaptation jobs the learner runs at once (default: the learner's, 2)")
+    p.add_argument("--learners", type=int_at_least(1), default=1, metavar="K",
+                   help="learner processes; each skill is served by one of them, with its own state directory "
+                        "(<state-dir>/learners/<id> beyond the first); keep K for the state directory's life "
+                        "(default: %(default)s)")
     p.add_argument("--demos", action="append", default=[], metavar="SKILL=FILE.npz",
                    help="have the learner train SKILL from a demonstration file at start (again when the "
                         "file's demonstrations changed; repeatable); "
@@ -96,7 +100,8 @@ def run(args) -> int:
     served = False
     dep = LocalDeployment(args.namespace, args.workers, args.robot, record=args.record, state_dir=state_dir,
                           model=not args.no_model, learner_args=learner_args, secure=not args.insecure,
-                          announce=True, report=report, viewer=args.viewer, model_processes=args.model_processes)
+                          announce=True, report=report, viewer=args.viewer, model_processes=args.model_processes,
+                          learners=args.learners)
     try:
         try:
             dep.start()
