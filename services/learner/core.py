@@ -473,7 +473,6 @@ class LearnerCore:
     def _job_loop(self, runner: AdaptRunner) -> None:
         torch.set_num_threads(1)
         try:
-            runner.start()  # ahead of the first job (a child process); here, so nothing else waits for it
             while (job_id := self._next_job()) is not None:
                 try:
                     self._run_one(job_id, runner)

@@ -168,7 +168,8 @@ class ChildDied(RuntimeError):
 class ProcessRunner:
     """:func:`~acnmp_core.adaptation.adapt` in a spawned child process (see the module docstring).
 
-    The child is started by :meth:`start` (ahead of the first job) or by the first :meth:`run`,
+    The child is started by the first :meth:`run` (a learner that runs no job starts no process;
+    the first job waits for the fork server to import torch, once per learner) or by :meth:`start`,
     and replaced when it died.
     """
 
