@@ -37,6 +37,7 @@ HEAVY: tuple[str, ...] = tuple(f"tests/unit/{name}" for name in (
     "robots/test_plugins.py::test_the_command_line_says_one_line_for_a_broken_plugin",
     "test_seen_events.py",
     "adapt/test_assimilation.py::test_wall_run_counts_executed_snaps",
+    "services/learner/test_concurrent_jobs.py",
     "test_threads.py::test_training_uses_one_thread",
     "model/test_training_checkpoint.py",
     "transfer/test_pair.py",

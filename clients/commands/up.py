@@ -34,6 +34,12 @@ def register(subparsers) -> None:
     p.add_argument("--model-processes", type=int_at_least(1), default=1, metavar="N",
                    help="model service processes; clients share their predicts between them, so N processes "
                         "use up to N cores (default: %(default)s)")
+    p.add_argument("--jobs", type=int_at_least(1), default=None, metavar="N",
+                   help="adaptation jobs the learner runs at once (default: the learner's, 2)")
+    p.add_argument("--learners", type=int_at_least(1), default=1, metavar="K",
+                   help="learner processes; each skill is served by one of them, with its own state directory "
+                        "(<state-dir>/learners/<id> beyond the first); keep K for the state directory's life "
+                        "(default: %(default)s)")
     p.add_argument("--demos", action="append", default=[], metavar="SKILL=FILE.npz",
                    help="have the learner train SKILL from a demonstration file at start (again when the "
                         "file's demonstrations changed; repeatable); "
@@ -89,10 +95,13 @@ def run(args) -> int:
         for spec in demos]
     if args.train_steps is not None:
         learner_args += ["--train-steps", str(args.train_steps)]
+    if args.jobs is not None:
+        learner_args += ["--jobs", str(args.jobs)]
     served = False
     dep = LocalDeployment(args.namespace, args.workers, args.robot, record=args.record, state_dir=state_dir,
                           model=not args.no_model, learner_args=learner_args, secure=not args.insecure,
-                          announce=True, report=report, viewer=args.viewer, model_processes=args.model_processes)
+                          announce=True, report=report, viewer=args.viewer, model_processes=args.model_processes,
+                          learners=args.learners)
     try:
         try:
             dep.start()

@@ -136,7 +136,8 @@ class LocalDeployment:
                  start_timeout: float = 60.0, stop_timeout: float = 8.0, log_dir: str | os.PathLike | None = None,
                  learner_args: Sequence[str] = (), secure: bool = False, announce: bool | None = None,
                  supervise: bool = True, restart_policy: RestartPolicy | None = None,
-                 report: Callable[[str], None] | None = None, viewer: bool = False, model_processes: int = 1):
+                 report: Callable[[str], None] | None = None, viewer: bool = False, model_processes: int = 1,
+                 learners: int = 1):
         self.robot = robot_spec(robot).kind  # UnknownRobotError (a ValueError) for a kind not registered
         if workers < 0:
             raise ValueError(f"workers: expected >= 0, got {workers}")
@@ -159,6 +160,10 @@ class LocalDeployment:
         if model_processes < 1:
             raise ValueError(f"model_processes: expected >= 1, got {model_processes}")
         self.model_processes = int(model_processes)
+        if learners < 1:
+            raise ValueError(f"learners: expected >= 1, got {learners}")
+        #: the learners' ids (and child names): ``learner``, ``learner-2``, ...
+        self.learner_ids = tuple("learner" if i == 0 else f"learner-{i + 1}" for i in range(int(learners)))
         self.worker_delay, self.chunk_timeout = float(worker_delay), float(chunk_timeout)
         self.start_timeout, self.stop_timeout = float(start_timeout), float(stop_timeout)
         self.learner_args = list(learner_args)
@@ -248,13 +253,15 @@ class LocalDeployment:
                                   keys.tokens("recorder"), [keys.events() + " (subscriber)", keys.recorder_status()])
                 self._wait_live([rec])
             started = []
-            if self.with_learner:
-                args = ["--state-dir", str(self.state_dir), "--id", "learner",
+            for lid in self.learner_ids if self.with_learner else ():
+                args = ["--state-dir", str(self.learner_state_dir(lid)), "--id", lid,
                         "--chunk-timeout", str(self.chunk_timeout), *self.learner_args]
+                if len(self.learner_ids) > 1:
+                    args += ["--learners", ",".join(self.learner_ids)]
                 if self.record is not None:
                     args += ["--wait-recorder", "20"]
                 started.append(self._spawn(
-                    "learner", entry_module("learner"), args, keys.learner_token("learner"),
+                    lid, entry_module("learner"), args, keys.learner_token(lid),
                     [keys.train("*"), keys.adapt("*"), keys.job_status("*"), keys.jobs(), keys.weights_latest("*")]))
             if self.with_model:
                 for i in range(self.model_processes):
@@ -311,6 +318,11 @@ class LocalDeployment:
                 lines.append(f"  {'':<18} {'':>7}    {s}")
             lines.append(f"  {'':<18} {'':>7}    log: {c.log}")
         return "\n".join(lines)
+
+    def learner_state_dir(self, learner_id: str) -> Path:
+        """Where learner ``learner_id`` keeps its state: the deployment's state directory for the
+        first, ``<state_dir>/learners/<id>`` for the others."""
+        return self.state_dir if learner_id == self.learner_ids[0] else self.state_dir / "learners" / learner_id
 
     def kill(self, name: str, sig: int = signal.SIGKILL) -> None:
         """Send ``sig`` (default SIGKILL) to child ``name`` and reap it if it was killed. Under
@@ -397,8 +409,8 @@ class LocalDeployment:
             self.supervisor.stop()
         with self._children_lock:
             children = dict(self.children)
-        learner = [c for n, c in children.items() if n == "learner"]
-        others = [c for n, c in children.items() if n not in ("learner", "recorder")]
+        learner = [c for n, c in children.items() if n in self.learner_ids]
+        others = [c for n, c in children.items() if n not in (*self.learner_ids, "recorder")]
         recorder = [c for n, c in children.items() if n == "recorder"]
         deadline = time.monotonic() + self.stop_timeout
         self._terminate(learner + others)

@@ -1,8 +1,10 @@
 """The learner without zenoh: skills (CNMP + demonstrations + version), training, adaptation and
 paired-skill jobs.
 
-:class:`LearnerCore` owns the durable state (services/learner/store.py) and runs one job at a time
-on a background thread: :func:`acnmp_core.adapt.adaptation.adapt` on a copy of the skill's model, with the
+:class:`LearnerCore` owns the durable state (services/learner/store.py) and runs up to ``jobs``
+jobs at once, each on a job thread of its own with a runner of its own (services/learner/runner.py:
+the adaptation's arithmetic on that thread, or in a child process, so jobs do not take turns on
+the GIL): :func:`acnmp_core.adapt.adaptation.adapt` on a copy of the skill's model, with the
 evaluator its ``evaluator_for`` callable builds for the job (the service passes a
 :class:`~services.worker.remote.RemoteEvaluator` over the workers; a test may pass the in-process
 task). With ``commit`` a successful solution is assimilated: added to the demonstrations, the model
@@ -39,7 +41,11 @@ job loop goes on with the next job only then), and :meth:`LearnerCore.health` re
 failure until a write succeeds. Bounds (:class:`~services.learner.limits.StateLimits`): at most
 ``max_queued_jobs`` unfinished jobs (:class:`LearnerBusy` beyond), finished records pruned by
 count and age, ``keep_versions`` checkpoints per skill. Jobs are picked in the order they were
-queued by the job loop (:meth:`LearnerCore._next_job`), which marks the one it runs as active.
+queued by the job threads (:meth:`LearnerCore._next_job`), each marking the one it runs as active.
+A job's result does not depend on the jobs beside it: each has its own copy of the model, its own
+optimiser and random streams (from its seed), and its own roll-outs; the workers serve the
+batches of concurrent jobs in the order they arrive, so every job advances. Trainings and
+assimilations (which change a skill) still run one at a time.
 """
 from __future__ import annotations
 
@@ -72,6 +78,7 @@ from services.recording.events import (batch_rollout_events, job_event, job_prog
 
 from .jobs import TERMINAL, UNFINISHED, JobRecord
 from .limits import StateLimits, busy_message
+from .runner import AdaptRunner, AdaptTask, make_runner
 from .metrics import MetricsReporter
 from .store import DirectoryLock, JobStore, Quarantined, SkillState, SkillStore, StateDir, StateWriteError
 
@@ -180,15 +187,21 @@ class LearnerCore:
         acnmp_core/model/device.py): a skill loaded from the state directory or newly trained is moved
         there once; its checkpoints load on any device.
     state_limits : queue limit, job records and checkpoints kept (services/learner/limits.py).
+    jobs : how many jobs run at once (job threads).
+    job_runner : where an adaptation computes, ``thread`` (the job thread) or ``process`` (a child
+        process per job thread, started by :meth:`start`); services/learner/runner.py.
     """
 
     def __init__(self, state_dir: str | os.PathLike, *, evaluator_for: Callable[[AdaptJob], RolloutEvaluator],
                  publish: Callable[[dict], None] = lambda _event: None,
                  on_version: Callable[[SkillState], None] = lambda _state: None, device: str = "cpu",
-                 state_limits: StateLimits = StateLimits()):
+                 state_limits: StateLimits = StateLimits(), jobs: int = 1, job_runner: str = "thread"):
         from acnmp_core.model.device import resolve_device
 
         self.device = resolve_device(device)  # before anything is locked: a bad device changes nothing
+        if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
+            raise ValueError(f"jobs: expected an integer >= 1, got {jobs!r}")
+        self._runners = [make_runner(job_runner, f"job-{i}") for i in range(jobs)]
         # one learner per state directory: a second one would restart the first one's jobs
         self._dir_lock = DirectoryLock(state_dir, "learner.lock", "learner").acquire()
         self.limits = state_limits
@@ -230,7 +243,8 @@ class LearnerCore:
             except StateWriteError as exc:
                 log.warning("job %s: %s; it is resumed all the same", job.job, exc)
         self._prune_jobs()
-        self._thread = threading.Thread(target=self._job_loop, name="jobs", daemon=True)
+        self._threads = [threading.Thread(target=self._job_loop, args=(runner,), name=f"jobs-{i}", daemon=True)
+                         for i, runner in enumerate(self._runners)]
 
     @property
     def stopping(self) -> threading.Event:
@@ -240,19 +254,26 @@ class LearnerCore:
     def start(self) -> "LearnerCore":
         """Start running queued jobs (on a background thread); returns self."""
         self._started = True
-        self._thread.start()
+        for thread in self._threads:
+            thread.start()
         return self
+
+    @property
+    def jobs_at_once(self) -> int:
+        """How many jobs this core runs at once."""
+        return len(self._threads)
 
     @property
     def loop_error(self) -> str | None:
         """Why the job loop ended, if it ended while it should run (None: it runs, or was stopped)."""
-        if self._loop_error is None and self._started and not self._thread.is_alive() and not self._stop.is_set():
+        if self._loop_error is None and self._started and not all(t.is_alive() for t in self._threads) \
+                and not self._stop.is_set():
             return "it ended without an error"
         return self._loop_error
 
     def health(self) -> LearnerHealth:
         """The learner's health now: its job loop, its last write, the quarantined files."""
-        return LearnerHealth(self._thread.is_alive(), self.loop_error, self.state.write_error,
+        return LearnerHealth(all(t.is_alive() for t in self._threads), self.loop_error, self.state.write_error,
                              tuple(self.state.quarantined()))
 
     # ----- skills ----------------------------------------------------------------------------
@@ -450,12 +471,12 @@ class LearnerCore:
                 self._wake.wait(0.5)
         return None
 
-    def _job_loop(self) -> None:
+    def _job_loop(self, runner: AdaptRunner) -> None:
         torch.set_num_threads(1)
         try:
             while (job_id := self._next_job()) is not None:
                 try:
-                    self._run_one(job_id)
+                    self._run_one(job_id, runner)
                 finally:
                     with self._lock:
                         self._active.discard(job_id)
@@ -463,10 +484,10 @@ class LearnerCore:
             self._loop_error = f"{type(exc).__name__}: {exc}"
             log.exception("the job loop stopped")  # logged once, here; the thread ends
 
-    def _run_one(self, job_id: str) -> None:
-        """Run job ``job_id`` and save how it ended; a job's failure never leaves here."""
+    def _run_one(self, job_id: str, runner: AdaptRunner) -> None:
+        """Run job ``job_id`` with ``runner`` and save how it ended; a job's failure never leaves here."""
         try:
-            self._run_job(job_id)
+            self._run_job(job_id, runner)
         except InterruptedError:  # shutting down: saved "interrupted", a restart resumes it
             log.info("job %s interrupted by shutdown", job_id)
             self._finish(job_id, "interrupted")
@@ -527,7 +548,7 @@ class LearnerCore:
         ev["attempt"] = int(job.attempt)
         return ev
 
-    def _run_job(self, job_id: str) -> None:
+    def _run_job(self, job_id: str, runner: AdaptRunner) -> None:
         with self._lock:
             job = self.jobs.get(job_id)
             if job is None or self._stop.is_set() or job.state not in UNFINISHED:
@@ -551,8 +572,10 @@ class LearnerCore:
                                    seed=req.seed, attempt=job.attempt, config=req.config.to_dict(),
                                    task_config=req.task_config))
             on_iteration = self._recording(job, start_version)
-            job_result = adapt(model, demos, req.target, self.evaluator_for(req), req.config, seed=req.seed,
-                               on_iteration=on_iteration)
+            evaluator = self.evaluator_for(req)
+            task = AdaptTask(model, demos, req.target, req.config, req.seed,
+                             credit=getattr(evaluator, "credit", "step"))
+            job_result = runner.run(task, evaluator, on_iteration, self._stop)
             # adaptation done: a crash from here on only re-assimilates
             self._persist(job, rollouts=job_result.rollouts, result=job_result)
         if job.cancel_requested:  # asked for while the last iteration ran: do not assimilate
@@ -697,6 +720,10 @@ class LearnerCore:
         self._stop.set()
         with self._lock:
             self._wake.notify_all()
-        if self._thread.is_alive():
-            self._thread.join(timeout=timeout)
+        end = time.monotonic() + timeout
+        for thread in self._threads:
+            if thread.is_alive():
+                thread.join(timeout=max(0.0, end - time.monotonic()))
+        for runner in self._runners:
+            runner.close()
         self._dir_lock.release()

@@ -48,13 +48,16 @@ from services.recording.publisher import EventPublisher
 from services.transport import Keyspace, Ready, Service, WireError, declare_rpc, option
 from services.transport.argtypes import device, int_at_least, seconds
 from services.transport.errors import wire_error
-from services.transport.keys import check_name, is_concrete, job_from_key, skill_from_key
+from services.transport.keys import check_name, is_concrete, job_from_key, skill_from_key, token_id
+from services.transport.rpc import NotServed
 from services.transport.state_dir import default_state_dir
 from services.transport.wire import array_field, error_payload, field, require_payload
 from services.worker.remote import RemoteEvaluator
 
 from .core import LearnerBusy, LearnerCore, TrainSpec, UnknownJobError, UnknownSkillError
 from .limits import LearnerLimits, StateLimits, check_job, check_pair, check_train
+from .ownership import Ownership, learner_ids, skill_of_job
+from .runner import DEFAULT_JOBS, DEFAULT_RUNNER, RUNNERS
 from .store import SkillState, StateWriteError
 
 log = logging.getLogger(__name__)
@@ -153,32 +156,46 @@ class LearnerService:
         whose file changed is withheld from ``weights/latest`` until it is retrained.
     ready : the process's :class:`~services.transport.Ready`: the learner reports its health
         through it before its token appears.
+    jobs, job_runner : how many jobs run at once, and where their adaptations compute
+        (:class:`~services.learner.core.LearnerCore`, services/learner/runner.py).
+    learners : the ids of every learner of the deployment when it runs several (``learner_id``
+        among them): this one answers only for the skills it owns (services/learner/ownership.py).
     """
 
     def __init__(self, session: zenoh.Session, keys: Keyspace, state_dir: str | os.PathLike, *,
                  learner_id: str | None = None, wait_recorder: float = 0.0, chunk_timeout: float = 60.0,
                  limits: LearnerLimits = LearnerLimits(), device: str = "cpu",
-                 state_limits: StateLimits = StateLimits(), demos: Sequence[str] = (), ready: Ready | None = None):
+                 state_limits: StateLimits = StateLimits(), demos: Sequence[str] = (), ready: Ready | None = None,
+                 jobs: int = 1, job_runner: str = "thread", learners: Sequence[str] = ()):
         self.session, self.keys = session, keys
         self.limits = limits
         self.learner_id = check_name("learner id", learner_id or f"learner-{os.getpid()}")
+        self.ownership = Ownership(self.learner_id, learners)
         self.events = EventPublisher(session, keys)
         self.wait_recorder = float(wait_recorder)
         self.chunk_timeout = float(chunk_timeout)
         self._recorder_checked = wait_recorder <= 0
         self.core = LearnerCore(state_dir, evaluator_for=self._evaluator, publish=self._publish,
-                                on_version=self._put_weights, device=device, state_limits=state_limits)
+                                on_version=self._put_weights, device=device, state_limits=state_limits,
+                                jobs=jobs, job_runner=job_runner)
         if ready is not None:
             ready.report_health(lambda: self.core.health().problems())
+        #: the --demos values of the skills this learner serves (the others' owners train theirs)
+        self.demos = [spec for spec in demos if self.ownership.owner(_demos_skill(spec)) == self.learner_id]
         #: skills not served until retrained from their changed --demos file
-        self.withheld: set[str] = stale_skills(self.core, demos)
+        self.withheld: set[str] = stale_skills(self.core, self.demos)
+        self._learners_sub = None if self.ownership.alone else session.liveliness().declare_subscriber(
+            keys.learner_token("*"), self._learner_token, history=True)
+        # with several learners every one must get each query (its skill's owner answers it): a
+        # complete queryable would let the router pick one of them
+        complete = self.ownership.alone
         self._rpcs = [
-            declare_rpc(session, keys.train("*"), self._handle_train, workers=1),
-            declare_rpc(session, keys.adapt("*"), self._handle_adapt, workers=1),
-            declare_rpc(session, keys.train_pair("*"), self._handle_train_pair, workers=1),
-            declare_rpc(session, keys.job_status("*"), self._handle_status, workers=1),
-            declare_rpc(session, keys.job_cancel("*"), self._handle_cancel, workers=1),
-            declare_rpc(session, keys.jobs(), self._handle_jobs, workers=1),
+            declare_rpc(session, keys.train("*"), self._handle_train, workers=1, complete=complete),
+            declare_rpc(session, keys.adapt("*"), self._handle_adapt, workers=1, complete=complete),
+            declare_rpc(session, keys.train_pair("*"), self._handle_train_pair, workers=1, complete=complete),
+            declare_rpc(session, keys.job_status("*"), self._handle_status, workers=1, complete=complete),
+            declare_rpc(session, keys.job_cancel("*"), self._handle_cancel, workers=1, complete=complete),
+            declare_rpc(session, keys.jobs(), self._handle_jobs, workers=1, complete=complete),
         ]
         self.refused_keys = 0  # weights/latest queries on other wildcards, dropped
         self._latest = session.declare_queryable(keys.weights_latest("*"), self._handle_latest)
@@ -219,8 +236,24 @@ class LearnerService:
             raise WireError("bad_request", f"field 'skill': {msg['skill']!r} differs from the key's {skill!r}")
         return skill
 
+    def _learner_token(self, sample: zenoh.Sample) -> None:
+        lid = token_id(sample.key_expr, self.keys.learner_token("*"))
+        if lid is not None:
+            self.ownership.token_changed(lid, sample.kind == zenoh.SampleKind.PUT)
+
+    def _check_owner(self, skill: str) -> None:
+        """Return if this learner serves ``skill``; :class:`NotServed` when its live owner answers;
+        ``unavailable`` naming the owner when that one is not live."""
+        decision = self.ownership.decide(skill)
+        if decision == "drop":
+            raise NotServed(skill)
+        if decision != "serve":
+            raise WireError("unavailable", f"skill {skill!r} is served by learner {decision!r}, which is not live; "
+                                           "its skills and jobs are back when it restarts")
+
     def _handle_train(self, msg: dict | None, query: zenoh.Query) -> dict:
         skill = self._skill_of(query, msg)
+        self._check_owner(skill)
         spec = parse_train_request(msg, self.limits)
         state = self.core.trained_from(skill, spec) if field(msg, "reuse", bool, default=False) else None
         trained = state is None
@@ -236,6 +269,7 @@ class LearnerService:
 
     def _handle_adapt(self, msg: dict | None, query: zenoh.Query) -> dict:
         skill = self._skill_of(query, msg)
+        self._check_owner(skill)
         msg = require_payload(msg, "an adapt request")
         try:
             job = AdaptJob.from_dict(msg)
@@ -250,6 +284,7 @@ class LearnerService:
 
     def _handle_train_pair(self, msg: dict | None, query: zenoh.Query) -> dict:
         skill = self._skill_of(query, msg)
+        self._check_owner(skill)
         request = parse_pair_request(msg, self.limits)
         with _storage_errors("the job was not queued"):
             job = self.core.submit_pair(skill, request)
@@ -268,11 +303,16 @@ class LearnerService:
         with _storage_errors("the job was not cancelled"):
             return self._job_reply(self.core.cancel, query)
 
-    @staticmethod
-    def _job_reply(action, query: zenoh.Query) -> dict:
-        """``action(job id)`` for the job named by the query's key, errors mapped to wire codes."""
+    def _job_reply(self, action, query: zenoh.Query) -> dict:
+        """``action(job id)`` for the job named by the query's key (if this learner owns its
+        skill), errors mapped to wire codes."""
         try:
-            return action(job_from_key(str(query.key_expr)))
+            job = job_from_key(str(query.key_expr))
+        except ValueError as exc:
+            raise WireError("bad_request", str(exc)) from None
+        self._check_owner(skill_of_job(job))
+        try:
+            return action(job)
         except UnknownJobError as exc:
             raise WireError("unknown_job", str(exc)) from None
         except ValueError as exc:
@@ -289,7 +329,7 @@ class LearnerService:
             try:
                 asked = query.key_expr
                 states = [state for name, state in sorted(self.core.skill_states().items())
-                          if name not in self.withheld
+                          if name not in self.withheld and self.ownership.owner(name) == self.learner_id
                           and asked.intersects(zenoh.KeyExpr(self.keys.weights_latest(name)))]
                 if not states and "*" not in str(asked):  # a wildcard matching nothing gets no reply
                     query.reply_err(error_payload("unknown_skill", f"no skill matching {str(asked)!r} on this learner"))
@@ -306,7 +346,8 @@ class LearnerService:
         every roll-out this learner published (the launcher stops it only after the learner).
         The liveliness token goes last: a recorder whose launcher died records until it is gone."""
         self.core.interrupt()  # first: a handler training would hold the undeclaring of its queryable
-        for undeclare in (*(rpc.close for rpc in self._rpcs), self._latest.undeclare):
+        subs = () if self._learners_sub is None else (self._learners_sub.undeclare,)
+        for undeclare in (*(rpc.close for rpc in self._rpcs), self._latest.undeclare, *subs):
             try:
                 undeclare()
             except Exception:  # the session may be closing under us
@@ -349,6 +390,15 @@ def _weights(state: SkillState) -> bytes:
     """The encoded weights message of a skill version (a paired skill's with robot B's model)."""
     return encode_weights(state.name, state.version, state.model, data_hash=state.demos.content_hash(),
                           n_demos=len(state.demos), partner=state.partner)
+
+
+def _demos_skill(spec: str) -> str:
+    """The skill a ``--demos`` value names, or the value itself when it is malformed (then
+    :func:`bootstrap` says what is wrong with it)."""
+    try:
+        return parse_demos_spec(spec)
+    except ValueError:
+        return spec
 
 
 def parse_demos_spec(spec: str) -> str:
@@ -477,6 +527,16 @@ class LearnerConfig(Service):
     keep_job_days: float = option(StateLimits.keep_finished_days,
                                   "remove a finished job's record this many days after its last change "
                                   "(default: %(default)s)", metavar="DAYS", type=seconds(zero=True))
+    jobs: int = option(DEFAULT_JOBS, "adaptation jobs run at once, each with its own model copy, optimiser and "
+                                     "random streams (default: %(default)s)", metavar="N", type=int_at_least(1))
+    job_runner: str = option(DEFAULT_RUNNER, "where a job's adaptation computes: process (a child process per "
+                                             "running job, so jobs use several cores) or thread (the learner's "
+                                             "own, jobs share one core) (default: %(default)s)",
+                             choices=RUNNERS)
+    learners: tuple[str, ...] = option((), "the ids of every learner of the deployment when it runs several "
+                                           "(the same list on each, --id among them): each skill is served by one "
+                                           "of them, the same whichever learner computes it (docs/DEPLOYMENT.md, "
+                                           "'Several learners')", metavar="ID,ID,...", type=learner_ids)
     keep_versions: int = option(StateLimits.keep_versions,
                                 "checkpoints kept per skill, the newest (default: %(default)s)", metavar="N",
                                 type=int_at_least(1))
@@ -498,7 +558,8 @@ class LearnerConfig(Service):
                             wait_recorder=self.wait_recorder, chunk_timeout=self.chunk_timeout,
                             limits=LearnerLimits(max_train_steps=self.max_train_steps,
                                                  max_rollouts=self.max_rollouts), device=self.device,
-                            state_limits=state_limits, demos=self.demos, ready=ready) as learner:
+                            state_limits=state_limits, demos=self.demos, ready=ready, jobs=self.jobs,
+                            job_runner=self.job_runner, learners=self.learners) as learner:
             # a stop interrupts what the core runs at once (training included), not after it
             threading.Thread(target=lambda: (stop.wait(), learner.core.interrupt()), name="stop-watch",
                              daemon=True).start()
@@ -506,7 +567,7 @@ class LearnerConfig(Service):
                 while imported.is_alive():  # training would wait for the import anyway
                     if stop.wait(0.1):
                         raise InterruptedError("stopped before training")
-                booted = bootstrap(learner.core, self.demos, self.train_steps)
+                booted = bootstrap(learner.core, learner.demos, self.train_steps)
             except InterruptedError:
                 log.info("stopped while training the --demos skills; they are trained at the next start")
                 return 0

@@ -171,9 +171,9 @@ class Keyspace:
         """``.../service/model/<zid>``: a model process is live (with or without skills loaded)."""
         return f"{self.prefix}/service/model/{zid if zid == '*' else check_name('zid', zid)}"
 
-    def learner_token(self, learner_id: str) -> str:
-        """``.../learner/<id>``: a learner is live."""
-        return self.token("learner", learner_id)
+    def learner_token(self, learner_id: str = "*") -> str:
+        """``.../learner/<id>``: a learner is live (``*``: any learner)."""
+        return f"{self.prefix}/learner/*" if learner_id == "*" else self.token("learner", learner_id)
 
     def recorder_token(self, zid: str) -> str:
         """``.../recorder/<zid>``: a recorder is live (its subscriber exists)."""

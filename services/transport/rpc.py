@@ -83,6 +83,11 @@ class Expired(Exception):
     it was computed: the query is dropped unanswered, like one that expired in the queue."""
 
 
+class NotServed(Exception):
+    """Raised by a handler for a query another service answers (e.g. a skill of another learner):
+    the query is dropped unanswered, so the querier's ``call`` gets that service's reply alone."""
+
+
 class RpcQueryable:
     """A queryable whose handler errors become ``reply_err`` payloads; see :func:`declare_rpc`.
 
@@ -184,6 +189,9 @@ class RpcQueryable:
             request = self.decode_request(query) if self._decode else None
             result = (self._handler(request, query, deadline) if self._pass_deadline
                       else self._handler(request, query))
+        except NotServed:
+            query.drop()
+            return
         except Exception as exc:  # a raising callback would send no reply at all
             with query:
                 self._fail_with(query, exc)
@@ -263,6 +271,7 @@ def declare_rpc(session: zenoh.Session, key_expr: str | Sequence[str], handler: 
     query waits in a queue: ``max_queue=M`` answers ``overloaded`` at once while M are waiting, and a
     query still waiting when its timeout (selector parameter ``timeout``, else ``default_timeout``
     seconds, else none) has passed is dropped without being computed (counted in ``expired``).
+    A handler raising :class:`NotServed` leaves the query to another service (dropped unanswered).
     ``pass_deadline=True`` calls ``handler(request, query, deadline)`` with that deadline
     (``time.monotonic()`` seconds, or None). A handler may return a :class:`concurrent.futures.Future`
     instead of a reply: the query is answered when it completes (its result or exception, as

@@ -1,0 +1,352 @@
+"""Adaptation jobs side by side in one learner (``--jobs``, ``--job-runner``), measured.
+
+Three parts, each one run writing one JSON:
+
+``runner``: where the training part of concurrent jobs should compute. K E1 jobs on a
+    :class:`~services.learner.core.LearnerCore` with the in-process via-point task as evaluator
+    (no zenoh, no workers: what is left is the adaptation's arithmetic), run one after another
+    (``--jobs 1``, the baseline), on K threads, and in K child processes; ``--reps`` times, in the
+    same run. Wall and CPU seconds (the learner's and its job processes'), ratio to the baseline,
+    and whether each job's result is bit-equal to the baseline's.
+``deploy``: a local deployment (4 workers, no model service) with ``--jobs 1`` and with the
+    default; K = 1, 2, 4, 8 jobs submitted at once; time until all are done against K x one job
+    alone (measured in the same deployment just before), and against ``--jobs 1``'s time for the
+    same K. Then the same with roll-out-heavy jobs (each roll-out takes ``--rollout-delay`` s of
+    the worker: a robot whose motion takes time). Learner and worker CPU seconds per round.
+``kill``: 4 jobs at once (``--jobs 4``, the default runner), undisturbed; the same 4 jobs again with the learner
+    killed by SIGKILL once all 4 run (the launcher restarts it): every job must end ``done`` with
+    the undisturbed result, and the recording must hold every executed roll-out once.
+
+    python benchmarks/performance/bench_jobs.py runner [--ks 2 4] [--reps 3] [--out FILE]
+    python benchmarks/performance/bench_jobs.py deploy [--ks 1 2 4 8] [--out FILE]
+    python benchmarks/performance/bench_jobs.py kill [--out FILE]
+
+Numbers from one run on a shared machine (2 cores, other work running): the ratios of a run are
+measured against baselines of the same run.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import statistics
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
+
+from benchmarks._results import ROOT, provenance, save_result  # noqa: E402
+
+SMALL = {"encoder_widths": [32, 32], "decoder_widths": [32, 32]}
+TRAIN_STEPS = 300
+WAIT = 1800.0  # liveness bound
+
+
+def _adapt_request(setup, seed: int, budget: int) -> dict:
+    tg = setup.target
+    return {"target": {"obs_times": tg.obs_times, "obs_values": tg.obs_values, "query_times": tg.query_times},
+            "task": "viapoint", "task_config": setup.task_config, "robot": "point2d", "seed": seed,
+            "config": {"max_rollouts": budget, "stop_on_success": False}}
+
+
+def _cpu(pids) -> float:
+    """User + system CPU seconds of processes ``pids`` and their live descendants now."""
+    import psutil
+
+    total = 0.0
+    for pid in pids:
+        try:
+            proc = psutil.Process(pid)
+            for p in [proc, *proc.children(recursive=True)]:
+                t = p.cpu_times()
+                total += t.user + t.system
+        except psutil.NoSuchProcess:
+            pass
+    return total
+
+
+def _spread(values: list[float]) -> dict:
+    return {"median": statistics.median(values), "min": min(values), "max": max(values), "n": len(values)}
+
+
+# ----- part 1: threads against processes ------------------------------------------------------
+def _spin(n: int = 3_000_000) -> None:
+    x = 0
+    for i in range(n):
+        x += i
+
+
+def _parallel_ceiling(k: int) -> float:
+    """What K-way parallelism gives on this machine now: the wall time of K processes each
+    spinning a fixed pure-Python loop at once, over K times one spinning alone (1.0: no core to
+    spare; 1/K: K free cores)."""
+    import multiprocessing
+
+    ctx = multiprocessing.get_context("fork")  # no session or job thread lives yet: a fork starts in ms
+    t0 = time.perf_counter()
+    _spin()
+    alone = time.perf_counter() - t0
+    procs = [ctx.Process(target=_spin) for _ in range(k)]
+    t0 = time.perf_counter()
+    for p in procs:
+        p.start()
+    for p in procs:
+        p.join()
+    return (time.perf_counter() - t0) / (k * alone)
+
+def part_runner(args) -> dict:
+    from acnmp_core.jobs.adapt import AdaptJob
+    from acnmp_core.adapt.config import AdaptConfig
+    from acnmp_core.model.cnmp import CNMPConfig
+    from acnmp_core.experiments.viapoint import make_setup
+    from acnmp_core.model.training import TrainConfig
+    from services.learner.core import LearnerCore, TrainSpec
+    from services.worker.core import ExecutedBatch
+
+    setup = make_setup()
+
+    class Local:
+        credit = "step"
+
+        def evaluate(self, trajectories, times, task_params=None):
+            return ExecutedBatch.of(setup.task.evaluate(trajectories, times, task_params), ["w0"] * len(trajectories))
+
+    tmp = Path(tempfile.mkdtemp(prefix="bench-jobs-"))
+    try:
+        trained = tmp / "trained"
+        core = LearnerCore(trained, evaluator_for=lambda job: Local())
+        core.train_skill("e1", TrainSpec(setup.demos, CNMPConfig(n_outputs=2, encoder_widths=(32, 32),
+                                                                 decoder_widths=(32, 32)),
+                                         TrainConfig(steps=TRAIN_STEPS), seed=3))
+        core.close()
+
+        def job(seed, budget=args.budget):
+            return AdaptJob(setup.target, "viapoint", "point2d", setup.task_config,
+                            AdaptConfig(max_rollouts=budget, stop_on_success=False), seed=seed)
+
+        def run(k: int, jobs: int, runner: str, tag: str) -> dict:
+            state = tmp / tag
+            shutil.copytree(trained, state, ignore=shutil.ignore_patterns("*.lock"))
+            core = LearnerCore(state, evaluator_for=lambda job: Local(), jobs=jobs, job_runner=runner).start()
+            try:
+                # warm-up, off the clock: every job slot runs a tiny job (its child process starts)
+                warm = [core.submit("e1", job(1, budget=2)).job for _ in range(jobs)]
+                assert core.wait_idle(WAIT) and all(core.status(w)["state"] == "done" for w in warm)
+                pids = [os.getpid()]
+                cpu0, t0 = _cpu(pids), time.perf_counter()
+                ids = [core.submit("e1", job(100 + i)).job for i in range(k)]
+                assert core.wait_idle(WAIT)
+                wall, cpu = time.perf_counter() - t0, _cpu(pids) - cpu0
+                results = [core.status(i)["result"] for i in ids]
+                assert all(core.status(i)["state"] == "done" for i in ids)
+            finally:
+                core.close()
+                shutil.rmtree(state, ignore_errors=True)
+            return {"wall_s": wall, "cpu_s": cpu, "trajectories": [r["trajectory"] for r in results]}
+
+        rounds = []
+        for rep in range(args.reps):
+            for k in args.ks:
+                ceiling = _parallel_ceiling(k)
+                seq = run(k, 1, "thread", f"seq-{rep}-{k}")
+                row = {"rep": rep, "k": k, "sequential": {x: seq[x] for x in ("wall_s", "cpu_s")},
+                       "ceiling_wall_ratio": ceiling}
+                for name, runner in (("threads", "thread"), ("processes", "process")):
+                    got = run(k, k, runner, f"{name}-{rep}-{k}")
+                    row[name] = {"wall_s": got["wall_s"], "cpu_s": got["cpu_s"],
+                                 "wall_ratio": got["wall_s"] / seq["wall_s"],
+                                 "bit_equal": all(np.array_equal(a, b) for a, b in
+                                                  zip(got["trajectories"], seq["trajectories"]))}
+                print(f"rep {rep} K={k}: sequential {seq['wall_s']:.1f}s, threads x{row['threads']['wall_ratio']:.2f}, "
+                      f"processes x{row['processes']['wall_ratio']:.2f}, ceiling x{ceiling:.2f}", flush=True)
+                rounds.append(row)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    summary = {}
+    for k in args.ks:
+        rows = [r for r in rounds if r["k"] == k]
+        summary[str(k)] = {name: {"wall_ratio": _spread([r[name]["wall_ratio"] for r in rows]),
+                                  "bit_equal": all(r[name]["bit_equal"] for r in rows)}
+                           for name in ("threads", "processes")}
+        summary[str(k)]["sequential_wall_s"] = _spread([r["sequential"]["wall_s"] for r in rows])
+        summary[str(k)]["ceiling_wall_ratio"] = _spread([r["ceiling_wall_ratio"] for r in rows])
+        for name in ("threads", "processes"):
+            summary[str(k)][name]["cpu_ratio"] = _spread([r[name]["cpu_s"] / r["sequential"]["cpu_s"] for r in rows])
+    return {"rounds": rounds, "summary": summary}
+
+
+# ----- part 2: a deployment, K jobs at once ----------------------------------------------------
+class _Deployed:
+    """A deployment with a trained skill ``e1`` and a way to run K jobs at once and time them."""
+
+    def __init__(self, dep, setup, budget: int):
+        from services.transport import call
+
+        self.dep, self.setup, self.budget, self.call = dep, setup, budget, call
+        train = {"times": np.stack([d.times for d in setup.demos]), "values": np.stack([d.values for d in setup.demos]),
+                 "model": SMALL, "train": {"steps": TRAIN_STEPS}, "seed": 3}
+        call(dep.session, dep.keys.train("e1"), train, timeout=600)
+
+    def submit(self, seeds) -> list[str]:
+        return [self.call(self.dep.session, self.dep.keys.adapt("e1"), _adapt_request(self.setup, s, self.budget),
+                          timeout=30)["job"] for s in seeds]
+
+    def wait(self, ids, pred=lambda st: st["state"] in ("done", "failed", "cancelled")) -> dict:
+        deadline = time.monotonic() + WAIT
+        while True:
+            st = {i: self.call(self.dep.session, self.dep.keys.job_status(i), timeout=30) for i in ids}
+            if all(pred(s) for s in st.values()):
+                return st
+            if time.monotonic() > deadline:
+                raise TimeoutError(st)
+            time.sleep(0.1)
+
+    def pids(self, kind: str) -> list[int]:
+        return [c.pid for name, c in self.dep.children.items() if name.startswith(kind)]
+
+    def run(self, seeds) -> dict:
+        lcpu0, wcpu0 = _cpu(self.pids("learner")), _cpu(self.pids("worker"))
+        t0 = time.perf_counter()
+        ids = self.submit(seeds)
+        st = self.wait(ids)
+        wall = time.perf_counter() - t0
+        bad = {i: s["error"] for i, s in st.items() if s["state"] != "done"}
+        if bad:
+            raise RuntimeError(f"jobs did not finish: {bad}")
+        return {"wall_s": wall, "learner_cpu_s": _cpu(self.pids("learner")) - lcpu0,
+                "worker_cpu_s": _cpu(self.pids("worker")) - wcpu0,
+                "trajectories": [st[i]["result"]["trajectory"] for i in ids]}
+
+
+def _sweep(ns: str, jobs: int, runner: str, ks, budget: int, delay: float, workers: int) -> dict:
+    from acnmp_core.experiments.viapoint import make_setup
+    from services.launcher import LocalDeployment
+
+    setup = make_setup()
+    with LocalDeployment(ns, workers=workers, model=False, worker_delay=delay,
+                         learner_args=["--jobs", str(jobs), "--job-runner", runner]) as dep:
+        d = _Deployed(dep, setup, budget)
+        d.run([1] * min(jobs, 2))  # warm-up: the job processes start, the first optimiser imports
+        alone = d.run([100])
+        out = {"jobs": jobs, "runner": runner, "one_alone_s": alone["wall_s"], "k": {}}
+        for k in ks:
+            got = d.run([100 + i for i in range(k)])
+            out["k"][str(k)] = {"wall_s": got["wall_s"], "ratio_to_k_alone": got["wall_s"] / (k * alone["wall_s"]),
+                                "learner_cpu_s": got["learner_cpu_s"], "worker_cpu_s": got["worker_cpu_s"],
+                                "trajectories": got["trajectories"]}
+            print(f"  --jobs {jobs} --job-runner {runner} K={k}: {got['wall_s']:.1f}s ({got['wall_s'] / (k * alone['wall_s']):.2f} x K alone)",
+                  flush=True)
+    return out
+
+
+def part_deploy(args) -> dict:
+    out = {}
+    for kind, delay in (("e1", 0.0), ("rollout_heavy", args.rollout_delay)):
+        rows = {}
+        for conf in args.configs:  # "--jobs:--job-runner"; the first one is the baseline
+            jobs, runner = conf.split(":")
+            print(f"{kind}: --jobs {jobs} --job-runner {runner}", flush=True)
+            rows[conf] = _sweep(f"bjobs-{os.getpid()}-{kind}-{jobs}-{runner}", int(jobs), runner, args.ks,
+                                args.budget, delay, args.workers)
+        seq = rows[args.configs[0]]
+        for conf in args.configs[1:]:
+            par = rows[conf]
+            for k in map(str, args.ks):
+                par["k"][k]["ratio_to_baseline"] = par["k"][k]["wall_s"] / seq["k"][k]["wall_s"]
+                par["k"][k]["bit_equal_to_baseline"] = all(
+                    np.array_equal(a, b) for a, b in zip(par["k"][k]["trajectories"], seq["k"][k]["trajectories"]))
+        for row in rows.values():
+            for k in row["k"].values():
+                k.pop("trajectories")
+        out[kind] = {"rollout_delay_s": delay, "baseline": args.configs[0], "by_config": rows}
+    return out
+
+
+# ----- part 3: kill -9 during 4 concurrent jobs -----------------------------------------------
+def part_kill(args) -> dict:
+    from acnmp_core.experiments.viapoint import make_setup
+    from services.launcher import LocalDeployment
+    from services.recording.replay import summarize
+
+    setup = make_setup()
+    tmp = Path(tempfile.mkdtemp(prefix="bench-jobs-kill-"))
+    rrd = tmp / "kill.rrd"
+    seeds = [100, 101, 102, 103]
+    try:
+        with LocalDeployment(f"bjobk-{os.getpid()}", workers=args.workers, model=False, record=rrd,
+                             state_dir=tmp / "state", worker_delay=args.kill_delay,
+                             learner_args=["--jobs", str(len(seeds))]) as dep:
+            d = _Deployed(dep, setup, args.budget)
+            t0 = time.perf_counter()
+            calm = d.run(seeds)
+            calm_s = time.perf_counter() - t0
+            ids = d.submit(seeds)
+            d.wait(ids, lambda st: st["state"] == "running" and st["rollouts"] >= 10)
+            t_kill = time.perf_counter()
+            dep.kill("learner")
+            (restart,) = dep.supervisor.wait_restarts("learner", 1, timeout=120)
+            back_s = time.perf_counter() - t_kill
+            st = d.wait(ids)
+        # the recording is complete once the deployment stopped
+        jobs = summarize(rrd)["jobs"]
+    finally:
+        pass
+    rows = []
+    for i, seed, calm_traj in zip(ids, seeds, calm["trajectories"]):
+        s, rec = st[i], jobs.get(i, {})
+        rows.append({"job": i, "seed": seed, "state": s["state"], "attempt": s["attempt"],
+                     "result_equal_to_undisturbed": s["state"] == "done"
+                     and bool(np.array_equal(s["result"]["trajectory"], calm_traj)),
+                     "rollouts_executed": s["rollouts_executed"], "recorded_rollouts": rec.get("rollouts"),
+                     "recorded_unique": rec.get("unique_rollouts"), "recorded_duplicates": rec.get("duplicates")})
+    shutil.rmtree(tmp, ignore_errors=True)
+    return {"undisturbed_s": calm_s, "learner_back_s": back_s, "restart_exit_code": restart.exit_code,
+            "jobs": rows,
+            "all_done_equal": all(r["result_equal_to_undisturbed"] for r in rows),
+            "recording_each_rollout_once": all(r["recorded_rollouts"] == r["recorded_unique"] == r["rollouts_executed"]
+                                               and not r["recorded_duplicates"] for r in rows)}
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("part", choices=("runner", "deploy", "kill"))
+    p.add_argument("--ks", type=int, nargs="+", default=None, help="jobs at once (runner: 2 4; deploy: 1 2 4 8)")
+    p.add_argument("--reps", type=int, default=3, help="runner: repetitions (default: %(default)s)")
+    p.add_argument("--budget", type=int, default=50, help="roll-outs per job (default: %(default)s)")
+    p.add_argument("--workers", type=int, default=4, help="deploy, kill: workers (default: %(default)s)")
+    p.add_argument("--rollout-delay", type=float, default=0.2,
+                   help="deploy: seconds per roll-out of the roll-out-heavy jobs (default: %(default)s)")
+    p.add_argument("--kill-delay", type=float, default=0.05,
+                   help="kill: seconds per roll-out, so the kill lands mid-job (default: %(default)s)")
+    p.add_argument("--configs", nargs="+", default=["1:thread", "2:thread", "2:process"],
+                   help="deploy: learner settings JOBS:RUNNER, the first the baseline (default: %(default)s)")
+    p.add_argument("--out", default=None)
+    args = p.parse_args(argv)
+    args.ks = args.ks or ([2, 4] if args.part == "runner" else [1, 2, 4, 8])
+    started = time.perf_counter()
+    prov = provenance(sys.argv if argv is None else ["benchmarks/performance/bench_jobs.py", *argv])
+    config = {"part": args.part, "ks": args.ks, "budget": args.budget, "model": SMALL, "train_steps": TRAIN_STEPS,
+              "task": "viapoint (E1), AdaptConfig defaults, stop_on_success false"}
+    if args.part == "runner":
+        config["reps"] = args.reps
+        result = part_runner(args)
+    elif args.part == "deploy":
+        config.update(workers=args.workers, rollout_delay_s=args.rollout_delay, configs=args.configs)
+        result = part_deploy(args)
+    else:
+        config.update(workers=args.workers, rollout_delay_s=args.kill_delay)
+        result = part_kill(args)
+    out = args.out or ROOT / "benchmarks" / "results" / {"runner": "bench_jobs_runner.json", "deploy": "bench_jobs.json",
+                                                         "kill": "bench_jobs_kill.json"}[args.part]
+    result["wall_time_s"] = time.perf_counter() - started
+    save_result({"benchmark": f"jobs_{args.part}", "provenance": prov, "config": config, **result}, out,
+                headline=("summary", "all_done_equal", "recording_each_rollout_once"))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
