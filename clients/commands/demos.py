@@ -1,5 +1,6 @@
 """``acnmp demos from-recording FILE.rrd -o demos.npz``: demonstrations out of what a deployment
-recorded, in the format ``acnmp up --demos SKILL=demos.npz`` trains on."""
+recorded, in the format ``acnmp up --demos SKILL=demos.npz`` trains on (``acnmp demos import``:
+out of a LeRobot or Minari dataset, clients/commands/datasets.py)."""
 from __future__ import annotations
 
 import argparse
@@ -15,8 +16,10 @@ examples:
 
 
 def register(subparsers) -> None:
-    """Add ``demos`` with its ``from-recording`` sub-command."""
-    parser = subparsers.add_parser("demos", help="make demonstration files (from a recording)",
+    """Add ``demos`` with its ``from-recording`` and ``import`` sub-commands."""
+    from .datasets import register_import
+
+    parser = subparsers.add_parser("demos", help="make demonstration files (from a recording or a dataset)",
                                    description="Make demonstration files.")
     sub = parser.add_subparsers(dest="demos_command", metavar="WHAT", required=True)
     rec = sub.add_parser("from-recording", help="the recorded roll-outs as a demonstrations .npz",
@@ -29,6 +32,7 @@ def register(subparsers) -> None:
     rec.add_argument("--best-per-job", action="store_true",
                      help="one roll-out per job: its highest return (the successful ones with --successful)")
     rec.set_defaults(func=_run_from_recording)
+    register_import(sub)
 
 
 def _run_from_recording(args) -> int:
