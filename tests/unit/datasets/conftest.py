@@ -1,10 +1,6 @@
-"""Fixtures of the dataset tests: the formats' own libraries, imported as a user would, and a
-private Minari datasets root."""
+"""Fixtures of the dataset tests: a private Minari datasets root and a small recording (the
+``lerobot`` fixture, lerobot imported as a user would, is in tests/conftest.py)."""
 from __future__ import annotations
-
-import importlib
-import sys
-import types
 
 import pytest
 
@@ -15,35 +11,6 @@ def minari_root(tmp_path, monkeypatch):
     root = tmp_path / "minari"
     monkeypatch.setenv("MINARI_DATASETS_PATH", str(root))
     return root
-
-
-@pytest.fixture(scope="session")
-def lerobot():
-    """lerobot-dataset's ``ledataset.datasets`` modules (the ``datasets`` extra: pip install
-    -e .[datasets]); its LeRobotDataset is ``lerobot.lerobot_dataset.LeRobotDataset``.
-
-    lerobot imports torchvision at module level, for images and videos only. PyPI's torchvision
-    for this machine's CPU build of torch is a CUDA build that does not load beside it, so when
-    torchvision cannot be imported a stand-in module is registered: the datasets here have no image
-    or video features, and nothing of torchvision runs for them."""
-    import os
-
-    os.environ.setdefault("HF_HUB_OFFLINE", "1")
-    try:
-        import torchvision  # noqa: F401
-    except Exception:
-        for name in [m for m in sys.modules if m.startswith("torchvision")]:
-            del sys.modules[name]
-        import datasets  # noqa: F401  (it notes torchvision's absence before the stand-in exists)
-
-        stub = types.ModuleType("torchvision")
-        stub.transforms = types.ModuleType("torchvision.transforms")
-        stub.io = types.ModuleType("torchvision.io")
-        sys.modules.update({"torchvision": stub, "torchvision.transforms": stub.transforms,
-                            "torchvision.io": stub.io})
-    lerobot_dataset = importlib.import_module("ledataset.datasets.lerobot_dataset")
-    utils = importlib.import_module("ledataset.datasets.utils")
-    return types.SimpleNamespace(lerobot_dataset=lerobot_dataset, utils=utils)
 
 
 @pytest.fixture
