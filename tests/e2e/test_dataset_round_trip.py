@@ -31,7 +31,7 @@ ROOT = Path(__file__).resolve().parents[2]
 def test_e1_recorded_exported_loaded_imported_and_reproduced(tmp_path, lerobot, run_cli, monkeypatch):
     monkeypatch.setenv("MINARI_DATASETS_PATH", str(tmp_path / "minari"))
     rrd = tmp_path / "e1.rrd"
-    code, _, err = run_cli("experiment", "viapoint", "--seeds", "2-2", "--budget", "10", "--train-steps", "300",
+    code, _, err = run_cli("experiment", "viapoint", "--seeds", "7-7", "--budget", "30", "--train-steps", "3000",
                            "--distributed", "--fresh", "--workers", "2", "--record", str(rrd), "--quiet")
     assert code == 0, err
     for fmt in FORMATS:
