@@ -6,9 +6,9 @@ Minari, and how fast each direction goes.
 2. Per format: the recording's roll-outs exported (``acnmp replay --export-lerobot/--export-minari``),
    loaded by the format's own library when it is installed (LeRobotDataset; minari.load_dataset),
    imported back as demonstrations of the successful roll-outs (``acnmp demos import
-   --successful``), a CNMP trained on them (``--skill-steps``), and each roll-out reproduced by
-   the skill conditioned where E1's query conditions, on the roll-out's own values there: the
-   largest RMSE over the path against E1's tolerance (0.03 m).
+   --successful``), a CNMP trained on them (``--skill-steps``, the rate decayed to 1e-5), and each
+   roll-out reproduced by the skill conditioned where E1's query conditions, on the roll-out's own
+   values there: the largest RMSE over the path against E1's tolerance (0.03 m).
 3. Throughput at a larger size: ``--episodes`` synthetic roll-outs of E1's shape written and read
    by the project's own writer and reader (episodes per second each way).
 
@@ -98,7 +98,7 @@ def library_load(fmt: str, where: str) -> int | None:
     return ds.num_episodes
 
 
-def round_trip(rrd: str | Path, fmt: str, work: Path, *, skill_steps: int = 1500, seed: int = 0,
+def round_trip(rrd: str | Path, fmt: str, work: Path, *, skill_steps: int = 5000, seed: int = 0,
                load=library_load) -> dict:
     """Export the roll-outs of ``rrd`` in ``fmt``, load them with ``load(fmt, where)``, import the
     successful ones back, train a skill on them and reproduce each; returns the figures."""
@@ -125,8 +125,9 @@ def round_trip(rrd: str | Path, fmt: str, work: Path, *, skill_steps: int = 1500
     library = time.perf_counter() - t0
     demos_path = work / f"{fmt}.npz"
     t0 = time.perf_counter()
-    _cli("demos", "import", "--format", fmt, where, "-o", str(demos_path), "--trajectory", "action" if fmt == "lerobot"
-         else "actions", "--successful")
+    # LeRobot's own clock is float32 timestamps; the export's observation.phase holds the recorded times
+    clock = ["--trajectory", "action", "--time", "observation.phase"] if fmt == "lerobot" else ["--trajectory", "actions"]
+    _cli("demos", "import", "--format", fmt, where, "-o", str(demos_path), *clock, "--successful")
     read = time.perf_counter() - t0
     demos = load_demos(demos_path)
     good = [r for r in rows if r["success"]]
@@ -134,17 +135,20 @@ def round_trip(rrd: str | Path, fmt: str, work: Path, *, skill_steps: int = 1500
     setup = make_setup()
     model = CNMP(CNMPConfig(n_outputs=2, encoder_widths=(64, 64), decoder_widths=(64, 64)), seed=seed)
     t0 = time.perf_counter()
-    train(model, demos.to_demo_set(), TrainConfig(steps=skill_steps), seed=seed, progress=False)
+    # a cosine-decayed rate ends with small steps: the roll-outs' exploration wiggles are fitted
+    # (1500 constant-rate steps left 0.09 m RMSE on E1's two successful roll-outs, 5000 decayed 0.02)
+    train(model, demos.to_demo_set(), TrainConfig(steps=skill_steps, lr_final=1e-5), seed=seed, progress=False)
     trained = time.perf_counter() - t0
-    tg, gaps = setup.target, []
+    tg, gaps, worst = setup.target, [], []
     for r in good:  # conditioned where E1's query conditions, on the roll-out's own values there
         at = np.array([[np.interp(t, r["times"], r["trajectory"][:, d]) for d in range(2)] for t in tg.obs_times])
         again = model.predict(tg.obs_times, at, query_times=r["times"]).mean
         gaps.append(float(np.sqrt(np.mean(np.sum((again - r["trajectory"]) ** 2, axis=1)))))
+        worst.append(float(np.max(np.linalg.norm(again - r["trajectory"], axis=1))))
     return {"format": fmt, "rollouts": len(rows), "successful": len(good), "library_episodes": loaded,
             "imported_bit_for_bit": bool(same), "reproduction_rmse_max": max(gaps) if gaps else None,
-            "reproduction_rmse": gaps, "tolerance": float(max(setup.task.tolerance)),
-            "within_tolerance": bool(gaps) and max(gaps) <= max(setup.task.tolerance),
+            "reproduction_rmse": gaps, "reproduction_max_deviation": worst, "tolerance": float(max(setup.task.tolerance)),
+            "within_tolerance": bool(gaps) and bool(max(gaps) <= max(setup.task.tolerance)),
             "export_s": round(written, 3), "library_load_s": None if loaded is None else round(library, 3),
             "import_s": round(read, 3), "skill_train_s": round(trained, 2),
             "export_episodes_per_s": round(len(rows) / written, 1), "import_episodes_per_s": round(len(rows) / read, 1)}
@@ -165,8 +169,8 @@ def throughput(n: int, work: Path, steps: int = 101, dims: int = 2) -> dict:
     out = {"episodes": n, "steps": steps, "dims": dims}
     for fmt, write, read, where in (("lerobot", lambda: write_lerobot(work / "t-lerobot", rollouts),
                                      lambda: read_lerobot(work / "t-lerobot"), None),
-                                    ("minari", lambda: write_minari("t/throughput-v0", rollouts, root=work / "t-minari"),
-                                     lambda: read_minari(work / "t-minari" / "t" / "throughput-v0"), None)):
+                                    ("minari", lambda: write_minari("bench/throughput-v0", rollouts, root=work / "t-minari"),
+                                     lambda: read_minari(work / "t-minari" / "bench" / "throughput-v0"), None)):
         t0 = time.perf_counter()
         write()
         w = time.perf_counter() - t0
@@ -182,10 +186,11 @@ def throughput(n: int, work: Path, steps: int = 101, dims: int = 2) -> dict:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--rrd", default=None, help="a recording to use instead of recording a distributed E1")
+    ap.add_argument("--keep-rrd", default=None, metavar="PATH", help="where to keep the E1 recording it makes (for --rrd)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--budget", type=int, default=100, help="E1's roll-outs per method (full size: 100)")
     ap.add_argument("--train-steps", type=int, default=3000, help="E1's training steps (full size: 3000)")
-    ap.add_argument("--skill-steps", type=int, default=1500, help="training steps of the skill on the imported roll-outs")
+    ap.add_argument("--skill-steps", type=int, default=5000, help="training steps of the skill on the imported roll-outs")
     ap.add_argument("--episodes", type=int, default=5000, help="synthetic episodes for the throughput part")
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "bench_datasets.json"))
     args = ap.parse_args(argv)
@@ -195,7 +200,7 @@ def main(argv: list[str] | None = None) -> int:
         work = Path(tmp)
         rrd = args.rrd
         if rrd is None:
-            rrd = str(work / "e1.rrd")
+            rrd = args.keep_rrd or str(work / "e1.rrd")
             t0 = time.perf_counter()
             _cli("experiment", "viapoint", "--seeds", f"{args.seed}-{args.seed}", "--budget", str(args.budget),
                  "--train-steps", str(args.train_steps), "--distributed", "--fresh", "--workers", "2", "--record", rrd, "--quiet")
@@ -203,6 +208,7 @@ def main(argv: list[str] | None = None) -> int:
         for fmt in FORMATS:
             (work / fmt).mkdir()
             result[fmt] = round_trip(rrd, fmt, work / fmt, skill_steps=args.skill_steps, seed=args.seed)
+            print(fmt, {k: v for k, v in result[fmt].items() if k != "reproduction_rmse"}, flush=True)
         result["throughput"] = throughput(args.episodes, work)
     result["wall_time_s"] = round(time.perf_counter() - start, 1)
     save_result(result, args.out, headline=("lerobot", "minari", "throughput"))

@@ -13,8 +13,8 @@ def minari_root(tmp_path, monkeypatch):
     return root
 
 
-@pytest.fixture
-def recording(tmp_path):
+@pytest.fixture(scope="session")
+def recording(tmp_path_factory):
     """(path, rows): a recording of 6 E1 roll-outs (every other one marked successful), written as the learner
     records them, and its roll-out rows as services.recording.tables reads them back."""
     import numpy as np
@@ -30,7 +30,7 @@ def recording(tmp_path):
     rng = np.random.default_rng(1)
     paths = np.stack([demo + rng.normal(scale=s, size=demo.shape) for s in (0, 0.3, 0, 0.3, 0.001, 0.3)])
     batch = setup.task.evaluate(paths, times, None)
-    path = tmp_path / "e1.rrd"
+    path = tmp_path_factory.mktemp("recording") / "e1.rrd"
     writer = RrdWriter(path)
     writer.log_event(job_event("e1-acnmp-0", method="acnmp", robot="point2d", task="viapoint", skill="e1", seed=0,
                                attempt=0, config={}, task_config=setup.task_config))
