@@ -13,7 +13,9 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 PY=${PYTHON:-python3}
 STAMP=.venv/.setup-stamp
-stamp() { cat pyproject.toml scripts/setup.sh | sha256sum | cut -d' ' -f1; }
+# ACNMP_EXTRAS: the extras to install (default test,gym,peers; `scripts/test.sh --slow` adds datasets)
+EXTRAS=".[${ACNMP_EXTRAS:-test,gym,peers}]"
+stamp() { { cat pyproject.toml scripts/setup.sh; echo "$EXTRAS"; } | sha256sum | cut -d' ' -f1; }
 if [ "${ACNMP_SETUP:-}" != force ] && [ -x .venv/bin/python ] && [ -f "$STAMP" ] && [ "$(cat "$STAMP")" = "$(stamp)" ]; then
   exit 0
 fi
@@ -26,7 +28,6 @@ export PIP_DISABLE_PIP_VERSION_CHECK=1
 # No byte-compiling of every installed module (torch alone: 40 s -> 14 s here); Python compiles
 # what is imported, once, on first use.
 PIP_FLAGS=(-q --no-compile)
-EXTRAS=".[test,gym,peers]"
 
 pip_setting() {  # the values of one pip configuration key, split on white space
   python -m pip config get "$1" 2>/dev/null | tr ' ' '\n' | grep -v '^$' || true

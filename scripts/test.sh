@@ -4,7 +4,8 @@
 #   bash scripts/test.sh            # the default suite: every test but the slow ones
 #   bash scripts/test.sh --fast     # the inner loop: tests/unit without the slow and the heavy tests
 #   bash scripts/test.sh --slow     # only the slow tests (minutes each: the pinned regression runs,
-#                                   # E3's learning); before a release (docs/RELEASE.md)
+#                                   # E3's learning, the datasets' own libraries, which it installs:
+#                                   # the extra "datasets"); before a release (docs/RELEASE.md)
 #
 # Any other argument goes to pytest as it is (paths, -k, -x, ...). A -m EXPR of yours selects among
 # the tests that are not slow: the slow ones run only when EXPR names them (tests/selection.py), so
@@ -16,7 +17,7 @@ args=()
 for arg in "$@"; do
   case "$arg" in
     --fast) args+=(tests/unit --fast) ;;
-    --slow) args+=(-m slow) ;;
+    --slow) args+=(-m slow); export ACNMP_EXTRAS=${ACNMP_EXTRAS:-test,gym,peers,datasets} ;;
     *) args+=("$arg") ;;
   esac
 done

@@ -289,3 +289,13 @@ def acnmp_up():
         raise AssertionError("acnmp up ended before it was up:\n" + "".join(lines))
 
     return start
+
+
+@pytest.fixture(scope="session")
+def lerobot():
+    """lerobot-dataset's ``ledataset.datasets`` modules (the ``datasets`` extra), imported as
+    benchmarks/performance/bench_datasets.py's :func:`import_lerobot` says: ``lerobot_dataset``
+    (LeRobotDataset) and ``utils`` (validate_frame, DEFAULT_FEATURES)."""
+    from benchmarks.performance.bench_datasets import import_lerobot
+
+    return import_lerobot()

@@ -1,6 +1,7 @@
 """``acnmp demos from-recording FILE.rrd -o demos.npz``: demonstrations out of what a deployment
 recorded, in the format ``acnmp up --demos SKILL=demos.npz`` trains on (``acnmp demos make KIND``:
-a built-in kind's scripted ones)."""
+a built-in kind's scripted ones; ``acnmp demos import``:
+out of a LeRobot or Minari dataset, clients/commands/datasets.py)."""
 from __future__ import annotations
 
 import argparse
@@ -16,8 +17,10 @@ examples:
 
 
 def register(subparsers) -> None:
-    """Add ``demos`` with its ``from-recording`` sub-command."""
-    parser = subparsers.add_parser("demos", help="make demonstration files (from a recording, or a kind's scripted expert)",
+    """Add ``demos`` with its ``from-recording``, ``make`` and ``import`` sub-commands."""
+    from .datasets import register_import
+
+    parser = subparsers.add_parser("demos", help="make demonstration files (from a recording, a dataset or a kind's scripted expert)",
                                    description="Make demonstration files.")
     sub = parser.add_subparsers(dest="demos_command", metavar="WHAT", required=True)
     rec = sub.add_parser("from-recording", help="the recorded roll-outs as a demonstrations .npz",
@@ -37,6 +40,8 @@ def register(subparsers) -> None:
     make.add_argument("kind", choices=SCRIPTED, metavar="KIND", help=f"one of {', '.join(SCRIPTED)}")
     make.add_argument("-o", "--output", required=True, type=non_empty, metavar="DEMOS.npz", help="file to write")
     make.set_defaults(func=_run_make)
+
+    register_import(sub)
 
 
 #: the kinds whose scripted expert makes demonstrations (the Meta-World ones need the metaworld extra)

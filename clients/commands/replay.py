@@ -15,6 +15,8 @@ examples:
   acnmp replay run.rrd --execute                # every roll-out again here: recorded vs now
   acnmp replay run.rrd --execute --namespace lab --job e1-0123456789   # on a deployment's workers
   acnmp replay old.rrd new.rrd --export t/      # a restarted recorder's files, each roll-out once
+  acnmp replay run.rrd --export-lerobot e1-lerobot/     # each roll-out an episode of a LeRobot v3 dataset
+  acnmp replay run.rrd --export-minari acnmp/e1-v0      # ... of a Minari dataset ($MINARI_DATASETS_PATH)
 
 In Python: services.recording.tables.read_recording("run.rrd") gives the same tables (pyarrow),
 .trajectories(job) a (N, T, D) numpy array; `acnmp demos from-recording` writes demonstrations.
@@ -34,12 +36,20 @@ def register(subparsers) -> None:
                         help="write every roll-out, job, latent, model version and metric as Parquet tables "
                              "in DIR, each task parameter a column (task_config.<key>[.<i>], task_params.<i>; "
                              "schemas: docs/PROTOCOL.md, 'Recordings as data')")
+    parser.add_argument("--export-lerobot", metavar="DIR", type=non_empty, default=None,
+                        help="write every roll-out as an episode of a new LeRobot v3 dataset in DIR (docs/DATA.md)")
+    parser.add_argument("--export-minari", metavar="DATASET_ID", type=non_empty, default=None,
+                        help="write every roll-out as an episode of the new Minari dataset DATASET_ID, e.g. acnmp/e1-v0, "
+                             "under $MINARI_DATASETS_PATH or ~/.minari/datasets (docs/DATA.md)")
+    parser.add_argument("--fps", type=int_at_least(1), default=10, metavar="N",
+                        help="with --export-lerobot: the dataset's frames per second (timestamps = frame / N; default 10)")
     parser.add_argument("--execute", action="store_true",
                         help="run the recorded roll-outs again and compare each return with the recorded one "
                              "(exit 1 if any differs)")
     parser.add_argument("--namespace", "-n", default=None, metavar="NS",
                         help="with --execute: on the workers of the running deployment NS (default: in this process)")
-    parser.add_argument("--job", default=None, metavar="JOB", help="with --execute: only this job's roll-outs")
+    parser.add_argument("--job", default=None, metavar="JOB",
+                        help="with --execute, --export-lerobot or --export-minari: only this job's roll-outs")
     parser.add_argument("--limit", type=int_at_least(1), default=None, metavar="N",
                         help="with --execute: at most N roll-outs per job")
     parser.set_defaults(func=run)
@@ -50,10 +60,13 @@ def run(args) -> int:
     re-executed return differs."""
     from services.recording.replay import format_summary, summarize
 
-    if (args.namespace or args.job or args.limit) and not args.execute:
-        raise ValueError("--namespace, --job, --limit: only with --execute")
+    datasets = bool(args.export_lerobot or args.export_minari)
+    if (args.namespace or args.limit) and not args.execute:
+        raise ValueError("--namespace, --limit: only with --execute")
+    if args.job and not (args.execute or datasets):
+        raise ValueError("--job: only with --execute, --export-lerobot or --export-minari")
     try:
-        if args.export or args.execute:
+        if args.export or args.execute or datasets:
             from services.recording.tables import read_recording
 
             tables = read_recording(args.files)
@@ -62,6 +75,14 @@ def run(args) -> int:
     except (OSError, ValueError) as exc:  # missing, a directory, unreadable, not a recording
         print(f"acnmp replay: {exc}", file=sys.stderr)
         return 1
+    if datasets:
+        from .datasets import export_rollouts
+
+        for line in export_rollouts(tables, lerobot=args.export_lerobot, minari=args.export_minari, job=args.job,
+                                    fps=args.fps):
+            print(line)
+        if not (args.export or args.execute):
+            return 0
     if args.export:
         paths = tables.write_parquet(args.export)
         for name, path in paths.items():

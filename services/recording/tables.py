@@ -25,6 +25,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from acnmp_core.data.demo_io import DemoArrays
+from acnmp_core.datasets.episodes import RolloutEpisode
 
 from .replay import _column, _open
 
@@ -99,6 +100,14 @@ class RecordingTables:
             raise ValueError(f"trajectories of different shapes {sorted(shapes)}: use rollout_rows()")
         return np.stack([r["trajectory"] for r in rows]) if rows else np.zeros((0, 0, 0))
 
+    def _rows_with_data(self, job: str | None) -> list[dict]:
+        """:meth:`rollout_rows` that carry their data; ValueError for a ``job`` with none."""
+        rows = [r for r in self.rollout_rows(job) if r["trajectory"] is not None]
+        if job is not None and not rows:
+            jobs = sorted(set(self.rollouts.column("job").to_pylist()))
+            raise ValueError(f"--job {job}: no roll-out of that job in the recording (jobs: {', '.join(jobs) or 'none'})")
+        return rows
+
     def demonstrations(self, *, job: str | None = None, successful: bool = False,
                        best_per_job: bool = False) -> DemoArrays:
         """The recorded roll-outs (of ``job``, or all) as demonstrations in the project's format
@@ -107,10 +116,7 @@ class RecordingTables:
         ``best_per_job`` keeps one per job, its highest return (among the successful ones with
         ``successful``). ValueError when nothing is left, or the roll-outs differ in dimensions or
         task parameters."""
-        rows = [r for r in self.rollout_rows(job) if r["trajectory"] is not None]
-        if job is not None and not rows:
-            jobs = sorted(set(self.rollouts.column("job").to_pylist()))
-            raise ValueError(f"--job {job}: no roll-out of that job in the recording (jobs: {', '.join(jobs) or 'none'})")
+        rows = self._rows_with_data(job)
         if successful:
             rows = [r for r in rows if r["success"]]
         if best_per_job:
@@ -138,6 +144,19 @@ class RecordingTables:
             if p:
                 task_params[i] = r["task_params"]
         return DemoArrays(times, values, task_params, lengths=None if np.all(lengths == t) else lengths)
+
+    def rollout_episodes(self, job: str | None = None) -> list[RolloutEpisode]:
+        """The recorded roll-outs (of ``job``, or all) that carry their data, in recording order,
+        as :class:`~acnmp_core.datasets.episodes.RolloutEpisode` (what the dataset exporters
+        write). ValueError for a ``job`` the recording does not hold."""
+        rows = self._rows_with_data(job)
+        return [RolloutEpisode(r["times"], r["trajectory"],
+                               np.zeros(len(r["times"])) if r["reward"] is None else r["reward"],
+                               bool(r["success"]), float(r["return"] or 0.0),
+                               np.zeros(0) if r["task_params"] is None else r["task_params"],
+                               job=r["job"] or "", method=r["method"] or "", skill=r["skill"] or "",
+                               robot=r["robot"] or "", task=r["task"] or "", rollout_index=int(r["rollout_index"] or 0))
+                for r in rows]
 
     def write_parquet(self, out_dir: str | os.PathLike) -> dict[str, Path]:
         """Write ``<out_dir>/<table>.parquet`` for every table (the directory is created);
