@@ -42,8 +42,8 @@ exploration std. Each iteration executes the mean and ``noisy_per_iter`` noisy t
   effect (E4: about 1e-6 against 1e-2 once the paddle touches the cube).
 
 Ablations: ``mode="rl_only"`` turns the supervised steps off; ``mode="lfd_only"`` executes the
-conditioned mean once and does not adapt. The settings were chosen on E1, E2 and E3 together
-(docs/experiments/adaptation.md).
+conditioned mean once and does not adapt. docs/experiments/adaptation.md says how the defaults
+were chosen.
 """
 from __future__ import annotations
 

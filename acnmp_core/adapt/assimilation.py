@@ -12,8 +12,8 @@ enough to lose it again (Adam's first steps move every weight by about the full 
 
 Random episodes alone do not keep what was learnt: the solution is one demonstration among many,
 and the conditions it was found for (e.g. a start, a via-point and an end) are rarely the sampled
-observations, so after continued training those conditions gave a trajectory 3-5 times the
-tolerance away from the solution (E1, measured). Each step therefore also minimises the NLL of
+observations, so continued training drifts the answer to those conditions away from the
+solution. Each step therefore also minimises the NLL of
 the solution given exactly the adaptation's conditions (the *anchor*), weighted by
 ``anchor_weight``: assimilating a solution means the skill answers that query with it.
 """
