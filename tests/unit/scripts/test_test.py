@@ -23,7 +23,7 @@ def _pytest_argv(*args: str) -> list[str]:
     (["--fast"], ["tests/unit", "--fast"], ["-m"]),
     (["--slow"], ["-m", "slow"], ["tests/unit"]),
     (["--fast", "-k", "wire"], ["tests/unit", "--fast", "-k", "wire"], ["-m"]),
-    (["-m", "not e2e", "tests/unit/test_wire.py"], ["-m", "not e2e", "tests/unit/test_wire.py"], ["slow"]),
+    (["-m", "not e2e", "tests/unit/services/transport/test_wire.py"], ["-m", "not e2e", "tests/unit/services/transport/test_wire.py"], ["slow"]),
 ])
 def test_the_script_turns_its_options_into_pytest_arguments(args, want, unwanted):
     argv = _pytest_argv(*args)
