@@ -33,7 +33,7 @@ def register(subparsers) -> None:
     parser.add_argument("--export", metavar="DIR", type=non_empty, default=None,
                         help="write every roll-out, job, latent, model version and metric as Parquet tables "
                              "in DIR, each task parameter a column (task_config.<key>[.<i>], task_params.<i>; "
-                             "schemas: docs/PROTOCOL.md, 'Recordings as data')")
+                             "schemas: docs/EVENTS.md, 'Recordings as data')")
     parser.add_argument("--execute", action="store_true",
                         help="run the recorded roll-outs again and compare each return with the recorded one "
                              "(exit 1 if any differs)")
