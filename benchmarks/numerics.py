@@ -1,7 +1,7 @@
 """Which floats a machine computes: the fingerprint that decides whether a pin's exact counts apply.
 
 Two machines that report the same CPU name and the same torch SIMD level can still compute
-different floats (``docs/studies/numerics.md``): the first difference between an AMD EPYC and an
+different floats (``benchmarks/studies/numerics/README.md``): the first difference between an AMD EPYC and an
 Intel Haswell running E1 seed 0 is the first ``addmm`` of the CNMP encoder in the first training
 step, where MKL picks a vendor-specific SGEMM kernel. A chaotic learning run then drifts to other
 roll-out counts. So a pin's exact counts are compared only on a machine whose :func:`fingerprint`

@@ -638,7 +638,7 @@ E5_EXPLORATION_LABELS = {"default": "default (as published)",
 
 
 def _e5_variant_table(name: str, labels: dict[str, str], first: str) -> str:
-    """E5 per variant and case from ``name``.json (benchmarks/studies/e5_training.py or
+    """E5 per variant and case from ``name``.json (benchmarks/studies/e5_ur10/e5_training.py or
     e5_exploration.py): LfD's and ACNMP's successes, ACNMP's within the joint bound, ACNMP's
     roll-outs per seed, and the variant's time when recorded; ``first`` heads the variant column."""
     r = load(name)
@@ -664,7 +664,7 @@ def _e5_variant_table(name: str, labels: dict[str, str], first: str) -> str:
 
 
 def _e5_training_table(name: str) -> str:
-    """The training variants of ``name``.json (benchmarks/studies/e5_training.py)."""
+    """The training variants of ``name``.json (benchmarks/studies/e5_ur10/e5_training.py)."""
     return _e5_variant_table(name, E5_TRAINING_LABELS, "LfD model")
 
 
@@ -766,7 +766,7 @@ def _e6_all_within_50(r: dict) -> str:
 @renderer("e6-settings-demos")
 def e6_settings_demos() -> str:
     """Settings S and T (S with the demonstration-shaped noise) on the tuning seeds 100-115, on
-    this machine (e6_settings_demos.json, benchmarks/studies/e6_settings.py)."""
+    this machine (e6_settings_demos.json, benchmarks/studies/e6_pour/e6_settings.py)."""
     r = load("e6_settings_demos")
     n = len(r["seeds"])
     rows = [[name, f"{r['within_20'][name]}/{n}", fmt(r["first_success_median"][name]),
@@ -783,7 +783,7 @@ def e6_settings_demos() -> str:
 
 @renderer("e6-assimilation")
 def e6_assimilation() -> str:
-    """The assimilation candidates of benchmarks/studies/e6_assimilation.py, each on the same solution per
+    """The assimilation candidates of benchmarks/studies/e6_pour/e6_assimilation.py, each on the same solution per
     seed: issue 37's reproduction checks and the test poured without RL (e6_assimilation.json)."""
     r = load("e6_assimilation")
     rows = []
@@ -827,7 +827,7 @@ def e6_seed_checks(run: dict, candidate: str) -> dict[str, bool]:
 def e6_assimilation_noise() -> str:
     """Both explorations (S, T) with the two assimilations on the reported and the tuning seeds:
     per seed set, how many seeds meet each of issue 37's E6 checks and all of them
-    (e6_assimilation*.json, benchmarks/studies/e6_assimilation.py)."""
+    (e6_assimilation*.json, benchmarks/studies/e6_pour/e6_assimilation.py)."""
     rows, sources, unsolved = [], [], []
     for setting, noise, seeds, name in E6_ASSIMILATION_RUNS:
         r = load(name)
@@ -1227,7 +1227,7 @@ def e4_sweep() -> str:
                      + " rad RMSE) have 4-DoF partners " + ", ".join(fmt(y) for _, y in near)
                      + " rad from the 4-DoF truth.")
     commits = sorted({(v.get("provenance") or {}).get("commit", "unknown")[:10] for v in variants.values()})
-    lines += ["", f"*From `benchmarks/results/e4_sweep.json`: `benchmarks/studies/e4_sweep.py` (transfer condition only; "
+    lines += ["", f"*From `benchmarks/results/e4_sweep.json`: `benchmarks/studies/e4_transfer/e4_sweep.py` (transfer condition only; "
                   f"pairs of the pair seeds shared by the variants with the same pair settings), commits "
                   f"{', '.join(commits)}.*"]
     return "\n".join(lines)

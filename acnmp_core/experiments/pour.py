@@ -53,8 +53,8 @@ PAPER_ERRORS_G = (591, 447, 435, 175, 511, 604, 305, 42, 417, 284, 144, 194, 367
 
 def e6_adapt_config(max_rollouts: int = BUDGET) -> AdaptConfig:
     """E6's adaptation settings: the library's defaults except these (candidate "T" of
-    ``benchmarks/studies/e6_settings.py``: "S", the best on the tuning seeds 100-115, not the
-    reported 0-4, exploring along the demonstrations; docs/studies/e6_pour.md says how they were found). Its predecessor "F" (``lr`` 1e-3,
+    ``benchmarks/studies/e6_pour/e6_settings.py``: "S", the best on the tuning seeds 100-115, not the
+    reported 0-4, exploring along the demonstrations; benchmarks/studies/e6_pour/README.md says how they were found). Its predecessor "F" (``lr`` 1e-3,
     ``max_reuse`` 50) was tuned on the rig with the pour wall flared 25 deg (seeds 100-103);
     on the 35 deg rig F solves the tuning seeds within 20 roll-outs (4 of 4) and six
     alternatives (wider std, lr 3e-3, 6 or 9 noisy roll-outs, temperature 0.02;
@@ -96,7 +96,7 @@ def e6_adapt_config(max_rollouts: int = BUDGET) -> AdaptConfig:
         assimilated into the adapted model as S's were, kept all 16 demonstrations within 50 g in no
         reported seed (``e6_pour_setting_t.json``), so T became the default only with
         :func:`e6_assimilation_config`, which assimilates into the model before the adaptation
-        (``benchmarks/studies/e6_assimilation.py``, docs/studies/e6_pour.md).
+        (``benchmarks/studies/e6_pour/e6_assimilation.py``, benchmarks/studies/e6_pour/README.md).
     """
     return AdaptConfig(max_rollouts=max_rollouts, explore_error_gain=1.5e-3, explore_cap=0.5, lr=3e-3,
                        max_reuse=100, temperature=0.05, solution="any", noise="demos")
@@ -110,14 +110,14 @@ def e6_assimilation_config() -> AssimilationConfig:
     """E6's assimilation: 4000 supervised steps at 1e-4 decaying along a half cosine to 1e-5,
     into the LfD model as it was before the adaptation (:data:`ASSIMILATE_FROM_DEFAULT`).
 
-    Chosen with ``benchmarks/studies/e6_assimilation.py`` for the demonstration-shaped
+    Chosen with ``benchmarks/studies/e6_pour/e6_assimilation.py`` for the demonstration-shaped
     exploration of :func:`e6_adapt_config`. Over the reported seeds 0-4 and the tuning seeds
     100-115 together (21 seeds), it keeps all 16 demonstrations within 50 g in 14 seeds and no
     fewer within 30 g than the LfD model in 10, where the 1000 steps at 1e-4 from the adapted
     model (E6's assimilation until then) keep them in 10 and 9; both pour the test within 30 g
     without RL in 19 (``e6_assimilation_demos.json``, ``e6_assimilation_demos_tuning.json``). A
     marble weighs 25 g, so the two reproduction counts move by a marble or two with any change
-    of the model (docs/studies/e6_pour.md, "The rig's sensitivity")."""
+    of the model (benchmarks/studies/e6_pour/README.md, "The rig's sensitivity")."""
     return AssimilationConfig(steps=4000, lr=1e-4, lr_final=1e-5)
 
 

@@ -15,7 +15,7 @@ criterion (the cylinder's final distance to the target at most the tolerance):
   covariance update), as ``promp_rl`` in :mod:`~acnmp_core.experiments.push`.
 
 The Stark-style settings (:data:`STARK`) are guesses where the paper is not at hand: see
-docs/studies/e2_push.md, "Baselines after Stark et al.".
+benchmarks/studies/e2_push/README.md, "Baselines after Stark et al.".
 """
 from __future__ import annotations
 

@@ -18,8 +18,8 @@ in the same simulator; success in physics (grasped, carried over the obstacle wi
 placed within 2 cm); roll-outs used.
 
 Credit: the task's reward comes at two steps (grasp, crossing); :class:`UR10PickPlaceTask` keeps the
-default per-step credit (compared with "future" credit by benchmarks/studies/e5_credit.py; see
-docs/studies/e5_ur10.md).
+default per-step credit (compared with "future" credit by benchmarks/studies/e5_ur10/e5_credit.py; see
+benchmarks/studies/e5_ur10/README.md).
 
 ``acnmp experiment ur10`` and ``benchmarks/experiments/e5_ur10.py`` are thin adapters around :func:`run_ur10`,
 whose result is a JSON-ready dict.
@@ -49,7 +49,7 @@ BUDGET = 60
 #: Supervised training steps of the LfD model, and the rate its cosine decay ends at (from Adam's
 #: 1e-3): 3000 steps at a constant rate left even the joints that never move with the heights (pan,
 #: wrist 3) 1-2.5 deg off in extrapolation; over seeds 0-9 the longer, decaying training is ahead
-#: or level on every E5 count (benchmarks/studies/e5_training.py, docs/studies/e5_ur10.md).
+#: or level on every E5 count (benchmarks/studies/e5_ur10/e5_training.py, benchmarks/studies/e5_ur10/README.md).
 TRAIN_STEPS = 10000
 TRAIN_LR_FINAL = 1e-5
 #: Every FIGURE_STRIDE-th row of the trajectories is kept in the result for the figure.

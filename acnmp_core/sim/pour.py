@@ -42,7 +42,7 @@ Simulation
 Behaviour worth knowing
 -----------------------
 Poured mass comes in whole marbles (25 g). Near 90 deg granular flow is partly chaotic: a small
-change of a held tilt can change the pour by a marble or more (docs/studies/e6_pour.md, "The rig's
+change of a held tilt can change the pour by a marble or more (benchmarks/studies/e6_pour/README.md, "The rig's
 sensitivity", measures it). Past ~120 deg the outcome is stable; at 1400 g, tilting 150 deg or
 more pours all 53 marbles (1325 g). A swing much faster than the expert's throws marbles past the receiving cup.
 """
@@ -73,7 +73,7 @@ class CupGeometry:
     wall : thickness of the base and the walls.
     flare : how far the pour-side wall leans outwards from vertical (deg): with the cup on its side
         that wall is the floor, and the flare makes it slope down to the mouth; the steeper that
-        floor, the steadier a pour near 90 deg (docs/studies/e6_pour.md).
+        floor, the steadier a pour near 90 deg (benchmarks/studies/e6_pour/README.md).
     lip : how far the pour-side lip reaches inwards from the wall: the dam's height at 90 deg.
     lip_angle : the lip's slope (deg), rising inwards towards the mouth, so that past about
         180 - lip_angle deg it is a chute towards the mouth rather than a ledge.
@@ -138,7 +138,7 @@ class MarbleSpec:
     bouncing out of the receiving cup, a small rolling friction lets them come to rest.
     ``linear_damping`` and ``angular_damping`` (PyBullet's, the fraction of velocity lost per second)
     are left at PyBullet's own when None; setting them, even to PyBullet's nominal 0.04, changes the
-    pour (``benchmarks/studies/pour_sensitivity.py`` tries damped variants).
+    pour (``benchmarks/studies/e6_pour/pour_sensitivity.py`` tries damped variants).
     """
 
     radius: float = 0.0135

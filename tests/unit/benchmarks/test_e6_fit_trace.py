@@ -1,4 +1,4 @@
-"""benchmarks/studies/e6_fit_trace.py: tracing the policy updates leaves the adaptation exactly as it was,
+"""benchmarks/studies/e6_pour/e6_fit_trace.py: tracing the policy updates leaves the adaptation exactly as it was,
 and the trace says what each update did (one entry per update, its reuse steps and why it stopped)."""
 import copy
 
@@ -9,7 +9,7 @@ from acnmp_core.adapt import adaptation
 from acnmp_core.adapt.adaptation import adapt
 from acnmp_core.adapt.config import AdaptConfig
 from acnmp_core.experiments.viapoint import make_setup
-from benchmarks.studies.e6_fit_trace import traced_update
+from benchmarks.studies.e6_pour.e6_fit_trace import traced_update
 
 
 @pytest.fixture(scope="module")
