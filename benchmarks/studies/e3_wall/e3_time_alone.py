@@ -21,7 +21,7 @@ ROOT = Path(__file__).resolve().parents[3]
 sys.path.insert(0, str(ROOT))
 
 from benchmarks._results import provenance, save_result  # noqa: E402
-from benchmarks.report_blocks import e3_seed_runs  # noqa: E402
+from benchmarks.blocks.e3 import e3_seed_runs  # noqa: E402
 
 #: the summary entries that are times, not results
 TIME_KEYS = ("time_s",)
