@@ -1,6 +1,7 @@
 """Writing a benchmark's result: JSON with its provenance, the figure beside it, a short summary."""
 from __future__ import annotations
 
+import argparse
 import json
 import sys
 from pathlib import Path
@@ -11,7 +12,18 @@ sys.path.insert(0, str(ROOT))
 
 from clients.provenance import provenance  # noqa: E402
 
-__all__ = ["ROOT", "provenance", "save_result"]
+__all__ = ["ROOT", "benchmark_args", "provenance", "save_result"]
+
+
+def benchmark_args(doc: str, name: str, argv: list[str] | None, **ints: int) -> argparse.Namespace:
+    """The parsed arguments of a benchmark's main: ``--<option> N`` for each keyword of ``ints``
+    (``train_steps=400`` is ``--train-steps``, default 400) and ``--out`` (default
+    ``benchmarks/results/<name>.json``); the usage's description is ``doc``'s first line."""
+    ap = argparse.ArgumentParser(description=doc.splitlines()[0])
+    for option, default in ints.items():
+        ap.add_argument("--" + option.replace("_", "-"), type=int, default=default)
+    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / f"{name}.json"))
+    return ap.parse_args(argv)
 
 
 def save_result(result: dict, out: str | Path, plot: Callable[[dict, Path], object] | None = None,

@@ -413,10 +413,9 @@ def plot_pour(result: dict, path) -> "object":
     the paper's Table 2 (right), with the tolerance; returns the written path."""
     from pathlib import Path
 
-    import matplotlib
+    from .figures import pyplot, save_figure
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -438,7 +437,4 @@ def plot_pour(result: dict, path) -> "object":
     ax.set_title(f"E6 pour {result['test']['target_g']:.0f} g from {result['test']['weight_g']:.0f} g "
                  f"({seeds} seed{'s' if seeds > 1 else ''}; dots: every roll-out)")
     ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path)

@@ -147,10 +147,9 @@ def plot_pusher(result: dict, path) -> "object":
     its budget). Returns the path."""
     from pathlib import Path
 
-    import matplotlib
+    from .figures import pyplot, save_figure
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -174,7 +173,4 @@ def plot_pusher(result: dict, path) -> "object":
     ax2.set_yscale("log")
     ax2.legend(fontsize=8)
     fig.suptitle(f"Pusher-v5, extrapolated positions, {result['seeds']} seed(s)")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path)

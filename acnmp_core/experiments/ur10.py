@@ -282,10 +282,9 @@ def plot_ur10(result: dict, path) -> "object":
     (green), one row of six panels per case, for the result's first seed. Returns the path."""
     from pathlib import Path
 
-    import matplotlib
+    from .figures import pyplot, save_figure
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -310,7 +309,4 @@ def plot_ur10(result: dict, path) -> "object":
                 ax.set_ylabel("angle (deg)")
                 ax.legend(fontsize=6)
     fig.suptitle(f"E5 UR10 pick and place (seed {fig_data['seed']}; errors: median over {result['seeds']} seeds)")
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=100)

@@ -8,7 +8,6 @@ evaluation) the cumulative seconds and their share of the run. Usage::
 """
 from __future__ import annotations
 
-import argparse
 import cProfile
 import pstats
 import sys
@@ -20,7 +19,7 @@ import torch
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
-from benchmarks._results import provenance, save_result  # noqa: E402
+from benchmarks._results import benchmark_args, provenance, save_result  # noqa: E402
 
 #: stage -> (module file suffix, function name) whose cumulative time is the stage's.
 STAGES = {
@@ -36,11 +35,7 @@ STAGES = {
 def main(argv: list[str] | None = None) -> int:
     from acnmp_core.experiments.wall import run_wall
 
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--envs", type=int, default=40)
-    ap.add_argument("--test", type=int, default=1000)
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "e3_profile.json"))
-    args = ap.parse_args(argv)
+    args = benchmark_args(__doc__, "e3_profile", argv, envs=40, test=1000)
     torch.set_num_threads(1)
     meta = provenance()
     prof = cProfile.Profile()

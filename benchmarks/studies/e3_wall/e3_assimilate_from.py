@@ -7,7 +7,6 @@ two processes side by side; the result is written to
 """
 from __future__ import annotations
 
-import argparse
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
@@ -20,7 +19,7 @@ sys.path.insert(0, str(ROOT))
 
 from acnmp_core.adapt.assimilation import ASSIMILATE_FROM  # noqa: E402
 from acnmp_core.experiments.wall import run_wall  # noqa: E402
-from benchmarks._results import provenance, save_result  # noqa: E402
+from benchmarks._results import benchmark_args, provenance, save_result  # noqa: E402
 
 
 def _one(envs: int, seed: int, eval_every: int, assimilate_from: str) -> dict:
@@ -33,12 +32,7 @@ def _one(envs: int, seed: int, eval_every: int, assimilate_from: str) -> dict:
 
 def main(argv: list[str] | None = None) -> int:
     """Run both variants and write the JSON."""
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--envs", type=int, default=300)
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--eval-every", type=int, default=60)
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "e3_assimilate_from.json"))
-    args = ap.parse_args(argv)
+    args = benchmark_args(__doc__, "e3_assimilate_from", argv, envs=300, seed=0, eval_every=60)
     meta = provenance()
     t0 = time.perf_counter()
     with ProcessPoolExecutor(max_workers=len(ASSIMILATE_FROM)) as pool:

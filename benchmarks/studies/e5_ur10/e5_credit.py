@@ -10,7 +10,6 @@ benchmarks/results/e5_credit.json with its provenance. Usage:
 """
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
@@ -21,16 +20,12 @@ sys.path.insert(0, str(ROOT))
 
 from acnmp_core.experiments.ur10 import run_ur10  # noqa: E402
 from acnmp_core.tasks.ur10_pick_place.task import UR10PickPlaceTask  # noqa: E402
-from benchmarks._results import provenance, save_result  # noqa: E402
+from benchmarks._results import benchmark_args, provenance, save_result  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> int:
     """Run E5's adaptation with "step" and with "future" credit; print one line per run."""
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--seeds", type=int, default=1)
-    ap.add_argument("--train-steps", type=int, default=400)
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "e5_credit.json"))
-    args = ap.parse_args(argv)
+    args = benchmark_args(__doc__, "e5_credit", argv, seeds=1, train_steps=400)
     torch.set_num_threads(1)
     result = {"provenance": provenance(), "benchmark": "e5_credit", "train_steps": args.train_steps, "credits": {}}
     for credit in ("step", "future"):
