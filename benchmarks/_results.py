@@ -15,13 +15,15 @@ from clients.provenance import provenance  # noqa: E402
 __all__ = ["ROOT", "benchmark_args", "provenance", "save_result"]
 
 
-def benchmark_args(doc: str, name: str, argv: list[str] | None, **ints: int) -> argparse.Namespace:
-    """The parsed arguments of a benchmark's main: ``--<option> N`` for each keyword of ``ints``
-    (``train_steps=400`` is ``--train-steps``, default 400) and ``--out`` (default
-    ``benchmarks/results/<name>.json``); the usage's description is ``doc``'s first line."""
+def benchmark_args(doc: str, name: str, argv: list[str] | None, **options) -> argparse.Namespace:
+    """The parsed arguments of a benchmark's main: ``--<option>`` for each keyword of ``options``
+    (``train_steps=400`` is ``--train-steps``, an int defaulting to 400; ``noise=(0.01, "its help")``
+    a float with a help line) and ``--out`` (default ``benchmarks/results/<name>.json``); the usage's
+    description is ``doc``'s first line."""
     ap = argparse.ArgumentParser(description=doc.splitlines()[0])
-    for option, default in ints.items():
-        ap.add_argument("--" + option.replace("_", "-"), type=int, default=default)
+    for option, value in options.items():
+        default, help_text = value if isinstance(value, tuple) else (value, None)
+        ap.add_argument("--" + option.replace("_", "-"), type=type(default), default=default, help=help_text)
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / f"{name}.json"))
     return ap.parse_args(argv)
 

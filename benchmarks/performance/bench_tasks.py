@@ -12,7 +12,6 @@
 """
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import platform
@@ -27,6 +26,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 from acnmp_core.robots.registry import robot  # noqa: E402
 from acnmp_core.tasks.wall import task as W  # noqa: E402
 from acnmp_core.tasks.push.demos import push_demos  # noqa: E402
+from benchmarks._results import benchmark_args  # noqa: E402
 from clients.experiments.common import write_json  # noqa: E402
 
 
@@ -70,10 +70,7 @@ def e1_adaptation(budget: int = 30, train_steps: int = 1000) -> dict:
 
 def main(argv: list[str] | None = None) -> int:
     """Run the measurements, print them, write JSON; returns 0."""
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--repeats", type=int, default=5, help="roll-outs timed per arm (default: %(default)s)")
-    p.add_argument("--out", default="benchmarks/results/bench_tasks.json")
-    args = p.parse_args(argv)
+    args = benchmark_args(__doc__, "bench_tasks", argv, repeats=(5, "roll-outs timed per arm (default: %(default)s)"))
     import torch
 
     torch.set_num_threads(1)
