@@ -29,9 +29,10 @@ def benchmark_args(doc: str, name: str, argv: list[str] | None, **options) -> ar
 
 
 def save_result(result: dict, out: str | Path, plot: Callable[[dict, Path], object] | None = None,
-                headline: tuple[str, ...] = ()) -> None:
+                headline: tuple[str, ...] = ()) -> int:
     """Write ``result`` to ``out`` (JSON; it should carry ``provenance`` from the start of the run),
-    its figure to ``out`` with a .png suffix via ``plot``, and print the keys ``headline``."""
+    its figure to ``out`` with a .png suffix via ``plot``, and print the keys ``headline``; returns 0,
+    the exit code of a benchmark's main that ends here."""
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(result, indent=2) + "\n")
@@ -39,3 +40,4 @@ def save_result(result: dict, out: str | Path, plot: Callable[[dict, Path], obje
         plot(result, out.with_suffix(".png"))
     print(json.dumps({k: result[k] for k in headline if k in result}, indent=1))
     print(f"wrote {out}" + (f" and {out.with_suffix('.png')}" if plot is not None else ""))
+    return 0

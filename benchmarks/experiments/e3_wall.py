@@ -50,8 +50,7 @@ def main(argv: list[str] | None = None) -> int:
                                                assimilate_from=args.assimilate_from,
                                                snap_outputs=args.snap_paths != "none",
                                                snap_rollouts=args.snap_paths == "all", log=lambda s: print(s, flush=True))}
-    save_result(result, args.out, plot_wall, ("methods", "trajectory_ratio_promp_over_acnmp", "wall_time_s"))
-    return 0
+    return save_result(result, args.out, plot_wall, ("methods", "trajectory_ratio_promp_over_acnmp", "wall_time_s"))
 
 
 if __name__ == "__main__":

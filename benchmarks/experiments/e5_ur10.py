@@ -47,8 +47,7 @@ def main(argv: list[str] | None = None) -> int:
     meta = provenance()
     result = {"provenance": meta, **run_ur10(args.seeds, log=lambda s: print(s, flush=True)),
               "rollout": rollout_seconds()}
-    save_result(result, args.out, plot_ur10, ("cases", "rollout", "wall_time_s"))
-    return 0
+    return save_result(result, args.out, plot_ur10, ("cases", "rollout", "wall_time_s"))
 
 
 if __name__ == "__main__":

@@ -29,9 +29,8 @@ def main(argv: list[str] | None = None) -> int:
     meta = provenance()
     result = {"provenance": meta, **run_pour(args.seeds, jobs=args.jobs,
                                              log=lambda s: print(s, flush=True))}
-    save_result(result, args.out, plot_pour,
+    return save_result(result, args.out, plot_pour,
                 ("lfd_only", "assimilation", "rollout_cpu_s_median", "wall_time_s"))
-    return 0
 
 
 if __name__ == "__main__":

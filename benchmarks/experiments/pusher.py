@@ -25,8 +25,7 @@ def main(argv: list[str] | None = None) -> int:
     torch.set_num_threads(1)
     meta = provenance()
     result = {"provenance": meta, **run_pusher(args.seeds, log=lambda s: print(s, flush=True))}
-    save_result(result, args.out, plot_pusher, ("methods", "rollout_ratio_promp_over_acnmp", "wall_time_s"))
-    return 0
+    return save_result(result, args.out, plot_pusher, ("methods", "rollout_ratio_promp_over_acnmp", "wall_time_s"))
 
 
 if __name__ == "__main__":

@@ -127,8 +127,7 @@ def main() -> int:
                           for row in result["devices"][1:]}
     if not result["over_cpu"]:
         result["note"] = "only the CPU here: the CUDA rows appear on a machine with a CUDA device"
-    save_result(result, args.out, headline=("devices", "over_cpu"))
-    return 0
+    return save_result(result, args.out, headline=("devices", "over_cpu"))
 
 
 if __name__ == "__main__":

@@ -100,8 +100,7 @@ def main(argv: list[str] | None = None) -> int:
         "workers_2_over_1": round(rates["2"] / rates["1"], 3),
         "wall_time_s": round(time.perf_counter() - t0, 2),
     }
-    save_result(result, args.out, None, ("raw_env_ms", "adapter_ms", "vector_2_ms", "workers_rollouts_per_s"))
-    return 0
+    return save_result(result, args.out, None, ("raw_env_ms", "adapter_ms", "vector_2_ms", "workers_rollouts_per_s"))
 
 
 if __name__ == "__main__":

@@ -120,8 +120,7 @@ def main() -> int:
                           f"{result['secure']['info']['p50_ms']:.2f} ms secure "
                           f"({result['ratio_secure_over_mesh']['info']:.2f}x); predict "
                           f"{result['ratio_secure_over_mesh']['predict']:.2f}x")
-    save_result(result, args.out)
-    return 0
+    return save_result(result, args.out)
 
 
 if __name__ == "__main__":

@@ -201,8 +201,7 @@ def main(argv: list[str] | None = None) -> int:
             ap.error("--measured needs --before")
         result = json.loads(Path(args.measured).read_text())
         _add_ratios(result, args.before)
-        save_result(result, args.out, headline=("load_average_start_end", "ratios_before_over_after"))
-        return 0
+        return save_result(result, args.out, headline=("load_average_start_end", "ratios_before_over_after"))
     torch.set_num_threads(1)
     meta = provenance()
     load0 = os.getloadavg()
@@ -219,8 +218,7 @@ def main(argv: list[str] | None = None) -> int:
               "note": "cpu = process CPU time with 1 torch thread; wall includes waiting for the shared cores"}
     if args.before:
         _add_ratios(result, args.before)
-    save_result(result, args.out, headline=("load_average_start_end", "ratios_before_over_after"))
-    return 0
+    return save_result(result, args.out, headline=("load_average_start_end", "ratios_before_over_after"))
 
 
 if __name__ == "__main__":

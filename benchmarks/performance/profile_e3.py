@@ -55,8 +55,7 @@ def main(argv: list[str] | None = None) -> int:
               "adaptations": s["adaptations"], "trajectories_total": s["trajectories_total"],
               "wall_time_s": round(wall, 2), "stages": stages,
               "note": "cProfile adds overhead to every Python call; shares are the useful part"}
-    save_result(result, args.out, headline=("wall_time_s", "stages"))
-    return 0
+    return save_result(result, args.out, headline=("wall_time_s", "stages"))
 
 
 if __name__ == "__main__":

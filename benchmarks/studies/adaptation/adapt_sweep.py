@@ -145,8 +145,7 @@ def main(argv: list[str] | None = None) -> int:
             results[name][exp] = {**out, "time_s": secs}
             print(name, exp, json.dumps({k: v for k, v in out.items() if k != "rollouts"}), f"{secs:.0f} s", flush=True)
             save_result(result(done), args.out)
-    save_result(result(len(tasks)), args.out, headline=("wall_time_s",))
-    return 0
+    return save_result(result(len(tasks)), args.out, headline=("wall_time_s",))
 
 
 if __name__ == "__main__":

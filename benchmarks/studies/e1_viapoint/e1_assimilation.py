@@ -101,8 +101,7 @@ def main(argv: list[str] | None = None) -> int:
     result = {"provenance": meta, "benchmark": "e1_assimilation", "seeds": seeds,
               "candidates": CANDIDATES, "summary": summarise(rows), "runs": rows,
               "wall_time_s": round(time.perf_counter() - t0, 1)}
-    save_result(result, args.out, None, ("summary", "wall_time_s"))
-    return 0
+    return save_result(result, args.out, None, ("summary", "wall_time_s"))
 
 
 if __name__ == "__main__":

@@ -45,8 +45,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{v:<8} test success {100 * s['test_success_rate']:.1f} %  error {s['test_error_mean']:.3f}  "
               f"goal error {s['test_goal_error_mean']:.3f}  trajectories {s['trajectories_total']}  "
               f"adaptations {s['adaptations']}  {r['wall_time_s']:.0f} s")
-    save_result(result, args.out)
-    return 0
+    return save_result(result, args.out)
 
 
 if __name__ == "__main__":

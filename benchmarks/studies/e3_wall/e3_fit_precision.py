@@ -63,9 +63,8 @@ def main(argv: list[str] | None = None) -> int:
                          "lr_final": cfg.lr_final, "targets_include_obs": cfg.targets_include_obs, **scores,
                          "demonstrated": fit, "time_s": round(train_time, 2)})
             print(runs[-1], flush=True)
-    save_result({"provenance": meta, "experiment": "e3_fit_precision", "seed": args.seed, "runs": runs,
+    return save_result({"provenance": meta, "experiment": "e3_fit_precision", "seed": args.seed, "runs": runs,
                  "wall_time_s": round(time.perf_counter() - t0, 2)}, args.out)
-    return 0
 
 
 if __name__ == "__main__":

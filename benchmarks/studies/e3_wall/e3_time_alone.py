@@ -75,8 +75,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"seed {seed}: ACNMP {s['acnmp_time_s']:.0f} s alone, "
               f"{s['acnmp_time_s_ten_seed_table']:.0f} s in the ten-seed table; {s['adaptations']} adaptations "
               f"({s['adaptations_failed']} failed); same results: {s['same_results_as_ten_seed_table']}")
-    save_result(result, args.out, None, ("acnmp_time_s_median", "acnmp_time_s_max", "seeds_within_120_s"))
-    return 0
+    return save_result(result, args.out, None, ("acnmp_time_s_median", "acnmp_time_s_max", "seeds_within_120_s"))
 
 
 if __name__ == "__main__":

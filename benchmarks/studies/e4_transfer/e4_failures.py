@@ -182,8 +182,7 @@ def main(argv: list[str] | None = None) -> int:
                                     "label": r["label"], "best_mean_error": r["best_mean_error"], "first_touch": r["first_touch"],
                                     "first_mean_touch": r["first_mean_touch"], "blind": r["blind"]} for r in late],
               "runs": runs}
-    save_result(result, args.out, None, ("labels", "summary", "late_or_unsolved"))
-    return 0
+    return save_result(result, args.out, None, ("labels", "summary", "late_or_unsolved"))
 
 
 if __name__ == "__main__":

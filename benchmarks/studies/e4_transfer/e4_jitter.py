@@ -63,8 +63,7 @@ def main(argv: list[str] | None = None) -> int:
                             "median": float(np.median(low)) if len(low) else None},
               "touched": {"iterations": int(len(high)), "min": float(high.min()) if len(high) else None,
                           "median": float(np.median(high)) if len(high) else None}}
-    save_result(result, args.out, None, ("untouched", "touched"))
-    return 0
+    return save_result(result, args.out, None, ("untouched", "touched"))
 
 
 if __name__ == "__main__":

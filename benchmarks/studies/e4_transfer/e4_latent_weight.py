@@ -57,8 +57,7 @@ def main(argv: list[str] | None = None) -> int:
             print(row, flush=True)
     result = {"provenance": meta, "experiment": "transfer_latent_weight", "config": base.pair.to_dict(),
               "weights": rows}
-    save_result(result, args.out, None, ("weights",))
-    return 0
+    return save_result(result, args.out, None, ("weights",))
 
 
 if __name__ == "__main__":

@@ -40,8 +40,7 @@ def main(argv: list[str] | None = None) -> int:
                       "final_error_m": x["acnmp"]["error_m"], "success": x["acnmp"]["success"],
                       "rollouts": x["acnmp"]["rollouts"], "curve": x["acnmp"]["curve"]} for x in r["runs"]],
         }
-    save_result(result, args.out, None, ("credits",))
-    return 0
+    return save_result(result, args.out, None, ("credits",))
 
 
 if __name__ == "__main__":

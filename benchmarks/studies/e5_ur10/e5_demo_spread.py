@@ -63,8 +63,7 @@ def main(argv: list[str] | None = None) -> int:
                    "lfd_source": str(Path(args.lfd).relative_to(ROOT)) if Path(args.lfd).is_relative_to(ROOT)
                    else args.lfd, "note": "commanded trajectories of the scripted expert; LfD-only errors are "
                    "of executed trajectories (e5_ur10.json medians)"})
-    save_result(result, args.out, None, ("cases",))
-    return 0
+    return save_result(result, args.out, None, ("cases",))
 
 
 if __name__ == "__main__":

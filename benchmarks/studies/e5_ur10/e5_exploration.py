@@ -106,8 +106,7 @@ def main(argv: list[str] | None = None) -> int:
                                  "cases": {c: counts(runs, c) for c in cases}}
         print_variant(name, out["variants"][name]["cases"])
     out["wall_time_s"] = round(time.perf_counter() - t0, 2)
-    save_result(out, args.out)
-    return 0
+    return save_result(out, args.out)
 
 
 if __name__ == "__main__":

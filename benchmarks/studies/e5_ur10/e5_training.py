@@ -101,8 +101,7 @@ def main(argv: list[str] | None = None) -> int:
                                     "wall_time_s": r["wall_time_s"], "cases": counts(r)}
         print_variant(name, result["variants"][name]["cases"])
     result["wall_time_s"] = round(time.perf_counter() - t0, 2)
-    save_result(result, args.out)
-    return 0
+    return save_result(result, args.out)
 
 
 if __name__ == "__main__":

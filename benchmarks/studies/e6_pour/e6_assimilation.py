@@ -128,11 +128,10 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{name:<16} all within 50 g {s['all_within_50g']}/{s['seeds']}  no fewer within 30 g "
               f"{s['no_fewer_within_30g']}/{s['seeds']}  test without RL {s['test_within_30g_no_rl']}/{s['seeds']}  "
               f"median within 30 g {s['demos_within_30g_median']}")
-    save_result({"provenance": meta, "experiment": "e6_assimilation", "seeds": len(seeds), "seed_list": seeds,
+    return save_result({"provenance": meta, "experiment": "e6_assimilation", "seeds": len(seeds), "seed_list": seeds,
                  "noise": noise,
                  "candidates": {n: {"start": CANDIDATES[n][0], "config": vars(CANDIDATES[n][1])} for n in names},
                  "summary": summary, "runs": runs, "wall_time_s": round(time.perf_counter() - t0, 1)}, args.out)
-    return 0
 
 
 if __name__ == "__main__":

@@ -100,9 +100,8 @@ def main(argv: list[str] | None = None) -> int:
                       f"{t['worst_step_index'][-1:]}, {t['stopped_by']}", flush=True)
             seeds[seed] = {"first_success_rollout": r["first_success_rollout"], "curve": r["curve"],
                            "updates": trace}
-    save_result({"provenance": meta, "benchmark": "e6_fit_trace", "candidate": args.candidate,
+    return save_result({"provenance": meta, "benchmark": "e6_fit_trace", "candidate": args.candidate,
                  "config": cfg.to_dict(), "seeds": seeds}, args.out, None, ())
-    return 0
 
 
 if __name__ == "__main__":

@@ -150,8 +150,7 @@ def main(argv: list[str] | None = None) -> int:
               # the seeds the first candidate (the baseline, "F") does not solve within 20 roll-outs
               "baseline_not_within_20": [s for s, f in zip(seeds, first[names[0]]) if f is None or f > WITHIN],
               "wall_time_s": round(time.perf_counter() - t0, 1), "runs": runs}
-    save_result(result, args.out, None, ("within_20", "first_success_rollout", "wall_time_s"))
-    return 0
+    return save_result(result, args.out, None, ("within_20", "first_success_rollout", "wall_time_s"))
 
 
 if __name__ == "__main__":

@@ -268,8 +268,7 @@ def main(argv=None) -> int:
     result["summary"] = {k: {m: v[m] for m in ("within_30g_per_seed", "within_30g_median", "seeds_16_of_16",
                                                  "held_tilt_error_deg_median")} for k, v in result["sets"].items()}
     result["wall_time_s"] = round(time.perf_counter() - t0, 1)
-    save_result(result, args.out, None, ("summary", "wall_time_s"))
-    return 0
+    return save_result(result, args.out, None, ("summary", "wall_time_s"))
 
 
 if __name__ == "__main__":

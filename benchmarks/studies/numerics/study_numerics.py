@@ -81,8 +81,7 @@ def main(argv: list[str] | None = None) -> int:
     result["identical_across_cpus"] = {m: len(set(c.values())) == 1 for m, c in result["canary"].items() if len(c) > 1}
     result["headline"] = {"identical_across_cpus": result["identical_across_cpus"],
                           "e3_time_ratio_to_default": result["e3_time_ratio_to_default"]}
-    save_result(result, args.out)
-    return 0
+    return save_result(result, args.out)
 
 
 if __name__ == "__main__":

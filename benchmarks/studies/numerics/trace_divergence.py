@@ -95,8 +95,7 @@ def main(argv: list[str] | None = None) -> int:
               "left_out": {"ops": len(unstable), "why": "output differs between two native runs, or op in MEMORY_OPS",
                            "memory_ops": list(MEMORY_OPS)},
               "differing_ops": sum(x["sha"] != y["sha"] for x, y in zip(a, b) if x["i"] not in unstable)}
-    save_result(result, args.out, headline=("ops", "first_difference", "differing_ops"))
-    return 0
+    return save_result(result, args.out, headline=("ops", "first_difference", "differing_ops"))
 
 
 if __name__ == "__main__":

@@ -61,9 +61,8 @@ def main() -> int:
         "feasibility_map_final_m": {"key": "object x, object y, push angle deg", "values": grid},
     }
     ev.close()
-    save_result(result, ROOT / "benchmarks" / "results" / "study_pusher_expert.json", None,
+    return save_result(result, ROOT / "benchmarks" / "results" / "study_pusher_expert.json", None,
                 ("expert_training_region", "expert_extrapolation_region", "nearest_demonstration_at_extrapolation"))
-    return 0
 
 
 if __name__ == "__main__":
