@@ -101,7 +101,7 @@ def canary_runs() -> dict[str, Any]:
     """Short versions of the pinned runs (seed 0): E1 (60 training steps, budget 10) and E2
     extrapolation (60 steps, budgets 10 and 20). Returns their JSON-ready results with floats in
     exact hex form (about 8 s of work)."""
-    from acnmp_core.adapt.config import AdaptConfig
+    from acnmp_core.adaptation.config import AdaptConfig
     from acnmp_core.baselines.promp_rl import PrompRLConfig
     from acnmp_core.experiments.push import run_push
     from acnmp_core.experiments.viapoint import run_viapoint

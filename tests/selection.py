@@ -20,7 +20,7 @@ import re
 #: the time of tests/unit, and every user of the session's trained E1 model (``e1_model``, whose
 #: training the first of them pays).
 HEAVY: tuple[str, ...] = tuple(f"tests/unit/{name}" for name in (
-    "adapt/test_adaptation.py",
+    "adaptation/test_loop.py",
     "benchmarks/test_merge_inputs.py",
     "model/test_cnmp.py",
     "benchmarks/test_e6_fit_trace.py",
@@ -36,7 +36,7 @@ HEAVY: tuple[str, ...] = tuple(f"tests/unit/{name}" for name in (
     "clients/commands/test_reproduce.py::test_reproduce_quick_e1_writes_the_report_and_resumes",
     "robots/test_plugins.py::test_the_command_line_says_one_line_for_a_broken_plugin",
     "services/recording/test_event_ids.py",
-    "adapt/test_assimilation.py::test_wall_run_counts_executed_snaps",
+    "adaptation/test_assimilation.py::test_wall_run_counts_executed_snaps",
     "test_threads.py::test_training_uses_one_thread",
     "model/test_training_checkpoint.py",
     "transfer/test_pair.py",

@@ -16,7 +16,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from ..adapt.config import AdaptConfig
+from ..adaptation.config import AdaptConfig
 from ..data.demo_io import DemoArrays
 from ..errors import InputError
 from ..model.cnmp import CNMP, CNMPConfig

@@ -7,13 +7,13 @@ wrist angle, rad), conditioned on the task parameters (initial weight g, target 
 upright start at t = 0. At the test (:data:`TEST`: 1400 g, pour 1322 g, outside the demonstrations):
 
 * **LfD only**: the conditioned mean is executed once.
-* **ACNMP**: :func:`~acnmp_core.adapt.adaptation.adapt` with E6's settings (:func:`e6_adapt_config`: the
+* **ACNMP**: :func:`~acnmp_core.adaptation.loop.adapt` with E6's settings (:func:`e6_adapt_config`: the
   project's defaults except the exploration, the policy rate and its steps per update) and a budget of :data:`BUDGET`
   roll-outs. The only reward is minus the final error (g), so
   :class:`~acnmp_core.tasks.pour.task.PourTask` credits every action with the rewards after it
   (``credit = "future"``).
 * **Assimilation**: a successful solution joins the demonstrations
-  (:func:`~acnmp_core.adapt.assimilation.assimilate`, anchored on the test's conditions); then the model
+  (:func:`~acnmp_core.adaptation.assimilation.assimilate`, anchored on the test's conditions); then the model
   conditioned on the test pours without RL, and each demonstration is reproduced (conditioned on
   its own weight and poured amount, executed, error against that amount).
 
@@ -29,9 +29,9 @@ from typing import Callable
 
 import numpy as np
 
-from ..adapt.adaptation import adapt
-from ..adapt.assimilation import AssimilationConfig, assimilate, check_assimilate_from
-from ..adapt.config import AdaptConfig, AdaptTarget
+from ..adaptation.loop import adapt
+from ..adaptation.assimilation import AssimilationConfig, assimilate, check_assimilate_from
+from ..adaptation.config import AdaptConfig, AdaptTarget
 from ..data.demos import DemoSet, Demonstration
 from ..model.cnmp import CNMP, CNMPConfig
 from ..model.training import TrainConfig, train
@@ -90,7 +90,7 @@ def e6_adapt_config(max_rollouts: int = BUDGET) -> AdaptConfig:
         (their first roll-out within 30 g came at 5, 20, 15, 15 and 24 with "mean"); it changes
         nothing before the first success, so the tuning above is unaffected.
     noise "demos" (setting T: S exploring along the demonstrations' deviations from their mean,
-        :class:`~acnmp_core.adapt.exploration.DemoNoise`, each roll-out credited with its whole return):
+        :class:`~acnmp_core.adaptation.exploration.DemoNoise`, each roll-out credited with its whole return):
         within 20 roll-outs on the tuning seeds 100-115 in 15 of 16 (S: 12 of 16,
         ``e6_settings_demos.json``) and on the reported seeds in 4 of 5 (S: 2 of 5). Its solutions,
         assimilated into the adapted model as S's were, kept all 16 demonstrations within 50 g in no

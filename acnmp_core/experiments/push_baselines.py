@@ -24,7 +24,7 @@ import time
 from dataclasses import replace
 from typing import Callable
 
-from ..adapt.config import AdaptConfig
+from ..adaptation.config import AdaptConfig
 from ..baselines.promp_rl import PrompRLConfig
 from ..tasks.push.settings import PAPER, PushSetting
 from .push import (CASES, PROMP_DEFAULTS, _plain, _summarise, demo_effects, make_setup, make_task, record_run,

@@ -7,7 +7,7 @@ Per run (seed):
    latent alignment term (``TransferConfig.latent_weight``), one without it (weight 0); a few
    pair seeds (``pair_seeds``) are shared by the runs, each run adapting fresh copies.
 2. Three conditions run the same RL in robot B (the 4-DoF arm) on the cube-through-the-gap task
-   (:class:`~acnmp_core.tasks.transfer.scene.CubeGapTask`), with :func:`~acnmp_core.adapt.adaptation.adapt`
+   (:class:`~acnmp_core.tasks.transfer.scene.CubeGapTask`), with :func:`~acnmp_core.adaptation.loop.adapt`
    training robot B's decoder only (its supervised steps on B's proxy demonstrations):
 
    * ``transfer``: 11 points of robot A's demonstration of the new skill through A's encoder, B's
@@ -37,9 +37,9 @@ from typing import Callable
 
 import numpy as np
 
-from ..adapt.adaptation import adapt
-from ..adapt.config import AdaptConfig, AdaptTarget
-from ..adapt.credit import per_step_advantages
+from ..adaptation.loop import adapt
+from ..adaptation.config import AdaptConfig, AdaptTarget
+from ..adaptation.credit import per_step_advantages
 from ..data.demos import DemoSet
 from ..rollout import RolloutEvaluator
 from ..transfer.pair import TransferConfig, TransferPair, TransferredSkill, spread_observations, train_pair
@@ -69,7 +69,7 @@ def e4_adapt_config() -> AdaptConfig:
     30..59 100 % against 90 % after 19 iterations; benchmarks/studies/e4_transfer/README.md,
     benchmarks/results/e4_failures.json).
     noise "cubic", explore_scale 0.35 : the authors' E4 noise shape, 20 samples smoothed into one
-    cubic per joint (:class:`~acnmp_core.adapt.exploration.CubicNoise`), at about the std per step of
+    cubic per joint (:class:`~acnmp_core.adaptation.exploration.CubicNoise`), at about the std per step of
     E4's 20-knot noise before (0.15 x the demonstrations' std; the cubic keeps 0.42 of its
     samples' std per step on average): on fresh RL seeds 30..89 success after 3 / 7 / 11 / 19
     iterations 38 / 75 / 88 / 95 % against 35 / 58 / 77 / 95 % (issue 13, fourth round;

@@ -8,8 +8,8 @@ t = 0. At each test case (:data:`CASES`: the paper's (8, 10) and (9, 11) cm, and
 out, all outside the demonstrations):
 
 * **LfD only**: the conditioned mean is executed once.
-* **ACNMP**: :func:`~acnmp_core.adapt.adaptation.adapt` with the project's default
-  :class:`~acnmp_core.adapt.config.AdaptConfig` and a budget of :data:`BUDGET` roll-outs; its first
+* **ACNMP**: :func:`~acnmp_core.adaptation.loop.adapt` with the project's default
+  :class:`~acnmp_core.adaptation.config.AdaptConfig` and a budget of :data:`BUDGET` roll-outs; its first
   roll-out is the LfD one, so a case the LfD trajectory already solves costs one roll-out.
 
 Measures (the paper's Table 2, left): the mean absolute error (deg) per joint between the executed
@@ -33,8 +33,8 @@ from typing import Callable
 
 import numpy as np
 
-from ..adapt.adaptation import adapt
-from ..adapt.config import AdaptConfig, AdaptTarget
+from ..adaptation.loop import adapt
+from ..adaptation.config import AdaptConfig, AdaptTarget
 from ..data.demos import DemoSet
 from ..model.cnmp import CNMP, CNMPConfig
 from ..model.training import TrainConfig, train

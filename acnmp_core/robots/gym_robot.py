@@ -191,7 +191,7 @@ class GymRolloutEvaluator(ClosedAtExit):
 
     def __init__(self, config: GymRobotConfig, credit: str = "step"):
         self.config = config
-        #: how the rewards depend on the actions, for :func:`~acnmp_core.adapt.adaptation.adapt`
+        #: how the rewards depend on the actions, for :func:`~acnmp_core.adaptation.loop.adapt`
         self.credit = credit
         self._env = None
         self._vector = None

@@ -18,7 +18,7 @@ _CREDITS: dict[str, str] = {}
 def register_task(name: str, credit: str = "step"):
     """Decorator: register ``factory(params: dict) -> RolloutEvaluator`` under ``name``.
 
-    ``credit`` is the task's credit for :func:`~acnmp_core.adapt.adaptation.adapt` ("step" or "future",
+    ``credit`` is the task's credit for :func:`~acnmp_core.adaptation.loop.adapt` ("step" or "future",
     the ``credit`` attribute of the evaluators it builds), so an evaluator that only forwards
     roll-outs to where the task runs (a remote worker) can carry it too.
     """

@@ -18,7 +18,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
-from acnmp_core.adapt.assimilation import ASSIMILATE_FROM  # noqa: E402
+from acnmp_core.adaptation.assimilation import ASSIMILATE_FROM  # noqa: E402
 from acnmp_core.experiments.wall import TRAIN_DEFAULTS, run_wall  # noqa: E402
 from acnmp_core.experiments.plots import plot_wall  # noqa: E402
 from acnmp_core.threads import set_training_threads  # noqa: E402

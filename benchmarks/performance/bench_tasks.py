@@ -55,7 +55,7 @@ def wall_scoring_s(n: int = 1000, steps: int = 200) -> tuple[float, bool]:
 
 def e1_adaptation(budget: int = 30, train_steps: int = 1000) -> dict:
     """Seconds per iteration and per roll-out of E1's ACNMP adaptation (seed 0, in-process task)."""
-    from acnmp_core.adapt.adaptation import adapt
+    from acnmp_core.adaptation.loop import adapt
     from acnmp_core.experiments.viapoint import adapt_config, make_setup, train_lfd
 
     setup = make_setup()

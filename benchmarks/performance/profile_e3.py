@@ -24,10 +24,10 @@ from benchmarks._results import benchmark_args, provenance, save_result  # noqa:
 #: stage -> (module file suffix, function name) whose cumulative time is the stage's.
 STAGES = {
     "first_training": ("acnmp_core/model/training.py", "train"),
-    "adaptation": ("acnmp_core/adapt/adaptation.py", "adapt"),
-    "adaptation_supervised_steps": ("acnmp_core/adapt/adaptation.py", "sl"),
+    "adaptation": ("acnmp_core/adaptation/loop.py", "adapt"),
+    "adaptation_supervised_steps": ("acnmp_core/adaptation/loop.py", "sl"),
     "rollouts": ("acnmp_core/tasks/wall/task.py", "evaluate"),
-    "assimilation": ("acnmp_core/adapt/assimilation.py", "assimilate"),
+    "assimilation": ("acnmp_core/adaptation/assimilation.py", "assimilate"),
     "test_evaluation": ("acnmp_core/experiments/wall.py", "evaluate_test"),
 }
 

@@ -36,7 +36,7 @@ def run(args) -> int:
     """Run E2 as asked by ``args`` and print a summary table; returns the exit code."""
     import torch
 
-    from acnmp_core.adapt.config import AdaptConfig
+    from acnmp_core.adaptation.config import AdaptConfig
     from acnmp_core.baselines.promp_rl import PrompRLConfig
     from acnmp_core.experiments.push import ACNMP_BUDGET, PROMP_DEFAULTS, run_push, task_config
     from acnmp_core.tasks.push.settings import push_setting

@@ -20,7 +20,7 @@ def run(args) -> int:
     """Run E5 as asked by ``args`` and print a summary table; returns the exit code."""
     import torch
 
-    from acnmp_core.adapt.config import AdaptConfig
+    from acnmp_core.adaptation.config import AdaptConfig
     from acnmp_core.experiments.ur10 import BUDGET, CASES, TRAIN_STEPS, plot_ur10, run_ur10
 
     cases = tuple(CASES) if args.cases is None else tuple(c.strip() for c in args.cases.split(",") if c.strip())

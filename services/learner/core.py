@@ -2,7 +2,7 @@
 paired-skill jobs.
 
 :class:`LearnerCore` owns the durable state (services/learner/store.py) and runs one job at a time
-on a background thread: :func:`acnmp_core.adapt.adaptation.adapt` on a copy of the skill's model, with the
+on a background thread: :func:`acnmp_core.adaptation.loop.adapt` on a copy of the skill's model, with the
 evaluator its ``evaluator_for`` callable builds for the job (the service passes a
 :class:`~services.worker.remote.RemoteEvaluator` over the workers; a test may pass the in-process
 task). With ``commit`` a successful solution is assimilated: added to the demonstrations, the model
@@ -57,9 +57,9 @@ from typing import Callable
 import numpy as np
 import torch
 
-from acnmp_core.adapt.adaptation import adapt
-from acnmp_core.adapt.assimilation import AssimilationConfig, assimilate
-from acnmp_core.adapt.config import AdaptTarget, IterationLog
+from acnmp_core.adaptation.loop import adapt
+from acnmp_core.adaptation.assimilation import AssimilationConfig, assimilate
+from acnmp_core.adaptation.config import AdaptTarget, IterationLog
 from acnmp_core.data.demos import DemoSet, Demonstration
 from acnmp_core.jobs.adapt import AdaptJob
 from acnmp_core.jobs.transfer import PairJobResult, PairTrainJob

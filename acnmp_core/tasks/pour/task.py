@@ -39,7 +39,7 @@ class PourTask(ClosedAtExit):
 
     task_param_names = ("initial_weight_g", "target_g")
     #: The only reward comes at the end and every wrist motion before it shapes the pour: an action
-    #: is credited with the rewards after it (see :func:`acnmp_core.adapt.credit.per_step_advantages`).
+    #: is credited with the rewards after it (see :func:`acnmp_core.adaptation.credit.per_step_advantages`).
     credit = "future"
 
     def __init__(self, config: PourConfig | None = None, *, tolerance_g: float = 30.0, max_worlds: int = 2,

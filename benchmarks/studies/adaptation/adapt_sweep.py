@@ -58,8 +58,8 @@ SETTINGS: dict[str, tuple[str, dict]] = {
 def _e1(fields: dict, seeds: list[int]) -> dict:
     import torch
 
-    from acnmp_core.adapt.adaptation import adapt
-    from acnmp_core.adapt.config import AdaptConfig
+    from acnmp_core.adaptation.loop import adapt
+    from acnmp_core.adaptation.config import AdaptConfig
     from acnmp_core.experiments.viapoint import make_setup, train_lfd, trajectory_metrics
 
     torch.set_num_threads(1)
@@ -81,7 +81,7 @@ def _e1(fields: dict, seeds: list[int]) -> dict:
 def _e2(fields: dict, seeds: list[int]) -> dict:
     import torch
 
-    from acnmp_core.adapt.config import AdaptConfig
+    from acnmp_core.adaptation.config import AdaptConfig
     from acnmp_core.experiments.push import ACNMP_BUDGET, run_push
 
     torch.set_num_threads(1)
@@ -94,7 +94,7 @@ def _e2(fields: dict, seeds: list[int]) -> dict:
 def _e3(fields: dict, envs: int) -> dict:
     import torch
 
-    from acnmp_core.adapt.config import AdaptConfig
+    from acnmp_core.adaptation.config import AdaptConfig
     from acnmp_core.experiments.wall import ACNMP_BUDGET, run_wall
 
     torch.set_num_threads(1)
@@ -113,7 +113,7 @@ def _run(task: tuple[str, str, dict, list[int], int]) -> tuple[str, str, dict, f
 
 
 def main(argv: list[str] | None = None) -> int:
-    from acnmp_core.adapt.config import AdaptConfig
+    from acnmp_core.adaptation.config import AdaptConfig
     from benchmarks._results import provenance, save_result
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])

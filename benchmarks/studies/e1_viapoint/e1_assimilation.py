@@ -2,7 +2,7 @@
 
 For each seed: the E1 LfD model (3000 steps), ACNMP's adaptation to the extrapolated via-point
 (E1's settings, budget 100), then the solution assimilated from the same adapted network with each
-candidate :class:`~acnmp_core.adapt.assimilation.AssimilationConfig`. Per candidate and seed: the
+candidate :class:`~acnmp_core.adaptation.assimilation.AssimilationConfig`. Per candidate and seed: the
 conditioned skill's task error and success with no RL (issue 10: within tolerance in every seed),
 the old demonstrations' reproduction RMSE over the LfD model's (<= 1.2), and the solution's own
 reproduction RMSE (m). Seeds run in ``--jobs`` processes (each seed's numbers do not depend on it).
@@ -23,8 +23,8 @@ import torch
 ROOT = Path(__file__).resolve().parents[3]
 sys.path.insert(0, str(ROOT))
 
-from acnmp_core.adapt.adaptation import adapt  # noqa: E402
-from acnmp_core.adapt.assimilation import AssimilationConfig, assimilate  # noqa: E402
+from acnmp_core.adaptation.loop import adapt  # noqa: E402
+from acnmp_core.adaptation.assimilation import AssimilationConfig, assimilate  # noqa: E402
 from acnmp_core.data.demos import Demonstration  # noqa: E402
 from acnmp_core.experiments import viapoint as V  # noqa: E402
 from acnmp_core.model.training import reproduction_error  # noqa: E402

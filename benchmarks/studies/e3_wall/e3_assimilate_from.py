@@ -17,7 +17,7 @@ import torch
 ROOT = Path(__file__).resolve().parents[3]
 sys.path.insert(0, str(ROOT))
 
-from acnmp_core.adapt.assimilation import ASSIMILATE_FROM  # noqa: E402
+from acnmp_core.adaptation.assimilation import ASSIMILATE_FROM  # noqa: E402
 from acnmp_core.experiments.wall import run_wall  # noqa: E402
 from benchmarks._results import benchmark_args, provenance, save_result  # noqa: E402
 

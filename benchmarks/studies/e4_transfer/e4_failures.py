@@ -25,7 +25,7 @@ import torch
 ROOT = Path(__file__).resolve().parents[3]
 sys.path.insert(0, str(ROOT))
 
-from acnmp_core.adapt.credit import per_step_advantages  # noqa: E402
+from acnmp_core.adaptation.credit import per_step_advantages  # noqa: E402
 from acnmp_core.experiments.transfer import BLIND_TOLERANCE, CHECKPOINTS, make_setup, run_condition  # noqa: E402
 from acnmp_core.tasks.transfer.scene import CubeGapTask  # noqa: E402
 from benchmarks._results import provenance, save_result  # noqa: E402

@@ -2,7 +2,7 @@
 
 For a few RL seeds of the transfer condition with E4's settings before ``signal_tolerance`` (exact
 equality), record every iteration's largest difference between a roll-out's credited rewards and
-the mean roll-out's (the quantity ``acnmp_core.adapt.credit.per_step_advantages`` tests), and summarise: the
+the mean roll-out's (the quantity ``acnmp_core.adaptation.credit.per_step_advantages`` tests), and summarise: the
 differences below :data:`~acnmp_core.experiments.transfer.BLIND_TOLERANCE` (the cube untouched by
 every roll-out; it still moves by micrometres) against those above it (a touch). Writes
 benchmarks/results/e4_jitter.json. Usage: ``python benchmarks/studies/e4_transfer/e4_jitter.py [--seeds 30 35 39]

@@ -8,7 +8,7 @@ expert's; and the LfD model drifts, when extrapolated, on joints the demonstrati
 (shoulder pan, wrist 2, wrist 3), which no reward on the TCP corrects. The variants:
 
 * ``default``: E5 as published (no jitter, per-step noise);
-* ``demo_noise``: ``AdaptConfig(noise="demos")`` (:class:`~acnmp_core.adapt.exploration.DemoNoise`,
+* ``demo_noise``: ``AdaptConfig(noise="demos")`` (:class:`~acnmp_core.adaptation.exploration.DemoNoise`,
   episode credit);
 * ``jitter_X_demo_noise``: the LfD model trained with ``TrainConfig(task_param_jitter=X)``, then
   demonstration-shaped noise;
@@ -37,7 +37,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[3]
 sys.path.insert(0, str(ROOT))
 
-from acnmp_core.adapt.config import AdaptConfig  # noqa: E402
+from acnmp_core.adaptation.config import AdaptConfig  # noqa: E402
 from acnmp_core.experiments.ur10 import BUDGET, run_ur10  # noqa: E402
 from acnmp_core.threads import set_training_threads  # noqa: E402
 from benchmarks._results import provenance, save_result  # noqa: E402

@@ -27,7 +27,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[3]
 sys.path.insert(0, str(ROOT))
 
-from acnmp_core.adapt.assimilation import AssimilationConfig  # noqa: E402
+from acnmp_core.adaptation.assimilation import AssimilationConfig  # noqa: E402
 from benchmarks._results import provenance, save_result  # noqa: E402
 from benchmarks.studies.e6_pour.e6_settings import parse_seeds  # noqa: E402
 
@@ -47,8 +47,8 @@ def _seed(job: tuple[int, str, tuple[str, ...]]) -> dict:
     reproduction, the adaptation, then each named candidate's checks."""
     import torch
 
-    from acnmp_core.adapt.adaptation import adapt
-    from acnmp_core.adapt.assimilation import assimilate
+    from acnmp_core.adaptation.loop import adapt
+    from acnmp_core.adaptation.assimilation import assimilate
     from acnmp_core.data.demos import Demonstration
     from acnmp_core.experiments.pour import (TEST, TOLERANCE_G, e6_adapt_config, make_setup, make_target,
                                              mean_errors_g, train_pour_cnmp)

@@ -24,7 +24,7 @@ import torch
 ROOT = Path(__file__).resolve().parents[3]
 sys.path.insert(0, str(ROOT))
 
-from acnmp_core.adapt import adaptation  # noqa: E402
+from acnmp_core.adaptation import loop as adaptation  # noqa: E402
 from acnmp_core.experiments.pour import TOLERANCE_G, make_setup, run_seed, train_pour_cnmp  # noqa: E402
 from benchmarks._results import provenance, save_result  # noqa: E402
 from benchmarks.studies.e6_pour.e6_settings import candidate_config, parse_seeds  # noqa: E402

@@ -42,8 +42,8 @@ import torch
 ROOT = Path(__file__).resolve().parents[3]
 sys.path.insert(0, str(ROOT))
 
-from acnmp_core.adapt.config import AdaptConfig  # noqa: E402
-from acnmp_core.adapt.exploration import CubicNoise  # noqa: E402
+from acnmp_core.adaptation.config import AdaptConfig  # noqa: E402
+from acnmp_core.adaptation.exploration import CubicNoise  # noqa: E402
 from acnmp_core.experiments.pour import TOLERANCE_G, WITHIN, make_setup, run_seed, train_pour_cnmp  # noqa: E402
 from benchmarks._results import provenance, save_result  # noqa: E402
 

@@ -43,7 +43,7 @@ from acnmp_core.data.demos import DemoSet, Demonstration  # noqa: E402
 from acnmp_core.experiments.pour import (  # noqa: E402
     TOLERANCE_G, PourSetup, make_setup, make_target, mean_errors_g, train_pour_cnmp,
 )
-from acnmp_core.adapt.exploration import SmoothNoise  # noqa: E402
+from acnmp_core.adaptation.exploration import SmoothNoise  # noqa: E402
 from acnmp_core.sim.pour import PourConfig  # noqa: E402
 from acnmp_core.tasks.pour.task import PourTask  # noqa: E402
 from acnmp_core.tasks.pour.demos import (  # noqa: E402

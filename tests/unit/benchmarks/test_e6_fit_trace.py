@@ -5,9 +5,9 @@ import copy
 import numpy as np
 import pytest
 
-from acnmp_core.adapt import adaptation
-from acnmp_core.adapt.adaptation import adapt
-from acnmp_core.adapt.config import AdaptConfig
+from acnmp_core.adaptation import loop as adaptation
+from acnmp_core.adaptation.loop import adapt
+from acnmp_core.adaptation.config import AdaptConfig
 from acnmp_core.experiments.viapoint import make_setup
 from benchmarks.studies.e6_pour.e6_fit_trace import traced_update
 

@@ -78,7 +78,7 @@ def test_a_stop_interrupts_training_and_assimilation_at_their_next_step(tmp_path
 
     import pytest
 
-    from acnmp_core.adapt.assimilation import AssimilationConfig, assimilate
+    from acnmp_core.adaptation.assimilation import AssimilationConfig, assimilate
     from acnmp_core.model.cnmp import CNMP, CNMPConfig
     from acnmp_core.model.training import TrainConfig, train
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from acnmp_core.adapt.config import AdaptConfig
+from acnmp_core.adaptation.config import AdaptConfig
 from acnmp_core.experiments.viapoint import make_setup
 from acnmp_core.jobs.adapt import AdaptJob
 from services.learner.limits import LearnerLimits, check_job

@@ -54,7 +54,7 @@ def _core(path) -> LearnerCore:
 def baseline(tmp_path_factory):
     """A state directory with skills e1 (v0, v1), e2 (v0), paired p (v0, v1) and two job records: a
     done one that committed e1 v1 and a queued one. Returns (path, id of the done job)."""
-    from acnmp_core.adapt.config import AdaptConfig
+    from acnmp_core.adaptation.config import AdaptConfig
     from acnmp_core.experiments.viapoint import make_setup
     from acnmp_core.jobs.adapt import AdaptJob
 

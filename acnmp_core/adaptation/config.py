@@ -40,12 +40,12 @@ class AdaptConfig:
         mean roll-out's by no more than this at every step are the same: no signal, no policy step.
         The default 1e-12 is exact equality up to rounding.
     n_knots : knots of the time-correlated exploration noise (fewer: smoother).
-    noise : "rbf" (the default: :class:`~acnmp_core.adapt.exploration.SmoothNoise`, ``n_knots`` knots, the
+    noise : "rbf" (the default: :class:`~acnmp_core.adaptation.exploration.SmoothNoise`, ``n_knots`` knots, the
         std the same at every step) or "cubic" (the authors' E4 noise,
-        :class:`~acnmp_core.adapt.exploration.CubicNoise`: the least-squares cubic through ``n_knots``
+        :class:`~acnmp_core.adaptation.exploration.CubicNoise`: the least-squares cubic through ``n_knots``
         >= 4 samples of the std, about 0.42 x it per step on average) or "demos" (a random
         combination of the demonstrations' deviations from their mean,
-        :class:`~acnmp_core.adapt.exploration.DemoNoise`, its root mean square the std: the outputs move
+        :class:`~acnmp_core.adaptation.exploration.DemoNoise`, its root mean square the std: the outputs move
         together as a change of task parameters moves them; one draw perturbs the whole
         trajectory, so each step is credited with the roll-out's whole return, "episode" credit).
     advantage : "awr" or "reinforce" (the authors'); see the module docstring.

@@ -3,7 +3,7 @@
 This is the "A" of ACNMP (Akbulut et al., CoRL 2020, Sec. 3.2). The network's mean trajectory for
 one conditioning query is the mean of a Gaussian policy over trajectories with a hand-set
 exploration std. Each iteration executes the mean and ``noisy_per_iter`` noisy trajectories
-(time-correlated noise, :class:`~acnmp_core.adapt.exploration.SmoothNoise`) through a
+(time-correlated noise, :class:`~acnmp_core.adaptation.exploration.SmoothNoise`) through a
 :class:`~acnmp_core.rollout.RolloutEvaluator`, then updates the network:
 
 * **Credit**: each step's action is credited with the reward difference to the mean roll-out at
@@ -34,7 +34,7 @@ exploration std. Each iteration executes the mean and ``noisy_per_iter`` noisy t
   its own constants; a ratio needs none. ``explore_error_gain`` and ``explore_cap`` give the
   authors' absolute form instead, ``min(gain * err, cap)`` in raw units (their E4: 3 x error, at most
   0.08 rad); off by default. ``noise="cubic"`` draws the noise as the authors' E4 does (a few
-  samples smoothed into one cubic polynomial per output, :class:`~acnmp_core.adapt.exploration.CubicNoise`;
+  samples smoothed into one cubic polynomial per output, :class:`~acnmp_core.adaptation.exploration.CubicNoise`;
   off by default). An iteration whose roll-outs all returned the same rewards (no
   advantage, nothing to learn) takes no policy step; ``signal_tolerance`` says when rewards count
   as the same: a simulator's contact solver jitters an

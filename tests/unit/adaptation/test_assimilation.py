@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from acnmp_core.adapt.assimilation import snap_to_observations
-from acnmp_core.adapt.config import AdaptTarget
+from acnmp_core.adaptation.assimilation import snap_to_observations
+from acnmp_core.adaptation.config import AdaptTarget
 from acnmp_core.data.demos import Demonstration
 
 T = np.linspace(0.0, 1.0, 101)
@@ -46,7 +46,7 @@ def test_observations_of_the_wrong_width_are_refused():
 
 
 def test_wall_run_counts_executed_snaps_and_by_default_every_generated_path_ends_on_the_goal():
-    from acnmp_core.adapt.config import AdaptConfig
+    from acnmp_core.adaptation.config import AdaptConfig
     from acnmp_core.experiments.wall import run_wall
 
     # a small budget keeps the adaptations that fail short

@@ -5,11 +5,11 @@ import copy
 import numpy as np
 import pytest
 
-from acnmp_core.adapt.adaptation import adapt
-from acnmp_core.adapt.assimilation import AssimilationConfig, assimilate
-from acnmp_core.adapt.config import AdaptConfig
-from acnmp_core.adapt.credit import per_step_advantages
-from acnmp_core.adapt.exploration import CubicNoise, DemoNoise, SmoothNoise
+from acnmp_core.adaptation.loop import adapt
+from acnmp_core.adaptation.assimilation import AssimilationConfig, assimilate
+from acnmp_core.adaptation.config import AdaptConfig
+from acnmp_core.adaptation.credit import per_step_advantages
+from acnmp_core.adaptation.exploration import CubicNoise, DemoNoise, SmoothNoise
 from acnmp_core.data.demos import Demonstration
 from acnmp_core.experiments.viapoint import make_setup, trajectory_metrics
 from acnmp_core.model.training import reproduction_error

@@ -1,6 +1,6 @@
 """Assimilation: an adapted solution joins the demonstrations and the skill trains on.
 
-After :func:`~acnmp_core.adapt.adaptation.adapt` has found a trajectory for a condition outside the
+After :func:`~acnmp_core.adaptation.loop.adapt` has found a trajectory for a condition outside the
 demonstrations, the trajectory becomes a demonstration and the CNMP continues its supervised
 training on the enlarged set (paper Sec. 3.2), so the skill can be conditioned from any point of
 the solution afterwards while the old demonstrations stay reproducible.
