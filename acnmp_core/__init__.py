@@ -17,8 +17,8 @@ import importlib
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # what a type checker sees; at run time the same names come from __getattr__
-    from .adapt.adaptation import adapt
-    from .adapt.config import AdaptConfig, AdaptResult, AdaptTarget
+    from .adaptation.loop import adapt
+    from .adaptation.config import AdaptConfig, AdaptResult, AdaptTarget
     from .data.demos import Demonstration, DemoSet
     from .model.checkpoint import load_checkpoint, save_checkpoint
     from .model.cnmp import CNMP, CNMPConfig, Prediction
@@ -27,8 +27,8 @@ if TYPE_CHECKING:  # what a type checker sees; at run time the same names come f
 
 #: public name -> submodule that defines it
 _EXPORTS = {
-    "AdaptConfig": "adapt.config", "AdaptResult": "adapt.config", "AdaptTarget": "adapt.config",
-    "adapt": "adapt.adaptation",
+    "AdaptConfig": "adaptation.config", "AdaptResult": "adaptation.config", "AdaptTarget": "adaptation.config",
+    "adapt": "adaptation.loop",
     "load_checkpoint": "model.checkpoint", "save_checkpoint": "model.checkpoint",
     "CNMP": "model.cnmp", "CNMPConfig": "model.cnmp", "Prediction": "model.cnmp",
     "DemoSet": "data.demos", "Demonstration": "data.demos",

@@ -6,7 +6,7 @@ adaptation code never knows where a trajectory is executed.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, fields
-from typing import Protocol, runtime_checkable
+from typing import Protocol, Self, runtime_checkable
 
 import numpy as np
 
@@ -94,3 +94,17 @@ class RolloutEvaluator(Protocol):
     def evaluate(
         self, trajectories: np.ndarray, times: np.ndarray, task_params: np.ndarray | None = None
     ) -> RolloutBatch: ...
+
+
+class ClosedAtExit:
+    """An evaluator that holds a simulator: ``with task:`` calls :meth:`close` at the end, which
+    frees what the subclass holds (its ``close``)."""
+
+    def close(self) -> None:
+        """Free the simulator (the subclass says what)."""
+
+    def __enter__(self) -> Self:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()

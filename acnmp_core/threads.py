@@ -3,8 +3,8 @@
 The CNMPs here are small (a few hundred thousand weights, batches of 32 episodes): their matrix
 products gain little from a second thread on an idle machine and lose a great deal when another
 process holds a core, because torch's intra-op threads then wait on each other at every product.
-Measured in ``benchmarks/results/bench_thread_default.json`` (E1's training and a 10-environment E3,
-one and two threads, alone and beside a busy process): one thread is the default. Set
+One thread is the default (``benchmarks/results/bench_thread_default.json`` compares one and two
+threads, alone and beside a busy process). Set
 ``ACNMP_TORCH_THREADS=N`` (or call :func:`set_training_threads`) on a machine of your own whose
 cores are free; the numbers computed do not depend on it.
 

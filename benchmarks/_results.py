@@ -1,6 +1,7 @@
 """Writing a benchmark's result: JSON with its provenance, the figure beside it, a short summary."""
 from __future__ import annotations
 
+import argparse
 import json
 import sys
 from pathlib import Path
@@ -11,13 +12,27 @@ sys.path.insert(0, str(ROOT))
 
 from clients.provenance import provenance  # noqa: E402
 
-__all__ = ["ROOT", "provenance", "save_result"]
+__all__ = ["ROOT", "benchmark_args", "provenance", "save_result"]
+
+
+def benchmark_args(doc: str, name: str, argv: list[str] | None, **options) -> argparse.Namespace:
+    """The parsed arguments of a benchmark's main: ``--<option>`` for each keyword of ``options``
+    (``train_steps=400`` is ``--train-steps``, an int defaulting to 400; ``noise=(0.01, "its help")``
+    a float with a help line) and ``--out`` (default ``benchmarks/results/<name>.json``); the usage's
+    description is ``doc``'s first line."""
+    ap = argparse.ArgumentParser(description=doc.splitlines()[0])
+    for option, value in options.items():
+        default, help_text = value if isinstance(value, tuple) else (value, None)
+        ap.add_argument("--" + option.replace("_", "-"), type=type(default), default=default, help=help_text)
+    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / f"{name}.json"))
+    return ap.parse_args(argv)
 
 
 def save_result(result: dict, out: str | Path, plot: Callable[[dict, Path], object] | None = None,
-                headline: tuple[str, ...] = ()) -> None:
+                headline: tuple[str, ...] = ()) -> int:
     """Write ``result`` to ``out`` (JSON; it should carry ``provenance`` from the start of the run),
-    its figure to ``out`` with a .png suffix via ``plot``, and print the keys ``headline``."""
+    its figure to ``out`` with a .png suffix via ``plot``, and print the keys ``headline``; returns 0,
+    the exit code of a benchmark's main that ends here."""
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(result, indent=2) + "\n")
@@ -25,3 +40,4 @@ def save_result(result: dict, out: str | Path, plot: Callable[[dict, Path], obje
         plot(result, out.with_suffix(".png"))
     print(json.dumps({k: result[k] for k in headline if k in result}, indent=1))
     print(f"wrote {out}" + (f" and {out.with_suffix('.png')}" if plot is not None else ""))
+    return 0

@@ -1,7 +1,7 @@
 """Which floats a machine computes: the fingerprint that decides whether a pin's exact counts apply.
 
 Two machines that report the same CPU name and the same torch SIMD level can still compute
-different floats (``docs/studies/numerics.md``): the first difference between an AMD EPYC and an
+different floats (``benchmarks/studies/numerics/README.md``): the first difference between an AMD EPYC and an
 Intel Haswell running E1 seed 0 is the first ``addmm`` of the CNMP encoder in the first training
 step, where MKL picks a vendor-specific SGEMM kernel. A chaotic learning run then drifts to other
 roll-out counts. So a pin's exact counts are compared only on a machine whose :func:`fingerprint`
@@ -101,7 +101,7 @@ def canary_runs() -> dict[str, Any]:
     """Short versions of the pinned runs (seed 0): E1 (60 training steps, budget 10) and E2
     extrapolation (60 steps, budgets 10 and 20). Returns their JSON-ready results with floats in
     exact hex form (about 8 s of work)."""
-    from acnmp_core.adapt.config import AdaptConfig
+    from acnmp_core.adaptation.config import AdaptConfig
     from acnmp_core.baselines.promp_rl import PrompRLConfig
     from acnmp_core.experiments.push import run_push
     from acnmp_core.experiments.viapoint import run_viapoint

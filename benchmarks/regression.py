@@ -7,7 +7,7 @@ them. A change of a default, of the algorithm or of a task must not silently cha
 numbers: whoever changes them re-runs the full benchmarks and this pin in the same commit.
 
 The runs are bit-identical from one run to the next on one machine, but not from one machine to
-another, even two that report the same CPU name and torch SIMD level (``docs/studies/numerics.md``).
+another, even two that report the same CPU name and torch SIMD level (``benchmarks/studies/numerics/README.md``).
 So what is compared depends on the machine:
 
 * on the machine that wrote a pin (its fingerprint equal in every field, the canary included),

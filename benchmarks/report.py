@@ -21,7 +21,7 @@ from pathlib import Path
 
 if __name__ == "__main__":  # as a script: the repository root on the path, for the benchmarks package
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from benchmarks import report_blocks  # noqa: E402,F401  (registers the renderers in report_kit.RENDERERS)
+from benchmarks import blocks  # noqa: E402,F401  (registers the renderers in report_kit.RENDERERS)
 from benchmarks.report_kit import RENDERERS, ROOT  # noqa: E402
 
 BLOCK = re.compile(r"(<!-- BEGIN report:([\w-]+) -->\n)(.*?)(<!-- END report:\2 -->)", re.S)

@@ -1,4 +1,4 @@
-"""What the renderers of the docs blocks share (benchmarks/report_blocks.py): the registry of renderers,
+"""What the renderers of the docs blocks share (benchmarks/blocks/): the registry of renderers,
 the results folder and the number formats. benchmarks/report.py finds the blocks and calls them."""
 from __future__ import annotations
 

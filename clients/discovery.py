@@ -3,7 +3,7 @@
 :func:`resolve` turns a client's arguments into where to connect: explicit ``connect`` /
 ``config_file`` / ``$ACNMP_CONNECT`` win; otherwise the run file of a running ``acnmp up``
 (services/transport/runfile.py) gives the anchor, the namespace and the credentials of a role
-(``operator`` may start jobs, ``client`` only asks; docs/PROTOCOL.md, "Security").
+(``operator`` may start jobs, ``client`` only asks; docs/SECURITY.md).
 
 :func:`call_when_available` retries a query answered ``unavailable`` (nothing matched its key yet:
 a fresh session that has not learned the deployment's queryables, or a service still starting)

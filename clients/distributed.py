@@ -35,7 +35,7 @@ from typing import Callable, Iterator, TypeVar
 import numpy as np
 import zenoh
 
-from acnmp_core.adapt.config import AdaptResult
+from acnmp_core.adaptation.config import AdaptResult
 from acnmp_core.experiments.viapoint import ViaPointRun, ViaPointSetup, run_viapoint
 from acnmp_core.jobs.adapt import AdaptJob, result_from_dict
 from clients.client import RETRY_CODES, ACNMPClient, ClientError

@@ -24,7 +24,7 @@ from typing import Iterator
 
 import numpy as np
 
-from acnmp_core.adapt.config import AdaptTarget
+from acnmp_core.adaptation.config import AdaptTarget
 from acnmp_core.experiments.transfer import E4Setup, TransferExperimentConfig, run_transfer, task_config
 from acnmp_core.jobs.transfer import PairTrainJob
 from acnmp_core.robots.registry import robot

@@ -147,17 +147,23 @@ def small_model(e1_demos):
     return model.eval()
 
 
+def _demo_file(tmp_path_factory, folder: str, default_path: str, make) -> Path:
+    """``<the run's folder>/<folder>/<default_path's name>``, written by ``make(path)`` once per run
+    (the xdist workers share it)."""
+    path = _run_dir(tmp_path_factory) / folder / Path(default_path).name
+    with _once(path) as todo:
+        if todo:
+            make(str(path))
+    return path
+
+
 @pytest.fixture(scope="session")
 def ur10_demo_file(tmp_path_factory):
     """Path of the E5 demonstration set, generated once per run (~6 s; shared by the xdist workers) in a temporary folder
     under its default name (with ``ACNMP_CACHE`` set to that folder, the default loads it)."""
     from acnmp_core.tasks.ur10_pick_place.demos import default_demo_path, ur10_demos
 
-    path = _run_dir(tmp_path_factory) / "ur10_demos" / Path(default_demo_path()).name
-    with _once(path) as todo:
-        if todo:
-            ur10_demos(path=str(path))
-    return path
+    return _demo_file(tmp_path_factory, "ur10_demos", default_demo_path(), lambda path: ur10_demos(path=path))
 
 
 @pytest.fixture(scope="session")
@@ -166,11 +172,7 @@ def pour_demo_file(tmp_path_factory):
     under its default name (with ``ACNMP_CACHE`` set to that folder, the default loads it)."""
     from acnmp_core.tasks.pour.demos import default_demo_path, pour_demos
 
-    path = _run_dir(tmp_path_factory) / "pour_demos" / Path(default_demo_path()).name
-    with _once(path) as todo:
-        if todo:
-            pour_demos(str(path))
-    return path
+    return _demo_file(tmp_path_factory, "pour_demos", default_demo_path(), pour_demos)
 
 
 @pytest.fixture(scope="session")

@@ -24,7 +24,7 @@ Two parts:
   that matters to no objective keeps almost uniform sample weights and barely moves, which is the
   point of the relevance: each objective only moves the parameters that affect it. Where the paper
   is not at hand in full, the normalisations and the covariance's treatment are our guesses (see
-  docs/studies/e3_wall.md, "Baseline after Ewerton et al.").
+  benchmarks/studies/e3_wall/README.md, "Baseline after Ewerton et al.").
 
 The loop (the mean's roll-out before every iteration, stop on its success or at the budget, every
 roll-out counted) is :func:`~acnmp_core.baselines.promp_rl.episodic_search`, shared with ProMP + REPS.

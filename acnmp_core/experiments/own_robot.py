@@ -16,7 +16,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from ..adapt.config import AdaptConfig
+from ..adaptation.config import AdaptConfig
 from ..data.demo_io import DemoArrays
 from ..errors import InputError
 from ..model.cnmp import CNMP, CNMPConfig
@@ -120,10 +120,9 @@ def plot_own_robot(result: dict, path) -> "object":
     (hollow: it did not succeed within the budget). Returns the path."""
     from pathlib import Path
 
-    import matplotlib
+    from .figures import pyplot, save_figure
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -144,7 +143,4 @@ def plot_own_robot(result: dict, path) -> "object":
     ax1.legend(fontsize=8)
     ax2.set_ylabel(f"ACNMP roll-outs (budget {result['budget']}; hollow: failed)")
     fig.suptitle(f"robot {result['robot']}, task {result['task']}, {result['seeds']} seed(s)")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path)

@@ -7,7 +7,7 @@ the demonstrations' region (*extrapolation*) and one inside (*interpolation*), d
 positions of the training region, the failed ones dropped) and the same test positions:
 
 * ``lfd``: the CNMP trained on the demonstrations, conditioned on the test position, executed once;
-* ``acnmp``: from that model, :func:`~acnmp_core.adapt.adaptation.adapt` (RL with simultaneous SL) with
+* ``acnmp``: from that model, :func:`~acnmp_core.adaptation.loop.adapt` (RL with simultaneous SL) with
   the project's defaults until its mean trajectory succeeds;
 * ``promp_rl``: the project's adaptive ProMP + episodic REPS (:mod:`acnmp_core.baselines.promp_rl`, E2's settings);
 * ``promp_cma``: black-box ProMP + CMA-ES, fancy_gym's recipe with ``mp_pytorch`` and ``cma``,
@@ -46,7 +46,7 @@ from typing import Callable
 
 import numpy as np
 
-from ..adapt.config import AdaptConfig
+from ..adaptation.config import AdaptConfig
 from ..errors import InputError
 from ..baselines.promp_rl import PrompRLConfig
 

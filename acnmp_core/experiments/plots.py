@@ -10,6 +10,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from . import push as push_exp  # noqa: E402
+from .figures import save_figure  # noqa: E402
 from . import wall as wall_exp  # noqa: E402
 
 COLORS = {"lfd_only": "tab:blue", "rl_only": "tab:red", "acnmp": "tab:green"}
@@ -63,9 +64,7 @@ def plot_viapoint(run, path: str | Path) -> list[Path]:
     ax.set_ylabel("error of the mean (largest distance to a condition)")
     ax.set_yscale("log")
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_figure(fig, path)
 
     lat_path = path.with_name(path.stem + "_latents.png")
     mean, comps, before = pca_2d(run.latents_before)
@@ -80,9 +79,7 @@ def plot_viapoint(run, path: str | Path) -> list[Path]:
     ax.set_ylabel("latent PC 2")
     ax.set_title("E1: latent representations (Fig. 4)")
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(lat_path, dpi=110)
-    plt.close(fig)
+    save_figure(fig, lat_path)
     return [path, lat_path]
 
 
@@ -116,10 +113,7 @@ def plot_push(result: dict, path) -> "object":
         ax.set_ylabel("object's final distance to target (m)")
         ax.set_title(f"E2 push, {case} ({result['seeds']} seeds)")
         ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path)
 
 
 def plot_wall(result: dict, path) -> "object":
@@ -143,10 +137,7 @@ def plot_wall(result: dict, path) -> "object":
     axes[0, 0].legend(fontsize=8)
     fig.suptitle(f"E3 wall: {result['n_initial']} demonstrated + {result['envs']} new environments, "
                  f"{result['n_test']} test environments (seed {result['seed']})")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path)
 
 
 def plot_transfer(result: dict, path) -> "object":
@@ -181,7 +172,4 @@ def plot_transfer(result: dict, path) -> "object":
     ax.set_ylim(-3, 103)
     ax.set_title(f"E4: 3-DoF -> 4-DoF transfer, cube through the gap ({result['runs']} runs)")
     ax.legend(fontsize=8, loc="lower right")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path)

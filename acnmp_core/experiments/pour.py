@@ -7,13 +7,13 @@ wrist angle, rad), conditioned on the task parameters (initial weight g, target 
 upright start at t = 0. At the test (:data:`TEST`: 1400 g, pour 1322 g, outside the demonstrations):
 
 * **LfD only**: the conditioned mean is executed once.
-* **ACNMP**: :func:`~acnmp_core.adapt.adaptation.adapt` with E6's settings (:func:`e6_adapt_config`: the
+* **ACNMP**: :func:`~acnmp_core.adaptation.loop.adapt` with E6's settings (:func:`e6_adapt_config`: the
   project's defaults except the exploration, the policy rate and its steps per update) and a budget of :data:`BUDGET`
   roll-outs. The only reward is minus the final error (g), so
   :class:`~acnmp_core.tasks.pour.task.PourTask` credits every action with the rewards after it
   (``credit = "future"``).
 * **Assimilation**: a successful solution joins the demonstrations
-  (:func:`~acnmp_core.adapt.assimilation.assimilate`, anchored on the test's conditions); then the model
+  (:func:`~acnmp_core.adaptation.assimilation.assimilate`, anchored on the test's conditions); then the model
   conditioned on the test pours without RL, and each demonstration is reproduced (conditioned on
   its own weight and poured amount, executed, error against that amount).
 
@@ -29,9 +29,9 @@ from typing import Callable
 
 import numpy as np
 
-from ..adapt.adaptation import adapt
-from ..adapt.assimilation import AssimilationConfig, assimilate, check_assimilate_from
-from ..adapt.config import AdaptConfig, AdaptTarget
+from ..adaptation.loop import adapt
+from ..adaptation.assimilation import AssimilationConfig, assimilate, check_assimilate_from
+from ..adaptation.config import AdaptConfig, AdaptTarget
 from ..data.demos import DemoSet, Demonstration
 from ..model.cnmp import CNMP, CNMPConfig
 from ..model.training import TrainConfig, train
@@ -53,8 +53,8 @@ PAPER_ERRORS_G = (591, 447, 435, 175, 511, 604, 305, 42, 417, 284, 144, 194, 367
 
 def e6_adapt_config(max_rollouts: int = BUDGET) -> AdaptConfig:
     """E6's adaptation settings: the library's defaults except these (candidate "T" of
-    ``benchmarks/studies/e6_settings.py``: "S", the best on the tuning seeds 100-115, not the
-    reported 0-4, exploring along the demonstrations; docs/studies/e6_pour.md says how they were found). Its predecessor "F" (``lr`` 1e-3,
+    ``benchmarks/studies/e6_pour/e6_settings.py``: "S", the best on the tuning seeds 100-115, not the
+    reported 0-4, exploring along the demonstrations; benchmarks/studies/e6_pour/README.md says how they were found). Its predecessor "F" (``lr`` 1e-3,
     ``max_reuse`` 50) was tuned on the rig with the pour wall flared 25 deg (seeds 100-103);
     on the 35 deg rig F solves the tuning seeds within 20 roll-outs (4 of 4) and six
     alternatives (wider std, lr 3e-3, 6 or 9 noisy roll-outs, temperature 0.02;
@@ -90,13 +90,13 @@ def e6_adapt_config(max_rollouts: int = BUDGET) -> AdaptConfig:
         (their first roll-out within 30 g came at 5, 20, 15, 15 and 24 with "mean"); it changes
         nothing before the first success, so the tuning above is unaffected.
     noise "demos" (setting T: S exploring along the demonstrations' deviations from their mean,
-        :class:`~acnmp_core.adapt.exploration.DemoNoise`, each roll-out credited with its whole return):
+        :class:`~acnmp_core.adaptation.exploration.DemoNoise`, each roll-out credited with its whole return):
         within 20 roll-outs on the tuning seeds 100-115 in 15 of 16 (S: 12 of 16,
         ``e6_settings_demos.json``) and on the reported seeds in 4 of 5 (S: 2 of 5). Its solutions,
         assimilated into the adapted model as S's were, kept all 16 demonstrations within 50 g in no
         reported seed (``e6_pour_setting_t.json``), so T became the default only with
         :func:`e6_assimilation_config`, which assimilates into the model before the adaptation
-        (``benchmarks/studies/e6_assimilation.py``, docs/studies/e6_pour.md).
+        (``benchmarks/studies/e6_pour/e6_assimilation.py``, benchmarks/studies/e6_pour/README.md).
     """
     return AdaptConfig(max_rollouts=max_rollouts, explore_error_gain=1.5e-3, explore_cap=0.5, lr=3e-3,
                        max_reuse=100, temperature=0.05, solution="any", noise="demos")
@@ -110,14 +110,14 @@ def e6_assimilation_config() -> AssimilationConfig:
     """E6's assimilation: 4000 supervised steps at 1e-4 decaying along a half cosine to 1e-5,
     into the LfD model as it was before the adaptation (:data:`ASSIMILATE_FROM_DEFAULT`).
 
-    Chosen with ``benchmarks/studies/e6_assimilation.py`` for the demonstration-shaped
+    Chosen with ``benchmarks/studies/e6_pour/e6_assimilation.py`` for the demonstration-shaped
     exploration of :func:`e6_adapt_config`. Over the reported seeds 0-4 and the tuning seeds
     100-115 together (21 seeds), it keeps all 16 demonstrations within 50 g in 14 seeds and no
     fewer within 30 g than the LfD model in 10, where the 1000 steps at 1e-4 from the adapted
     model (E6's assimilation until then) keep them in 10 and 9; both pour the test within 30 g
     without RL in 19 (``e6_assimilation_demos.json``, ``e6_assimilation_demos_tuning.json``). A
     marble weighs 25 g, so the two reproduction counts move by a marble or two with any change
-    of the model (docs/studies/e6_pour.md, "The rig's sensitivity")."""
+    of the model (benchmarks/studies/e6_pour/README.md, "The rig's sensitivity")."""
     return AssimilationConfig(steps=4000, lr=1e-4, lr_final=1e-5)
 
 
@@ -413,10 +413,9 @@ def plot_pour(result: dict, path) -> "object":
     the paper's Table 2 (right), with the tolerance; returns the written path."""
     from pathlib import Path
 
-    import matplotlib
+    from .figures import pyplot, save_figure
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -438,7 +437,4 @@ def plot_pour(result: dict, path) -> "object":
     ax.set_title(f"E6 pour {result['test']['target_g']:.0f} g from {result['test']['weight_g']:.0f} g "
                  f"({seeds} seed{'s' if seeds > 1 else ''}; dots: every roll-out)")
     ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path)

@@ -6,7 +6,7 @@ the held-out **interpolation** target (inside the 9 training targets' range) and
 
 * ACNMP: a CNMP trained on the 9 joint-space demonstrations (task parameters: target x, y) is
   conditioned on the test target and on the start configuration (an observation at t = 0); its
-  mean trajectory is executed once (LfD). If it misses, :func:`~acnmp_core.adapt.adaptation.adapt`
+  mean trajectory is executed once (LfD). If it misses, :func:`~acnmp_core.adaptation.loop.adapt`
   (mode "acnmp": RL with simultaneous SL on the demos) runs until success or the budget.
 * ProMP + RL: :func:`~acnmp_core.baselines.promp_rl.adapt_promp`, initialised from the nearest demonstrated
   skill (Stark et al. 2019), episodic REPS over the ProMP weights until success or the budget.
@@ -34,8 +34,8 @@ from typing import Callable
 
 import numpy as np
 
-from ..adapt.adaptation import adapt
-from ..adapt.config import AdaptConfig, AdaptTarget
+from ..adaptation.loop import adapt
+from ..adaptation.config import AdaptConfig, AdaptTarget
 from ..baselines.promp_rl import PrompRLConfig, adapt_promp
 from ..data.demo_io import DemoArrays
 from ..data.demos import DemoSet

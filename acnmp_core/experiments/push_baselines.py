@@ -15,7 +15,7 @@ criterion (the cylinder's final distance to the target at most the tolerance):
   covariance update), as ``promp_rl`` in :mod:`~acnmp_core.experiments.push`.
 
 The Stark-style settings (:data:`STARK`) are guesses where the paper is not at hand: see
-docs/studies/e2_push.md, "Baselines after Stark et al.".
+benchmarks/studies/e2_push/README.md, "Baselines after Stark et al.".
 """
 from __future__ import annotations
 
@@ -24,7 +24,7 @@ import time
 from dataclasses import replace
 from typing import Callable
 
-from ..adapt.config import AdaptConfig
+from ..adaptation.config import AdaptConfig
 from ..baselines.promp_rl import PrompRLConfig
 from ..tasks.push.settings import PAPER, PushSetting
 from .push import (CASES, PROMP_DEFAULTS, _plain, _summarise, demo_effects, make_setup, make_task, record_run,

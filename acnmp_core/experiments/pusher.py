@@ -8,7 +8,7 @@ extrapolation region (0.20-0.25 m beyond the demonstrations) with the seed's gen
 methods face it, all executing on the ``pusher`` robot (:mod:`acnmp_core.robots.pusher`):
 
 * **LfD-only**: the CNMP's mean trajectory for the test position, executed once;
-* **ACNMP**: that roll-out, then :func:`~acnmp_core.adapt.adaptation.adapt` (RL with simultaneous SL on
+* **ACNMP**: that roll-out, then :func:`~acnmp_core.adaptation.loop.adapt` (RL with simultaneous SL on
   the demonstrations) until success or :data:`ACNMP_BUDGET` roll-outs;
 * **ProMP + RL**: :func:`~acnmp_core.baselines.promp_rl.adapt_promp` from the nearest demonstration, episodic
   REPS, until success or :data:`PROMP_BUDGET` roll-outs (E2's baseline settings).
@@ -27,7 +27,7 @@ from typing import Callable
 
 import numpy as np
 
-from ..adapt.config import AdaptConfig
+from ..adaptation.config import AdaptConfig
 from ..baselines.promp_rl import PrompRLConfig
 from ..model.cnmp import CNMP, CNMPConfig
 from ..model.training import TrainConfig, train
@@ -147,10 +147,9 @@ def plot_pusher(result: dict, path) -> "object":
     its budget). Returns the path."""
     from pathlib import Path
 
-    import matplotlib
+    from .figures import pyplot, save_figure
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -174,7 +173,4 @@ def plot_pusher(result: dict, path) -> "object":
     ax2.set_yscale("log")
     ax2.legend(fontsize=8)
     fig.suptitle(f"Pusher-v5, extrapolated positions, {result['seeds']} seed(s)")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path)

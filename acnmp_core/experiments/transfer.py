@@ -7,7 +7,7 @@ Per run (seed):
    latent alignment term (``TransferConfig.latent_weight``), one without it (weight 0); a few
    pair seeds (``pair_seeds``) are shared by the runs, each run adapting fresh copies.
 2. Three conditions run the same RL in robot B (the 4-DoF arm) on the cube-through-the-gap task
-   (:class:`~acnmp_core.tasks.transfer.scene.CubeGapTask`), with :func:`~acnmp_core.adapt.adaptation.adapt`
+   (:class:`~acnmp_core.tasks.transfer.scene.CubeGapTask`), with :func:`~acnmp_core.adaptation.loop.adapt`
    training robot B's decoder only (its supervised steps on B's proxy demonstrations):
 
    * ``transfer``: 11 points of robot A's demonstration of the new skill through A's encoder, B's
@@ -37,9 +37,9 @@ from typing import Callable
 
 import numpy as np
 
-from ..adapt.adaptation import adapt
-from ..adapt.config import AdaptConfig, AdaptTarget
-from ..adapt.credit import per_step_advantages
+from ..adaptation.loop import adapt
+from ..adaptation.config import AdaptConfig, AdaptTarget
+from ..adaptation.credit import per_step_advantages
 from ..data.demos import DemoSet
 from ..rollout import RolloutEvaluator
 from ..transfer.pair import TransferConfig, TransferPair, TransferredSkill, spread_observations, train_pair
@@ -51,7 +51,7 @@ CHECKPOINTS = (3, 7, 11, 19)
 PAPER_SUCCESS = {3: 0.23, 7: 0.73, 11: 0.90, 19: 1.00}
 #: Reward difference (credited, see credit.per_step_advantages) below which E4's roll-outs count
 #: as the same: an untouched cube still jitters in PyBullet, its rewards differing by about 1e-6,
-#: while a touch differs by 1e-2 (benchmarks/results/e4_sweep.json, docs/studies/e4_transfer.md).
+#: while a touch differs by 1e-2 (benchmarks/results/e4_sweep.json, benchmarks/studies/e4_transfer/README.md).
 BLIND_TOLERANCE = 1e-4
 #: Where the authors' arrays live (the data check is skipped when absent).
 AUTHORS_DATA = Path(__file__).resolve().parents[3] / "shared" / "data" / "acnmp-paper" / "experiment4"
@@ -66,14 +66,14 @@ def e4_adapt_config() -> AdaptConfig:
     sl_steps 1, sl_steps_reuse 0 : the authors' one SL step per iteration, before the iteration's
     first policy step and none before the further ones (one before each of up to 51 policy steps,
     E4's setting before, left more runs stalled 1.5-2 cm short of the goal: on fresh RL seeds
-    30..59 100 % against 90 % after 19 iterations; docs/studies/e4_transfer.md,
+    30..59 100 % against 90 % after 19 iterations; benchmarks/studies/e4_transfer/README.md,
     benchmarks/results/e4_failures.json).
     noise "cubic", explore_scale 0.35 : the authors' E4 noise shape, 20 samples smoothed into one
-    cubic per joint (:class:`~acnmp_core.adapt.exploration.CubicNoise`), at about the std per step of
+    cubic per joint (:class:`~acnmp_core.adaptation.exploration.CubicNoise`), at about the std per step of
     E4's 20-knot noise before (0.15 x the demonstrations' std; the cubic keeps 0.42 of its
     samples' std per step on average): on fresh RL seeds 30..89 success after 3 / 7 / 11 / 19
     iterations 38 / 75 / 88 / 95 % against 35 / 58 / 77 / 95 % (issue 13, fourth round;
-    docs/studies/e4_transfer.md, benchmarks/results/e4_sweep.json). Wider 20-knot noise did
+    benchmarks/studies/e4_transfer/README.md, benchmarks/results/e4_sweep.json). Wider 20-knot noise did
     worse in E4's first sweep.
     signal_tolerance :data:`BLIND_TOLERANCE` : no policy step on the micrometre jitter of an
     untouched cube (chosen on fresh RL seeds 30..59 in the sweep; widening the std after such an
@@ -90,7 +90,7 @@ class TransferExperimentConfig:
     pair : training of the transfer pairs (the no-alignment pair uses the same with weight 0). Weight
         1e3, not the authors' 5e6: with our 6000 batched steps (theirs: 250k-1M of batch 1) 5e6
         makes every latent the same and the decoders give the mean demonstration
-        (docs/studies/e4_transfer.md).
+        (benchmarks/studies/e4_transfer/README.md).
     authors_pair : training of the pair of the authors' data check (their 12 demonstrations, their
         arms): the authors' weight 5e6, 10000 steps (the sweep: the only setting measured below
         both naive answers).

@@ -8,8 +8,8 @@ t = 0. At each test case (:data:`CASES`: the paper's (8, 10) and (9, 11) cm, and
 out, all outside the demonstrations):
 
 * **LfD only**: the conditioned mean is executed once.
-* **ACNMP**: :func:`~acnmp_core.adapt.adaptation.adapt` with the project's default
-  :class:`~acnmp_core.adapt.config.AdaptConfig` and a budget of :data:`BUDGET` roll-outs; its first
+* **ACNMP**: :func:`~acnmp_core.adaptation.loop.adapt` with the project's default
+  :class:`~acnmp_core.adaptation.config.AdaptConfig` and a budget of :data:`BUDGET` roll-outs; its first
   roll-out is the LfD one, so a case the LfD trajectory already solves costs one roll-out.
 
 Measures (the paper's Table 2, left): the mean absolute error (deg) per joint between the executed
@@ -18,8 +18,8 @@ in the same simulator; success in physics (grasped, carried over the obstacle wi
 placed within 2 cm); roll-outs used.
 
 Credit: the task's reward comes at two steps (grasp, crossing); :class:`UR10PickPlaceTask` keeps the
-default per-step credit (compared with "future" credit by benchmarks/studies/e5_credit.py; see
-docs/studies/e5_ur10.md).
+default per-step credit (compared with "future" credit by benchmarks/studies/e5_ur10/e5_credit.py; see
+benchmarks/studies/e5_ur10/README.md).
 
 ``acnmp experiment ur10`` and ``benchmarks/experiments/e5_ur10.py`` are thin adapters around :func:`run_ur10`,
 whose result is a JSON-ready dict.
@@ -33,8 +33,8 @@ from typing import Callable
 
 import numpy as np
 
-from ..adapt.adaptation import adapt
-from ..adapt.config import AdaptConfig, AdaptTarget
+from ..adaptation.loop import adapt
+from ..adaptation.config import AdaptConfig, AdaptTarget
 from ..data.demos import DemoSet
 from ..model.cnmp import CNMP, CNMPConfig
 from ..model.training import TrainConfig, train
@@ -49,7 +49,7 @@ BUDGET = 60
 #: Supervised training steps of the LfD model, and the rate its cosine decay ends at (from Adam's
 #: 1e-3): 3000 steps at a constant rate left even the joints that never move with the heights (pan,
 #: wrist 3) 1-2.5 deg off in extrapolation; over seeds 0-9 the longer, decaying training is ahead
-#: or level on every E5 count (benchmarks/studies/e5_training.py, docs/studies/e5_ur10.md).
+#: or level on every E5 count (benchmarks/studies/e5_ur10/e5_training.py, benchmarks/studies/e5_ur10/README.md).
 TRAIN_STEPS = 10000
 TRAIN_LR_FINAL = 1e-5
 #: Every FIGURE_STRIDE-th row of the trajectories is kept in the result for the figure.
@@ -282,10 +282,9 @@ def plot_ur10(result: dict, path) -> "object":
     (green), one row of six panels per case, for the result's first seed. Returns the path."""
     from pathlib import Path
 
-    import matplotlib
+    from .figures import pyplot, save_figure
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -310,7 +309,4 @@ def plot_ur10(result: dict, path) -> "object":
                 ax.set_ylabel("angle (deg)")
                 ax.legend(fontsize=6)
     fig.suptitle(f"E5 UR10 pick and place (seed {fig_data['seed']}; errors: median over {result['seeds']} seeds)")
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=100)

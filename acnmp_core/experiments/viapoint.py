@@ -12,9 +12,9 @@ from typing import Callable, Protocol
 
 import numpy as np
 
-from ..adapt.adaptation import adapt
-from ..adapt.assimilation import AssimilationConfig, assimilate
-from ..adapt.config import AdaptConfig, AdaptResult, AdaptTarget
+from ..adaptation.loop import adapt
+from ..adaptation.assimilation import AssimilationConfig, assimilate
+from ..adaptation.config import AdaptConfig, AdaptResult, AdaptTarget
 from ..data.demos import DemoSet, Demonstration
 from ..model.cnmp import CNMP, CNMPConfig, Prediction
 from ..model.training import TrainConfig, reproduction_error, train

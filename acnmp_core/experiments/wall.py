@@ -15,7 +15,7 @@ The loop (paper Sec. 4.2, Fig. 5 d, e), run for each method on the *same* stream
 Methods:
 
 * **ACNMP**: a CNMP conditioned, as the authors, on the start point at t = 0 and the goal at t = 1
-  (two observations) and the four task parameters. Adaptation is :func:`~acnmp_core.adapt.adaptation.adapt` (mode "acnmp": RL with
+  (two observations) and the four task parameters. Adaptation is :func:`~acnmp_core.adaptation.loop.adapt` (mode "acnmp": RL with
   simultaneous SL on the current demonstrations) on a copy of the model; a successful copy replaces
   the model, its solution is added to the DemoSet and training continues for ``assimilate_steps``.
 * **ProMP + RL** (``promp_rl``): a ProMP over all demonstrations with a joint Gaussian over (weights,
@@ -42,9 +42,9 @@ from typing import Callable
 import numpy as np
 import torch
 
-from ..adapt.adaptation import adapt
-from ..adapt.assimilation import AssimilationConfig, assimilate, check_assimilate_from, snap_path, snap_to_observations
-from ..adapt.config import AdaptConfig, AdaptTarget
+from ..adaptation.loop import adapt
+from ..adaptation.assimilation import AssimilationConfig, assimilate, check_assimilate_from, snap_path, snap_to_observations
+from ..adaptation.config import AdaptConfig, AdaptTarget
 from ..baselines.promp_rl import AdaptiveProMP, PrompRLConfig, promp_rl
 from ..baselines.promp_selfimprove import GPWeights, SelfImproveConfig, fit_gp, initial_distribution, pro
 from ..data.demos import Demonstration, DemoSet
@@ -262,7 +262,7 @@ class _PrompLearner:
 
 
 def snap_wall_paths(paths: np.ndarray, times: np.ndarray, task_params) -> np.ndarray:
-    """E3 paths moved onto their start and goal (:func:`~acnmp_core.adapt.assimilation.snap_path` with
+    """E3 paths moved onto their start and goal (:func:`~acnmp_core.adaptation.assimilation.snap_path` with
     :func:`wall_conditions`): paths (B, T, 2), times (T,), task_params (B, 4) or one row (4,) for all.
     Returns (B, T, 2), world units."""
     c = np.asarray(task_params, dtype=np.float64)
@@ -481,7 +481,7 @@ def run_wall(
     batch_size, n_targets : episodes per supervised step and target points per episode in the
         first training. assimilate_batch_size, assimilate_targets : the same in each assimilation.
     assimilate_anchor_weight : weight of the anchor (the solution given its own conditions) in
-        each assimilation step (:class:`~acnmp_core.adapt.assimilation.AssimilationConfig`).
+        each assimilation step (:class:`~acnmp_core.adaptation.assimilation.AssimilationConfig`).
     assimilate_from : "skill" (the default): a successful adaptation contributes its solution
         only; the assimilation continues training the skill as it was before the adaptation (on
         the demonstrations, the solution and its anchor). "adapted": it continues from the adapted
@@ -494,7 +494,7 @@ def run_wall(
         every assimilation (its moments carry over; "adapted" starts a new one with each adapted copy);
         False: a fresh Adam per assimilation.
     snap_solutions : before a solution is assimilated, move it onto its start and goal
-        (:func:`~acnmp_core.adapt.assimilation.snap_to_observations`), execute the moved path (one more
+        (:func:`~acnmp_core.adaptation.assimilation.snap_to_observations`), execute the moved path (one more
         roll-out, counted) and assimilate it instead when it succeeds; False: the solution as found.
     targets_include_obs : the CNMP's supervised steps (first training and assimilations; not the
         adaptations' interleaved ones) also target the episodes' observations

@@ -26,8 +26,8 @@ from typing import Any
 
 import numpy as np
 
-from ..adapt.assimilation import AssimilationConfig
-from ..adapt.config import AdaptConfig, AdaptResult, AdaptTarget, IterationLog
+from ..adaptation.assimilation import AssimilationConfig
+from ..adaptation.config import AdaptConfig, AdaptResult, AdaptTarget, IterationLog
 from ..errors import InputError, TooLargeError
 from ..robots.registry import robot
 from ..validation import check_array, check_positive_int, check_type

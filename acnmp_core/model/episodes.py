@@ -49,7 +49,7 @@ class EpisodeSampler:
     ``task_param_jitter`` > 0 moves each episode's task parameters (normalised units) by Gaussian
     noise of that std, the same for its observations and targets: training with input noise
     (Bishop 1995, a smoothness penalty) keeps an output the demonstrations never vary with the
-    task parameters from drifting when they are extrapolated (docs/studies/e5_ur10.md).
+    task parameters from drifting when they are extrapolated (benchmarks/studies/e5_ur10/README.md).
     ``mixup`` > 0: with that probability an episode is a blend ``lam * a + (1 - lam) * b`` (lam
     uniform in [0, 1]) of its demonstration ``a`` and a second random one ``b`` at the same points,
     task parameters and values alike (mixup, Zhang et al. 2018): the model is taught to move

@@ -49,7 +49,7 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 
 from ..errors import InputError
-from ..rollout import RolloutBatch
+from ..rollout import ClosedAtExit, RolloutBatch
 from .spec import DrawnTarget, EndEffectorPathDrawing, Joint, RobotBody, RobotSpec, TaskFactory
 
 ObsReader = Callable[[np.ndarray], np.ndarray]
@@ -188,13 +188,13 @@ def _task_reset_wrapper():
     return TaskReset
 
 
-class GymRolloutEvaluator:
+class GymRolloutEvaluator(ClosedAtExit):
     """Executes trajectories (B, T, D) as episodes of a Gymnasium environment (a
     :class:`~acnmp_core.rollout.RolloutEvaluator`); see :class:`GymRobotConfig`."""
 
     def __init__(self, config: GymRobotConfig, credit: str = "step"):
         self.config = config
-        #: how the rewards depend on the actions, for :func:`~acnmp_core.adapt.adaptation.adapt`
+        #: how the rewards depend on the actions, for :func:`~acnmp_core.adaptation.loop.adapt`
         self.credit = credit
         self._env = None
         self._vector = None
@@ -218,12 +218,6 @@ class GymRolloutEvaluator:
             if env is not None:
                 env.close()
         self._env = self._vector = None
-
-    def __enter__(self) -> "GymRolloutEvaluator":
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.close()
 
     @property
     def dt(self) -> float:

@@ -15,7 +15,7 @@ def pour_body():
     """
     from functools import partial
 
-    from ..robots.spec import Joint, PointSetDrawing, RobotBody
+    from .spec import Joint, PointSetDrawing, RobotBody
 
     cfg = PourConfig()
     lo, hi = cfg.wrist_limits

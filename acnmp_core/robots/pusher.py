@@ -32,5 +32,5 @@ def pusher_config() -> GymRobotConfig:
         end_effector=lambda o: o[14:17], object_position=lambda o: o[17:20], goal_params=(2, 3))
 
 
-PUSHER = gym_robot("pusher", "Gymnasium's MuJoCo Pusher-v5: a 7-DoF arm pushing a cylinder to a goal (issue 33)",
+PUSHER = gym_robot("pusher", "Gymnasium's MuJoCo Pusher-v5: a 7-DoF arm pushing a cylinder to a goal",
                    pusher_config, task=TASK, credit="future")

@@ -38,7 +38,7 @@ _KIND = re.compile(r"[A-Za-z][A-Za-z0-9_-]{0,39}")
 @dataclass(frozen=True)
 class TaskFactory:
     """A task a robot brings with it: ``build(params: dict) -> RolloutEvaluator`` and its credit
-    for :func:`~acnmp_core.adapt.adaptation.adapt` ("step": each step's reward is credited to that step;
+    for :func:`~acnmp_core.adaptation.loop.adapt` ("step": each step's reward is credited to that step;
     "future": to every earlier step, for rewards that come late, e.g. pushes)."""
 
     build: Callable[[dict], RolloutEvaluator]

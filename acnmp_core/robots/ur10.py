@@ -16,7 +16,7 @@ def ur10_body():
     """
     import xml.etree.ElementTree as ET
 
-    from ..robots.spec import Joint, MeshChainDrawing, RobotBody
+    from .spec import Joint, MeshChainDrawing, RobotBody
     from ..sim.ur10_description import ur10_source_urdf
 
     root = ET.parse(ur10_source_urdf()).getroot()

@@ -14,9 +14,7 @@ Simulation
   cleared by restoring a saved state, so a roll-out depends only on its inputs (and, with noise, on the
   seed and the number of roll-outs run before it).
 
-Speed, measured on the development machine (2 cores shared with other jobs), 300-step roll-outs of
-the expert's pushing demonstrations with the defaults: about 12 ms per roll-out for the 3-DoF arm and
-16 ms for the 4-DoF arm (600 physics steps each). ``tests/unit/sim/test_planar_arm.py`` checks a loose bound.
+A 300-step roll-out is 600 physics steps; ``benchmarks/performance/bench_tasks.py`` measures its cost.
 """
 from __future__ import annotations
 

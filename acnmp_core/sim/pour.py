@@ -37,22 +37,13 @@ Simulation
   ``settle_speed``), then the poured mass is read.
 * Speed: few, big marbles (53 at 1400 g) and 10 solver iterations (PyBullet's default is 50) keep
   the contact count and the solver cheap; the settling after the motion stops as soon as the
-  marbles are at rest. A 240-step (4 s) roll-out at 1400 g costs about 0.7 s of CPU on the
-  development machine (``benchmarks/performance/bench_pour.py`` measures it). Sleeping bodies and a coarser
-  settling step were not needed.
+  marbles are at rest (``benchmarks/performance/bench_pour.py`` measures a roll-out's cost).
 
 Behaviour worth knowing
 -----------------------
-Poured mass comes in whole marbles (25 g). Near 90 deg granular flow is partly chaotic. With the
-pour wall flared 25 deg (the rig before commit c04e516) it was chaotic enough to rule out
-reproducing the demonstrations: changing a demonstration's held tilt by 0.01 deg changed its pour
-by 50 g (median), up to 225 g, and only 5 of the 16 poured within 30 g of their exact replay
-(``benchmarks/studies/pour_sensitivity.py``). Flared 35 deg (the floor the marbles run down at 90 deg
-is steeper), the pour is far steadier: 12-14 of the 16
-replays changed by 0.01-0.5 deg or by one row pour within 30 g, 9 of 16 under every such change,
-median spread 50 g (``pour_sensitivity_flare35.json``). Damping, friction, rolling friction,
-solver iterations, a finer time step and a longer initial settling did not help
-(docs/studies/e6_pour.md). Past ~120 deg the outcome is stable; at 1400 g, tilting 150 deg or
+Poured mass comes in whole marbles (25 g). Near 90 deg granular flow is partly chaotic: a small
+change of a held tilt can change the pour by a marble or more (benchmarks/studies/e6_pour/README.md, "The rig's
+sensitivity", measures it). Past ~120 deg the outcome is stable; at 1400 g, tilting 150 deg or
 more pours all 53 marbles (1325 g). A swing much faster than the expert's throws marbles past the receiving cup.
 """
 from __future__ import annotations
@@ -81,9 +72,8 @@ class CupGeometry:
     inner_height : cavity height from the base's top to the rim.
     wall : thickness of the base and the walls.
     flare : how far the pour-side wall leans outwards from vertical (deg): with the cup on its side
-        that wall is the floor, and the flare makes it slope down to the mouth. 35 deg: at 25 deg
-        (the first rig) the 85-95 deg pour was chaotic, a 0.01 deg change moving it by 50 g
-        (``benchmarks/studies/pour_sensitivity.py``).
+        that wall is the floor, and the flare makes it slope down to the mouth; the steeper that
+        floor, the steadier a pour near 90 deg (benchmarks/studies/e6_pour/README.md).
     lip : how far the pour-side lip reaches inwards from the wall: the dam's height at 90 deg.
     lip_angle : the lip's slope (deg), rising inwards towards the mouth, so that past about
         180 - lip_angle deg it is a chute towards the mouth rather than a ledge.
@@ -148,7 +138,7 @@ class MarbleSpec:
     bouncing out of the receiving cup, a small rolling friction lets them come to rest.
     ``linear_damping`` and ``angular_damping`` (PyBullet's, the fraction of velocity lost per second)
     are left at PyBullet's own when None; setting them, even to PyBullet's nominal 0.04, changes the
-    pour (``benchmarks/studies/pour_sensitivity.py`` tries damped variants).
+    pour (``benchmarks/studies/e6_pour/pour_sensitivity.py`` tries damped variants).
     """
 
     radius: float = 0.0135
@@ -502,5 +492,6 @@ class PourSim(PhysicsClient):
                 "settle_steps": np.int64(settle)}
 
 
-#: Initial weight (g) of the E6 test, the rig's simulator built by the registry holds its load.
+#: Initial weight (g) of the pouring task's test, the heaviest load the experiments use: the rig the
+#: registry builds holds it.
 TEST_WEIGHT_G = 1400.0

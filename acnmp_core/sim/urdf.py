@@ -125,9 +125,8 @@ def urdf_cache_dir() -> Path:
     """Where generated URDFs are kept: ``$ACNMP_CACHE/urdf`` or ``~/.cache/acnmp/urdf`` (created).
 
     Shared by every process and named by content, so the few geometries the project builds are
-    written once. (A directory per process, removed at exit, was left behind by every process that
-    ended without running its exit handlers: killed workers, and the commands that skip the
-    interpreter's teardown; 266 such directories had piled up in /tmp.)
+    written once, and nothing is left behind by a process that ends without running its exit
+    handlers (a killed worker, a command that skips the interpreter's teardown).
     """
     root = os.environ.get("ACNMP_CACHE") or os.path.join(os.path.expanduser("~"), ".cache", "acnmp")
     path = Path(root) / "urdf"

@@ -1,13 +1,13 @@
 """Named tasks: a registry from a task name and plain parameters to a RolloutEvaluator.
 
 Services receive a task by name over the wire (an adaptation job, a worker's roll-out request), so
-every evaluator they can run is built here from JSON-like parameters.
+every evaluator they can run is built from JSON-like parameters by the factory registered under its
+name: the built-in tasks' in :mod:`acnmp_core.tasks.builtin` (registered when the package
+:mod:`acnmp_core.tasks` is imported), a robot plugin's by :func:`add_task`.
 """
 from __future__ import annotations
 
 from typing import Any, Callable
-
-import numpy as np
 
 from ..rollout import RolloutEvaluator
 
@@ -18,7 +18,7 @@ _CREDITS: dict[str, str] = {}
 def register_task(name: str, credit: str = "step"):
     """Decorator: register ``factory(params: dict) -> RolloutEvaluator`` under ``name``.
 
-    ``credit`` is the task's credit for :func:`~acnmp_core.adapt.adaptation.adapt` ("step" or "future",
+    ``credit`` is the task's credit for :func:`~acnmp_core.adaptation.loop.adapt` ("step" or "future",
     the ``credit`` attribute of the evaluators it builds), so an evaluator that only forwards
     roll-outs to where the task runs (a remote worker) can carry it too.
     """
@@ -65,64 +65,3 @@ def make_task(name: str, params: dict[str, Any] | None = None) -> RolloutEvaluat
         raise ValueError(f"params: task {name!r} needs the parameter {exc.args[0]!r}{needs}") from None
     except TypeError as exc:
         raise ValueError(f"params: bad parameters for task {name!r}: {exc}") from None
-
-
-@register_task("viapoint")
-def _viapoint(p: dict) -> RolloutEvaluator:
-    """params: t_v (float or K floats), point (D floats or K lists of D), tolerance (float or K floats)."""
-    from .viapoint.task import ViaPointTask
-
-    return ViaPointTask(np.asarray(p["t_v"], dtype=np.float64), np.asarray(p["point"], dtype=np.float64),
-                        np.asarray(p["tolerance"], dtype=np.float64))
-
-
-@register_task("wall")
-def _wall(p: dict) -> RolloutEvaluator:
-    """params: optional hole_width, wall_thickness, start_tolerance, goal_tolerance (floats)."""
-    from .wall.task import WallTask
-
-    return WallTask(**{k: float(v) for k, v in p.items()})
-
-
-@register_task("push", credit="future")
-def _push(p: dict) -> RolloutEvaluator:
-    """params: n_joints (int, default 3), tolerance (float, metres, default 0.03), reward
-    ("distance", the default, or "final"; see PlanarPushTask)."""
-    from .push.task import PlanarPushTask
-
-    return PlanarPushTask(int(p.get("n_joints", 3)), tolerance=float(p.get("tolerance", 0.03)),
-                          reward=str(p.get("reward", "distance")))
-
-
-@register_task("pick_place")
-def _pick_place(p: dict) -> RolloutEvaluator:
-    """params: optional place_tolerance, lift_tolerance (floats, metres, default 0.02 each)."""
-    from .ur10_pick_place.task import UR10PickPlaceTask
-
-    _known(p, "place_tolerance", "lift_tolerance")
-    return UR10PickPlaceTask(**{k: float(p[k]) for k in ("place_tolerance", "lift_tolerance") if k in p})
-
-
-@register_task("pour", credit="future")
-def _pour(p: dict) -> RolloutEvaluator:
-    """params: optional tolerance_g (float, grams, default 30), max_worlds (int, default 2)."""
-    from .pour.task import PourTask
-
-    _known(p, "tolerance_g", "max_worlds")
-    return PourTask(tolerance_g=float(p.get("tolerance_g", 30.0)), max_worlds=int(p.get("max_worlds", 2)))
-
-
-def _known(params: dict, *names: str) -> None:
-    """ValueError naming the parameters in ``params`` that are not among ``names``."""
-    unknown = sorted(set(params) - set(names))
-    if unknown:
-        raise ValueError(f"params: unknown parameter(s) {', '.join(unknown)}; expected some of {', '.join(names)}")
-
-
-@register_task("cube_gap", credit="future")
-def _cube_gap(p: dict) -> RolloutEvaluator:
-    """params: n_joints (int, default 3). E4's scene: a cube pushed through the gap between two
-    walls to a goal (see acnmp_core.tasks.transfer.scene.CubeGapTask)."""
-    from .transfer.scene import CubeGapTask
-
-    return CubeGapTask(int(p.get("n_joints", 3)))

@@ -9,7 +9,7 @@ both encoders map the same skill to the same latent. A skill shown on robot A on
 by A's encoder and decoded by B's decoder (:meth:`TransferPair.transfer`).
 
 :class:`TransferredSkill` presents "A's observations -> A's encoder -> B's decoder" with the
-interface :func:`~acnmp_core.adapt.adaptation.adapt` uses, so robot B can refine the transferred skill by
+interface :func:`~acnmp_core.adaptation.loop.adapt` uses, so robot B can refine the transferred skill by
 RL (with ``params`` = B's decoder, the authors' choice), its supervised steps on B's own
 demonstrations.
 """
@@ -202,7 +202,7 @@ def train_pair(pair: TransferPair, demos_a: DemoSet, demos_b: DemoSet, cfg: Tran
 class TransferredSkill(nn.Module):
     """Robot B's skill conditioned on robot A's observations: A's encoder, then B's decoder.
 
-    The interface :func:`~acnmp_core.adapt.adaptation.adapt` uses on a model: :meth:`make_query` takes
+    The interface :func:`~acnmp_core.adaptation.loop.adapt` uses on a model: :meth:`make_query` takes
     robot A's observations (N, D_A) and gives a :class:`~acnmp_core.model.cnmp.Query` whose targets are
     B's (``config`` and ``value_norm`` are B's, so trajectories come out as (T, D_B));
     :meth:`mean_normalized` runs A's encoder and B's decoder; ``forward`` and :meth:`pack` are

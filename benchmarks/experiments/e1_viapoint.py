@@ -55,9 +55,8 @@ def main(argv: list[str] | None = None) -> int:
         "wall_time_per_seed_s_median": sorted(r["wall_time_s"] for r in runs)[len(runs) // 2],
         "runs": runs,
     }
-    save_result(result, args.json, headline=("methods", "shape_error_ratio_rl_only_over_acnmp", "assimilation",
+    return save_result(result, args.json, headline=("methods", "shape_error_ratio_rl_only_over_acnmp", "assimilation",
                                              "wall_time_s"))
-    return 0
 
 
 if __name__ == "__main__":

@@ -92,8 +92,7 @@ def main(argv: list[str] | None = None) -> int:
               "seeds": {r["setting"]: r["seeds"] for r in results}, "budget": results[0]["budget"],
               "settings": {r["setting"]: r for r in results}}
     result["headline"] = headline(result)
-    save_result(result, args.out, None, ("headline", "wall_time_s"))
-    return 0
+    return save_result(result, args.out, None, ("headline", "wall_time_s"))
 
 
 if __name__ == "__main__":

@@ -36,8 +36,7 @@ def main(argv: list[str] | None = None) -> int:
     meta = provenance()
     result = {"provenance": meta, **run_push(args.seeds, setting=push_setting(args.setting),
                                              log=lambda s: print(s, flush=True))}
-    save_result(result, out, plot_push, ("methods", "rollout_ratio_promp_over_acnmp", "wall_time_s"))
-    return 0
+    return save_result(result, out, plot_push, ("methods", "rollout_ratio_promp_over_acnmp", "wall_time_s"))
 
 
 if __name__ == "__main__":

@@ -144,10 +144,9 @@ def _combine(files: list[str], out: str, meta: dict) -> int:
     if len({(p["envs"], p["seed"]) for p in parts}) != 1:
         sys.exit(f"--combine: the files differ in envs or seed: {files}")
     variants = {n: v for p in parts for n, v in p["variants"].items()}
-    save_result({"provenance": meta, "experiment": "e3_budget", "envs": parts[0]["envs"], "seed": parts[0]["seed"],
+    return save_result({"provenance": meta, "experiment": "e3_budget", "envs": parts[0]["envs"], "seed": parts[0]["seed"],
                  "defaults": TRAIN_DEFAULTS, "variants": variants, "combined_from": [p["provenance"] for p in parts],
                  "wall_time_s": round(sum(p["wall_time_s"] for p in parts), 2)}, out)
-    return 0
 
 
 def _combine_seeds(files: list[str], out: str, meta: dict) -> int:
@@ -163,10 +162,9 @@ def _combine_seeds(files: list[str], out: str, meta: dict) -> int:
         if twice:
             sys.exit(f"--combine-seeds: seed {p['seed']} has {sorted(twice)} twice")
         mine.update(p["variants"])
-    save_result({"provenance": meta, "experiment": "e3_budget_seeds", "envs": parts[0]["envs"],
+    return save_result({"provenance": meta, "experiment": "e3_budget_seeds", "envs": parts[0]["envs"],
                  "defaults": TRAIN_DEFAULTS, "seeds": seeds, "combined_from": [p["provenance"] for p in parts],
                  "wall_time_s": round(sum(p["wall_time_s"] for p in parts), 2)}, out)
-    return 0
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -207,8 +205,7 @@ def main(argv: list[str] | None = None) -> int:
     result = {"provenance": meta, "experiment": "e3_budget", "envs": args.envs, "seed": args.seed,
               "defaults": TRAIN_DEFAULTS, "variants": {**old.get("variants", {}), **variants},
               "wall_time_s": round(time.perf_counter() - t0, 2)}
-    save_result(result, args.out)
-    return 0
+    return save_result(result, args.out)
 
 
 if __name__ == "__main__":

@@ -68,8 +68,7 @@ def main(argv: list[str] | None = None) -> int:
                  snap_rollouts=args.snap_outputs,
                  log=lambda s: print(s, flush=True))
     result = {"provenance": meta, **r, "comparison": comparison(r)}
-    save_result(result, out, plot_wall, ("comparison", "wall_time_s"))
-    return 0
+    return save_result(result, out, plot_wall, ("comparison", "wall_time_s"))
 
 
 if __name__ == "__main__":

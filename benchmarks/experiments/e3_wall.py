@@ -18,7 +18,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
-from acnmp_core.adapt.assimilation import ASSIMILATE_FROM  # noqa: E402
+from acnmp_core.adaptation.assimilation import ASSIMILATE_FROM  # noqa: E402
 from acnmp_core.experiments.wall import TRAIN_DEFAULTS, run_wall  # noqa: E402
 from acnmp_core.experiments.plots import plot_wall  # noqa: E402
 from acnmp_core.threads import set_training_threads  # noqa: E402
@@ -50,8 +50,7 @@ def main(argv: list[str] | None = None) -> int:
                                                assimilate_from=args.assimilate_from,
                                                snap_outputs=args.snap_paths != "none",
                                                snap_rollouts=args.snap_paths == "all", log=lambda s: print(s, flush=True))}
-    save_result(result, args.out, plot_wall, ("methods", "trajectory_ratio_promp_over_acnmp", "wall_time_s"))
-    return 0
+    return save_result(result, args.out, plot_wall, ("methods", "trajectory_ratio_promp_over_acnmp", "wall_time_s"))
 
 
 if __name__ == "__main__":

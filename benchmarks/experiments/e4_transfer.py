@@ -35,9 +35,8 @@ def main(argv: list[str] | None = None) -> int:
     meta = provenance()
     budget = None if args.minutes is None else 60.0 * args.minutes
     result = {"provenance": meta, **run_transfer(args.runs, log=lambda s: print(s, flush=True), time_budget_s=budget)}
-    save_result(result, args.out, plot_transfer,
+    return save_result(result, args.out, plot_transfer,
                 ("runs", "runs_requested", "success_by_iteration", "controls", "authors_data", "wall_time_s"))
-    return 0
 
 
 if __name__ == "__main__":

@@ -7,7 +7,6 @@ defaults, the same as ``acnmp experiment ur10``, so the CLI's first N seeds give
 """
 from __future__ import annotations
 
-import argparse
 import sys
 import time
 from pathlib import Path
@@ -19,7 +18,7 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 from acnmp_core.experiments.ur10 import CASES, make_setup, plot_ur10, run_ur10  # noqa: E402
-from benchmarks._results import provenance, save_result  # noqa: E402
+from benchmarks._results import benchmark_args, provenance, save_result  # noqa: E402
 
 
 def rollout_seconds(n: int = 5) -> dict:
@@ -43,16 +42,12 @@ def rollout_seconds(n: int = 5) -> dict:
 
 def main(argv: list[str] | None = None) -> int:
     """Run E5 with the default settings; print one line per run and the summary."""
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--seeds", type=int, default=5)
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "e5_ur10.json"))
-    args = ap.parse_args(argv)
+    args = benchmark_args(__doc__, "e5_ur10", argv, seeds=5)
     torch.set_num_threads(1)
     meta = provenance()
     result = {"provenance": meta, **run_ur10(args.seeds, log=lambda s: print(s, flush=True)),
               "rollout": rollout_seconds()}
-    save_result(result, args.out, plot_ur10, ("cases", "rollout", "wall_time_s"))
-    return 0
+    return save_result(result, args.out, plot_ur10, ("cases", "rollout", "wall_time_s"))
 
 
 if __name__ == "__main__":

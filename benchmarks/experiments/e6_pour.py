@@ -10,7 +10,6 @@ result.
 """
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
@@ -20,23 +19,18 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 from acnmp_core.experiments.pour import plot_pour, run_pour  # noqa: E402
-from benchmarks._results import provenance, save_result  # noqa: E402
+from benchmarks._results import benchmark_args, provenance, save_result  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> int:
     """Run E6 with the default settings; print one line per seed and the summary."""
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--seeds", type=int, default=5)
-    ap.add_argument("--jobs", type=int, default=2)
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "e6_pour.json"))
-    args = ap.parse_args(argv)
+    args = benchmark_args(__doc__, "e6_pour", argv, seeds=5, jobs=2)
     torch.set_num_threads(1)
     meta = provenance()
     result = {"provenance": meta, **run_pour(args.seeds, jobs=args.jobs,
                                              log=lambda s: print(s, flush=True))}
-    save_result(result, args.out, plot_pour,
+    return save_result(result, args.out, plot_pour,
                 ("lfd_only", "assimilation", "rollout_cpu_s_median", "wall_time_s"))
-    return 0
 
 
 if __name__ == "__main__":

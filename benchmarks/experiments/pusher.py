@@ -7,7 +7,6 @@ defaults, the same as ``acnmp experiment pusher``.
 """
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
@@ -17,20 +16,16 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 from acnmp_core.experiments.pusher import plot_pusher, run_pusher  # noqa: E402
-from benchmarks._results import provenance, save_result  # noqa: E402
+from benchmarks._results import benchmark_args, provenance, save_result  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> int:
     """Run the example with the default settings; print one line per run and the summary."""
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--seeds", type=int, default=10)
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "pusher.json"))
-    args = ap.parse_args(argv)
+    args = benchmark_args(__doc__, "pusher", argv, seeds=10)
     torch.set_num_threads(1)
     meta = provenance()
     result = {"provenance": meta, **run_pusher(args.seeds, log=lambda s: print(s, flush=True))}
-    save_result(result, args.out, plot_pusher, ("methods", "rollout_ratio_promp_over_acnmp", "wall_time_s"))
-    return 0
+    return save_result(result, args.out, plot_pusher, ("methods", "rollout_ratio_promp_over_acnmp", "wall_time_s"))
 
 
 if __name__ == "__main__":

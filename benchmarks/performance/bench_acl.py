@@ -159,8 +159,7 @@ def main(argv: list[str] | None = None) -> int:
     flood = flood_and_list_predict(args.flood_mb)
     result = {"benchmark": "acl", "provenance": prov, "generated": gen, **flood,
               "cases": gen["cases"], "state_changes": gen["state_changes"], "crashes": gen["crashes"]}
-    save_result(result, args.out, headline=("cases", "state_changes", "crashes", "put", "query", "list_predict_57mb"))
-    return 0
+    return save_result(result, args.out, headline=("cases", "state_changes", "crashes", "put", "query", "list_predict_57mb"))
 
 
 if __name__ == "__main__":

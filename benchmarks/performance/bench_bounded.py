@@ -96,8 +96,7 @@ def main(argv: list[str] | None = None) -> int:
               "results": [measure(Path(args.root), case, args.items) for case in args.cases.split(",")]}
     for row in result["results"]:
         print(row)
-    save_result(result, args.out)
-    return 0
+    return save_result(result, args.out)
 
 
 if __name__ == "__main__":

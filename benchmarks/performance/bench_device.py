@@ -41,7 +41,7 @@ def measure(device, args) -> dict:
     """The three timings on ``device`` (a torch.device)."""
     import torch
 
-    from acnmp_core.adapt.assimilation import AssimilationConfig, assimilate
+    from acnmp_core.adaptation.assimilation import AssimilationConfig, assimilate
     from acnmp_core.data.demos import DemoSet, Demonstration
     from acnmp_core.experiments.wall import TRAIN_DEFAULTS, make_wall_cnmp
     from acnmp_core.model.cnmp import CNMP, CNMPConfig
@@ -69,7 +69,7 @@ def measure(device, args) -> dict:
     times, values, params = make_demo_set(20, np.random.default_rng(0))
     wall = DemoSet([Demonstration(times[i], values[i], params[i]) for i in range(len(values))])
     solution = wall[0]
-    from acnmp_core.adapt.config import AdaptTarget
+    from acnmp_core.adaptation.config import AdaptTarget
 
     # conditioned as E3 conditions: on the start and the goal
     target = AdaptTarget(solution.times[[0, -1]], solution.values[[0, -1]], solution.task_params, solution.times)
@@ -127,8 +127,7 @@ def main() -> int:
                           for row in result["devices"][1:]}
     if not result["over_cpu"]:
         result["note"] = "only the CPU here: the CUDA rows appear on a machine with a CUDA device"
-    save_result(result, args.out, headline=("devices", "over_cpu"))
-    return 0
+    return save_result(result, args.out, headline=("devices", "over_cpu"))
 
 
 if __name__ == "__main__":

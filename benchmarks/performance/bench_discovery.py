@@ -9,7 +9,6 @@ description), and each command's wall time (p50/max, seconds: mostly the interpr
 """
 from __future__ import annotations
 
-import argparse
 import os
 import signal
 import subprocess
@@ -23,14 +22,11 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
-from benchmarks._results import provenance, save_result  # noqa: E402
+from benchmarks._results import benchmark_args, provenance, save_result  # noqa: E402
 
 
 def main() -> int:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--n", type=int, default=20)
-    p.add_argument("--out", default="benchmarks/results/bench_discovery.json")
-    args = p.parse_args()
+    args = benchmark_args(__doc__, "bench_discovery", None, n=20)
     prov = provenance()
     tmp = Path(tempfile.mkdtemp(prefix="acnmp-bench-discovery-"))
     env = dict(os.environ, PYTHONPATH=str(ROOT), RERUN_ANALYTICS="0", ACNMP_RUNTIME_DIR=str(tmp / "run"))

@@ -138,9 +138,8 @@ def main(argv: list[str] | None = None) -> int:
         "idle_after_flood_s": round(idle_after_s, 3), "light_after_flood_s": [round(x, 3) for x in after],
         "heavy_outcomes": dict(outcomes), "light_failures": dict(light_failures),
     }
-    save_result(result, args.out, headline=("heavy_alone_s", "light_during_flood_s", "idle_after_flood_s",
+    return save_result(result, args.out, headline=("heavy_alone_s", "light_during_flood_s", "idle_after_flood_s",
                                             "heavy_outcomes", "light_failures"))
-    return 0
 
 
 if __name__ == "__main__":

@@ -149,8 +149,7 @@ def main() -> int:
     result["e1_same_counts"] = all(r["e1"]["rollouts"] == runs["loopback"][0]["e1"]["rollouts"]
                                    and r["e1"]["success"] == runs["loopback"][0]["e1"]["success"]
                                    for layout in runs for r in runs[layout])
-    save_result(result, args.out, headline=("ratios_hosts_over_loopback", "e1_same_counts"))
-    return 0
+    return save_result(result, args.out, headline=("ratios_hosts_over_loopback", "e1_same_counts"))
 
 
 if __name__ == "__main__":

@@ -16,7 +16,6 @@ Writes benchmarks/results/bench_pusher_rollouts.json. Usage:
 """
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import sys
 import time
@@ -30,7 +29,7 @@ sys.path.insert(0, str(ROOT))
 from acnmp_core.robots.gym_robot import GymRolloutEvaluator  # noqa: E402
 from acnmp_core.robots.pusher import TASK, pusher_config  # noqa: E402
 from acnmp_core.tasks.pusher.scene import PUSHER_KD, PUSHER_KP, pusher_expert, set_pusher_task, training_params  # noqa: E402
-from benchmarks._results import provenance, save_result  # noqa: E402
+from benchmarks._results import benchmark_args, provenance, save_result  # noqa: E402
 
 BATCH = 40
 
@@ -80,10 +79,7 @@ def workers_rate(n_workers: int, trajs: np.ndarray, times: np.ndarray, params: n
 
 def main(argv: list[str] | None = None) -> int:
     """Measure and write the JSON."""
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--batches", type=int, default=5)
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "bench_pusher_rollouts.json"))
-    args = ap.parse_args(argv)
+    args = benchmark_args(__doc__, "bench_pusher_rollouts", argv, batches=5)
     meta = provenance()
     t0 = time.perf_counter()
     params = training_params()[0]
@@ -104,8 +100,7 @@ def main(argv: list[str] | None = None) -> int:
         "workers_2_over_1": round(rates["2"] / rates["1"], 3),
         "wall_time_s": round(time.perf_counter() - t0, 2),
     }
-    save_result(result, args.out, None, ("raw_env_ms", "adapter_ms", "vector_2_ms", "workers_rollouts_per_s"))
-    return 0
+    return save_result(result, args.out, None, ("raw_env_ms", "adapter_ms", "vector_2_ms", "workers_rollouts_per_s"))
 
 
 if __name__ == "__main__":

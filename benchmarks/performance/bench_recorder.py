@@ -10,7 +10,6 @@ drawn per step).
 """
 from __future__ import annotations
 
-import argparse
 import os
 import platform
 import sys
@@ -23,6 +22,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 from acnmp_core.robots.registry import robot  # noqa: E402
+from benchmarks._results import benchmark_args  # noqa: E402
 from clients.experiments.common import write_json  # noqa: E402
 from services.launcher import LocalDeployment  # noqa: E402
 from services.recording.events import rollout_event  # noqa: E402
@@ -69,10 +69,7 @@ def measure(dep: LocalDeployment, kind: str, n: int) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--events", type=int, default=300, help="events per shape (default: %(default)s)")
-    p.add_argument("--out", default="benchmarks/results/bench_recorder.json")
-    args = p.parse_args(argv)
+    args = benchmark_args(__doc__, "bench_recorder", argv, events=(300, "events per shape (default: %(default)s)"))
     os.environ.setdefault("RERUN_ANALYTICS", "0")
     with tempfile.TemporaryDirectory(prefix="bench-rec-") as tmp:
         with LocalDeployment(f"benchrec-{os.getpid()}", workers=0, model=False, learner=False,

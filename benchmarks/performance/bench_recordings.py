@@ -139,8 +139,7 @@ def main(argv: list[str] | None = None) -> int:
     result = {"experiment": "bench_recordings", "provenance": meta,
               "config": {"rollouts": args.rollouts, "jobs": args.jobs, "events": args.events},
               "export": export, "live": live, "wall_time_s": round(time.perf_counter() - t0, 1)}
-    save_result(result, args.out, headline=("export", "live"))
-    return 0
+    return save_result(result, args.out, headline=("export", "live"))
 
 
 if __name__ == "__main__":

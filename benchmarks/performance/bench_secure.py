@@ -13,7 +13,6 @@ Numbers from one run on a shared machine.
 """
 from __future__ import annotations
 
-import argparse
 import os
 import sys
 import tempfile
@@ -24,7 +23,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
-from benchmarks._results import provenance, save_result  # noqa: E402
+from benchmarks._results import benchmark_args, provenance, save_result  # noqa: E402
 
 SMALL = {"encoder_widths": [32, 32], "decoder_widths": [32, 32]}
 
@@ -91,10 +90,7 @@ def _empty_query_rtt(n: int) -> dict:
 
 
 def main() -> int:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--n", type=int, default=300)
-    p.add_argument("--out", default="benchmarks/results/bench_secure.json")
-    args = p.parse_args()
+    args = benchmark_args(__doc__, "bench_secure", None, n=300)
     prov = provenance()
     os.environ.setdefault("ACNMP_RUNTIME_DIR", tempfile.mkdtemp(prefix="acnmp-bench-run-"))
     from acnmp_core.tasks.viapoint.task import obstacle_demos
@@ -124,8 +120,7 @@ def main() -> int:
                           f"{result['secure']['info']['p50_ms']:.2f} ms secure "
                           f"({result['ratio_secure_over_mesh']['info']:.2f}x); predict "
                           f"{result['ratio_secure_over_mesh']['predict']:.2f}x")
-    save_result(result, args.out)
-    return 0
+    return save_result(result, args.out)
 
 
 if __name__ == "__main__":

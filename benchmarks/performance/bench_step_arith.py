@@ -93,9 +93,8 @@ def main(argv: list[str] | None = None) -> int:
               "two_threads_same_weights": short["weights_digest"] == two["weights_digest"],
               "two_threads_cpu_ratio": round(two["cpu_ms_per_step"] / short["cpu_ms_per_step"], 3),
               "note": "cpu = process CPU time (all threads); one setting at a time, in this order"}
-    save_result(result, args.out, headline=("flush_denormal_same_weights", "flush_denormal_cpu_ratio",
+    return save_result(result, args.out, headline=("flush_denormal_same_weights", "flush_denormal_cpu_ratio",
                                             "two_threads_same_weights", "two_threads_cpu_ratio"))
-    return 0
 
 
 if __name__ == "__main__":

@@ -12,7 +12,6 @@
 """
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import platform
@@ -27,6 +26,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 from acnmp_core.robots.registry import robot  # noqa: E402
 from acnmp_core.tasks.wall import task as W  # noqa: E402
 from acnmp_core.tasks.push.demos import push_demos  # noqa: E402
+from benchmarks._results import benchmark_args  # noqa: E402
 from clients.experiments.common import write_json  # noqa: E402
 
 
@@ -55,7 +55,7 @@ def wall_scoring_s(n: int = 1000, steps: int = 200) -> tuple[float, bool]:
 
 def e1_adaptation(budget: int = 30, train_steps: int = 1000) -> dict:
     """Seconds per iteration and per roll-out of E1's ACNMP adaptation (seed 0, in-process task)."""
-    from acnmp_core.adapt.adaptation import adapt
+    from acnmp_core.adaptation.loop import adapt
     from acnmp_core.experiments.viapoint import adapt_config, make_setup, train_lfd
 
     setup = make_setup()
@@ -70,10 +70,7 @@ def e1_adaptation(budget: int = 30, train_steps: int = 1000) -> dict:
 
 def main(argv: list[str] | None = None) -> int:
     """Run the measurements, print them, write JSON; returns 0."""
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--repeats", type=int, default=5, help="roll-outs timed per arm (default: %(default)s)")
-    p.add_argument("--out", default="benchmarks/results/bench_tasks.json")
-    args = p.parse_args(argv)
+    args = benchmark_args(__doc__, "bench_tasks", argv, repeats=(5, "roll-outs timed per arm (default: %(default)s)"))
     import torch
 
     torch.set_num_threads(1)

@@ -90,8 +90,8 @@ def bench_train(name: str, model, demos, steps: int) -> tuple[dict, object]:
 
 def bench_assimilation(model, setup, steps: int) -> dict:
     """One E3 assimilation (anchor included) of the model's own trajectory for the first new environment."""
-    from acnmp_core.adapt.assimilation import AssimilationConfig, assimilate
-    from acnmp_core.adapt.config import AdaptTarget
+    from acnmp_core.adaptation.assimilation import AssimilationConfig, assimilate
+    from acnmp_core.adaptation.config import AdaptTarget
     from acnmp_core.data.demos import Demonstration
     from acnmp_core.experiments.wall import TRAIN_DEFAULTS, cnmp_trajectories, wall_conditions
 
@@ -111,9 +111,9 @@ def bench_assimilation(model, setup, steps: int) -> dict:
 def bench_adaptation(model, setup, max_rollouts: int) -> dict:
     """One E3 adaptation (library defaults, ``max_rollouts``) on the first new environment the model
     fails, with its supervised steps timed apart."""
-    from acnmp_core.adapt import adaptation
-    from acnmp_core.adapt.adaptation import adapt
-    from acnmp_core.adapt.config import AdaptConfig, AdaptTarget
+    from acnmp_core.adaptation import loop as adaptation
+    from acnmp_core.adaptation.loop import adapt
+    from acnmp_core.adaptation.config import AdaptConfig, AdaptTarget
     from acnmp_core.experiments.wall import cnmp_trajectories, wall_conditions
     from acnmp_core.tasks.wall.task import WallTask
 
@@ -201,8 +201,7 @@ def main(argv: list[str] | None = None) -> int:
             ap.error("--measured needs --before")
         result = json.loads(Path(args.measured).read_text())
         _add_ratios(result, args.before)
-        save_result(result, args.out, headline=("load_average_start_end", "ratios_before_over_after"))
-        return 0
+        return save_result(result, args.out, headline=("load_average_start_end", "ratios_before_over_after"))
     torch.set_num_threads(1)
     meta = provenance()
     load0 = os.getloadavg()
@@ -219,8 +218,7 @@ def main(argv: list[str] | None = None) -> int:
               "note": "cpu = process CPU time with 1 torch thread; wall includes waiting for the shared cores"}
     if args.before:
         _add_ratios(result, args.before)
-    save_result(result, args.out, headline=("load_average_start_end", "ratios_before_over_after"))
-    return 0
+    return save_result(result, args.out, headline=("load_average_start_end", "ratios_before_over_after"))
 
 
 if __name__ == "__main__":

@@ -10,7 +10,6 @@ and max over the roll-outs) and the demonstrations' success. Usage::
 """
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import platform
@@ -25,6 +24,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 from acnmp_core.tasks.ur10_pick_place.demos import expert_trajectory, make_ur10_demos  # noqa: E402
 from acnmp_core.tasks.ur10_pick_place.task import N_STEPS, UR10PickPlaceTask  # noqa: E402
+from benchmarks._results import benchmark_args  # noqa: E402
 
 
 def _smooth_noise(rng, std: float, n_knots: int = 20) -> np.ndarray:
@@ -43,11 +43,7 @@ def _ms(samples) -> dict:
 
 def main(argv=None) -> int:
     """Run the benchmark, print and write its JSON; returns 0."""
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--repeats", type=int, default=3, help="passes over the 10 demonstrations")
-    ap.add_argument("--noise", type=float, default=0.01, help="exploration noise std (rad)")
-    ap.add_argument("--out", default="benchmarks/results/bench_ur10_rollout.json")
-    args = ap.parse_args(argv)
+    args = benchmark_args(__doc__, "bench_ur10_rollout", argv, repeats=(3, "passes over the 10 demonstrations"), noise=(0.01, "exploration noise std (rad)"))
     torch.set_num_threads(1)
     rng = np.random.default_rng(0)
     times = np.linspace(0.0, 1.0, N_STEPS)

@@ -8,7 +8,6 @@ evaluation) the cumulative seconds and their share of the run. Usage::
 """
 from __future__ import annotations
 
-import argparse
 import cProfile
 import pstats
 import sys
@@ -20,15 +19,15 @@ import torch
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
-from benchmarks._results import provenance, save_result  # noqa: E402
+from benchmarks._results import benchmark_args, provenance, save_result  # noqa: E402
 
 #: stage -> (module file suffix, function name) whose cumulative time is the stage's.
 STAGES = {
     "first_training": ("acnmp_core/model/training.py", "train"),
-    "adaptation": ("acnmp_core/adapt/adaptation.py", "adapt"),
-    "adaptation_supervised_steps": ("acnmp_core/adapt/adaptation.py", "sl"),
+    "adaptation": ("acnmp_core/adaptation/loop.py", "adapt"),
+    "adaptation_supervised_steps": ("acnmp_core/adaptation/loop.py", "sl"),
     "rollouts": ("acnmp_core/tasks/wall/task.py", "evaluate"),
-    "assimilation": ("acnmp_core/adapt/assimilation.py", "assimilate"),
+    "assimilation": ("acnmp_core/adaptation/assimilation.py", "assimilate"),
     "test_evaluation": ("acnmp_core/experiments/wall.py", "evaluate_test"),
 }
 
@@ -36,11 +35,7 @@ STAGES = {
 def main(argv: list[str] | None = None) -> int:
     from acnmp_core.experiments.wall import run_wall
 
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--envs", type=int, default=40)
-    ap.add_argument("--test", type=int, default=1000)
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "e3_profile.json"))
-    args = ap.parse_args(argv)
+    args = benchmark_args(__doc__, "e3_profile", argv, envs=40, test=1000)
     torch.set_num_threads(1)
     meta = provenance()
     prof = cProfile.Profile()
@@ -60,8 +55,7 @@ def main(argv: list[str] | None = None) -> int:
               "adaptations": s["adaptations"], "trajectories_total": s["trajectories_total"],
               "wall_time_s": round(wall, 2), "stages": stages,
               "note": "cProfile adds overhead to every Python call; shares are the useful part"}
-    save_result(result, args.out, headline=("wall_time_s", "stages"))
-    return 0
+    return save_result(result, args.out, headline=("wall_time_s", "stages"))
 
 
 if __name__ == "__main__":

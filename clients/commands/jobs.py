@@ -129,7 +129,7 @@ def _run_train(args) -> int:
 def _adapt_job(args, client):
     """The :class:`~acnmp_core.jobs.adapt.AdaptJob` of ``args``; the query times from the skill's
     trained time range (its ``info``) unless ``--times`` gives them."""
-    from acnmp_core.adapt.config import AdaptConfig, AdaptTarget
+    from acnmp_core.adaptation.config import AdaptConfig, AdaptTarget
     from acnmp_core.jobs.adapt import AdaptJob
 
     times, values, mask = parse_obs_json(args.obs_json) if args.obs_json else parse_obs(args.obs)

@@ -171,7 +171,7 @@ def _run_skills(args) -> int:
 
 
 def _run_cancel(args) -> int:
-    # the router's ACL lets only the operator (and the learner) cancel (docs/PROTOCOL.md, "Security"):
+    # the router's ACL lets only the operator (and the learner) cancel (docs/SECURITY.md):
     # with the client's credentials the query is dropped and times out as `unavailable`
     status, code = _ask(args, lambda client: client.cancel(args.job), role="operator")
     if status is None:

@@ -35,7 +35,7 @@ def register(subparsers) -> None:
     parser.add_argument("--export", metavar="DIR", type=non_empty, default=None,
                         help="write every roll-out, job, latent, model version and metric as Parquet tables "
                              "in DIR, each task parameter a column (task_config.<key>[.<i>], task_params.<i>; "
-                             "schemas: docs/PROTOCOL.md, 'Recordings as data')")
+                             "schemas: docs/EVENTS.md, 'Recordings as data')")
     parser.add_argument("--export-lerobot", metavar="DIR", type=non_empty, default=None,
                         help="write every roll-out as an episode of a new LeRobot v3 dataset in DIR (docs/DATA.md)")
     parser.add_argument("--export-minari", metavar="DATASET_ID", type=non_empty, default=None,

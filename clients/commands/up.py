@@ -132,7 +132,7 @@ def run(args) -> int:
     code = 0 if served or stop.is_set() else 1
     if dep.children and command_owns_the_process():
         # everything it started is stopped and closed: skip the interpreter's teardown (the garbage
-        # collection of torch and zenoh, 1.7-3.5 s measured on the 2-core machine), as its children do
+        # collection of torch and zenoh takes seconds), as its children do
         import atexit
 
         from services.transport.lifetime import exit_now

@@ -125,3 +125,13 @@ def write_json(result: dict, path: str | None) -> None:
         Path(path).write_text(json.dumps({"provenance": provenance(), **result}, indent=2))
         print(f"wrote {path}")
     sys.stdout.flush()
+
+
+
+def write_outputs(result: dict, args, plot) -> int:
+    """Write ``result`` to ``args.json`` (:func:`write_json`) and its figure to ``args.plot`` with
+    ``plot(result, path)``, saying where; returns 0, the experiment's exit code."""
+    write_json(result, args.json)
+    if args.plot:
+        print(f"wrote {plot(result, args.plot)}", flush=True)
+    return 0

@@ -5,7 +5,7 @@ from __future__ import annotations
 from services.transport.argtypes import int_at_least
 
 from .common import (add_deployment_arguments, add_output_arguments, add_size_arguments,
-                     check_deployment_arguments, seed_list, sizes, with_deployment, write_json)
+                     check_deployment_arguments, seed_list, sizes, with_deployment, write_outputs)
 
 
 def add_arguments(p) -> None:
@@ -58,7 +58,4 @@ def run(args) -> int:
               f"demonstrations within 30 g {s['demos_reproduced_within_30g']:.0f}/16 (medians)")
     if result["rollout_cpu_s_median"] is not None:
         print(f"CPU per roll-out: {result['rollout_cpu_s_median']:.2f} s (median)")
-    write_json(result, args.json)
-    if args.plot:
-        print(f"wrote {plot_pour(result, args.plot)}", flush=True)
-    return 0
+    return write_outputs(result, args, plot_pour)

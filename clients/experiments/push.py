@@ -4,7 +4,7 @@ from __future__ import annotations
 from services.transport.argtypes import int_at_least
 
 from .common import (add_deployment_arguments, add_output_arguments, add_seeds_argument, check_deployment_arguments,
-                     seed_list, with_deployment, write_json)
+                     seed_list, with_deployment, write_outputs)
 
 #: --quick: enough to see both methods run end to end in about a minute.
 QUICK = dict(train_steps=1500, acnmp_budget=60, promp_budget=150)
@@ -36,7 +36,7 @@ def run(args) -> int:
     """Run E2 as asked by ``args`` and print a summary table; returns the exit code."""
     import torch
 
-    from acnmp_core.adapt.config import AdaptConfig
+    from acnmp_core.adaptation.config import AdaptConfig
     from acnmp_core.baselines.promp_rl import PrompRLConfig
     from acnmp_core.experiments.push import ACNMP_BUDGET, PROMP_DEFAULTS, run_push, task_config
     from acnmp_core.tasks.push.settings import push_setting
@@ -74,9 +74,6 @@ def run(args) -> int:
                   f"{s['final_error_median']:>10.4f} {s['lfd_error_median']:>11.4f}")
     for c, ratio in result["rollout_ratio_promp_over_acnmp"].items():
         print(f"ProMP+RL / ACNMP roll-outs ({c}): {'-' if ratio is None else f'{ratio:.2f}x'}")
-    write_json(result, args.json)
-    if args.plot:
-        from acnmp_core.experiments.plots import plot_push
+    from acnmp_core.experiments.plots import plot_push
 
-        print(f"wrote {plot_push(result, args.plot)}", flush=True)
-    return 0
+    return write_outputs(result, args, plot_push)

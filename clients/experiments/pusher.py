@@ -5,7 +5,7 @@ from __future__ import annotations
 from services.transport.argtypes import int_at_least
 
 from .common import (add_deployment_arguments, add_output_arguments, add_size_arguments,
-                     check_deployment_arguments, seed_list, sizes, with_deployment, write_json)
+                     check_deployment_arguments, seed_list, sizes, with_deployment, write_outputs)
 
 #: --quick: every method end to end on two seeds in about a minute
 QUICK = dict(seeds=2, train_steps=1500, budget=100, promp_budget=150)
@@ -54,7 +54,4 @@ def run(args) -> int:
         print(f"{m:<10} {100 * s['success_rate']:>7.0f}% {s['rollouts_median']:>18.0f} {s['final_error_median']:>27.3f}")
     ratio = result["rollout_ratio_promp_over_acnmp"]
     print(f"ProMP + RL / ACNMP roll-outs: {'- (a method succeeded in half of the seeds or fewer)' if ratio is None else f'{ratio:.2f}x'}")
-    write_json(result, args.json)
-    if args.plot:
-        print(f"wrote {plot_pusher(result, args.plot)}", flush=True)
-    return 0
+    return write_outputs(result, args, plot_pusher)

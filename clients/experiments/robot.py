@@ -5,7 +5,7 @@ from __future__ import annotations
 from services.transport.argtypes import non_empty, robot_kind
 
 from .common import (add_deployment_arguments, add_output_arguments, add_size_arguments,
-                     check_deployment_arguments, seed_list, sizes, with_deployment, write_json)
+                     check_deployment_arguments, seed_list, sizes, with_deployment, write_outputs)
 
 
 def _point(text: str) -> list[float]:
@@ -72,7 +72,4 @@ def run(args) -> int:
     print(f"{'method':<8} {'success':>8} {'roll-outs (median)':>18} {'error (median)':>15}")
     for m, s in result["methods"].items():
         print(f"{m:<8} {100 * s['success_rate']:>7.0f}% {s['rollouts_median']:>18.0f} {s['final_error_median']:>15.4f}")
-    write_json(result, args.json)
-    if args.plot:
-        print(f"wrote {plot_own_robot(result, args.plot)}", flush=True)
-    return 0
+    return write_outputs(result, args, plot_own_robot)

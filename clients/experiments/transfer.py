@@ -6,7 +6,7 @@ from pathlib import Path
 from services.transport.argtypes import int_at_least
 
 from .common import (add_deployment_arguments, add_output_arguments, add_seeds_argument, check_deployment_arguments,
-                     seed_list, write_json)
+                     seed_list, write_outputs)
 
 
 def add_arguments(p) -> None:
@@ -76,9 +76,6 @@ def run(args) -> int:
               f"{a['nearest_partner_rmse']:.3f}")
     elif not args.no_authors_data:
         print(f"authors' data check skipped: their arrays are not in {data_dir} (--authors-data DIR)")
-    write_json(result, args.json)
-    if args.plot:
-        from acnmp_core.experiments.plots import plot_transfer
+    from acnmp_core.experiments.plots import plot_transfer
 
-        print(f"wrote {plot_transfer(result, args.plot)}", flush=True)
-    return 0
+    return write_outputs(result, args, plot_transfer)

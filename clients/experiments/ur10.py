@@ -3,7 +3,7 @@ objects and obstacles; LfD only vs ACNMP, per-joint errors against the expert.""
 from __future__ import annotations
 
 from .common import (add_deployment_arguments, add_output_arguments, add_size_arguments,
-                     check_deployment_arguments, seed_list, sizes, with_deployment, write_json)
+                     check_deployment_arguments, seed_list, sizes, with_deployment, write_outputs)
 
 
 def add_arguments(p) -> None:
@@ -20,7 +20,7 @@ def run(args) -> int:
     """Run E5 as asked by ``args`` and print a summary table; returns the exit code."""
     import torch
 
-    from acnmp_core.adapt.config import AdaptConfig
+    from acnmp_core.adaptation.config import AdaptConfig
     from acnmp_core.experiments.ur10 import BUDGET, CASES, TRAIN_STEPS, plot_ur10, run_ur10
 
     cases = tuple(CASES) if args.cases is None else tuple(c.strip() for c in args.cases.split(",") if c.strip())
@@ -48,7 +48,4 @@ def run(args) -> int:
         for m, s in methods.items():
             errs = " ".join(f"{e:6.2f}" for e in s["joint_error_deg"])
             print(f"{case:<6} {m:<9} {100 * s['success_rate']:>7.0f}% {s['rollouts_median']:>9.0f}  {errs}")
-    write_json(result, args.json)
-    if args.plot:
-        print(f"wrote {plot_ur10(result, args.plot)}", flush=True)
-    return 0
+    return write_outputs(result, args, plot_ur10)

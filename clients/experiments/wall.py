@@ -38,9 +38,9 @@ def add_arguments(p) -> None:
                         "paths as generated) or 'all' (the adaptations' roll-outs too)")
     p.add_argument("--threads", type=int_at_least(1), default=None,
                    help="torch threads for the CNMP's training and adaptation (default: $ACNMP_TORCH_THREADS "
-                        "or 1). Measured (bench_thread_default.json): 2 threads run E3 faster only while no "
-                        "other process uses a core, and several times slower when one does; the numbers "
-                        "computed are the same")
+                        "or 1). 2 threads run E3 faster only while no other process uses a core, and several "
+                        "times slower when one does (benchmarks/results/bench_thread_default.json); the "
+                        "numbers computed are the same")
     add_output_arguments(p, "write test error / success vs environments and trajectories (PNG)")
     add_deployment_arguments(p, "the roll-outs on point2d workers")
     p.add_argument("--quiet", action="store_true", help="no progress lines")

@@ -4,7 +4,7 @@ paired-skill jobs.
 :class:`LearnerCore` owns the durable state (services/learner/store.py) and runs up to ``jobs``
 jobs at once, each on a job thread of its own with a runner of its own (services/learner/runner.py:
 the adaptation's arithmetic on that thread, or in a child process, so jobs do not take turns on
-the GIL): :func:`acnmp_core.adapt.adaptation.adapt` on a copy of the skill's model, with the
+the GIL): :func:`acnmp_core.adaptation.loop.adapt` on a copy of the skill's model, with the
 evaluator its ``evaluator_for`` callable builds for the job (the service passes a
 :class:`~services.worker.remote.RemoteEvaluator` over the workers; a test may pass the in-process
 task). With ``commit`` a successful solution is assimilated: added to the demonstrations, the model
@@ -63,9 +63,9 @@ from typing import Callable
 import numpy as np
 import torch
 
-from acnmp_core.adapt.adaptation import adapt
-from acnmp_core.adapt.assimilation import AssimilationConfig, assimilate
-from acnmp_core.adapt.config import AdaptTarget, IterationLog
+from acnmp_core.adaptation.loop import adapt
+from acnmp_core.adaptation.assimilation import AssimilationConfig, assimilate
+from acnmp_core.adaptation.config import AdaptTarget, IterationLog
 from acnmp_core.data.demos import DemoSet, Demonstration
 from acnmp_core.jobs.adapt import AdaptJob
 from acnmp_core.jobs.transfer import PairJobResult, PairTrainJob

@@ -1,7 +1,7 @@
 """A job as the learner keeps it: the request, where it stands, and its result.
 
 A job is an adaptation (request :class:`~acnmp_core.jobs.adapt.AdaptJob`, result
-:class:`~acnmp_core.adapt.config.AdaptResult`) or a paired skill's training (``kind``
+:class:`~acnmp_core.adaptation.config.AdaptResult`) or a paired skill's training (``kind``
 ``train_pair``: :class:`~acnmp_core.jobs.transfer.PairTrainJob`, :class:`~acnmp_core.jobs.transfer.PairJobResult`);
 a record without ``kind`` is an adaptation, so the records of earlier versions load.
 
@@ -17,7 +17,7 @@ import uuid
 from dataclasses import dataclass, field
 from typing import Any
 
-from acnmp_core.adapt.config import AdaptResult
+from acnmp_core.adaptation.config import AdaptResult
 from acnmp_core.jobs.adapt import AdaptJob, result_from_dict, result_to_dict
 from acnmp_core.jobs.transfer import PairJobResult, PairTrainJob
 from services.transport.wire import jsonable

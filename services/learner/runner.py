@@ -1,6 +1,6 @@
 """Where a job's adaptation computes: on the learner's job thread, or in a child process of its own.
 
-The supervised and policy steps of :func:`acnmp_core.adapt.adaptation.adapt` are many small torch
+The supervised and policy steps of :func:`acnmp_core.adaptation.loop.adapt` are many small torch
 operations whose Python overhead holds the GIL, so jobs on threads of one process take turns on
 one core (``benchmarks/results/bench_jobs.json``: two E1 jobs on two threads take about as long as
 one after the other). :class:`ProcessRunner` runs the adaptation in a spawned child process
@@ -31,8 +31,8 @@ from typing import Callable, Protocol
 
 import numpy as np
 
-from acnmp_core.adapt.config import AdaptConfig, AdaptResult, AdaptTarget, IterationLog
-from acnmp_core.adapt.adaptation import adapt
+from acnmp_core.adaptation.config import AdaptConfig, AdaptResult, AdaptTarget, IterationLog
+from acnmp_core.adaptation.loop import adapt
 from acnmp_core.model.cnmp import CNMP
 from acnmp_core.data.demos import DemoSet
 from acnmp_core.rollout import RolloutBatch, RolloutEvaluator
@@ -50,7 +50,7 @@ STOP_POLL = 0.1
 
 @dataclass(frozen=True)
 class AdaptTask:
-    """One adaptation as a runner gets it: the arguments of :func:`~acnmp_core.adapt.adaptation.adapt`
+    """One adaptation as a runner gets it: the arguments of :func:`~acnmp_core.adaptation.loop.adapt`
     (``model`` is adapted in place by the runner; ``credit`` is the evaluator's credit rule)."""
 
     model: CNMP
@@ -66,7 +66,7 @@ OnIteration = Callable[[IterationLog, np.ndarray, RolloutBatch], None]
 
 class AdaptRunner(Protocol):
     """Runs one adaptation at a time; :meth:`run` has the contract of
-    :func:`~acnmp_core.adapt.adaptation.adapt` (``task.model`` holds the adapted weights afterwards)."""
+    :func:`~acnmp_core.adaptation.loop.adapt` (``task.model`` holds the adapted weights afterwards)."""
 
     def run(self, task: AdaptTask, evaluator: RolloutEvaluator, on_iteration: OnIteration,
             stop: threading.Event) -> AdaptResult:
@@ -80,7 +80,7 @@ class AdaptRunner(Protocol):
 
 
 class ThreadRunner:
-    """:func:`~acnmp_core.adapt.adaptation.adapt` on the calling thread (jobs share the GIL)."""
+    """:func:`~acnmp_core.adaptation.loop.adapt` on the calling thread (jobs share the GIL)."""
 
     def run(self, task: AdaptTask, evaluator: RolloutEvaluator, on_iteration: OnIteration,
             stop: threading.Event) -> AdaptResult:
@@ -167,7 +167,7 @@ class ChildDied(RuntimeError):
 
 
 class ProcessRunner:
-    """:func:`~acnmp_core.adapt.adaptation.adapt` in a spawned child process (see the module docstring).
+    """:func:`~acnmp_core.adaptation.loop.adapt` in a spawned child process (see the module docstring).
 
     The child is started by the first :meth:`run` (a learner that runs no job starts no process;
     the first job waits for the fork server to import torch, once per learner) or by :meth:`start`,

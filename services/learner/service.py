@@ -545,8 +545,8 @@ class LearnerConfig(Service):
         import torch
 
         torch.set_num_threads(1)
-        # the first optimiser imports torch._dynamo and sympy (5-9 s measured on the busy 2-core
-        # machine without bytecode caches): for --demos, on a thread, so the main one still sees a
+        # the first optimiser imports torch._dynamo and sympy (seconds without bytecode caches):
+        # for --demos, on a thread, so the main one still sees a
         # stop meanwhile (otherwise the first train request or job imports them)
         imported = threading.Thread(target=import_training_modules, name="import-training", daemon=True)
         if self.demos:

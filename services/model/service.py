@@ -7,7 +7,7 @@ Declared entities (``<ns>`` the namespace, ``<skill>`` a skill name):
   dispatching on the skill chunk of the query's key: a query for a skill with no model gets
   ``unknown_skill`` instead of silence. One wildcard queryable per operation rather than one per
   skill, because zenoh hands a query to *every* matching queryable of a session: a per-skill
-  queryable next to a catch-all would run every predict twice (measured: it did). With several
+  queryable next to a catch-all would run every predict twice. With several
   model processes, each answers; :class:`clients.client.ACNMPClient` takes the successful reply;
 - queryable ``acnmp/<ns>/skill/*/predict/<zid>``: the same predicts, for this process alone. Zenoh
   gives a query on the skill's key to every model process (each computes it:

@@ -2,7 +2,7 @@
 
 Events go through zenoh-ext **advanced publishers** (one per event key, declared on first use)
 with a cache: a recorder that (re)starts while this process runs recovers, from each publisher's
-cache, the events it missed (services/recording/recorder.py, docs/PROTOCOL.md section 7).
+cache, the events it missed (services/recording/recorder.py, docs/EVENTS.md).
 """
 from __future__ import annotations
 

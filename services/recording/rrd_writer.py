@@ -146,8 +146,8 @@ class RrdWriter:
         self.path = Path(path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
         # an explicit RecordingStream (not rr.init): no global state, no viewer spawned, nothing bound
-        # live: batches leave every 8 ms (Rerun's low-latency batcher), not every 200 ms (its default,
-        # which bench_recordings.json measured as ~150 ms from publication to a viewer)
+        # live: batches leave every 8 ms (Rerun's low-latency batcher), not every 200 ms (its default),
+        # so a viewer sees a roll-out soon after its publication (benchmarks/results/bench_recordings.json)
         self.rec = rr.RecordingStream(application_id, recording_id=recording_id or uuid.uuid4().hex,
                                       batcher_config=rr.ChunkBatcherConfig.LOW_LATENCY() if grpc_port else None)
         if not rr.is_enabled(self.rec):

@@ -7,10 +7,10 @@ more .rrd files as Apache Arrow tables (and Parquet files), read through Rerun's
     tables.write_parquet("out/")                        # rollouts.parquet, jobs.parquet, ...
 
 The roll-outs are read at the precision the recorder stores for data (float64: times, values,
-reward, task parameters, in each ``/rollouts/<job>`` row; docs/PROTOCOL.md section 8), not from
+reward, task parameters, in each ``/rollouts/<job>`` row; docs/EVENTS.md, "The recording"), not from
 the float32 drawings. A file without a footer (its recorder killed with -9) is read by streaming;
 a roll-out that several files hold (a restarted recorder's earlier file and its own) appears
-once. Schemas: :data:`SCHEMAS` and docs/PROTOCOL.md, "Recordings as data".
+once. Schemas: :data:`SCHEMAS` and docs/EVENTS.md, "Recordings as data".
 """
 from __future__ import annotations
 

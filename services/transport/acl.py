@@ -1,7 +1,7 @@
 """The deployment's access control: default deny, and per role an explicit allow list.
 
 :data:`GRANTS` is the single source. :func:`acl_config` turns it into the router's zenoh
-``access_control`` section; :func:`grants_markdown` renders the table of docs/PROTOCOL.md
+``access_control`` section; :func:`grants_markdown` renders the table of docs/SECURITY.md
 ("Security"), and a test checks that the page shows exactly this table.
 
 How zenoh 1.10 applies it (what the rules rely on):
@@ -34,7 +34,7 @@ ROLES = ("launcher", "learner", "model", "worker", "recorder", "operator", "clie
 MESSAGES = ("put", "delete", "declare_subscriber", "query", "declare_queryable", "reply",
             "liveliness_token", "declare_liveliness_subscriber", "liveliness_query")
 
-#: The roles that publish events (docs/PROTOCOL.md section 7).
+#: The roles that publish events (docs/EVENTS.md).
 EVENT_PUBLISHERS = ("learner", "operator")
 
 _TOKENS = ("acnmp/*/model/**", "acnmp/*/service/**", "acnmp/*/learner/**", "acnmp/*/worker/**",
@@ -143,7 +143,7 @@ def may(role: str, message: str, key_expr: str) -> bool:
 
 
 def grants_markdown() -> str:
-    """The access table of docs/PROTOCOL.md: one markdown row per grant (roles, messages, keys, why)."""
+    """The access table of docs/SECURITY.md: one markdown row per grant (roles, messages, keys, why)."""
     rows = ["| grant | roles | messages | key expressions | what for |", "| --- | --- | --- | --- | --- |"]
     for g in GRANTS:
         roles = "every role" if set(g.roles) == set(ROLES) else ", ".join(f"`{r}`" for r in g.roles)
@@ -151,5 +151,5 @@ def grants_markdown() -> str:
     return "\n".join(rows) + "\n"
 
 
-if __name__ == "__main__":  # python -m services.transport.acl: the table for docs/PROTOCOL.md
+if __name__ == "__main__":  # python -m services.transport.acl: the table for docs/SECURITY.md
     print(grants_markdown(), end="")

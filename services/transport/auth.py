@@ -1,6 +1,6 @@
 """Authenticated deployments with zenoh's own mechanisms: user/password authentication and ACL.
 
-What is checked where (docs/PROTOCOL.md, "Security"):
+What is checked where (docs/SECURITY.md):
 
 * every process of a secured deployment is a zenoh **client** of one **router** (the launcher's
   session, the anchor). The router has the deployment's dictionary (``users.txt``, one

@@ -138,6 +138,17 @@ def _dtype_name(dtype: np.dtype) -> str | None:
     return None
 
 
+def _map(value: dict, path: str, code: str, convert) -> dict:
+    """``value`` with each entry converted by ``convert(v, its path)``; WireError ``code`` for a key
+    that is not a string (msgpack allows any, the protocol does not)."""
+    out = {}
+    for k, v in value.items():
+        if not isinstance(k, str):
+            raise WireError(code, f"{path or 'message'}: map key {k!r} is not a string")
+        out[k] = convert(v, f"{path}.{k}" if path else k)
+    return out
+
+
 def _to_plain(value: Any, path: str, allow_non_finite: bool, depth: int) -> Any:
     """Recursively turn ``value`` into msgpack-native types, checking as :func:`encode` says."""
     if depth > MAX_DEPTH:
@@ -155,12 +166,7 @@ def _to_plain(value: Any, path: str, allow_non_finite: bool, depth: int) -> Any:
     if isinstance(value, np.generic):
         return _to_plain(value.item(), path, allow_non_finite, depth)
     if isinstance(value, dict):
-        out = {}
-        for k, v in value.items():
-            if not isinstance(k, str):
-                raise WireError("bad_request", f"{path or 'message'}: map key {k!r} is not a string")
-            out[k] = _to_plain(v, f"{path}.{k}" if path else k, allow_non_finite, depth + 1)
-        return out
+        return _map(value, path, "bad_request", lambda v, where: _to_plain(v, where, allow_non_finite, depth + 1))
     if isinstance(value, (list, tuple)):
         return [_to_plain(v, f"{path}[{i}]", allow_non_finite, depth + 1) for i, v in enumerate(value)]
     raise WireError("bad_request", f"{path or 'value'}: cannot encode {type(value).__name__}")
@@ -249,12 +255,7 @@ def _from_plain(value: Any, path: str, allow_non_finite: bool, depth: int) -> An
     if isinstance(value, dict):
         if _is_array_map(value):
             return decode_array(value, path=path or "array", allow_non_finite=allow_non_finite)
-        out = {}
-        for k, v in value.items():
-            if not isinstance(k, str):
-                raise WireError("malformed", f"{path or 'message'}: map key {k!r} is not a string")
-            out[k] = _from_plain(v, f"{path}.{k}" if path else k, allow_non_finite, depth + 1)
-        return out
+        return _map(value, path, "malformed", lambda v, where: _from_plain(v, where, allow_non_finite, depth + 1))
     if isinstance(value, list):
         return [_from_plain(v, f"{path}[{i}]", allow_non_finite, depth + 1) for i, v in enumerate(value)]
     # e.g. msgpack.Timestamp (ext -1 is decoded natively, not through ext_hook)

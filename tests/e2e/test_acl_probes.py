@@ -1,6 +1,6 @@
 """Issue 31's probes, repeated as tests: holding one role's password of an authenticated deployment
 (client, worker, operator), wildcard key expressions and keys outside the role's grants change
-nothing and stall nothing (services/transport/acl.py, docs/PROTOCOL.md "Security")."""
+nothing and stall nothing (services/transport/acl.py, docs/SECURITY.md)."""
 from __future__ import annotations
 
 import time

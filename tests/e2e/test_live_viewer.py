@@ -19,7 +19,7 @@ from acnmp_core.experiments.viapoint import make_setup
 from services.launcher import LocalDeployment
 from services.recording.live_client import saving_client
 from services.transport import call
-from tests.unit.test_web_viewer import listening_addresses
+from tests.unit.services.recording.test_web_viewer import listening_addresses
 
 NS = "live"
 

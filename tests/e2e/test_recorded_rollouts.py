@@ -49,7 +49,7 @@ def test_remote_rollouts_are_recorded_once_each(tmp_path):
 def test_distributed_wall_loop_matches_in_process_and_records_what_it_counts(tmp_path):
     import torch
 
-    from acnmp_core.adapt.config import AdaptConfig
+    from acnmp_core.adaptation.config import AdaptConfig
     from acnmp_core.experiments.wall import run_wall
 
     torch.set_num_threads(1)

@@ -17,7 +17,7 @@ import sys
 import time
 import uuid
 
-from acnmp_core.adapt.config import AdaptConfig
+from acnmp_core.adaptation.config import AdaptConfig
 from acnmp_core.data.demo_io import save_demos
 from acnmp_core.data.demos import DemoSet, Demonstration
 from acnmp_core.experiments.viapoint import make_setup

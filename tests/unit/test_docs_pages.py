@@ -1,6 +1,6 @@
 """The product's front stays short (issue 37): the README within 6 KB with a results row for each
 of the paper's six experiments, and each experiment page's first screen saying what it is, the
-command that runs it, its generated results table and its figure; the rest is in docs/studies/."""
+command that runs it, its generated results table and its figure; the rest is in the studies beside their scripts (benchmarks/studies/<experiment>/)."""
 from __future__ import annotations
 
 
@@ -38,3 +38,15 @@ def test_every_page_and_study_the_catalog_names_exists(entry):
     for script in (entry.benchmark or "").split(","):
         if script.strip():
             assert (ROOT / script.strip()).exists(), script
+
+
+#: The most a page may weigh (bytes): docs/ holds what a user reads, investigations live beside their
+#: scripts (benchmarks/studies/<experiment>/), measurements in their own pages.
+PAGE_LIMITS = {"PROTOCOL.md": 50 * 1024, "ARCHITECTURE.md": 15 * 1024}
+PAGE_LIMIT = 40 * 1024
+
+
+def test_every_docs_page_stays_within_its_size():
+    too_big = {str(page.relative_to(ROOT)): size for page in (ROOT / "docs").rglob("*.md")
+               if (size := len(page.read_bytes())) > PAGE_LIMITS.get(page.name, PAGE_LIMIT)}
+    assert not too_big, too_big

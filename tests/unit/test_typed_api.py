@@ -7,6 +7,8 @@ mypy typed them ``Any`` and reported nothing.
 from __future__ import annotations
 
 import ast
+import importlib
+import pkgutil
 import importlib.resources
 import os
 import subprocess
@@ -62,6 +64,9 @@ def test_every_public_name_is_exported_explicitly_and_resolves():
             for imp in node.body:
                 typed |= {alias.name for alias in imp.names}
     assert set(acnmp_core.__all__) == typed == set(acnmp_core._EXPORTS)
+    # every folder imported first: a subpackage named like a public name would take its place
+    for info in pkgutil.iter_modules(acnmp_core.__path__):
+        importlib.import_module(f"acnmp_core.{info.name}")
     for name in acnmp_core.__all__:
         assert getattr(acnmp_core, name).__name__ == name
 

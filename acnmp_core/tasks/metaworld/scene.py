@@ -61,7 +61,7 @@ class MetaWorldTask:
     param_names : the task parameters' names. training : (low, high) of the training region, one
     entry per parameter (m). goal_x : the index of the goal's x in the parameters. radius :
     Meta-World's success radius (m). credit : how the rewards depend on the actions, for
-    :func:`~acnmp_core.adapt.adaptation.adapt` ("step": the hand's reward at step k is set by row
+    :func:`~acnmp_core.adaptation.loop.adapt` ("step": the hand's reward at step k is set by row
     k; "future": the puck's depends on everything before).
     """
 

@@ -5,12 +5,12 @@ from collections import OrderedDict
 
 import numpy as np
 
-from ...rollout import RolloutBatch
+from ...rollout import ClosedAtExit, RolloutBatch
 from ...validation import check_array
 from ...sim.pour import PourConfig, PourSim
 
 
-class PourTask:
+class PourTask(ClosedAtExit):
     """The pouring task as a :class:`~acnmp_core.rollout.RolloutEvaluator`.
 
     ``evaluate(trajectories (B, T, 1), times (T,), task_params (2,))`` runs each wrist trajectory
@@ -39,7 +39,7 @@ class PourTask:
 
     task_param_names = ("initial_weight_g", "target_g")
     #: The only reward comes at the end and every wrist motion before it shapes the pour: an action
-    #: is credited with the rewards after it (see :func:`acnmp_core.adapt.credit.per_step_advantages`).
+    #: is credited with the rewards after it (see :func:`acnmp_core.adaptation.credit.per_step_advantages`).
     credit = "future"
 
     def __init__(self, config: PourConfig | None = None, *, tolerance_g: float = 30.0, max_worlds: int = 2,
@@ -105,9 +105,3 @@ class PourTask:
         """Disconnect every cached world (idempotent)."""
         while self._worlds:
             self._worlds.popitem()[1].close()
-
-    def __enter__(self) -> "PourTask":
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.close()

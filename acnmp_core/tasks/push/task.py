@@ -3,13 +3,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...rollout import RolloutBatch
+from ...rollout import ClosedAtExit, RolloutBatch
 from ...validation import check_array
 from ...sim.planar_arm import PlanarArmSim, PushObject, default_geometry
 from ...sim.urdf import ArmGeometry
 
 
-class PlanarPushTask:
+class PlanarPushTask(ClosedAtExit):
     """The pushing task as a :class:`~acnmp_core.rollout.RolloutEvaluator`.
 
     ``evaluate(trajectories (B, T, N), times (T,), task_params (2,))`` runs each joint trajectory on
@@ -88,9 +88,3 @@ class PlanarPushTask:
 
     def close(self) -> None:
         self.sim.close()
-
-    def __enter__(self) -> "PlanarPushTask":
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.close()

@@ -23,7 +23,7 @@ The IK is warm-started from the previous step, so the targets change smoothly in
 the parameters. :data:`PUSHER_KP` and :data:`PUSHER_KD` are the PD gains that track them (see
 :mod:`acnmp_core.robots.gym_robot`).
 
-Regions (measured in ``docs/studies/pusher_expert.md``): the arm's hand can point along a push
+Regions (measured in ``benchmarks/studies/pusher_expert/README.md``): the arm's hand can point along a push
 only in part of the table. The expert succeeds for objects at x in [0.28, 0.36] and y in
 [-0.35, -0.05] m, with pushes of 0.09 m within 15 degrees of +x. Demonstrations come from
 :data:`TRAINING_REGION`; the test positions come from :data:`EXTRAPOLATION_REGION`, 0.10 m to

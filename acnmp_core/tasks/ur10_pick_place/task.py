@@ -31,7 +31,7 @@ import numpy as np
 
 from ...sim.ur10 import PickPlaceScene, UR10Sim
 from ...sim.ur10_description import GripperGeometry
-from ...rollout import RolloutBatch
+from ...rollout import ClosedAtExit, RolloutBatch
 from ...validation import check_array
 
 #: Rows of the project's UR10 trajectories (5 s at 125 Hz).
@@ -94,7 +94,7 @@ def reward_steps(times) -> tuple[int, int]:
     return int(np.argmin(np.abs(ph - GRASP_PHASE))), int(np.argmin(np.abs(ph - CROSS_PHASE)))
 
 
-class UR10PickPlaceTask:
+class UR10PickPlaceTask(ClosedAtExit):
     """The pick-and-place task as a :class:`~acnmp_core.rollout.RolloutEvaluator`.
 
     ``evaluate(trajectories (B, T, 6), times (T,), task_params (2,) = (h_obj, h_obs) m)`` runs each
@@ -176,9 +176,3 @@ class UR10PickPlaceTask:
 
     def close(self) -> None:
         self.sim.close()
-
-    def __enter__(self) -> "UR10PickPlaceTask":
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.close()

@@ -8,8 +8,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from acnmp_core.adapt.assimilation import AssimilationConfig
-from acnmp_core.adapt.config import AdaptConfig
+from acnmp_core.adaptation.assimilation import AssimilationConfig
+from acnmp_core.adaptation.config import AdaptConfig
 from acnmp_core.experiments.pour import TimedEvaluator, e6_adapt_config, make_setup, make_target, run_pour
 from acnmp_core.rollout import RolloutBatch
 from clients.cli import main

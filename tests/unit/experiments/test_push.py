@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import torch
 
-from acnmp_core.adapt.config import AdaptConfig
+from acnmp_core.adaptation.config import AdaptConfig
 from acnmp_core.baselines.promp_rl import PrompRLConfig
 from acnmp_core.experiments.push import CASES, METHODS, curve_band, make_setup, make_target, run_push
 from acnmp_core.experiments.plots import plot_push

@@ -55,7 +55,7 @@ def test_non_aligned_demos_train(steps):
 
 
 def test_a_short_loop_counts_every_trajectory():
-    from acnmp_core.adapt.config import AdaptConfig
+    from acnmp_core.adaptation.config import AdaptConfig
 
     result = E.run_wall(envs=2, seed=2, n_initial=20, n_test=20, eval_every=1, train_steps=300,
                         assimilate_steps=20, methods=("acnmp",), adapt_config=AdaptConfig(max_rollouts=30))
@@ -105,8 +105,8 @@ def test_promp_baseline_loop_runs_same_accounting():
 def test_assimilation_continues_from_the_chosen_network(source):
     """"skill": a solved environment adds its solution but none of the adaptation's RL steps to the
     skill (with 0 assimilation steps the network is unchanged); "adapted": the skill is the adapted copy."""
-    from acnmp_core.adapt.assimilation import AssimilationConfig
-    from acnmp_core.adapt.config import AdaptConfig
+    from acnmp_core.adaptation.assimilation import AssimilationConfig
+    from acnmp_core.adaptation.config import AdaptConfig
 
     setup = E.make_setup(40, seed=2, n_initial=15, n_test=5)
     learner = E._AcnmpLearner(setup, 2, AdaptConfig(max_rollouts=200), TrainConfig(steps=300),
@@ -148,7 +148,7 @@ def test_consolidation_comes_after_the_stream(steps):
               assimilate_steps=50 if steps == 1500 else 10, methods=("acnmp",),
               **({"snap_outputs": False} if steps == 1500 else {}))
     if steps < 1500:  # a briefly trained skill fails to adapt: a small budget keeps the failures short
-        from acnmp_core.adapt.config import AdaptConfig
+        from acnmp_core.adaptation.config import AdaptConfig
 
         kw["adapt_config"] = AdaptConfig(max_rollouts=30)
     plain = E.run_wall(**kw)

@@ -6,7 +6,7 @@ import json
 import numpy as np
 import pytest
 
-from acnmp_core.adapt.config import AdaptConfig, AdaptResult, AdaptTarget, IterationLog
+from acnmp_core.adaptation.config import AdaptConfig, AdaptResult, AdaptTarget, IterationLog
 from acnmp_core.errors import InputError, NonFiniteError, ShapeError, TooLargeError, UnknownRobotError, UnknownTaskError
 from acnmp_core.jobs.adapt import AdaptJob, result_from_dict, result_to_dict, target_from_dict
 from services.learner.jobs import JobRecord

@@ -78,7 +78,7 @@ def test_a_service_asked_for_a_missing_device_stops_at_its_command_line(process,
 
 
 def test_the_learner_core_trains_and_adapts_where_it_is_told(tmp_path):
-    from acnmp_core.adapt.config import AdaptConfig
+    from acnmp_core.adaptation.config import AdaptConfig
     from acnmp_core.experiments.viapoint import make_setup
     from acnmp_core.jobs.adapt import AdaptJob
     from services.learner.core import LearnerCore, TrainSpec

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 import torch
 
-from acnmp_core.adapt.assimilation import AssimilationConfig, assimilate
+from acnmp_core.adaptation.assimilation import AssimilationConfig, assimilate
 from acnmp_core.data.demos import Demonstration
 from acnmp_core.model.cnmp import CNMP, CNMPConfig
 from acnmp_core.model.training import TrainConfig, cosine_lr, train

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 import torch
 
-from acnmp_core.adapt.adaptation import adapt
-from acnmp_core.adapt.config import AdaptConfig, AdaptTarget
+from acnmp_core.adaptation.loop import adapt
+from acnmp_core.adaptation.config import AdaptConfig, AdaptTarget
 from acnmp_core.data.demos import DemoSet
 from acnmp_core.experiments.transfer import summarise
 from acnmp_core.experiments.plots import plot_transfer

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from acnmp_core.jobs.adapt import AdaptJob
-from acnmp_core.adapt.config import AdaptConfig
+from acnmp_core.adaptation.config import AdaptConfig
 from acnmp_core.model.cnmp import CNMPConfig
 from acnmp_core.experiments.viapoint import make_setup
 from acnmp_core.model.training import TrainConfig
