@@ -88,7 +88,8 @@ def test_a_job_loop_that_stops_is_reported(tmp_path):
     core._next_job = broken  # what no job's failure can do (those are caught), but a bug might
     core.start()
     try:
-        core._thread.join(10)
+        for thread in core._threads:  # every job thread meets the broken loop
+            thread.join(10)
         assert core.loop_error == "RuntimeError: the loop broke"
         assert core.health().problems() == ["the job loop has stopped: RuntimeError: the loop broke"]
     finally:
