@@ -172,3 +172,16 @@ def _ask(args, ask, role: str = "client") -> tuple[dict | None, int]:
         print(json.dumps(jsonable(reply)))
         return None, 0
     return reply, 0
+
+
+def write_demos(output: str, demos, hint: str = "train a skill on it: acnmp up --demos SKILL={path}") -> int:
+    """Save ``demos`` (DemoArrays) to ``output`` and print one line saying what was written (the
+    values' names when they have some) and ``hint`` (``{path}``: the file written); exit code 0."""
+    from acnmp_core.data.demo_io import save_demos
+
+    path = save_demos(output, demos)
+    n, t, d = demos.values.shape
+    names = "" if demos.value_names is None or not len(demos.value_names) else f" ({', '.join(map(str, demos.value_names))})"
+    print(f"wrote {path}: {n} demonstrations of up to {t} steps x {d} dims{names}, {demos.task_params.shape[1]} task "
+          f"parameters ({hint.format(path=path)})")
+    return 0

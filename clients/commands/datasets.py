@@ -100,8 +100,9 @@ def run_import(args) -> int:
     """``acnmp demos import``: write the demonstrations (or list the dataset); a bad dataset,
     feature or option is a ValueError (one line, exit 2) before anything is written."""
     from acnmp_core.datasets.selection import Selection, parse_feature, select_demos
-    from acnmp_core.data.demo_io import save_demos
     from services.transport.argtypes import check_output_path
+
+    from .common import write_demos
 
     if args.list:
         data = read_dataset(args.format, args.source)
@@ -119,11 +120,7 @@ def run_import(args) -> int:
         raise ValueError(f"--trajectory/--task-params: {exc}") from None
     data = read_dataset(args.format, args.source)
     demos = select_demos(data, selection)
-    path = save_demos(args.output, demos)
-    n, t, d = demos.values.shape
-    print(f"wrote {path}: {n} demonstrations of up to {t} steps x {d} dims ({', '.join(demos.value_names)}), "
-          f"{demos.task_params.shape[1]} task parameters (train a skill on it: acnmp up --demos SKILL={path})")
-    return 0
+    return write_demos(args.output, demos)
 
 
 def describe(data) -> str:

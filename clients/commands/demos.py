@@ -9,6 +9,8 @@ import sys
 
 from services.transport.argtypes import non_empty
 
+from .common import write_demos
+
 EPILOG = """\
 examples:
   acnmp demos from-recording run.rrd --successful --best-per-job -o found.npz
@@ -49,7 +51,6 @@ SCRIPTED = ("pusher", "metaworld-reach", "metaworld-push", "metaworld-pick-place
 
 
 def _run_make(args) -> int:
-    from acnmp_core.data.demo_io import save_demos
     from services.transport.argtypes import check_output_path
 
     check_output_path(args.output, "--output")
@@ -61,15 +62,10 @@ def _run_make(args) -> int:
         from acnmp_core.tasks.metaworld.demos import metaworld_demos
 
         demos = metaworld_demos(args.kind)
-    path = save_demos(args.output, demos)
-    n, t, d = demos.values.shape
-    print(f"wrote {path}: {n} demonstrations of {t} steps x {d} dims, {demos.task_params.shape[1]} task parameters "
-          f"(serve them: acnmp up --robot {args.kind} --demos SKILL={path})")
-    return 0
+    return write_demos(args.output, demos, f"serve them: acnmp up --robot {args.kind} --demos SKILL={{path}}")
 
 
 def _run_from_recording(args) -> int:
-    from acnmp_core.data.demo_io import save_demos
     from services.recording.tables import read_recording
     from services.transport.argtypes import check_output_path
 
@@ -80,8 +76,4 @@ def _run_from_recording(args) -> int:
         print(f"acnmp demos: {exc}", file=sys.stderr)
         return 1
     demos = tables.demonstrations(job=args.job, successful=args.successful, best_per_job=args.best_per_job)
-    path = save_demos(args.output, demos)
-    n, t, d = demos.values.shape
-    print(f"wrote {path}: {n} demonstrations of up to {t} steps x {d} dims, {demos.task_params.shape[1]} task "
-          f"parameters (train a skill on it: acnmp up --demos SKILL={path})")
-    return 0
+    return write_demos(args.output, demos)
