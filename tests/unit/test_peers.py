@@ -222,3 +222,32 @@ def test_bad_inputs_are_one_line_and_exit_2(argv, expected, capsys, tmp_path):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and expected in err[0], err
     assert not (tmp_path / "x.json").exists()
+
+
+def test_reproduce_runs_the_peers_only_when_named(tmp_path, capsys):
+    from clients.cli import main
+    from clients.experiments.catalog import OPTIONAL, PAPER
+
+    assert [e.ident for e in PAPER] == ["E1", "E2", "E3", "E4", "E5", "E6"]
+    assert [e.name for e in OPTIONAL] == ["peers"] and OPTIONAL[0].quick == ("--quick",)
+    assert main(["reproduce", "-o", str(tmp_path), "--with", "peer"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--with 'peer': expected some of peers" in err[0]
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_demos_make_writes_a_kinds_scripted_demonstrations(tmp_path, capsys, monkeypatch):
+    pytest.importorskip("metaworld")
+    from acnmp_core.demo_io import load_demos
+    from acnmp_core.tasks.metaworld import demos as mw_demos
+    from clients.cli import main
+
+    real = mw_demos.metaworld_demos
+    monkeypatch.setattr(mw_demos, "metaworld_demos", lambda kind: real(kind, n=2, seed=7))  # 2 of the 12: cheaper
+
+    assert main(["demos", "make", "metaworld-reach", "-o", str(tmp_path / "reach.npz")]) == 0
+    assert "acnmp up --robot metaworld-reach --demos SKILL=" in capsys.readouterr().out
+    demos = load_demos(tmp_path / "reach.npz")
+    assert demos.values.shape[1:] == (100, 4) and demos.task_params.shape[1] == 3
+    assert main(["demos", "make", "metaworld-door", "-o", str(tmp_path / "x.npz")]) == 2
+    assert "invalid choice: 'metaworld-door'" in capsys.readouterr().err
