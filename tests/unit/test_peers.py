@@ -110,6 +110,7 @@ def test_the_runs_are_planned_trajectory_methods_first_written_one_by_one_and_re
     from acnmp_core.experiments import peers
 
     out = tmp_path / "peers.json"
+    writing = [out]  # the file the run being made writes
     ran = []
 
     class FakeTask:
@@ -124,7 +125,7 @@ def test_the_runs_are_planned_trajectory_methods_first_written_one_by_one_and_re
             if method in todo:
                 ran.append((method, seed, case))
                 emit(PeerRun(task.kind, method, seed, case, [0.0], 10 * (seed + 1), True, 400, 0.1))
-                assert [r["method"] for r in json.loads(out.read_text())["runs"]][-1] == method
+                assert [r["method"] for r in json.loads(writing[0].read_text())["runs"]][-1] == method
 
     def step_based_run(task, config, seed, case, method, budget):
         ran.append((method, seed, case, budget))
@@ -144,6 +145,16 @@ def test_the_runs_are_planned_trajectory_methods_first_written_one_by_one_and_re
     resumed = peers.run_peers(more, out=out, resume=True)
     assert ran == [("lfd", 1, "extrapolation"), ("acnmp", 1, "extrapolation"), ("ppo", 1, "extrapolation", 400)]
     assert len(resumed["runs"]) == 9
+    # merged with another part, and with a plan of runs nobody made: those are listed as not run
+    writing[0] = tmp_path / "other.json"
+    part = peers.run_peers(PeersConfig(tasks=("metaworld-reach",), methods=("lfd",), seeds=(5,),
+                                       cases=("interpolation",)), out=tmp_path / "other.json")
+    plan = [{"tasks": ["metaworld-reach"], "methods": ["acnmp", "sac"], "seeds": [0, 7], "cases": ["extrapolation"]}]
+    merged = merge_results([resumed, part], planned=plan)
+    assert len(merged["runs"]) == 10 and merged["config"]["seeds"] == [0, 1, 2, 5]
+    assert merged["not_run"] == [{"task": "metaworld-reach", "seed": s, "case": "extrapolation", "method": m}
+                                 for s, m in ((0, "sac"), (7, "acnmp"), (7, "sac"))]
+    assert merged["planned_runs"] == 13
     # an SB3 run alone takes its budget from another result's ACNMP runs, or is refused before it starts
     ran.clear()
     alone = PeersConfig(tasks=("metaworld-reach",), methods=("sac",), seeds=(3,), cases=("extrapolation",))
