@@ -531,11 +531,13 @@ def plot_peers(result: dict, path) -> Path:
     return path
 
 
-def merge_results(results: list[dict], header: dict | None = None) -> dict:
+def merge_results(results: list[dict], header: dict | None = None, planned: list[dict] | None = None) -> dict:
     """One result of several :func:`run_peers` results (e.g. the trajectory methods and the SB3
     ones, run by two processes): their runs (a (task, method, seed, case) twice: ValueError), the
     union of their tasks, methods, seeds and cases, the summary again, the summed wall time and
-    each part's ``provenance`` and ``config`` under ``parts``."""
+    each part's ``provenance`` and ``config`` under ``parts``. ``planned``: more plans ({tasks,
+    methods, seeds, cases} lists each) whose runs missing from every part are listed under
+    ``not_run`` with the parts' own missing runs."""
     runs: dict[tuple, PeerRun] = {}
     for res in results:
         for r in map(PeerRun.from_json, res["runs"]):
@@ -549,15 +551,26 @@ def merge_results(results: list[dict], header: dict | None = None) -> dict:
     for key, order in (("tasks", tuple(TASKS)), ("methods", METHODS), ("seeds", None), ("cases", CASES)):
         values = {v for res in results for v in res["config"][key]} | {getattr(r, key[:-1]) for r in runs.values()}
         config[key] = sorted(values, key=(order.index if order else None) or (lambda v: v))
-    planned = {(t, m, s, c) for res in results for t in res["config"]["tasks"] for m in res["config"]["methods"]
-               for s in res["config"]["seeds"] for c in res["config"]["cases"]}
+
     merged = sorted(runs.values(), key=lambda r: (config["tasks"].index(r.task), METHODS.index(r.method), r.case, r.seed))
     return {**(header or {}), "experiment": "peers", "config": config, "versions": first["versions"],
             "regions": {k: v for res in results for k, v in res["regions"].items()},
             "wall_time_s": round(sum(res["wall_time_s"] for res in results), 1),
             "runs": [r.to_json() for r in merged], "summary": summarise(merged),
-            "not_run": [res_item for res in results for res_item in res["not_run"]
-                        if (res_item["task"], res_item["method"], res_item["seed"], res_item["case"]) not in runs],
+            "not_run": (missing := _missing(results, planned or [], runs)),
             "parts": [{"provenance": res.get("provenance"), "config": res["config"], "wall_time_s": res["wall_time_s"]}
                       for res in results],
-            "planned_runs": len(planned)}
+            "planned_runs": len(runs) + len(missing)}
+
+
+def _missing(results: list[dict], planned: list[dict], runs: dict) -> list[dict]:
+    """The runs the parts planned (their ``not_run``) or ``planned`` names that no part made, once each."""
+    items = [(x["task"], x["seed"], x["case"], x["method"]) for res in results for x in res["not_run"]]
+    items += [(t, s, c, m) for p in planned for t in p["tasks"] for s in p["seeds"] for c in p["cases"] for m in p["methods"]]
+    out, seen = [], set()
+    for task, seed, case, method in items:
+        if (task, method, seed, case) in runs or (task, seed, case, method) in seen:
+            continue
+        seen.add((task, seed, case, method))
+        out.append({"task": task, "seed": seed, "case": case, "method": method})
+    return out

@@ -6,7 +6,7 @@ Writes benchmarks/results/peers.json (provenance, the result of ``run_peers``) a
 Usage:
   python benchmarks/experiments/peers.py [--methods M,..] [--tasks T,..] [--seeds 0,1,..] [--cases C,..]
          [--out FILE] [--resume] [--budgets-from FILE]
-  python benchmarks/experiments/peers.py --merge A.json B.json [--out FILE]
+  python benchmarks/experiments/peers.py --merge A.json B.json [--planned PLANS.json] [--out FILE]
 
 The sizes are the library's defaults (the same as ``acnmp experiment peers``). The result is
 written after every run, so a stopped run is usable (its ``not_run`` lists what is missing) and
@@ -47,10 +47,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--resume", action="store_true")
     ap.add_argument("--budgets-from", default=None)
     ap.add_argument("--merge", nargs="+", default=None, metavar="JSON")
+    ap.add_argument("--planned", default=None, metavar="JSON",
+                    help="with --merge: a list of plans {tasks, methods, seeds, cases}; their runs that no part made "
+                         "are listed under not_run")
     args = ap.parse_args(argv)
     if args.merge:
         parts = [json.loads(Path(p).read_text()) for p in args.merge]
-        result = merge_results(parts, {"provenance": provenance()})
+        planned = json.loads(Path(args.planned).read_text()) if args.planned else None
+        result = merge_results(parts, {"provenance": provenance()}, planned)
     else:
         torch.set_num_threads(1)
         config = PeersConfig(tasks=args.tasks, methods=args.methods, seeds=args.seeds, cases=args.cases)

@@ -110,6 +110,7 @@ def test_the_runs_are_planned_trajectory_methods_first_written_one_by_one_and_re
     from acnmp_core.experiments import peers
 
     out = tmp_path / "peers.json"
+    writing = [out]  # the file the run being made writes
     ran = []
 
     class FakeTask:
@@ -124,7 +125,7 @@ def test_the_runs_are_planned_trajectory_methods_first_written_one_by_one_and_re
             if method in todo:
                 ran.append((method, seed, case))
                 emit(PeerRun(task.kind, method, seed, case, [0.0], 10 * (seed + 1), True, 400, 0.1))
-                assert [r["method"] for r in json.loads(out.read_text())["runs"]][-1] == method
+                assert [r["method"] for r in json.loads(writing[0].read_text())["runs"]][-1] == method
 
     def step_based_run(task, config, seed, case, method, budget):
         ran.append((method, seed, case, budget))
@@ -144,6 +145,16 @@ def test_the_runs_are_planned_trajectory_methods_first_written_one_by_one_and_re
     resumed = peers.run_peers(more, out=out, resume=True)
     assert ran == [("lfd", 1, "extrapolation"), ("acnmp", 1, "extrapolation"), ("ppo", 1, "extrapolation", 400)]
     assert len(resumed["runs"]) == 9
+    # merged with another part, and with a plan of runs nobody made: those are listed as not run
+    writing[0] = tmp_path / "other.json"
+    part = peers.run_peers(PeersConfig(tasks=("metaworld-reach",), methods=("lfd",), seeds=(5,),
+                                       cases=("interpolation",)), out=tmp_path / "other.json")
+    plan = [{"tasks": ["metaworld-reach"], "methods": ["acnmp", "sac"], "seeds": [0, 7], "cases": ["extrapolation"]}]
+    merged = merge_results([resumed, part], planned=plan)
+    assert len(merged["runs"]) == 10 and merged["config"]["seeds"] == [0, 1, 2, 5]
+    assert merged["not_run"] == [{"task": "metaworld-reach", "seed": s, "case": "extrapolation", "method": m}
+                                 for s, m in ((0, "sac"), (7, "acnmp"), (7, "sac"))]
+    assert merged["planned_runs"] == 13
     # an SB3 run alone takes its budget from another result's ACNMP runs, or is refused before it starts
     ran.clear()
     alone = PeersConfig(tasks=("metaworld-reach",), methods=("sac",), seeds=(3,), cases=("extrapolation",))
@@ -222,3 +233,32 @@ def test_bad_inputs_are_one_line_and_exit_2(argv, expected, capsys, tmp_path):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and expected in err[0], err
     assert not (tmp_path / "x.json").exists()
+
+
+def test_reproduce_runs_the_peers_only_when_named(tmp_path, capsys):
+    from clients.cli import main
+    from clients.experiments.catalog import OPTIONAL, PAPER
+
+    assert [e.ident for e in PAPER] == ["E1", "E2", "E3", "E4", "E5", "E6"]
+    assert [e.name for e in OPTIONAL] == ["peers"] and OPTIONAL[0].quick == ("--quick",)
+    assert main(["reproduce", "-o", str(tmp_path), "--with", "peer"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--with 'peer': expected some of peers" in err[0]
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_demos_make_writes_a_kinds_scripted_demonstrations(tmp_path, capsys, monkeypatch):
+    pytest.importorskip("metaworld")
+    from acnmp_core.demo_io import load_demos
+    from acnmp_core.tasks.metaworld import demos as mw_demos
+    from clients.cli import main
+
+    real = mw_demos.metaworld_demos
+    monkeypatch.setattr(mw_demos, "metaworld_demos", lambda kind: real(kind, n=2, seed=7))  # 2 of the 12: cheaper
+
+    assert main(["demos", "make", "metaworld-reach", "-o", str(tmp_path / "reach.npz")]) == 0
+    assert "acnmp up --robot metaworld-reach --demos SKILL=" in capsys.readouterr().out
+    demos = load_demos(tmp_path / "reach.npz")
+    assert demos.values.shape[1:] == (100, 4) and demos.task_params.shape[1] == 3
+    assert main(["demos", "make", "metaworld-door", "-o", str(tmp_path / "x.npz")]) == 2
+    assert "invalid choice: 'metaworld-door'" in capsys.readouterr().err
