@@ -28,8 +28,10 @@ BLOCK = re.compile(r"(<!-- BEGIN report:([\w-]+) -->\n)(.*?)(<!-- END report:\2 
 
 
 def pages() -> list[Path]:
-    """Every markdown page that may hold report blocks."""
-    return [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]
+    """Every markdown page that may hold report blocks: the README, docs/ and the studies' notes
+    (benchmarks/studies/<experiment>/*.md)."""
+    return [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md")),
+            *sorted((ROOT / "benchmarks" / "studies").rglob("*.md"))]
 
 
 def render_page(text: str) -> str:

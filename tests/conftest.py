@@ -271,6 +271,16 @@ def _private_runtime_dir(tmp_path_factory, monkeypatch):
     monkeypatch.setenv("ACNMP_RUNTIME_DIR", str(tmp_path_factory.mktemp("run")))
 
 
+@pytest.fixture(autouse=True)
+def _training_threads_as_configured():
+    """A command run in-process (``acnmp experiment wall --threads N``) chooses the training threads
+    for its whole process; after each test the choice goes back to the environment's."""
+    yield
+    from acnmp_core.threads import set_training_threads
+
+    set_training_threads(None)
+
+
 @pytest.fixture(scope="session")
 def acnmp_up():
     """``start(*args)``: run ``acnmp up ARGS`` as a child process (stdout piped, text) and read its
