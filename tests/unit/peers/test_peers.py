@@ -249,7 +249,7 @@ def test_reproduce_runs_the_peers_only_when_named(tmp_path, capsys):
 
 def test_demos_make_writes_a_kinds_scripted_demonstrations(tmp_path, capsys, monkeypatch):
     pytest.importorskip("metaworld")
-    from acnmp_core.demo_io import load_demos
+    from acnmp_core.data.demo_io import load_demos
     from acnmp_core.tasks.metaworld import demos as mw_demos
     from clients.cli import main
 
