@@ -20,7 +20,11 @@ pair committed as the skill's next version (robot A's CNMP as its model, robot B
 Restart: skills reload with their demonstrations (hash-checked); a job that was running restarts
 **from its beginning with the same seed** under a new ``attempt`` number (adapt() cannot be resumed
 mid-way). Roll-out indices stay global over attempts: an attempt's events continue after the
-indices the earlier attempts reserved, so a recording never holds one index twice. Every event of
+indices the earlier attempts reserved, so a recording never holds one index twice. A batch's
+roll-out events are written to the job's journal (with the batch before) before their indices are
+reserved, and published after; a start publishes every journal again before any job runs, so a
+kill -9 anywhere in between costs the recording no roll-out (the recorder drops the ones it holds
+by job and index). Every event of
 a job carries ``attempt``; the job status reports ``rollouts`` (what the final attempt used) and
 ``rollouts_executed`` (all attempts). A job whose adaptation had finished but whose assimilation
 had not is only re-assimilated (once).
@@ -242,9 +246,52 @@ class LearnerCore:
                     self._persist(job, attempt=job.attempt + 1, state="queued")
             except StateWriteError as exc:
                 log.warning("job %s: %s; it is resumed all the same", job.job, exc)
+        self._unrecorded = self._read_journals()
         self._prune_jobs()
+        self._replayed = threading.Event()  # the journals' events are published again: jobs may run
+        self._replayer = threading.Thread(target=self._replay_journals, name="journals", daemon=True)
         self._threads = [threading.Thread(target=self._job_loop, args=(runner,), name=f"jobs-{i}", daemon=True)
                          for i, runner in enumerate(self._runners)]
+
+    def _read_journals(self) -> dict[str, list[dict]]:
+        """The roll-out events of every job journal (:meth:`JobStore.take_journal`), by job. Their
+        indices count as reserved: a job's ``next_index`` moves past them (the kill may have come
+        between the journal's write and the reservation's)."""
+        journals = {}
+        for job_id in self.job_store.journals():
+            events = self.job_store.take_journal(job_id)
+            if not events:
+                self.job_store.drop_journal(job_id)
+                continue
+            journals[job_id] = events
+            job = self.jobs.get(job_id)
+            top = 1 + max(int(ev.get("rollout_index", -1)) for ev in events)
+            if job is not None and job.next_index < top:
+                try:
+                    self._persist(job, next_index=top)
+                except StateWriteError as exc:
+                    log.warning("job %s: %s; its journal's indices stay reserved in memory", job_id, exc)
+                    job.next_index = top
+        return journals
+
+    def _replay_journals(self) -> None:
+        """Publish the journals' events again, then remove the journals, then let the jobs run: a
+        roll-out whose indices were reserved reaches the recording even when the learner died
+        before (or while) publishing it; the recorder keeps a learner job's roll-out once
+        (services/recording/recorder.py)."""
+        try:
+            for job_id, events in self._unrecorded.items():
+                for ev in events:
+                    if self._stop.is_set():
+                        return
+                    self.publish(ev)
+                self.job_store.drop_journal(job_id)
+                log.info("job %s: published its %d journalled roll-out event(s) again", job_id, len(events))
+        except Exception:
+            log.exception("could not publish the journalled roll-outs again; they stay for the next start")
+        finally:
+            self._unrecorded = {}
+            self._replayed.set()
 
     @property
     def stopping(self) -> threading.Event:
@@ -254,6 +301,7 @@ class LearnerCore:
     def start(self) -> "LearnerCore":
         """Start running queued jobs (on a background thread); returns self."""
         self._started = True
+        self._replayer.start()
         for thread in self._threads:
             thread.start()
         return self
@@ -473,6 +521,9 @@ class LearnerCore:
 
     def _job_loop(self, runner: AdaptRunner) -> None:
         torch.set_num_threads(1)
+        while not self._replayed.wait(0.2):
+            if self._stop.is_set():
+                return
         try:
             while (job_id := self._next_job()) is not None:
                 try:
@@ -647,20 +698,27 @@ class LearnerCore:
         # a drawn robot shows its own states; a point robot shows the conditioning points instead
         condition = None if drawing is not None else {"times": target.obs_times, "values": target.obs_values}
 
+        previous: list[dict] = []  # the batch before, perhaps still in flight: journalled once more
+
         def on_iteration(it_log: IterationLog, trajectories: np.ndarray, batch: RolloutBatch) -> None:
             if self._stop.is_set():
                 raise InterruptedError("learner is shutting down")
             first = job.next_index
             best = float(np.max(batch.returns))
-            # reserve the indices on disk before any event names them (a failed write fails the job)
-            self._persist(job, next_index=first + len(batch), iteration=it_log.iteration, rollouts=it_log.rollouts,
-                          best_return=best if job.best_return is None else max(job.best_return, best))
-            for ev in batch_rollout_events(job.job, first, trajectories, target.query_times, batch,
-                                           task_params=target.task_params, condition=condition,
-                                           iteration=it_log.iteration, skill=job.skill, drawing=drawing):
+            events = batch_rollout_events(job.job, first, trajectories, target.query_times, batch,
+                                          task_params=target.task_params, condition=condition,
+                                          iteration=it_log.iteration, skill=job.skill, drawing=drawing)
+            for ev in events:
                 ev["attempt"] = int(job.attempt)
                 ev["model_version"] = int(model_version)
+            # the events on disk, then their indices reserved, then published: a learner killed
+            # anywhere in between publishes them at its next start (a failed write fails the job)
+            self.job_store.save_journal(job.job, previous + events)
+            self._persist(job, next_index=first + len(batch), iteration=it_log.iteration, rollouts=it_log.rollouts,
+                          best_return=best if job.best_return is None else max(job.best_return, best))
+            for ev in events:
                 self.publish(ev)
+            previous[:] = events
             self.publish(self._progress_event(job, "running"))
             std = float(np.mean(it_log.explore_std)) if len(it_log.explore_std) else None
             self.metrics.report(
@@ -721,7 +779,7 @@ class LearnerCore:
         with self._lock:
             self._wake.notify_all()
         end = time.monotonic() + timeout
-        for thread in self._threads:
+        for thread in (self._replayer, *self._threads):
             if thread.is_alive():
                 thread.join(timeout=max(0.0, end - time.monotonic()))
         for runner in self._runners:

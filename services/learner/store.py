@@ -60,6 +60,7 @@ from acnmp_core.files import atomic_write_bytes, fsync_directory, stale_temp_fil
 from acnmp_core.model.checkpoint import checkpoint_bytes, load_checkpoint
 from acnmp_core.model.cnmp import CNMP
 from services.transport.keys import check_name
+from services.transport.wire import WireError, decode, encode
 
 from .jobs import JobRecord, RecordFormatError
 
@@ -581,6 +582,10 @@ def _versioned_files(d: Path) -> dict[int, dict[str, Path]]:
     return out
 
 
+#: Format version of a job's roll-out journal (:meth:`JobStore.save_journal`).
+JOURNAL_VERSION = 1
+
+
 class JobStore:
     """Job records under ``<state_dir>/jobs``, one JSON file each, written atomically and durably.
 
@@ -603,8 +608,58 @@ class JobStore:
         self.state.write(self.path(job.job), json.dumps(job.to_dict(), allow_nan=False).encode(), f"job {job.job}")
 
     def delete(self, job_id: str) -> None:
-        """Remove the record of job ``job_id`` (OSError when it cannot be removed)."""
+        """Remove the record of job ``job_id`` and its journal (OSError when they cannot be removed)."""
         self.path(job_id).unlink(missing_ok=True)
+        self.journal_path(job_id).unlink(missing_ok=True)
+
+    def journals(self) -> list[str]:
+        """The jobs that have a roll-out journal, by id."""
+        names = []
+        for p in sorted(self.root.glob("*.rollouts")):
+            try:
+                names.append(check_name("job", p.name[:-len(".rollouts")]))
+            except ValueError:
+                self.state.quarantine(p, "not the journal of a job (its name is no job id)")
+        return names
+
+    def journal_path(self, job_id: str) -> Path:
+        """The journal of job ``job_id``: its latest roll-out events (``<job>.rollouts``)."""
+        return self.root / f"{check_name('job', job_id)}.rollouts"
+
+    def save_journal(self, job_id: str, events: list[dict]) -> None:
+        """Write the roll-out events (event maps, services/recording/events.py) job ``job_id`` is
+        about to publish, replacing the journal's earlier ones; :class:`StateWriteError` when it
+        cannot be written (the journal on disk is then unchanged)."""
+        data = encode({"v": JOURNAL_VERSION, "events": events}, allow_non_finite=True)
+        self.state.write(self.journal_path(job_id), data, f"the roll-out journal of job {job_id}")
+
+    def take_journal(self, job_id: str) -> list[dict]:
+        """The events of job ``job_id``'s journal ([] when it has none; a journal that cannot be
+        read is quarantined, and [] returned). The journal stays until :meth:`drop_journal`."""
+        path = self.journal_path(job_id)
+        try:
+            data = path.read_bytes()
+        except FileNotFoundError:
+            return []
+        except OSError as exc:
+            log.warning("job %s: cannot read its roll-out journal: %s", job_id, exc)
+            return []
+        try:
+            msg = decode(data, expect_version=JOURNAL_VERSION, allow_non_finite=True)
+            events = msg["events"]
+            if not isinstance(events, list) or not all(isinstance(ev, dict) for ev in events):
+                raise WireError("malformed", "events: expected a list of maps")
+        except (WireError, KeyError) as exc:
+            self.state.quarantine(path, f"not a roll-out journal ({exc})")
+            return []
+        return events
+
+    def drop_journal(self, job_id: str) -> None:
+        """Remove job ``job_id``'s journal (once its events are published again)."""
+        try:
+            self.journal_path(job_id).unlink(missing_ok=True)
+        except OSError as exc:
+            log.warning("job %s: cannot remove its roll-out journal: %s", job_id, exc)
 
     def load_all(self) -> dict[str, JobRecord]:
         """Every readable job record, by id, oldest first; temp files of dead writers removed, an

@@ -95,6 +95,17 @@ def rollout_event(job: str, rollout_index: int, trajectory, times, reward, *, re
     return validate_event(msg)
 
 
+def rollout_key(msg: dict) -> str | None:
+    """The id of a learner job's roll-out whoever publishes it, ``"rollout/<job>/<rollout_index>"``
+    (the shape of an event id, services/recording/event_ids.py): a learner that restarts publishes
+    the roll-outs of its journal again, so the recorder keeps such a roll-out once by this id. None
+    for any other event, and for roll-outs without ``attempt`` (an experiment's, whose job names a
+    later run may use again)."""
+    if msg.get("kind") != "rollout" or msg.get("attempt") is None:
+        return None
+    return f"rollout/{msg['job']}/{int(msg['rollout_index'])}"
+
+
 def robot_drawing(kind: str):
     """The drawing of robot kind ``kind`` (acnmp_core.robots.registry), or None (draw the path)."""
     return robot(kind).drawing

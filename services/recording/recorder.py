@@ -57,7 +57,7 @@ from services.transport.keys import is_concrete
 from services.transport.lifetime import launcher_gone
 
 from .event_ids import SeenEvents, marks_path
-from .events import decode_event
+from .events import decode_event, rollout_key
 from .replay import recorded_event_ids
 from .rrd_writer import RrdWriter
 from .web_viewer import WebViewer
@@ -193,9 +193,11 @@ def record(session: zenoh.Session, keys: Keyspace, path: str, stop: threading.Ev
             log.warning("rejected event on %s: %s", sample.key_expr, exc)
             return
         eid = event_id(sample)
-        if eid is not None:
+        held = [i for i in (eid, rollout_key(msg)) if i is not None]
+        if held:
             with lock:
-                if not ids.add(eid):  # replayed from a cache, and already in this or an earlier file
+                # every id is added (a dropped event's own number leaves no gap in its publisher's)
+                if not all([ids.add(i) for i in held]):  # from a cache or a learner's journal, already held
                     duplicates[0] += 1
                     return
         item = (msg, eid)

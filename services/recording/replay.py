@@ -106,8 +106,8 @@ def _open(path: Path):
 
 
 def recorded_event_ids(path: str | Path) -> set[str]:
-    """The event ids (``/event_ids/<kind>`` rows and the ``event_id`` of ``/rollouts/<job>`` rows, see
-    rrd_writer) a recording holds; the file may
+    """The event ids (``/event_ids/<kind>`` rows, the ``event_id`` and ``rollout_key`` of
+    ``/rollouts/<job>`` rows, see rrd_writer) a recording holds; the file may
     lack its footer (a recorder killed with -9: what reached the file is read). Raises ValueError
     if it is not a readable recording."""
     reader, stores = _open(Path(path))
@@ -116,7 +116,9 @@ def recorded_event_ids(path: str | Path) -> set[str]:
         for chunk in reader.stream(store=store):
             if chunk.is_static or chunk.is_empty or not chunk.entity_path.strip("/").startswith(("event_ids/", "rollouts/")):
                 continue
-            ids.update(i for i in _column(chunk.to_record_batch(), "event_id") if i is not None)
+            batch = chunk.to_record_batch()
+            for name in ("event_id", "rollout_key"):
+                ids.update(i for i in _column(batch, name) if i is not None)
     return ids
 
 

@@ -21,8 +21,8 @@ entity                             archetype                       from event
 /return/<job>                      Scalars                         rollout.return
 /reward/<job>                      BarChart (per-step reward)      rollout.reward
 /rollouts/<job>                    AnyValues (index, worker, ...,  rollout (one row each)
-                                   event_id; times, values,
-                                   reward, task_params at float64)
+                                   event_id, rollout_key; times,
+                                   values, reward, task_params at float64)
 /jobs/<job>                        AnyValues (method, robot, task, job (once per attempt)
                                    skill, seed, config, ...)
 /best_return/<job>                 Scalars                         job_progress
@@ -70,7 +70,7 @@ import rerun as rr
 import rerun.blueprint as rrb
 
 from .drawings import drawer_for
-from .events import metric_values
+from .events import metric_values, rollout_key
 
 APPLICATION_ID = "acnmp"
 
@@ -258,6 +258,9 @@ class RrdWriter:
                 row[key] = msg[key]
         if event_id is not None:
             row["event_id"] = event_id
+        key = rollout_key(msg)
+        if key is not None:
+            row["rollout_key"] = key
         self.rec.log(f"rollouts/{job}", rr.AnyValues(**row))
         draw = drawer_for(msg)
         if draw is not None:

@@ -150,7 +150,7 @@ def test_a_full_disk_fails_the_job_it_hits_says_so_and_the_loop_runs_the_next(di
         disk.free()
         assert core.cancel(waiting.job)["state"] == "cancelled"
 
-        # during an adaptation: its second iteration cannot reserve its roll-outs
+        # during an adaptation: its second iteration cannot journal (then reserve) its roll-outs
         evaluators[1] = Scripted(before=lambda n: n == 2 and disk.fill())
         evaluators[2] = Scripted()
         adapting = core.submit("e1", _request(setup, 1, max_rollouts=10, stop_on_success=False))
@@ -164,7 +164,7 @@ def test_a_full_disk_fails_the_job_it_hits_says_so_and_the_loop_runs_the_next(di
         assert core.wait_idle(60)
         failed = core.status(adapting.job)
         assert failed["state"] == "failed" and failed["error"].startswith(
-            f"no space left on device while saving job {adapting.job} to "), failed["error"]
+            f"no space left on device while saving the roll-out journal of job {adapting.job} to "), failed["error"]
         assert core.status(after.job)["state"] == "done" and core.skills["e1"].version == 1
 
         # during an assimilation: the new version's files cannot be written; nothing is committed

@@ -2,7 +2,8 @@
 number (issue 49, faults 1 and 2).
 
 The table: every kind of file the learner keeps (a skill's checkpoint and demonstrations, a
-paired skill's robot B checkpoint and demonstrations, a skill's version record, a job record)
+paired skill's robot B checkpoint and demonstrations, a skill's version record, a job record and
+its roll-out journal)
 times every fault (truncated, garbage, deleted, of another format version, a half-written temp
 file beside it). For each case a learner starts on a copy of one state directory: it comes up,
 the healthy skills are served at their versions, the bad file is quarantined and named (in the
@@ -26,6 +27,8 @@ from acnmp_core.model.training import TrainConfig
 from acnmp_core.tasks.viapoint.task import obstacle_demos
 from services.learner.core import LearnerCore, TrainSpec
 from services.learner.store import QUARANTINE, SkillState, demo_set_to_arrays
+from services.recording.events import rollout_event
+from services.transport.wire import decode, encode
 
 SMALL = dict(encoder_widths=(8,), decoder_widths=(8,))
 #: Kind of state file -> its path in the baseline directory, and the skill it belongs to.
@@ -36,6 +39,7 @@ FILES = {
     "robot B demonstrations": ("skills/p/partner-demos-v1.npz", "p"),
     "version record": ("skills/e1/versions.json", "e1"),
     "job record": ("jobs/{job}.json", "e1"),
+    "job journal": ("jobs/{job}.rollouts", "e1"),
 }
 FAULTS = ("truncate", "garbage", "delete", "wrong version", "half-written temp")
 #: The version each skill is at in the baseline (e1 and p hold versions 0 and 1).
@@ -72,6 +76,8 @@ def baseline(tmp_path_factory):
         request = AdaptJob(setup.target, "viapoint", "point2d", setup.task_config, AdaptConfig(max_rollouts=3))
         done = core.submit("e1", request)
         core._persist(done, state="done", committed_version=1)
+        journalled = rollout_event(done.job, 0, np.zeros((3, 2)), [0, 0.5, 1], [0, 0, 1.0])
+        core.job_store.save_journal(done.job, [{**journalled, "attempt": 0}])
         core.submit("e2", request)
     finally:
         core.close()
@@ -88,6 +94,8 @@ def _wrong_version(path) -> None:
         data = dict(np.load(path))
         data["format_version"] = np.array(2)
         np.savez(path.with_suffix(""), **data)  # np.savez adds the .npz
+    elif path.suffix == ".rollouts":
+        path.write_bytes(encode({**decode(path.read_bytes(), expect_version=None), "v": 2}))
     else:
         body = json.loads(path.read_text())
         body["format"] = 2

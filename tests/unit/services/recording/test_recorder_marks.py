@@ -50,3 +50,20 @@ def test_marks_files_round_trip_and_a_bad_one_is_ignored(tmp_path):
     assert path == marks_path(rec) and read_marks(rec).to_json() == seen.to_json()
     path.write_text('{"v": 1, "publishers": {"a/1": [0, [1], 0]}}')
     assert read_marks(rec) is None
+
+
+def test_a_learner_jobs_rollouts_are_known_by_job_and_index_to_the_next_recorder(tmp_path):
+    """A restarted learner publishes its journal's roll-outs again from a new publisher: the next
+    recorder must know them by job and index, not only by the first publisher's numbers."""
+    rec = tmp_path / "r.rrd"
+    with RrdWriter(rec) as writer:
+        for i in range(3):
+            learner = rollout_event("e1-abc", i, np.zeros((3, 2)), [0, 0.5, 1], [0, 0, 1.0])
+            learner["attempt"] = 0
+            writer.log_event(learner, f"z/1/{i}")
+        # an experiment's roll-out (no attempt): its job name may come again in a later run
+        writer.log_event(rollout_event("push-0", 0, np.zeros((3, 2)), [0, 0.5, 1], [0, 0, 1.0]), "z/1/3")
+    seen = earlier_events([rec])
+    assert not seen.add("rollout/e1-abc/2")  # held: the journal's copy is a duplicate
+    assert seen.add("rollout/e1-abc/3")  # a roll-out the file lacks
+    assert seen.add("rollout/push-0/0")
