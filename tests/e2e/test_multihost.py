@@ -107,6 +107,7 @@ def ur10_batch(demo_file) -> dict:
             "task_params": demo[2]}
 
 
+@pytest.mark.slow
 def test_a_deployment_over_hosts_survives_cut_links_and_keeps_strangers_out(tmp_path, ur10_demo_file, e1_small_run):
     from acnmp_core.tasks.ur10_pick_place.task import UR10PickPlaceTask
 

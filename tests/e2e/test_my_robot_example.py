@@ -32,6 +32,7 @@ def installed_example(tmp_path) -> Path:
     return site
 
 
+@pytest.mark.slow
 def test_the_example_plugin_from_install_to_an_adaptation_on_a_deployment(installed_example, acnmp_up, tmp_path):
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(installed_example), str(ROOT)]))
     listed = subprocess.run([sys.executable, "-m", "clients.cli", "robots", "--json"], cwd=tmp_path, env=env,

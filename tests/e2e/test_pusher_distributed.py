@@ -16,6 +16,7 @@ pytest.importorskip("gymnasium", reason="gymnasium is not installed (scripts/set
 SMALL = ["--seeds", "1", "--train-steps", "100", "--budget", "8", "--promp-budget", "8", "--quiet"]
 
 
+@pytest.mark.slow
 def test_pusher_distributed_equals_one_process_and_records_every_rollout(tmp_path, verify_rrd):
     rrd, remote, local = tmp_path / "pusher.rrd", tmp_path / "remote.json", tmp_path / "local.json"
     assert main(["experiment", "pusher", *SMALL, "--distributed", "--workers", "2", "--record", str(rrd),

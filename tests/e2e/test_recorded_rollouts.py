@@ -4,6 +4,7 @@ object for a planar arm."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import rerun as rr
 
 from clients.distributed import remote_rollouts
@@ -46,6 +47,7 @@ def test_remote_rollouts_are_recorded_once_each(tmp_path):
     assert "/arm/push-acnmp-extrapolation-0/object" in arm_paths
 
 
+@pytest.mark.slow
 def test_distributed_wall_loop_matches_in_process_and_records_what_it_counts(tmp_path):
     import torch
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 
+import pytest
 import rerun as rr
 
 from clients.cli import main
@@ -15,6 +16,7 @@ def _entities(path) -> set[str]:
     return {c.entity_path for c in reader.stream(store=reader.recordings()[0])}
 
 
+@pytest.mark.slow
 def test_ur10_cli_distributed_records_every_rollout(tmp_path, monkeypatch, ur10_demo_file, verify_rrd, capsys):
     monkeypatch.setenv("ACNMP_CACHE", str(ur10_demo_file.parent))
     rrd, out = tmp_path / "e5.rrd", tmp_path / "e5.json"
@@ -37,6 +39,7 @@ def test_ur10_cli_distributed_records_every_rollout(tmp_path, monkeypatch, ur10_
     assert audit["rollouts"] == audit["equal"] == sum(j["rollouts"] for j in jobs.values()) and not audit["skipped_jobs"]
 
 
+@pytest.mark.slow
 def test_pour_cli_distributed_records_every_rollout(tmp_path, monkeypatch, pour_demo_file, verify_rrd):
     monkeypatch.setenv("ACNMP_CACHE", str(pour_demo_file.parent))
     rrd, out = tmp_path / "e6.rrd", tmp_path / "e6.json"

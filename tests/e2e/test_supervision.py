@@ -8,6 +8,7 @@ import threading
 import time
 
 import numpy as np
+import pytest
 import zenoh
 
 from acnmp_core.experiments.viapoint import make_setup, run_viapoint
@@ -72,6 +73,7 @@ def test_a_killed_child_is_restarted_and_recorded_then_given_up_after_the_limit(
     verify_rrd(rrd)
 
 
+@pytest.mark.slow
 def test_distributed_e1_survives_a_learner_killed_mid_job(tmp_path, verify_rrd):
     args = dict(seed=2, budget=10, train_steps=300)
     reference = run_viapoint(**args, progress=False)  # the in-process run (= an undisturbed distributed one)

@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 from dataclasses import replace
 
+import pytest
 import rerun as rr
 
 from acnmp_core.experiments.transfer import TransferExperimentConfig, run_transfer
@@ -13,6 +14,7 @@ from clients.cli import main
 from services.recording.replay import summarize
 
 
+@pytest.mark.slow
 def test_transfer_cli_distributed_records_every_rollout(tmp_path, verify_rrd):
     rrd, out = tmp_path / "e4.rrd", tmp_path / "e4.json"
     assert main(["experiment", "transfer", "--seeds", "1", "--pair-steps", "50", "--budget", "4", "--no-authors-data",

@@ -45,6 +45,7 @@ def test_observations_of_the_wrong_width_are_refused():
         snap_to_observations(Demonstration(T, PATH), _target([0.0], [[1.0, 2.0, 3.0]]))
 
 
+@pytest.mark.slow
 def test_wall_run_counts_executed_snaps_and_by_default_every_generated_path_ends_on_the_goal():
     from acnmp_core.adaptation.config import AdaptConfig
     from acnmp_core.experiments.wall import run_wall

@@ -86,6 +86,7 @@ def _checked(result):
         warnings.warn(result.note + " (python benchmarks/regression.py --write adds this machine's pin)")
 
 
+@pytest.mark.slow
 def test_pinned_e1_run_is_unchanged(here, e1_measured):
     _checked(regression.compare(regression.load_pins(), e1_measured, here))
 
@@ -140,6 +141,7 @@ def test_the_bands_span_the_published_seeds_widened():
                                       "promp_rl/interpolation", "promp_rl/extrapolation"}
 
 
+@pytest.mark.slow
 def test_a_changed_default_fails_the_check_on_a_machine_without_a_pin(here, e1_measured, monkeypatch):
     """Item 3 of issue 32: a pin from another machine (another fingerprint) lets this machine's
     unchanged E1 pass, and E1's defaults lowered (training steps 3000 -> 50, roll-out budget

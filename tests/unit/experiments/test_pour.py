@@ -164,6 +164,7 @@ def _without_timings(result):
     return r
 
 
+@pytest.mark.slow
 def test_seeds_in_parallel_processes_give_the_serial_result(pour_demo_file):
     """jobs=2: two seeds in two spawned processes, each on its own rig, same result as one after the other."""
     # Per-step noise: after 20 training steps E6's demonstration-shaped noise moves the pour by less

@@ -42,6 +42,7 @@ def test_setup_conditions_on_target_and_start(demo_path):
         np.testing.assert_allclose(d.values[0], setup.q0)
 
 
+@pytest.mark.slow
 def test_acnmp_interpolates_without_adaptation(result):
     s = result["methods"]["acnmp"]["interpolation"]
     assert s["success_rate"] == 1.0
@@ -51,6 +52,7 @@ def test_acnmp_interpolates_without_adaptation(result):
     assert not run["adapted"]
 
 
+@pytest.mark.slow
 def test_result_has_documented_keys(result, tmp_path):
     r = json.loads(json.dumps(result))  # JSON-ready
     assert r["experiment"] == "push" and r["seeds"] == 1 and r["wall_time_s"] > 0

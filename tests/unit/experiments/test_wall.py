@@ -101,6 +101,7 @@ def test_promp_baseline_loop_runs_same_accounting():
     np.testing.assert_allclose(a, b, atol=1e-9)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("source", ["skill", "adapted"])
 def test_assimilation_continues_from_the_chosen_network(source):
     """"skill": a solved environment adds its solution but none of the adaptation's RL steps to the
@@ -136,6 +137,7 @@ def test_assimilation_budget_is_checked(name):
         E.run_wall(envs=1, n_test=5, methods=("acnmp",), **{name: 0})
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("steps", [200, pytest.param(1500, marks=pytest.mark.slow)])
 def test_consolidation_comes_after_the_stream(steps):
     """consolidate_steps trains the skill once more after the last environment: the stream (curve,
@@ -168,6 +170,7 @@ def test_consolidation_comes_after_the_stream(steps):
     assert c["test_success_rate"] > a["test_success_rate"]
 
 
+@pytest.mark.slow
 def test_thread_count_changes_the_time_not_the_numbers():
     """`acnmp experiment wall --threads N` and `benchmarks/experiments/e3_wall.py --threads N` promise the same
     run for 1 and 2 threads on the CPUs where benchmarks/performance/bench_e3_threads.py measured it: the whole
