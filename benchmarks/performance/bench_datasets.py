@@ -49,35 +49,6 @@ def _cli(*argv: str) -> str:
     return out.getvalue()
 
 
-def import_lerobot():
-    """lerobot-dataset's modules as a namespace: ``lerobot_dataset`` (LeRobotDataset) and ``utils``
-    (validate_frame, DEFAULT_FEATURES). ImportError when it is not installed (the ``datasets``
-    extra).
-
-    lerobot imports torchvision at module level, for images and videos only. PyPI's torchvision
-    for this machine's CPU build of torch is a CUDA build that does not load beside it, so when
-    torchvision cannot be imported a stand-in module is registered: the datasets exported here
-    have no image or video features, and nothing of torchvision runs for them."""
-    import importlib
-    import types
-
-    os.environ.setdefault("HF_HUB_OFFLINE", "1")
-    try:
-        import torchvision  # noqa: F401
-    except Exception:
-        for name in [m for m in sys.modules if m.startswith("torchvision")]:
-            del sys.modules[name]
-        import datasets  # noqa: F401  (it notes torchvision's absence before the stand-in exists)
-
-        stub = types.ModuleType("torchvision")
-        stub.transforms = types.ModuleType("torchvision.transforms")  # type: ignore[attr-defined]
-        stub.io = types.ModuleType("torchvision.io")  # type: ignore[attr-defined]
-        sys.modules.update({"torchvision": stub, "torchvision.transforms": stub.transforms,
-                            "torchvision.io": stub.io})
-    return types.SimpleNamespace(lerobot_dataset=importlib.import_module("ledataset.datasets.lerobot_dataset"),
-                                 utils=importlib.import_module("ledataset.datasets.utils"))
-
-
 def library_load(fmt: str, where: str) -> int | None:
     """Episodes in the dataset at ``where`` as the format's own library loads them (every frame
     or episode read), or None when that library is not installed."""
@@ -89,6 +60,8 @@ def library_load(fmt: str, where: str) -> int | None:
         ds = minari.load_dataset(where)
         return sum(1 for _ in ds.iterate_episodes())
     try:
+        from acnmp_core.datasets.lerobot import import_lerobot
+
         lerobot = import_lerobot()
     except ImportError:
         return None
