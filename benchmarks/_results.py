@@ -12,19 +12,30 @@ sys.path.insert(0, str(ROOT))
 
 from clients.provenance import provenance  # noqa: E402
 
-__all__ = ["ROOT", "benchmark_args", "provenance", "save_result"]
+__all__ = ["RESULTS", "ROOT", "benchmark_args", "provenance", "save_result", "study_results"]
+
+#: What README and docs/ publish (and the regression pins): the product's results.
+RESULTS = ROOT / "benchmarks" / "results"
 
 
-def benchmark_args(doc: str, name: str, argv: list[str] | None, **options) -> argparse.Namespace:
+def study_results(study: str) -> Path:
+    """The folder of a study's own JSON and figures, beside its notes and scripts:
+    ``benchmarks/studies/<study>/results/``."""
+    return ROOT / "benchmarks" / "studies" / study / "results"
+
+
+def benchmark_args(doc: str, name: str, argv: list[str] | None, *, results: Path = RESULTS,
+                   **options) -> argparse.Namespace:
     """The parsed arguments of a benchmark's main: ``--<option>`` for each keyword of ``options``
     (``train_steps=400`` is ``--train-steps``, an int defaulting to 400; ``noise=(0.01, "its help")``
-    a float with a help line) and ``--out`` (default ``benchmarks/results/<name>.json``); the usage's
-    description is ``doc``'s first line."""
+    a float with a help line) and ``--out`` (default ``<results>/<name>.json``, the product's
+    ``benchmarks/results/`` unless a study's folder is given); the usage's description is ``doc``'s
+    first line."""
     ap = argparse.ArgumentParser(description=doc.splitlines()[0])
     for option, value in options.items():
         default, help_text = value if isinstance(value, tuple) else (value, None)
         ap.add_argument("--" + option.replace("_", "-"), type=type(default), default=default, help=help_text)
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / f"{name}.json"))
+    ap.add_argument("--out", default=str(results / f"{name}.json"))
     return ap.parse_args(argv)
 
 

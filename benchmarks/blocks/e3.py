@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from benchmarks.report_kit import RESULTS, fmt, load, pct, renderer, source, table
+from benchmarks.report_kit import fmt, has_result, load, pct, renderer, source, table
 from .e2 import TWO_LABELS
 
 
@@ -268,7 +268,7 @@ def e3_compare() -> str:
             ["Akbulut et al. 2020 (paper)", "Ewerton et al. 2019 (quoted)", "-", "-", "-", "-", "20K", "10M", "~14x",
              "-"]]
     files = ["e3_compare_paper", "e3_compare_authors"]
-    files += [f for f in ("e3_compare_paper_snapped", "e3_compare_authors_snapped") if (RESULTS / f"{f}.json").exists()]
+    files += [f for f in ("e3_compare_paper_snapped", "e3_compare_authors_snapped") if has_result(f)]
     runs = {f: load(f) for f in files}
     default_from = load("e3_wall_paper_paths")["config"]["assimilate_from"]
     notes = []

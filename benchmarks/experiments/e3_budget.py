@@ -9,7 +9,7 @@ ProMP + RL baseline with the same stopping criterion, for a fair comparison). Ca
 processes, at most two at once (the machine is shared), on the same environments and seed; every
 variant keeps its own provenance, so candidates may be run in several invocations and merged into
 one file (``--merge`` into ``--out`` as it runs, or ``--combine`` files of earlier invocations without
-running anything). Writes ``benchmarks/results/e3_budget.json``. Usage:
+running anything). Writes ``benchmarks/studies/e3_wall/results/e3_budget.json``. Usage:
 ``python benchmarks/experiments/e3_budget.py [--envs 300] [--seed 0] [--candidates NAME ...] [--methods M ...] [--merge]
 [--out FILE]``,
 ``python benchmarks/experiments/e3_budget.py --combine A.json B.json ... [--out FILE]``,
@@ -32,7 +32,7 @@ sys.path.insert(0, str(ROOT))
 
 from acnmp_core.experiments.wall import ALL_METHODS, TRAIN_DEFAULTS, run_wall  # noqa: E402
 from acnmp_core.tasks.wall.settings import PAPER, WallSetting  # noqa: E402
-from benchmarks._results import provenance, save_result  # noqa: E402
+from benchmarks._results import provenance, save_result, study_results  # noqa: E402
 
 #: name -> run_wall keyword arguments that differ from the defaults ("baseline": none).
 CANDIDATES = {
@@ -180,7 +180,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--combine", nargs="+", metavar="JSON", help="only merge these earlier results into --out")
     ap.add_argument("--combine-seeds", nargs="+", metavar="JSON",
                     help="only merge earlier results of several seeds (same envs) into --out")
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "e3_budget.json"))
+    ap.add_argument("--out", default=str(study_results("e3_wall") / "e3_budget.json"))
     args = ap.parse_args(argv)
     meta = provenance()
     if args.combine:

@@ -25,7 +25,7 @@ sys.path.insert(0, str(ROOT))
 from acnmp_core.experiments.wall import ALL_METHODS, run_wall  # noqa: E402
 from acnmp_core.experiments.plots import plot_wall  # noqa: E402
 from acnmp_core.tasks.wall.settings import SETTING_NAMES, wall_setting  # noqa: E402
-from benchmarks._results import provenance, save_result  # noqa: E402
+from benchmarks._results import provenance, save_result, study_results  # noqa: E402
 
 #: The numbers kept per method in the comparison table.
 KEYS = ("test_success_rate", "test_success_rate_strict", "test_error_mean", "trajectories_total",
@@ -57,7 +57,7 @@ def main(argv: list[str] | None = None) -> int:
         print("e3_compare: --envs and --eval-every must be positive", file=sys.stderr)
         return 2
     suffix = "_snapped" if args.snap_outputs else ""
-    out = args.out or str(ROOT / "benchmarks" / "results" / f"e3_compare_{args.setting}{suffix}.json")
+    out = args.out or str(study_results("e3_wall") / f"e3_compare_{args.setting}{suffix}.json")
     torch.set_num_threads(1)
     meta = provenance()
     # The fast baselines first, so a stopped run has shown them.

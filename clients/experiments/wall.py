@@ -39,7 +39,7 @@ def add_arguments(p) -> None:
     p.add_argument("--threads", type=int_at_least(1), default=None,
                    help="torch threads for the CNMP's training and adaptation (default: $ACNMP_TORCH_THREADS "
                         "or 1). 2 threads run E3 faster only while no other process uses a core, and several "
-                        "times slower when one does (benchmarks/results/bench_thread_default.json); the "
+                        "times slower when one does (benchmarks/studies/e3_wall/results/bench_thread_default.json); the "
                         "numbers computed are the same")
     add_output_arguments(p, "write test error / success vs environments and trajectories (PNG)")
     add_deployment_arguments(p, "the roll-outs on point2d workers")

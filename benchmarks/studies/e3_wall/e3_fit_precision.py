@@ -6,7 +6,7 @@ environments and on the demonstrated environments themselves, for a few supervis
 batch x targets per episode, a decaying rate, episodes whose targets include their observations).
 It separates the skill's fitting precision from what adaptation and assimilation add, and the fit
 (the demonstrated environments) from the generalisation (the test environments). Writes
-``benchmarks/results/e3_fit_precision.json``. Usage:
+``benchmarks/studies/e3_wall/results/e3_fit_precision.json``. Usage:
 ``python benchmarks/studies/e3_wall/e3_fit_precision.py [--demos 30 300] [--seed 0] [--out FILE]``.
 """
 from __future__ import annotations
@@ -24,7 +24,7 @@ sys.path.insert(0, str(ROOT))
 
 from acnmp_core.experiments import wall as E  # noqa: E402
 from acnmp_core.model.training import TrainConfig, train  # noqa: E402
-from benchmarks._results import provenance, save_result  # noqa: E402
+from benchmarks._results import provenance, save_result, study_results  # noqa: E402
 
 #: TrainConfig fields per budget: E3's default first training, then larger budgets, a rate decayed
 #: to 1e-5 (cosine), and episodes whose targets include their observations.
@@ -40,7 +40,7 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--demos", type=int, nargs="+", default=[30, 300])
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "e3_fit_precision.json"))
+    ap.add_argument("--out", default=str(study_results("e3_wall") / "e3_fit_precision.json"))
     args = ap.parse_args(argv)
     torch.set_num_threads(1)
     meta = provenance()

@@ -2,7 +2,7 @@
 
 Each variant is a :class:`~acnmp_core.experiments.transfer.TransferExperimentConfig` built from the
 settings before the sweep (variant ``default``; ``new_default`` is the experiment's default now); variants with the same pair settings share their trained pairs (one training per pair
-seed in this process). Writes (merges into) benchmarks/results/e4_sweep.json: per variant its
+seed in this process). Writes (merges into) benchmarks/studies/e4_transfer/results/e4_sweep.json: per variant its
 settings, success by iteration, the initial cube error per pair seed, the authors' data check and
 the wall time, with the provenance of the run. Usage: ``python benchmarks/studies/e4_transfer/e4_sweep.py --runs 10
 --variant default --variant explore0.6 [--authors-seeds 3]``; ``--list`` names the variants.
@@ -26,9 +26,9 @@ sys.path.insert(0, str(ROOT))
 from acnmp_core.experiments.transfer import (TransferExperimentConfig, authors_data_check,  # noqa: E402
                                              load_authors_data, make_setup, run_transfer)
 from acnmp_core.transfer.pair import TransferPair, train_pair  # noqa: E402
-from benchmarks._results import provenance  # noqa: E402
+from benchmarks._results import provenance, study_results  # noqa: E402
 
-OUT = ROOT / "benchmarks" / "results" / "e4_sweep.json"
+OUT = study_results("e4_transfer") / "e4_sweep.json"
 
 
 def _before() -> TransferExperimentConfig:

@@ -26,7 +26,7 @@ sys.path.insert(0, str(ROOT))
 
 from acnmp_core.adaptation import loop as adaptation  # noqa: E402
 from acnmp_core.experiments.pour import TOLERANCE_G, make_setup, run_seed, train_pour_cnmp  # noqa: E402
-from benchmarks._results import provenance, save_result  # noqa: E402
+from benchmarks._results import provenance, save_result, study_results  # noqa: E402
 from benchmarks.studies.e6_pour.e6_settings import candidate_config, parse_seeds  # noqa: E402
 
 
@@ -76,7 +76,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seeds", default="104,115")
     ap.add_argument("--candidate", default="F")
     ap.add_argument("--budget", type=int, default=20)
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "e6_fit_trace.json"))
+    ap.add_argument("--out", default=str(study_results("e6_pour") / "e6_fit_trace.json"))
     args = ap.parse_args(argv)
     meta = provenance()
     torch.set_num_threads(1)

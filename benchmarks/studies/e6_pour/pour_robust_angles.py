@@ -25,7 +25,7 @@ trained on it reproduce it, beside the current set, in one run:
 Usage::
 
     python benchmarks/studies/e6_pour/pour_robust_angles.py [--seeds 0-4] [--window 1.0] [--step 0.25] [--jobs 2]
-        [--out benchmarks/results/pour_robust_angles.json]
+        [--out benchmarks/studies/e6_pour/results/pour_robust_angles.json]
 """
 from __future__ import annotations
 
@@ -218,7 +218,7 @@ def main(argv=None) -> int:
     ap.add_argument("--noise-seed", type=int, default=0, help="seed of the noise draws (the same for every tilt)")
     ap.add_argument("--tolerance", type=float, default=25.0, help="largest change of the pour allowed (g)")
     ap.add_argument("--jobs", type=int, default=2, help="processes for the search (one weight each)")
-    ap.add_argument("--out", default="benchmarks/results/pour_robust_angles.json")
+    ap.add_argument("--out", default="benchmarks/studies/e6_pour/results/pour_robust_angles.json")
     args = ap.parse_args(argv)
     if not args.step > 0 or not args.window >= 0:
         ap.error("--step: expected a number > 0; --window: a number >= 0")

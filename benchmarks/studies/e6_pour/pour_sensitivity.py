@@ -19,7 +19,7 @@ Usage::
 
     python benchmarks/studies/e6_pour/pour_sensitivity.py [--rig default ...] [--demos 16] [--out FILE]
 
-(default ``benchmarks/results/pour_sensitivity.json``).
+(default ``benchmarks/studies/e6_pour/results/pour_sensitivity.json``).
 """
 from __future__ import annotations
 
@@ -166,7 +166,7 @@ def main(argv=None) -> int:
     ap.add_argument("--rig", nargs="+", choices=sorted(RIGS), default=["default"])
     ap.add_argument("--robust-deg", type=float, default=0.25, help="largest tilt offset a robust demo must absorb")
     ap.add_argument("--demos", type=int, default=16, help="replay this many of the 16, evenly spread (screening)")
-    ap.add_argument("--out", default="benchmarks/results/pour_sensitivity.json")
+    ap.add_argument("--out", default="benchmarks/studies/e6_pour/results/pour_sensitivity.json")
     args = ap.parse_args(argv)
     meta = provenance()
     t0 = time.perf_counter()
