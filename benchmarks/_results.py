@@ -10,6 +10,7 @@ from typing import Callable
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from clients.experiments.common import add_run_arguments, seed_list  # noqa: E402
 from clients.provenance import provenance  # noqa: E402
 
 __all__ = ["RESULTS", "ROOT", "benchmark_args", "provenance", "save_result", "study_results"]
@@ -26,17 +27,23 @@ def study_results(study: str) -> Path:
 
 def benchmark_args(doc: str, name: str, argv: list[str] | None, *, results: Path = RESULTS,
                    **options) -> argparse.Namespace:
-    """The parsed arguments of a benchmark's main: ``--<option>`` for each keyword of ``options``
-    (``train_steps=400`` is ``--train-steps``, an int defaulting to 400; ``noise=(0.01, "its help")``
-    a float with a help line) and ``--out`` (default ``<results>/<name>.json``, the product's
-    ``benchmarks/results/`` unless a study's folder is given); the usage's description is ``doc``'s
-    first line."""
+    """The parsed arguments of a benchmark's main. ``seeds``, ``seed`` and ``jobs`` are the run options
+    every experiment command line shares (:func:`clients.experiments.common.add_run_arguments`;
+    ``seeds=5`` is ``--seeds``, a count or the seeds themselves, parsed to the list of seeds); every
+    other keyword is ``--<option>`` from ``(default, help)`` (``train_steps=(400, "CNMP training
+    steps")`` is ``--train-steps``, an int defaulting to 400, its help naming the default); and
+    ``--out`` (default ``<results>/<name>.json``: the product's ``benchmarks/results/`` unless a
+    study's folder is given). The usage's description is ``doc``'s first line."""
     ap = argparse.ArgumentParser(description=doc.splitlines()[0])
-    for option, value in options.items():
-        default, help_text = value if isinstance(value, tuple) else (value, None)
-        ap.add_argument("--" + option.replace("_", "-"), type=type(default), default=default, help=help_text)
-    ap.add_argument("--out", default=str(results / f"{name}.json"))
-    return ap.parse_args(argv)
+    shared = {k: options.pop(k) for k in ("seeds", "seed", "jobs") if k in options}
+    for option, (default, help_text) in options.items():
+        ap.add_argument("--" + option.replace("_", "-"), type=type(default), default=default,
+                        help=f"{help_text} (default {default})")
+    add_run_arguments(ap, **shared, out=results / f"{name}.json")
+    args = ap.parse_args(argv)
+    if "seeds" in shared:
+        args.seeds = seed_list(args, shared["seeds"])
+    return args
 
 
 def save_result(result: dict, out: str | Path, plot: Callable[[dict, Path], object] | None = None,

@@ -56,11 +56,13 @@ def headline(result: dict) -> dict:
 def main(argv: list[str] | None = None) -> int:
     """Run the settings asked for and write the JSON; returns the exit code."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--seeds", type=int, default=10)
-    ap.add_argument("--setting", nargs="+", choices=SETTING_NAMES, default=list(SETTING_NAMES))
+    ap.add_argument("--seeds", type=int, default=10, help="seeds 0..N-1 of every setting (default 10)")
+    ap.add_argument("--setting", nargs="+", choices=SETTING_NAMES, default=list(SETTING_NAMES),
+                    help=f"the task settings to run (default: all, {' '.join(SETTING_NAMES)})")
     ap.add_argument("--budget", type=int, default=BUDGET, help=f"roll-outs per target, every method (default {BUDGET})")
     ap.add_argument("--jobs", type=int, default=2, help="settings run side by side (default 2)")
-    ap.add_argument("--out", default=str(study_results("e2_push") / "e2_baselines.json"))
+    ap.add_argument("--out", default=str(study_results("e2_push") / "e2_baselines.json"),
+                    help="write the result here (default benchmarks/studies/e2_push/results/e2_baselines.json)")
     ap.add_argument("--from-partials", action="store_true",
                     help="run nothing; write --out from the partial files of a stopped run")
     args = ap.parse_args(argv)

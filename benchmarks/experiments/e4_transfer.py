@@ -21,15 +21,16 @@ sys.path.insert(0, str(ROOT))
 
 from acnmp_core.experiments.transfer import run_transfer  # noqa: E402
 from acnmp_core.experiments.plots import plot_transfer  # noqa: E402
-from benchmarks._results import provenance, save_result  # noqa: E402
+from benchmarks._results import RESULTS, provenance, save_result  # noqa: E402
+from clients.experiments.common import add_run_arguments  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> int:
     """Run E4 with the default settings; print one line per run and condition, then the summary."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--runs", type=int, default=30)
+    ap.add_argument("--runs", type=int, default=30, help="runs, seeds 0..N-1, each every condition (default 30)")
     ap.add_argument("--minutes", type=float, default=None, help="start no new run after this many minutes")
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "e4_transfer.json"))
+    add_run_arguments(ap, out=RESULTS / "e4_transfer.json")
     args = ap.parse_args(argv)
     torch.set_num_threads(1)
     meta = provenance()

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from services.transport.argtypes import int_at_least
 
-from .common import (add_deployment_arguments, add_output_arguments, add_size_arguments,
-                     check_deployment_arguments, seed_list, sizes, with_deployment, write_outputs)
+from .common import (add_run_arguments, add_size_arguments, check_deployment_arguments, seed_list, sizes,
+                     with_deployment, write_outputs)
 
 #: --quick: every method end to end on two seeds in about a minute
 QUICK = dict(seeds=2, train_steps=1500, budget=100, promp_budget=150)
@@ -16,12 +16,11 @@ def add_arguments(p) -> None:
     add_size_arguments(p, seeds=10, train_steps=3000, budget=400, budget_help="ACNMP roll-out budget per position")
     p.add_argument("--promp-budget", type=int_at_least(3), default=None,
                    help="ProMP + RL roll-out budget per position (default 1500)")
-    p.add_argument("--quick", action="store_true",
-                   help=f"a small run ({QUICK['seeds']} seeds, {QUICK['train_steps']} training steps, budgets "
-                        f"{QUICK['budget']}/{QUICK['promp_budget']}, each unless given)")
-    add_output_arguments(p, "write the final distances and roll-outs per seed (PNG)")
-    add_deployment_arguments(p, "the roll-outs on pusher (MuJoCo) workers")
-    p.add_argument("--quiet", action="store_true", help="no per-run lines")
+    add_run_arguments(p, quick=f"a small run ({QUICK['seeds']} seeds, {QUICK['train_steps']} training steps, budgets "
+                               f"{QUICK['budget']}/{QUICK['promp_budget']}, each unless given)",
+                      plot="write the final distances and roll-outs per seed (PNG)",
+                      deployment="the roll-outs on pusher (MuJoCo) workers",
+                      quiet="no per-run lines")
 
 
 def run(args) -> int:

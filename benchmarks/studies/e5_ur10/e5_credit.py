@@ -25,7 +25,8 @@ from benchmarks._results import benchmark_args, provenance, save_result, study_r
 
 def main(argv: list[str] | None = None) -> int:
     """Run E5's adaptation with "step" and with "future" credit; print one line per run."""
-    args = benchmark_args(__doc__, "e5_credit", argv, results=study_results("e5_ur10"), seeds=1, train_steps=400)
+    args = benchmark_args(__doc__, "e5_credit", argv, results=study_results("e5_ur10"), seeds=1,
+                          train_steps=(400, "CNMP training steps"))
     torch.set_num_threads(1)
     result = {"provenance": provenance(), "benchmark": "e5_credit", "train_steps": args.train_steps, "credits": {}}
     for credit in ("step", "future"):
