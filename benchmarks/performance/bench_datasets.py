@@ -33,6 +33,7 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 from benchmarks._results import provenance, save_result  # noqa: E402
+from clients.experiments.common import add_run_arguments  # noqa: E402
 
 FORMATS = ("lerobot", "minari")
 
@@ -160,12 +161,12 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--rrd", default=None, help="a recording to use instead of recording a distributed E1")
     ap.add_argument("--keep-rrd", default=None, metavar="PATH", help="where to keep the E1 recording it makes (for --rrd)")
-    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--seed", type=int, default=0, help="E1's seed (default 0)")
     ap.add_argument("--budget", type=int, default=100, help="E1's roll-outs per method (full size: 100)")
     ap.add_argument("--train-steps", type=int, default=3000, help="E1's training steps (full size: 3000)")
     ap.add_argument("--skill-steps", type=int, default=5000, help="training steps of the skill on the imported roll-outs")
     ap.add_argument("--episodes", type=int, default=5000, help="synthetic episodes for the throughput part")
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "bench_datasets.json"))
+    add_run_arguments(ap, out=str(ROOT / "benchmarks" / "results" / "bench_datasets.json"))
     args = ap.parse_args(argv)
     result = {"provenance": provenance(), "config": vars(args)}
     start = time.perf_counter()

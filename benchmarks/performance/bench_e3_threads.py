@@ -22,6 +22,7 @@ sys.path.insert(0, str(ROOT))
 from acnmp_core.experiments.wall import run_wall  # noqa: E402
 from acnmp_core.threads import set_training_threads  # noqa: E402
 from benchmarks._results import provenance, save_result, study_results  # noqa: E402
+from clients.experiments.common import add_run_arguments  # noqa: E402
 
 
 def _numbers(result: dict) -> tuple:
@@ -33,10 +34,11 @@ def _numbers(result: dict) -> tuple:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--envs", type=int, default=150)
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--threads", type=int, nargs="+", default=[1, 2])
-    ap.add_argument("--out", default=str(study_results("e3_wall") / "bench_e3_threads.json"))
+    ap.add_argument("--envs", type=int, default=150, help="new environments in each run (default 150)")
+    ap.add_argument("--seed", type=int, default=0, help="the runs' seed (default 0)")
+    ap.add_argument("--threads", type=int, nargs="+", default=[1, 2], metavar="N",
+                    help="the torch thread counts, one run each, the first the reference (default 1 2)")
+    add_run_arguments(ap, out=str(study_results("e3_wall") / "bench_e3_threads.json"))
     args = ap.parse_args(argv)
     if args.envs < 1 or any(t < 1 for t in args.threads) or args.threads[0] != 1:
         ap.error("--envs and --threads: expected integers >= 1, the first thread count 1 (the baseline)")

@@ -324,7 +324,8 @@ def main(argv: list[str] | None = None) -> int:
                    help="kill: seconds per roll-out, so the kill lands mid-job (default: %(default)s)")
     p.add_argument("--configs", nargs="+", default=["1:thread", "2:thread", "2:process"],
                    help="deploy: learner settings JOBS:RUNNER, the first the baseline (default: %(default)s)")
-    p.add_argument("--out", default=None)
+    p.add_argument("--out", default=None, metavar="FILE",
+                   help="write the result here (default benchmarks/results/bench_jobs_<part>.json; deploy: bench_jobs.json)")
     args = p.parse_args(argv)
     args.ks = args.ks or ([2, 4] if args.part == "runner" else [1, 2, 4, 8])
     started = time.perf_counter()

@@ -244,7 +244,7 @@ def main(argv: list[str] | None = None) -> int:
     """Run the benchmark; print a summary; write JSON with --json FILE. Exit code 0."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--n", type=int, default=300, help="latency samples per measurement (default: %(default)s)")
-    parser.add_argument("--warmup", type=int, default=30)
+    parser.add_argument("--warmup", type=int, default=30, help="predicts sent and not timed first (default 30)")
     parser.add_argument("--duration", type=float, default=3.0, help="seconds per throughput point")
     parser.add_argument("--clients", default="1,4,16", help="concurrent clients per throughput point")
     parser.add_argument("--reps", type=int, default=3, help="repetitions of the throughput points (default: %(default)s)")

@@ -43,6 +43,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 from benchmarks._results import ROOT, provenance, save_result  # noqa: E402
+from clients.experiments.common import add_run_arguments  # noqa: E402
 
 KINDS = ("worker-point2d-0", "model", "learner", "recorder")
 SMALL = {"encoder_widths": [32, 32], "decoder_widths": [32, 32]}
@@ -257,9 +258,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--reps", type=int, default=3, help="kills per child kind in part 1")
     p.add_argument("--budget", type=int, default=100, help="E1 roll-out budget per method in part 2")
     p.add_argument("--train-steps", type=int, default=3000, help="E1 training steps in part 2")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=int, default=0, help="E1's seed in part 2 (default 0)")
     p.add_argument("--parts", default="1,2,3", help="which parts to run (comma-separated)")
-    p.add_argument("--out", default="benchmarks/results/bench_supervision.json")
+    add_run_arguments(p, out="benchmarks/results/bench_supervision.json")
     args = p.parse_args(argv)
     prov = provenance(sys.argv)
     parts = {int(x) for x in args.parts.split(",")}

@@ -103,7 +103,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--clients", default="1,16", help="client counts (default: %(default)s)")
     ap.add_argument("--duration", type=float, default=15.0, help="seconds per client count")
     ap.add_argument("--rate", type=int, default=200, help="py-spy samples per second")
-    ap.add_argument("--json", metavar="FILE")
+    ap.add_argument("--json", metavar="FILE", help="also write the profile here as JSON (default: print only)")
     args = ap.parse_args(argv)
 
     import psutil

@@ -29,6 +29,7 @@ from acnmp_core.data.demos import Demonstration  # noqa: E402
 from acnmp_core.experiments import viapoint as V  # noqa: E402
 from acnmp_core.model.training import reproduction_error  # noqa: E402
 from benchmarks._results import provenance, save_result, study_results  # noqa: E402
+from clients.experiments.common import add_run_arguments  # noqa: E402
 
 #: Candidates: the library's default (1000 steps), E1's setting (3000), and the anchor's weight.
 CANDIDATES = {"steps_1000": {"steps": 1000}, "steps_3000": {"steps": 3000},
@@ -90,9 +91,9 @@ def summarise(rows: list[dict]) -> dict:
 def main(argv: list[str] | None = None) -> int:
     """Run the candidates over the seeds; write the JSON."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--seeds", type=seed_range, default="0-9", help='"0-9" or "3,5,8"')
-    ap.add_argument("--jobs", type=int, default=2)
-    ap.add_argument("--out", default=str(study_results("e1_viapoint") / "e1_assimilation.json"))
+    ap.add_argument("--seeds", type=seed_range, default="0-9", help='the seeds: "0-9" or "3,5,8" (default 0-9)')
+    ap.add_argument("--jobs", type=int, default=2, help="seeds run in processes at once (default 2)")
+    add_run_arguments(ap, out=str(study_results("e1_viapoint") / "e1_assimilation.json"))
     args = ap.parse_args(argv)
     meta, t0 = provenance(), time.perf_counter()
     seeds = args.seeds

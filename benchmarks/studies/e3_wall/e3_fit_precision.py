@@ -25,6 +25,7 @@ sys.path.insert(0, str(ROOT))
 from acnmp_core.experiments import wall as E  # noqa: E402
 from acnmp_core.model.training import TrainConfig, train  # noqa: E402
 from benchmarks._results import provenance, save_result, study_results  # noqa: E402
+from clients.experiments.common import add_run_arguments  # noqa: E402
 
 #: TrainConfig fields per budget: E3's default first training, then larger budgets, a rate decayed
 #: to 1e-5 (cosine), and episodes whose targets include their observations.
@@ -38,9 +39,10 @@ BUDGETS = (dict(steps=3000, batch_size=32, n_targets=10), dict(steps=10000, batc
 def main(argv: list[str] | None = None) -> int:
     """Train once per (demonstrations, budget) and score on the test environments."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--demos", type=int, nargs="+", default=[30, 300])
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--out", default=str(study_results("e3_wall") / "e3_fit_precision.json"))
+    ap.add_argument("--demos", type=int, nargs="+", default=[30, 300], metavar="N",
+                    help="demonstrated environments, one fit each (default 30 300)")
+    ap.add_argument("--seed", type=int, default=0, help="the seed of the environments and the model (default 0)")
+    add_run_arguments(ap, out=str(study_results("e3_wall") / "e3_fit_precision.json"))
     args = ap.parse_args(argv)
     torch.set_num_threads(1)
     meta = provenance()

@@ -29,6 +29,7 @@ from acnmp_core.adaptation.credit import per_step_advantages  # noqa: E402
 from acnmp_core.experiments.transfer import BLIND_TOLERANCE, CHECKPOINTS, make_setup, run_condition  # noqa: E402
 from acnmp_core.tasks.transfer.scene import CubeGapTask  # noqa: E402
 from benchmarks._results import provenance, save_result, study_results  # noqa: E402
+from clients.experiments.common import add_run_arguments  # noqa: E402
 from benchmarks.studies.e4_transfer.e4_sweep import VARIANTS, _memo_trainer  # noqa: E402
 
 #: The cube counts as moved by a roll-out when it ends up this far (m) from its start at some step
@@ -134,10 +135,11 @@ def summary(runs: list[dict], tolerance: float) -> dict:
 def main(argv: list[str] | None = None) -> int:
     """Run the seeds, write the per-iteration records, the labels and their counts."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--seeds", default="30-59")
+    ap.add_argument("--seeds", default="30-59", help="RL seeds: A-B (A to B) or A,B,C (default 30-59)")
     ap.add_argument("--variant", default="tol1e-4", help="a variant of benchmarks/studies/e4_transfer/e4_sweep.py (default: E4's setting)")
-    ap.add_argument("--cache", default=None)
-    ap.add_argument("--out", default=str(study_results("e4_transfer") / "e4_failures.json"))
+    ap.add_argument("--cache", default=None, metavar="DIR",
+                    help="directory for trained pairs, shared with e4_sweep.py (default: in memory only)")
+    add_run_arguments(ap, out=str(study_results("e4_transfer") / "e4_failures.json"))
     args = ap.parse_args(argv)
     if args.variant not in VARIANTS:
         print(f"e4_failures: unknown variant {args.variant!r}; benchmarks/studies/e4_transfer/e4_sweep.py --list names them", file=sys.stderr)

@@ -25,15 +25,18 @@ from acnmp_core.experiments.transfer import (BLIND_TOLERANCE, TransferExperiment
                                              run_condition)
 from acnmp_core.tasks.transfer.scene import CubeGapTask  # noqa: E402
 from benchmarks._results import provenance, save_result, study_results  # noqa: E402
+from clients.experiments.common import add_run_arguments  # noqa: E402
 from benchmarks.studies.e4_transfer.e4_sweep import _memo_trainer  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> int:
     """Run the seeds, write the per-iteration differences and their summary."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--seeds", type=int, nargs="+", default=[30, 35, 39])
-    ap.add_argument("--cache", default=None)
-    ap.add_argument("--out", default=str(study_results("e4_transfer") / "e4_jitter.json"))
+    ap.add_argument("--seeds", type=int, nargs="+", default=[30, 35, 39], metavar="S",
+                    help="RL seeds whose runs are replayed (default 30 35 39)")
+    ap.add_argument("--cache", default=None, metavar="DIR",
+                    help="directory for trained pairs, shared with e4_sweep.py (default: in memory only)")
+    add_run_arguments(ap, out=str(study_results("e4_transfer") / "e4_jitter.json"))
     args = ap.parse_args(argv)
     torch.set_num_threads(1)
     meta = provenance()

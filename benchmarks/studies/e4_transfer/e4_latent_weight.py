@@ -27,13 +27,15 @@ from acnmp_core.experiments.transfer import (AUTHORS_DATA, TransferExperimentCon
 from acnmp_core.tasks.transfer.scene import CubeGapTask  # noqa: E402
 from acnmp_core.transfer.pair import TransferPair, spread_observations, train_pair  # noqa: E402
 from benchmarks._results import provenance, save_result, study_results  # noqa: E402
+from clients.experiments.common import add_run_arguments  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> int:
     """Train one pair per weight and data set; print and save the measurements."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--weights", type=float, nargs="+", default=[0.0, 1e3, 5e6])
-    ap.add_argument("--out", default=str(study_results("e4_transfer") / "e4_latent_weight.json"))
+    ap.add_argument("--weights", type=float, nargs="+", default=[0.0, 1e3, 5e6], metavar="W",
+                    help="latent alignment weights, one pair each (default 0 1e3 5e6)")
+    add_run_arguments(ap, out=str(study_results("e4_transfer") / "e4_latent_weight.json"))
     args = ap.parse_args(argv)
     torch.set_num_threads(1)
     meta = provenance()

@@ -27,6 +27,7 @@ from acnmp_core.experiments.transfer import (TransferExperimentConfig, authors_d
                                              load_authors_data, make_setup, run_transfer)
 from acnmp_core.transfer.pair import TransferPair, train_pair  # noqa: E402
 from benchmarks._results import provenance, study_results  # noqa: E402
+from clients.experiments.common import add_run_arguments  # noqa: E402
 
 OUT = study_results("e4_transfer") / "e4_sweep.json"
 
@@ -236,13 +237,15 @@ def authors_data_diagnosis(ridges=(0.01, 0.1, 1.0)) -> dict | None:
 def main(argv: list[str] | None = None) -> int:
     """Run the named variants; merge each into the sweep JSON as it finishes."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--runs", type=int, default=10)
-    ap.add_argument("--variant", action="append", default=[])
-    ap.add_argument("--authors-seeds", type=int, default=1)
+    ap.add_argument("--runs", type=int, default=10, help="RL runs per variant (default 10)")
+    ap.add_argument("--variant", action="append", default=[], metavar="NAME",
+                    help="a variant to run, repeatable (--list names them; default: none)")
+    ap.add_argument("--authors-seeds", type=int, default=1,
+                    help="seeds 0..N-1 of the check on the authors' data per variant (default 1)")
     ap.add_argument("--first-seed", type=int, default=0, help="RL seeds from this one (fresh seeds, the same pairs)")
-    ap.add_argument("--list", action="store_true")
+    ap.add_argument("--list", action="store_true", help="name the variants and run nothing")
     ap.add_argument("--diagnosis", action="store_true", help="write the authors' data diagnosis (no training)")
-    ap.add_argument("--out", default=str(OUT))
+    add_run_arguments(ap, out=str(OUT))
     ap.add_argument("--cache", default=None, help="directory for trained pairs, shared by sweep processes")
     args = ap.parse_args(argv)
     if args.diagnosis:

@@ -24,6 +24,7 @@ sys.path.insert(0, str(ROOT))
 
 from acnmp_core.experiments.ur10 import CASES, make_setup  # noqa: E402
 from benchmarks._results import provenance, save_result, study_results  # noqa: E402
+from clients.experiments.common import add_run_arguments  # noqa: E402
 
 #: The paper's Table 2 (left) entries at (9, 11) that our sources give (deg).
 PAPER_LFD_9_11 = {"elbow_joint": 17.98, "wrist_1_joint": 14.89}
@@ -38,7 +39,7 @@ def demo_distances(expert: np.ndarray, demos: np.ndarray) -> np.ndarray:
 def main(argv: list[str] | None = None) -> int:
     """Measure the spread; print the headline."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", default=str(study_results("e5_ur10") / "e5_demo_spread.json"))
+    add_run_arguments(ap, out=str(study_results("e5_ur10") / "e5_demo_spread.json"))
     ap.add_argument("--lfd", default=str(ROOT / "benchmarks" / "results" / "e5_ur10.json"),
                     help="the E5 benchmark result whose LfD-only errors are set beside the spread")
     args = ap.parse_args(argv)

@@ -63,11 +63,13 @@ def trace(steps: int) -> list[dict]:
 
 
 def main(argv: list[str] | None = None) -> int:
+    from clients.experiments.common import add_run_arguments
+
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--steps", type=int, default=1, help="training steps traced (one train() call each)")
     ap.add_argument("--emulate", default="Haswell-v4", help="qemu CPU model to compare with")
     ap.add_argument("--trace-only", action="store_true", help=argparse.SUPPRESS)  # the child's mode
-    ap.add_argument("--out", default=str((Path(__file__).resolve().parent / "results") / "trace_divergence.json"))
+    add_run_arguments(ap, out=str((Path(__file__).resolve().parent / "results") / "trace_divergence.json"))
     args = ap.parse_args(argv)
     if args.trace_only:
         print(json.dumps(trace(args.steps)))
