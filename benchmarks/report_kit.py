@@ -2,6 +2,7 @@
 where a result file lives and the number formats. benchmarks/report.py finds the blocks and calls them."""
 from __future__ import annotations
 
+import functools
 import json
 from pathlib import Path
 from typing import Callable
@@ -12,6 +13,13 @@ ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "benchmarks" / "results"
 STUDIES = ROOT / "benchmarks" / "studies"
 RENDERERS: dict[str, Callable[[], str]] = {}
+
+
+def renderers(fn: Callable[..., str], blocks: dict[str, tuple]) -> None:
+    """Register ``fn(*args)`` as the renderer of each block of ``blocks`` ({block name: args}): one
+    table's shape rendered from several result files."""
+    for name, args in blocks.items():
+        RENDERERS[name] = functools.partial(fn, *args)
 
 
 def renderer(name: str):
@@ -78,6 +86,12 @@ def pct(x, digits: int = 0) -> str:
 def frac(rate: float, n: int) -> str:
     """A rate over n runs as 'k/n'."""
     return f"{round(rate * n)}/{n}"
+
+
+def block(result: dict, file: str, header: list[str], rows: list[list], *notes: str) -> str:
+    """A docs block: the table of ``rows`` under ``header``, each of ``notes`` a paragraph below it,
+    and last the line naming the JSON ``file`` the ``result`` came from (:func:`source`)."""
+    return "\n\n".join([table(header, rows), *notes, source(result, file)])
 
 
 def table(header: list[str], rows: list[list]) -> str:
