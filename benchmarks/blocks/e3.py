@@ -163,13 +163,12 @@ def e3_time_alone() -> str:
     rows = [[seed, f"{s['acnmp_time_s']:.0f}", f"{s['acnmp_time_s_ten_seed_table']:.0f}",
              f"{s['adaptations']} ({s['adaptations_failed']} failed)", pct(s["test_success_rate"], 1),
              "yes" if s["same_results_as_ten_seed_table"] else "**no**"] for seed, s in r["seeds"].items()]
-    return block(r, "e3_time_alone",
-                 ["seed", "ACNMP time alone (s)", "in the ten-seed table (s)", "adaptations",
-                  "test success", "same results as the ten-seed table"],
-                 rows,
-                 f"* Alone: median {r['acnmp_time_s_median']:.0f} s, at most {r['acnmp_time_s_max']:.0f} s; "
-                 f"{r['seeds_within_120_s']} of {len(rows)} seeds within 120 s. In the ten-seed table seed 0 ran "
-                 "alone too, seeds 1-9 two at a time.")
+    header = ["seed", "ACNMP time alone (s)", "in the ten-seed table (s)", "adaptations", "test success",
+              "same results as the ten-seed table"]
+    summary = (f"* Alone: median {r['acnmp_time_s_median']:.0f} s, at most {r['acnmp_time_s_max']:.0f} s; "
+               f"{r['seeds_within_120_s']} of {len(rows)} seeds within 120 s. In the ten-seed table seed 0 ran "
+               "alone too, seeds 1-9 two at a time.")
+    return block(r, "e3_time_alone", header, rows, summary)
 
 
 @renderer("e3-paper-paths-summary")

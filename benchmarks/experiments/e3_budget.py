@@ -171,10 +171,7 @@ def _combine_seeds(files: list[str], out: str, meta: dict) -> int:
 def main(argv: list[str] | None = None) -> int:
     """Run the chosen candidates (two at a time) and write, or merge into, the JSON."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--envs", type=int, default=300, help="new environments in each run (default 300)")
-    add_run_arguments(ap, seed=0)
-    ap.add_argument("--eval-every", type=int, default=60,
-                    help="new environments between test evaluations (default 60)")
+    add_run_arguments(ap, seed=0, envs=300, eval_every=60)
     ap.add_argument("--candidates", nargs="+", default=list(CANDIDATES), choices=list(CANDIDATES), metavar="NAME",
                     help=f"the candidates to run, among {', '.join(CANDIDATES)} (default: all)")
     ap.add_argument("--methods", nargs="+", default=["acnmp"], choices=list(ALL_METHODS),

@@ -47,19 +47,13 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--setting", choices=SETTING_NAMES, default="paper",
                     help=f"the task setting, one of {', '.join(SETTING_NAMES)} (default paper)")
-    ap.add_argument("--envs", type=int, default=1000, help="new environments in the loop (default 1000)")
-    add_run_arguments(ap, seed=0)
-    ap.add_argument("--eval-every", type=int, default=50,
-                    help="new environments between test evaluations (default 50)")
+    add_run_arguments(ap, seed=0, envs=1000, eval_every=50)
     ap.add_argument("--snap-outputs", action="store_true",
                     help="move every path onto its start and goal before it is executed or scored")
     ap.add_argument("--out", default=None, metavar="FILE",
                     help="write the result here, the curves beside it (default "
                          "benchmarks/studies/e3_wall/results/e3_compare_<setting>[_snapped].json)")
     args = ap.parse_args(argv)
-    if args.envs < 1 or args.eval_every < 1:
-        print("e3_compare: --envs and --eval-every must be positive", file=sys.stderr)
-        return 2
     suffix = "_snapped" if args.snap_outputs else ""
     out = args.out or str(study_results("e3_wall") / f"e3_compare_{args.setting}{suffix}.json")
     torch.set_num_threads(1)

@@ -28,10 +28,7 @@ from clients.experiments.common import add_run_arguments, apply_threads  # noqa:
 def main(argv: list[str] | None = None) -> int:
     """Run E3 with the default settings; print the test curve as it goes and the summary."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--envs", type=int, default=1500, help="new environments in the loop (default 1500)")
-    add_run_arguments(ap, seed=0)
-    ap.add_argument("--eval-every", type=int, default=50,
-                    help="new environments between test evaluations (default 50)")
+    add_run_arguments(ap, seed=0, envs=1500, eval_every=50)
     ap.add_argument("--assimilate-from", choices=ASSIMILATE_FROM, default=TRAIN_DEFAULTS["assimilate_from"],
                     help="the network ACNMP's assimilation continues from (see run_wall)")
     ap.add_argument("--snap-paths", choices=("none", "generated", "all"), default="generated",

@@ -28,7 +28,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
-from benchmarks._results import provenance, save_result  # noqa: E402
+from benchmarks._results import main_provenance, save_result  # noqa: E402
 from clients.experiments.common import add_run_arguments  # noqa: E402
 from benchmarks.performance.bench_hostile import RssSampler  # noqa: E402
 
@@ -155,7 +155,7 @@ def main(argv: list[str] | None = None) -> int:
     args = p.parse_args(argv)
     if args.cases < 1 or args.flood_mb < 1:
         p.error("--cases and --flood-mb: at least 1")
-    prov = provenance(sys.argv if argv is None else ["benchmarks/performance/bench_acl.py", *argv])
+    prov = main_provenance(__file__, argv)
     gen = generated(args.cases)
     flood = flood_and_list_predict(args.flood_mb)
     result = {"benchmark": "acl", "provenance": prov, "generated": gen, **flood,

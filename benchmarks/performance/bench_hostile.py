@@ -22,7 +22,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
-from benchmarks._results import provenance, save_result  # noqa: E402
+from benchmarks._results import main_provenance, save_result  # noqa: E402
 from clients.experiments.common import add_run_arguments  # noqa: E402
 
 
@@ -107,7 +107,7 @@ def main(argv: list[str] | None = None) -> int:
     from benchmarks.performance.hostile_inputs import MODEL_RSS_BOUND, hostile_deployment, peak_rss, served
     from services.transport import ERROR_CODES
 
-    prov = provenance(sys.argv if argv is None else ["benchmarks/performance/bench_hostile.py", *argv])
+    prov = main_provenance(__file__, argv)
     per = args.requests // 8
     with tempfile.TemporaryDirectory(prefix="bench-hostile-") as tmp, hostile_deployment(Path(tmp)) as dep:
         model_pid = dep.children["model"].pid

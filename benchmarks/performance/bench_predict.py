@@ -253,18 +253,16 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--workers", type=int, default=2, help="model service predict threads")
     parser.add_argument("--train-steps", type=int, default=300, help="training steps of the benchmarked model")
     parser.add_argument("--json", metavar="FILE", help="write the results here")
-    args = parser.parse_args(argv)
+    from benchmarks._results import save_result, start_run
 
+    args, prov = start_run(parser, argv, __file__)
     import psutil
     import torch
 
-    torch.set_num_threads(1)
-    from benchmarks._results import provenance, save_result
     from clients.client import ACNMPClient
     from services.model.batching import DEFAULT_BATCH_MAX, DEFAULT_BATCH_WINDOW
     from services.transport import free_port, loopback_endpoint
 
-    prov = provenance(sys.argv if argv is None else ["benchmarks/performance/bench_predict.py", *argv])
     modes = [m for m in args.modes.split(",") if m]
     if "on" not in modes or any(m not in MODES for m in modes):
         parser.error(f"--modes: a comma-separated subset of {', '.join(MODES)} that includes 'on'")

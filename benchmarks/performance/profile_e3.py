@@ -35,7 +35,7 @@ STAGES = {
 def main(argv: list[str] | None = None) -> int:
     from acnmp_core.experiments.wall import run_wall
 
-    args = benchmark_args(__doc__, "e3_profile", argv, results=study_results("e3_wall"), envs=(40, "new environments in the profiled run"),
+    args = benchmark_args(__doc__, "e3_profile", argv, results=study_results("e3_wall"), envs=40,
                           test=(1000, "test environments"))
     torch.set_num_threads(1)
     meta = provenance()

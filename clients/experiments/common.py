@@ -88,7 +88,8 @@ THREADS_HELP = ("torch threads for the CNMP's training, adaptation and assimilat
 
 
 def add_run_arguments(p, *, seeds: int | None = None, seeds_what: str = "seeds", old_seeds: str | None = None,
-                      seed: int | None = None, quick: str | None = None, jobs: int | None = None,
+                      seed: int | None = None, envs: int | None = None, eval_every: int | None = None,
+                      quick: str | dict | None = None, jobs: int | None = None,
                       threads: bool = False, out: str | Path | None = None, plot: str | None = None,
                       deployment: str | None = None, quiet: str | None = None) -> None:
     """Add to parser ``p`` the options of a run that the experiment commands (``acnmp experiment
@@ -97,7 +98,10 @@ def add_run_arguments(p, *, seeds: int | None = None, seeds_what: str = "seeds",
     - ``seeds=N``: ``--seeds SEEDS`` (:func:`add_seeds_argument` with ``seeds_what`` and
       ``old_seeds``; default the count N), resolved by :func:`seed_list`;
     - ``seed=S``: ``--seed S``, the run's one seed (default S);
-    - ``quick=HELP``: ``--quick``, a small run, described by HELP;
+    - ``envs=N``, ``eval_every=K`` (E3's loop): ``--envs N``, new environments in the loop, and
+      ``--eval-every K``, new environments between test evaluations;
+    - ``quick=HELP``: ``--quick``, a small run, described by HELP or, for a dict of the sizes it
+      sets (``seeds``, ``train_steps``, ``budget`` or ``acnmp_budget``, ``promp_budget``), by them;
     - ``jobs=N``: ``--jobs N``, processes at once (1 to 64, default N);
     - ``threads=True``: ``--threads N`` (:data:`THREADS_HELP`), applied by :func:`apply_threads`;
     - ``out=PATH``: ``--out FILE`` (also spelled ``--json``), the result's JSON (default PATH) with
@@ -110,8 +114,13 @@ def add_run_arguments(p, *, seeds: int | None = None, seeds_what: str = "seeds",
     if seed is not None:
         p.add_argument("--seed", type=int_at_least(0), default=seed,
                        help=f"the seed of the run's environments, training and exploration (default {seed})")
+    if envs is not None:
+        p.add_argument("--envs", type=int_at_least(1), default=envs, help=f"new environments in the loop (default {envs})")
+    if eval_every is not None:
+        p.add_argument("--eval-every", type=int_at_least(1), default=eval_every,
+                       help=f"new environments between test evaluations (default {eval_every})")
     if quick is not None:
-        p.add_argument("--quick", action="store_true", help=quick)
+        p.add_argument("--quick", action="store_true", help=quick if isinstance(quick, str) else _quick_help(quick))
     if jobs is not None:
         p.add_argument("--jobs", type=int_at_least(1, 64), default=jobs,
                        help=f"processes run at once, the same result (default {jobs})")
@@ -128,6 +137,23 @@ def add_run_arguments(p, *, seeds: int | None = None, seeds_what: str = "seeds",
         add_deployment_arguments(p, deployment)
     if quiet is not None:
         p.add_argument("--quiet", action="store_true", help=quiet)
+
+
+def _quick_help(sizes: dict) -> str:
+    """--quick's help from the sizes it sets: 'a small run (2 seeds, 1500 training steps, budgets 100/150,
+    each unless given)'."""
+    parts = [f"{sizes['seeds']} seeds"] if "seeds" in sizes else []
+    parts += [f"{sizes['train_steps']} training steps"] if "train_steps" in sizes else []
+    budgets = [str(sizes[k]) for k in ("budget", "acnmp_budget", "promp_budget") if k in sizes]
+    parts += [f"budget{'s' if len(budgets) > 1 else ''} {'/'.join(budgets)}"] if budgets else []
+    return f"a small run ({', '.join(parts)}, each unless given)"
+
+
+def add_promp_budget_argument(p, per: str, default: int = 1500) -> None:
+    """Add ``--promp-budget N``: ProMP + RL's roll-out budget per ``per`` (at least 3, its first
+    iteration; None when not given, the help naming ``default``)."""
+    p.add_argument("--promp-budget", type=int_at_least(3), default=None,
+                   help=f"ProMP + RL roll-out budget per {per} (default {default})")
 
 
 def apply_threads(args) -> None:

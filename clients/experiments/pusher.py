@@ -2,10 +2,8 @@
 LfD only, ACNMP and ProMP + RL (the worked example of a Gymnasium environment as a robot)."""
 from __future__ import annotations
 
-from services.transport.argtypes import int_at_least
-
-from .common import (add_run_arguments, add_size_arguments, check_deployment_arguments, seed_list, sizes,
-                     with_deployment, write_outputs)
+from .common import (add_promp_budget_argument, add_run_arguments, add_size_arguments,
+                     check_deployment_arguments, seed_list, sizes, with_deployment, write_outputs)
 
 #: --quick: every method end to end on two seeds in about a minute
 QUICK = dict(seeds=2, train_steps=1500, budget=100, promp_budget=150)
@@ -14,10 +12,8 @@ QUICK = dict(seeds=2, train_steps=1500, budget=100, promp_budget=150)
 def add_arguments(p) -> None:
     """Add the ``pusher`` experiment's options to its parser ``p`` (made from its catalog entry)."""
     add_size_arguments(p, seeds=10, train_steps=3000, budget=400, budget_help="ACNMP roll-out budget per position")
-    p.add_argument("--promp-budget", type=int_at_least(3), default=None,
-                   help="ProMP + RL roll-out budget per position (default 1500)")
-    add_run_arguments(p, quick=f"a small run ({QUICK['seeds']} seeds, {QUICK['train_steps']} training steps, budgets "
-                               f"{QUICK['budget']}/{QUICK['promp_budget']}, each unless given)",
+    add_promp_budget_argument(p, "position")
+    add_run_arguments(p, quick=QUICK,
                       plot="write the final distances and roll-outs per seed (PNG)",
                       deployment="the roll-outs on pusher (MuJoCo) workers",
                       quiet="no per-run lines")

@@ -6,18 +6,16 @@ import numpy as np
 
 from services.transport.argtypes import int_at_least
 
-from .common import (add_run_arguments, add_seeds_argument, apply_threads, check_deployment_arguments, seed_list,
-                     with_deployment, write_json)
+from .common import (add_run_arguments, apply_threads, check_deployment_arguments, seed_list, with_deployment,
+                     write_json)
 
 
 def add_arguments(p) -> None:
     """Add the ``wall`` experiment's options to its parser ``p`` (made from its catalog entry)."""
-    p.add_argument("--envs", type=int_at_least(1), default=100, help="new environments in the loop (default 100)")
-    add_seeds_argument(p, 1, "seeds of environments, training and exploration, one run each", old="--seed")
+    add_run_arguments(p, seeds=1, seeds_what="seeds of environments, training and exploration, one run each",
+                      old_seeds="--seed", envs=100, eval_every=10)
     p.add_argument("--initial", type=int_at_least(1), default=30, help="demonstrated environments (default 30)")
     p.add_argument("--test", type=int_at_least(1), default=1000, help="test environments (default 1000)")
-    p.add_argument("--eval-every", type=int_at_least(1), default=10,
-                   help="new environments between test evaluations (default 10)")
     p.add_argument("--assimilate-from", choices=("skill", "adapted"), default=None,
                    help="ACNMP's assimilation continues from the skill before the adaptation, or from the "
                         "adapted copy (default: run_wall's, the skill)")

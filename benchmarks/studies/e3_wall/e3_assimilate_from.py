@@ -32,9 +32,8 @@ def _one(envs: int, seed: int, eval_every: int, assimilate_from: str) -> dict:
 
 def main(argv: list[str] | None = None) -> int:
     """Run both variants and write the JSON."""
-    args = benchmark_args(__doc__, "e3_assimilate_from", argv, results=study_results("e3_wall"), seed=0,
-                          envs=(300, "new environments in each run"),
-                          eval_every=(60, "new environments between test evaluations"))
+    args = benchmark_args(__doc__, "e3_assimilate_from", argv, results=study_results("e3_wall"), seed=0, envs=300,
+                          eval_every=60)
     meta = provenance()
     t0 = time.perf_counter()
     with ProcessPoolExecutor(max_workers=len(ASSIMILATE_FROM)) as pool:

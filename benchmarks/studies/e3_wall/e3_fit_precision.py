@@ -17,14 +17,13 @@ import time
 from pathlib import Path
 
 import numpy as np
-import torch
 
 ROOT = Path(__file__).resolve().parents[3]
 sys.path.insert(0, str(ROOT))
 
 from acnmp_core.experiments import wall as E  # noqa: E402
 from acnmp_core.model.training import TrainConfig, train  # noqa: E402
-from benchmarks._results import provenance, save_result, study_results  # noqa: E402
+from benchmarks._results import save_result, start_run, study_results  # noqa: E402
 from clients.experiments.common import add_run_arguments  # noqa: E402
 
 #: TrainConfig fields per budget: E3's default first training, then larger budgets, a rate decayed
@@ -43,9 +42,7 @@ def main(argv: list[str] | None = None) -> int:
                     help="demonstrated environments, one fit each (default 30 300)")
     ap.add_argument("--seed", type=int, default=0, help="the seed of the environments and the model (default 0)")
     add_run_arguments(ap, out=str(study_results("e3_wall") / "e3_fit_precision.json"))
-    args = ap.parse_args(argv)
-    torch.set_num_threads(1)
-    meta = provenance()
+    args, meta = start_run(ap, argv)
     t0 = time.perf_counter()
     runs = []
     for n in args.demos:

@@ -16,7 +16,6 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
-import torch
 
 ROOT = Path(__file__).resolve().parents[3]
 sys.path.insert(0, str(ROOT))
@@ -24,7 +23,7 @@ sys.path.insert(0, str(ROOT))
 from acnmp_core.experiments.transfer import (BLIND_TOLERANCE, TransferExperimentConfig, make_setup,  # noqa: E402
                                              run_condition)
 from acnmp_core.tasks.transfer.scene import CubeGapTask  # noqa: E402
-from benchmarks._results import provenance, save_result, study_results  # noqa: E402
+from benchmarks._results import save_result, start_run, study_results  # noqa: E402
 from clients.experiments.common import add_run_arguments  # noqa: E402
 from benchmarks.studies.e4_transfer.e4_sweep import _memo_trainer  # noqa: E402
 
@@ -37,9 +36,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--cache", default=None, metavar="DIR",
                     help="directory for trained pairs, shared with e4_sweep.py (default: in memory only)")
     add_run_arguments(ap, out=str(study_results("e4_transfer") / "e4_jitter.json"))
-    args = ap.parse_args(argv)
-    torch.set_num_threads(1)
-    meta = provenance()
+    args, meta = start_run(ap, argv)
     base = TransferExperimentConfig()
     cfg = replace(base, adapt=replace(base.adapt, signal_tolerance=1e-12))
     setup, trainer = make_setup(), _memo_trainer(None if args.cache is None else Path(args.cache))

@@ -17,7 +17,6 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
-import torch
 
 ROOT = Path(__file__).resolve().parents[3]
 sys.path.insert(0, str(ROOT))
@@ -26,7 +25,7 @@ from acnmp_core.experiments.transfer import (AUTHORS_DATA, TransferExperimentCon
                                              make_setup, paired_latent_distance, task_config)
 from acnmp_core.tasks.transfer.scene import CubeGapTask  # noqa: E402
 from acnmp_core.transfer.pair import TransferPair, spread_observations, train_pair  # noqa: E402
-from benchmarks._results import provenance, save_result, study_results  # noqa: E402
+from benchmarks._results import save_result, start_run, study_results  # noqa: E402
 from clients.experiments.common import add_run_arguments  # noqa: E402
 
 
@@ -36,9 +35,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--weights", type=float, nargs="+", default=[0.0, 1e3, 5e6], metavar="W",
                     help="latent alignment weights, one pair each (default 0 1e3 5e6)")
     add_run_arguments(ap, out=str(study_results("e4_transfer") / "e4_latent_weight.json"))
-    args = ap.parse_args(argv)
-    torch.set_num_threads(1)
-    meta = provenance()
+    args, meta = start_run(ap, argv)
     base = TransferExperimentConfig()
     setup = make_setup()
     rows = []
