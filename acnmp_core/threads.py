@@ -3,7 +3,7 @@
 The CNMPs here are small (a few hundred thousand weights, batches of 32 episodes): their matrix
 products gain little from a second thread on an idle machine and lose a great deal when another
 process holds a core, because torch's intra-op threads then wait on each other at every product.
-One thread is the default (``benchmarks/results/bench_thread_default.json`` compares one and two
+One thread is the default (``benchmarks/studies/e3_wall/results/bench_thread_default.json`` compares one and two
 threads, alone and beside a busy process). Set
 ``ACNMP_TORCH_THREADS=N`` (or call :func:`set_training_threads`) on a machine of your own whose
 cores are free; the numbers computed do not depend on it.

@@ -10,22 +10,60 @@ from typing import Callable
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from clients.experiments.common import add_run_arguments, seed_list  # noqa: E402
 from clients.provenance import provenance  # noqa: E402
 
-__all__ = ["ROOT", "benchmark_args", "provenance", "save_result"]
+__all__ = ["RESULTS", "ROOT", "benchmark_args", "provenance", "main_provenance", "save_result", "start_run", "study_results"]
+
+#: What README and docs/ publish (and the regression pins): the product's results.
+RESULTS = ROOT / "benchmarks" / "results"
 
 
-def benchmark_args(doc: str, name: str, argv: list[str] | None, **options) -> argparse.Namespace:
-    """The parsed arguments of a benchmark's main: ``--<option>`` for each keyword of ``options``
-    (``train_steps=400`` is ``--train-steps``, an int defaulting to 400; ``noise=(0.01, "its help")``
-    a float with a help line) and ``--out`` (default ``benchmarks/results/<name>.json``); the usage's
-    description is ``doc``'s first line."""
+def study_results(study: str) -> Path:
+    """The folder of a study's own JSON and figures, beside its notes and scripts:
+    ``benchmarks/studies/<study>/results/``."""
+    return ROOT / "benchmarks" / "studies" / study / "results"
+
+
+def benchmark_args(doc: str, name: str, argv: list[str] | None, *, results: Path = RESULTS,
+                   **options) -> argparse.Namespace:
+    """The parsed arguments of a benchmark's main. ``seeds``, ``seed``, ``envs``, ``eval_every`` and
+    ``jobs`` are the run options
+    every experiment command line shares (:func:`clients.experiments.common.add_run_arguments`;
+    ``seeds=5`` is ``--seeds``, a count or the seeds themselves, parsed to the list of seeds); every
+    other keyword is ``--<option>`` from ``(default, help)`` (``train_steps=(400, "CNMP training
+    steps")`` is ``--train-steps``, an int defaulting to 400, its help naming the default); and
+    ``--out`` (default ``<results>/<name>.json``: the product's ``benchmarks/results/`` unless a
+    study's folder is given). The usage's description is ``doc``'s first line."""
     ap = argparse.ArgumentParser(description=doc.splitlines()[0])
-    for option, value in options.items():
-        default, help_text = value if isinstance(value, tuple) else (value, None)
-        ap.add_argument("--" + option.replace("_", "-"), type=type(default), default=default, help=help_text)
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / f"{name}.json"))
-    return ap.parse_args(argv)
+    shared = {k: options.pop(k) for k in ("seeds", "seed", "envs", "eval_every", "jobs") if k in options}
+    for option, (default, help_text) in options.items():
+        ap.add_argument("--" + option.replace("_", "-"), type=type(default), default=default,
+                        help=f"{help_text} (default {default})")
+    add_run_arguments(ap, **shared, out=results / f"{name}.json")
+    args = ap.parse_args(argv)
+    if "seeds" in shared:
+        args.seeds = seed_list(args, shared["seeds"])
+    return args
+
+
+def main_provenance(script: str, argv: list[str] | None) -> dict:
+    """:func:`provenance` naming the command a benchmark's main ran as: this process's command line
+    when ``argv`` is None (run as a script), else the main's file ``script`` (``__file__``) with
+    ``argv`` (called from Python, e.g. a test)."""
+    return provenance(sys.argv if argv is None else [script, *argv])
+
+
+def start_run(ap: argparse.ArgumentParser, argv: list[str] | None,
+              script: str | None = None) -> tuple[argparse.Namespace, dict]:
+    """``ap``'s arguments parsed from ``argv`` and the run's provenance (taken now, at its start; with
+    the main's file ``script``, :func:`main_provenance`), torch set to one thread first: the CNMP is
+    small, threads only contend with the simulator and the services."""
+    args = ap.parse_args(argv)
+    import torch
+
+    torch.set_num_threads(1)
+    return args, provenance() if script is None else main_provenance(script, argv)
 
 
 def save_result(result: dict, out: str | Path, plot: Callable[[dict, Path], object] | None = None,

@@ -1,7 +1,8 @@
 """What the renderers of the docs blocks share (benchmarks/blocks/): the registry of renderers,
-the results folder and the number formats. benchmarks/report.py finds the blocks and calls them."""
+where a result file lives and the number formats. benchmarks/report.py finds the blocks and calls them."""
 from __future__ import annotations
 
+import functools
 import json
 from pathlib import Path
 from typing import Callable
@@ -10,7 +11,15 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "benchmarks" / "results"
+STUDIES = ROOT / "benchmarks" / "studies"
 RENDERERS: dict[str, Callable[[], str]] = {}
+
+
+def renderers(fn: Callable[..., str], blocks: dict[str, tuple]) -> None:
+    """Register ``fn(*args)`` as the renderer of each block of ``blocks`` ({block name: args}): one
+    table's shape rendered from several result files."""
+    for name, args in blocks.items():
+        RENDERERS[name] = functools.partial(fn, *args)
 
 
 def renderer(name: str):
@@ -23,16 +32,39 @@ def renderer(name: str):
     return deco
 
 
+def result_path(name: str) -> Path:
+    """Where the result file ``<name>.json`` lives: ``benchmarks/results/`` (what README and docs/
+    publish) or the one study that keeps it (``benchmarks/studies/<study>/results/``);
+    FileNotFoundError naming both places when neither has it."""
+    published = RESULTS / f"{name}.json"
+    if published.exists():
+        return published
+    found = sorted(STUDIES.glob(f"*/results/{name}.json"))
+    if not found:
+        raise FileNotFoundError(f"no {name}.json in benchmarks/results/ nor in benchmarks/studies/*/results/")
+    return found[0]
+
+
+def has_result(name: str) -> bool:
+    """Whether the result file ``<name>.json`` exists in one of the places :func:`result_path` looks."""
+    return (RESULTS / f"{name}.json").exists() or any(STUDIES.glob(f"*/results/{name}.json"))
+
+
 def load(name: str) -> dict:
-    """The result file ``benchmarks/results/<name>.json``."""
-    return json.loads((RESULTS / f"{name}.json").read_text())
+    """The result file ``<name>.json`` (see :func:`result_path`)."""
+    return json.loads(result_path(name).read_text())
+
+
+def where(name: str) -> str:
+    """The result file ``<name>.json`` as the pages name it: its path from the repository root."""
+    return result_path(name).relative_to(ROOT).as_posix()
 
 
 def source(result: dict, file: str) -> str:
     """One line naming the JSON file, its command and commit."""
     p = result.get("provenance") or {}
     commit = (p.get("commit") or "unknown")[:10] + (" (dirty tree)" if p.get("dirty") else "")
-    return f"*From `benchmarks/results/{file}.json`: `{p.get('command', '?')}` at commit {commit}, " \
+    return f"*From `{where(file)}`: `{p.get('command', '?')}` at commit {commit}, " \
            f"{result.get('wall_time_s', float('nan')):.0f} s on {p.get('machine', {}).get('cpu_count', '?')} cores.*"
 
 
@@ -54,6 +86,12 @@ def pct(x, digits: int = 0) -> str:
 def frac(rate: float, n: int) -> str:
     """A rate over n runs as 'k/n'."""
     return f"{round(rate * n)}/{n}"
+
+
+def block(result: dict, file: str, header: list[str], rows: list[list], *notes: str) -> str:
+    """A docs block: the table of ``rows`` under ``header``, each of ``notes`` a paragraph below it,
+    and last the line naming the JSON ``file`` the ``result`` came from (:func:`source`)."""
+    return "\n\n".join([table(header, rows), *notes, source(result, file)])
 
 
 def table(header: list[str], rows: list[list]) -> str:

@@ -19,7 +19,7 @@ from pathlib import Path
 LIBRARIES = ("acnmp", "torch", "numpy", "pybullet", "eclipse-zenoh", "rerun-sdk", "msgpack")
 ROOT = Path(__file__).resolve().parents[1]
 #: Paths whose changes do not make the tree "dirty" (git pathspecs): pages and results.
-NOT_CODE = ("*.md", "benchmarks/results")
+NOT_CODE = ("*.md", "benchmarks/results", "benchmarks/studies/*/results/*")
 
 
 def _git(*args: str) -> str | None:

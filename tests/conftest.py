@@ -306,8 +306,8 @@ def acnmp_up():
 @pytest.fixture(scope="session")
 def lerobot():
     """lerobot-dataset's ``ledataset.datasets`` modules (the ``datasets`` extra), imported as
-    benchmarks/performance/bench_datasets.py's :func:`import_lerobot` says: ``lerobot_dataset``
+    :func:`acnmp_core.datasets.lerobot.import_lerobot` says: ``lerobot_dataset``
     (LeRobotDataset) and ``utils`` (validate_frame, DEFAULT_FEATURES)."""
-    from benchmarks.performance.bench_datasets import import_lerobot
+    from acnmp_core.datasets.lerobot import import_lerobot
 
     return import_lerobot()

@@ -14,7 +14,8 @@ The layout (``codebase_version`` "v3.0"), as lerobot writes it::
 A feature of shape (1,) is a plain column, (k,) a fixed-size list; images and videos are
 listed but are not vectors, so they cannot be a trajectory. :func:`read_lerobot` reads every
 numeric vector feature per episode and every numeric or text column of the episodes table as a
-per-episode field; :func:`write_lerobot` writes roll-outs (one episode each).
+per-episode field; :func:`write_lerobot` writes roll-outs (one episode each);
+:func:`import_lerobot` imports lerobot's own reader where it is installed.
 """
 from __future__ import annotations
 
@@ -278,3 +279,34 @@ def write_lerobot(root: str | os.PathLike, rollouts: list[RolloutEpisode], *, fp
         shutil.rmtree(tmp, ignore_errors=True)
         raise
     return root
+
+
+def import_lerobot():
+    """The format's own library, to check that it reads what :func:`write_lerobot` writes (the
+    benchmark and the tests do; nothing here needs it): lerobot-dataset's modules as a namespace: ``lerobot_dataset`` (LeRobotDataset) and ``utils``
+    (validate_frame, DEFAULT_FEATURES). ImportError when it is not installed (the ``datasets``
+    extra).
+
+    lerobot imports torchvision at module level, for images and videos only. PyPI's torchvision
+    for this machine's CPU build of torch is a CUDA build that does not load beside it, so when
+    torchvision cannot be imported a stand-in module is registered: the datasets exported here
+    have no image or video features, and nothing of torchvision runs for them."""
+    import importlib
+    import sys
+    import types
+
+    os.environ.setdefault("HF_HUB_OFFLINE", "1")
+    try:
+        import torchvision  # noqa: F401
+    except Exception:
+        for name in [m for m in sys.modules if m.startswith("torchvision")]:
+            del sys.modules[name]
+        import datasets  # noqa: F401  (it notes torchvision's absence before the stand-in exists)
+
+        stub = types.ModuleType("torchvision")
+        stub.transforms = types.ModuleType("torchvision.transforms")  # type: ignore[attr-defined]
+        stub.io = types.ModuleType("torchvision.io")  # type: ignore[attr-defined]
+        sys.modules.update({"torchvision": stub, "torchvision.transforms": stub.transforms,
+                            "torchvision.io": stub.io})
+    return types.SimpleNamespace(lerobot_dataset=importlib.import_module("ledataset.datasets.lerobot_dataset"),
+                                 utils=importlib.import_module("ledataset.datasets.utils"))

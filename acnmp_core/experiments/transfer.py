@@ -51,7 +51,7 @@ CHECKPOINTS = (3, 7, 11, 19)
 PAPER_SUCCESS = {3: 0.23, 7: 0.73, 11: 0.90, 19: 1.00}
 #: Reward difference (credited, see credit.per_step_advantages) below which E4's roll-outs count
 #: as the same: an untouched cube still jitters in PyBullet, its rewards differing by about 1e-6,
-#: while a touch differs by 1e-2 (benchmarks/results/e4_sweep.json, benchmarks/studies/e4_transfer/README.md).
+#: while a touch differs by 1e-2 (benchmarks/studies/e4_transfer/results/e4_sweep.json, benchmarks/studies/e4_transfer/README.md).
 BLIND_TOLERANCE = 1e-4
 #: Where the authors' arrays live (the data check is skipped when absent).
 AUTHORS_DATA = Path(__file__).resolve().parents[3] / "shared" / "data" / "acnmp-paper" / "experiment4"
@@ -67,13 +67,13 @@ def e4_adapt_config() -> AdaptConfig:
     first policy step and none before the further ones (one before each of up to 51 policy steps,
     E4's setting before, left more runs stalled 1.5-2 cm short of the goal: on fresh RL seeds
     30..59 100 % against 90 % after 19 iterations; benchmarks/studies/e4_transfer/README.md,
-    benchmarks/results/e4_failures.json).
+    benchmarks/studies/e4_transfer/results/e4_failures.json).
     noise "cubic", explore_scale 0.35 : the authors' E4 noise shape, 20 samples smoothed into one
     cubic per joint (:class:`~acnmp_core.adaptation.exploration.CubicNoise`), at about the std per step of
     E4's 20-knot noise before (0.15 x the demonstrations' std; the cubic keeps 0.42 of its
     samples' std per step on average): on fresh RL seeds 30..89 success after 3 / 7 / 11 / 19
     iterations 38 / 75 / 88 / 95 % against 35 / 58 / 77 / 95 % (issue 13, fourth round;
-    benchmarks/studies/e4_transfer/README.md, benchmarks/results/e4_sweep.json). Wider 20-knot noise did
+    benchmarks/studies/e4_transfer/README.md, benchmarks/studies/e4_transfer/results/e4_sweep.json). Wider 20-knot noise did
     worse in E4's first sweep.
     signal_tolerance :data:`BLIND_TOLERANCE` : no policy step on the micrometre jitter of an
     untouched cube (chosen on fresh RL seeds 30..59 in the sweep; widening the std after such an

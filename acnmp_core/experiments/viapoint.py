@@ -33,7 +33,7 @@ VIA = 1
 #: Continued training after the ACNMP solution joins the demonstrations. Three times the library's
 #: default: with 1000 steps the assimilated skill missed the tolerance in 5 of the 10 benchmark
 #: seeds and 2 of 10 fresh ones; 3000 steps met it in all 20 and reproduced the old
-#: demonstrations better than the LfD model did (benchmarks/results/e1_assimilation.json).
+#: demonstrations better than the LfD model did (benchmarks/studies/e1_viapoint/results/e1_assimilation.json).
 ASSIMILATION_STEPS = 3000
 
 

@@ -81,11 +81,11 @@ TRAIN_DEFAULTS = dict(train_steps=3000, assimilate_steps=150, assimilate_lr=3e-4
 #: The assimilations continue one Adam kept over the skill's life (keep_optimizer) and decay their rate
 #: from assimilate_lr to assimilate_lr_final within each assimilation: over seeds 0-2 at 300 environments,
 #: 78.2 % test success on average against 72.4 % with a fresh Adam per solution at a constant rate
-#: (benchmarks/results/e3_optimizer.json).
+#: (benchmarks/studies/e3_wall/results/e3_optimizer.json).
 #: Solutions are snapped onto their start and goal before assimilation (snap_solutions; the snapped path is
 #: executed and kept only if it succeeds): over seeds 0-2 at 300 environments, 85.9 % test success on
 #: average against 78.2 % with the solutions as found, with fewer trajectories in every seed
-#: (benchmarks/results/e3_snap.json against e3_optimizer.json).
+#: (benchmarks/studies/e3_wall/results/e3_snap.json against e3_optimizer.json).
 
 
 @dataclass
@@ -487,7 +487,7 @@ def run_wall(
         the demonstrations, the solution and its anchor). "adapted": it continues from the adapted
         copy, so every adaptation's RL steps stay in the skill. Over hundreds of environments the
         RL steps' side effects add up: "skill" reached 78.3 % test success against 69.9 % at 300
-        environments (benchmarks/results/e3_assimilate_from.json) and 80.4 % against 77.5 % at
+        environments (benchmarks/studies/e3_wall/results/e3_assimilate_from.json) and 80.4 % against 77.5 % at
         1500 (e3_wall_assimilate_{skill,adapted}.json).
     assimilate_lr_final : each assimilation's rate decays from ``assimilate_lr`` to this along a half
         cosine (None: constant). keep_optimizer : one Adam continues from the first training through

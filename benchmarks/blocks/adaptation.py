@@ -27,7 +27,7 @@ def adaptation_sweep() -> str:
                                    f"{e3['trajectories_total']}, {e3['trajectories_per_env_max']}, "
                                    f"{e3['adaptations_failed']}/{e3['adaptations']}",
         ])
-    lines = [
+    return "\n".join([
         table(["setting", "changed from the default",
                f"E1 ({n} seeds): success, roll-outs (median), ≤ 35, shape error (median, m)",
                f"E2 extrapolation ({n} seeds): success, roll-outs (median)",
@@ -39,6 +39,4 @@ def adaptation_sweep() -> str:
         + ("" if all(run.get("complete", True) for run in runs) else " A sweep was stopped before all its runs "
                                                                      "finished; what it measured is kept."),
         "",
-        *[source(run, f) for run, f in zip(runs, files)],
-    ]
-    return "\n".join(lines)
+        *[source(run, f) for run, f in zip(runs, files)],    ])

@@ -1,7 +1,7 @@
 """The docs blocks of E1, the via-point: one renderer per block, each reading its JSON."""
 from __future__ import annotations
 
-from benchmarks.report_kit import fmt, frac, load, renderer, source, table
+from benchmarks.report_kit import block, fmt, frac, load, renderer
 
 
 E1_LABELS = {"lfd_only": "LfD-only", "rl_only": "RL-only", "acnmp": "ACNMP"}
@@ -18,24 +18,21 @@ def e1_results() -> str:
                      fmt(s["viapoint_error_median"]), fmt(s["shape_error_median"]), fmt(s["endpoint_error_max"])])
     a = r["assimilation"]
     ratio = r["shape_error_ratio_rl_only_over_acnmp"]
-    lines = [
-        table(["method", "success", "roll-outs (median)", "≤ 35 roll-outs", "via-point error (median, m)",
-               "shape error (median, m)", "start/end error (max, m)"], rows),
-        "",
-        f"* Roll-outs per seed, ACNMP: {', '.join(map(str, r['methods']['acnmp']['rollouts']))}; "
-        f"RL-only: {', '.join(map(str, r['methods']['rl_only']['rollouts']))}.",
-        "* Shape error RL-only / ACNMP (ratio of the medians): "
-        + ("- (a method failed in some seed)" if ratio is None else f"{ratio:.2f}") + ".",
-        f"* Assimilation ({a['performed']}/{n} seeds with a solution): conditioned again on the same points "
-        f"with no RL, the assimilated model succeeds in {a['success_after']}/{a['performed']}; the old "
-        f"demonstrations' reproduction RMSE is at most {fmt(a['old_demos_rmse_ratio_max'])}x the LfD model's "
-        f"(median {fmt(a['old_demos_rmse_ratio_median'])}x); the solution is reproduced within "
-        f"{fmt(a['solution_reproduction_rmse_max'])} m RMSE.",
-        f"* Time per seed (three methods, training and assimilation): median {r['wall_time_per_seed_s_median']:.1f} s.",
-        "",
-        source(r, "e1_viapoint"),
-    ]
-    return "\n".join(lines)
+    return block(r, "e1_viapoint",
+                 ["method", "success", "roll-outs (median)", "≤ 35 roll-outs", "via-point error (median, m)",
+                  "shape error (median, m)", "start/end error (max, m)"],
+                 rows,
+                 "\n".join([
+                     f"* Roll-outs per seed, ACNMP: {', '.join(map(str, r['methods']['acnmp']['rollouts']))}; "
+                     f"RL-only: {', '.join(map(str, r['methods']['rl_only']['rollouts']))}.",
+                     "* Shape error RL-only / ACNMP (ratio of the medians): "
+                     + ("- (a method failed in some seed)" if ratio is None else f"{ratio:.2f}") + ".",
+                     f"* Assimilation ({a['performed']}/{n} seeds with a solution): conditioned again on the same points "
+                     f"with no RL, the assimilated model succeeds in {a['success_after']}/{a['performed']}; the old "
+                     f"demonstrations' reproduction RMSE is at most {fmt(a['old_demos_rmse_ratio_max'])}x the LfD model's "
+                     f"(median {fmt(a['old_demos_rmse_ratio_median'])}x); the solution is reproduced within "
+                     f"{fmt(a['solution_reproduction_rmse_max'])} m RMSE.",
+                     f"* Time per seed (three methods, training and assimilation): median {r['wall_time_per_seed_s_median']:.1f} s."]))
 
 
 @renderer("e1-assimilation")
@@ -58,13 +55,9 @@ def e1_assimilation() -> str:
     head = ["assimilation"]
     for g in groups:
         head += [f"{g}: within tolerance, no RL", f"{g}: old demos' RMSE / LfD's (max)"]
-    lines = [
-        table(head, rows),
-        "",
-        "* Each seed adapted once (ACNMP, budget 100), then assimilated from the same adapted network by "
-        "each candidate (lr 1e-4, 32 episodes of 10 targets per step, the anchor); seeds whose adaptation "
-        "failed are left out of the count.",
-        "",
-        source(r, "e1_assimilation"),
-    ]
-    return "\n".join(lines)
+    return block(r, "e1_assimilation",
+                 head,
+                 rows,
+                 "* Each seed adapted once (ACNMP, budget 100), then assimilated from the same adapted network by "
+                 "each candidate (lr 1e-4, 32 episodes of 10 targets per step, the anchor); seeds whose adaptation "
+                 "failed are left out of the count.")

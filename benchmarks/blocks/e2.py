@@ -1,7 +1,7 @@
 """The docs blocks of E2, the push: one renderer per block, each reading its JSON."""
 from __future__ import annotations
 
-from benchmarks.report_kit import fmt, frac, load, renderer, source, table
+from benchmarks.report_kit import block, fmt, frac, load, renderer, source, table
 
 
 TWO_LABELS = {"acnmp": "ACNMP", "promp_rl": "ProMP + RL (REPS)"}
@@ -18,17 +18,14 @@ def e2_results() -> str:
             rows.append([label, c, fmt(s["rollouts_median"]), f"{min(s['rollouts'])}-{max(s['rollouts'])}",
                          frac(s["success_rate"], n), fmt(s["final_error_median"]), fmt(s["lfd_error_median"])])
     ratio = r["rollout_ratio_promp_over_acnmp"]
-    lines = [
-        table(["method", "case", "roll-outs (median)", "range", "success", "final error (median, m)",
-               "initial error (median, m)"], rows),
-        "",
-        "* ProMP + RL / ACNMP roll-outs (ratio of the medians, only where both succeed in every seed): "
-        + "; ".join(f"{c} {'-' if v is None else f'{v:.2f}x'}" for c, v in ratio.items()) + ".",
-        f"* ACNMP extrapolation roll-outs per seed: {', '.join(map(str, r['methods']['acnmp']['extrapolation']['rollouts']))}.",
-        "",
-        source(r, "e2_push"),
-    ]
-    return "\n".join(lines)
+    return block(r, "e2_push",
+                 ["method", "case", "roll-outs (median)", "range", "success", "final error (median, m)",
+                  "initial error (median, m)"],
+                 rows,
+                 "\n".join([
+                     "* ProMP + RL / ACNMP roll-outs (ratio of the medians, only where both succeed in every seed): "
+                     + "; ".join(f"{c} {'-' if v is None else f'{v:.2f}x'}" for c, v in ratio.items()) + ".",
+                     f"* ACNMP extrapolation roll-outs per seed: {', '.join(map(str, r['methods']['acnmp']['extrapolation']['rollouts']))}."]))
 
 
 @renderer("e2-machines")
@@ -88,15 +85,12 @@ def e2_baselines() -> str:
         per_seed = ", ".join(map(str, ms["acnmp"]["rollouts"]))
         notes.append(f"* {name} setting, extrapolation, transfer / from scratch (ratio of the median roll-outs; "
                      f"Stark et al. report under 0.4x the iterations): {vs}. ACNMP per seed: {per_seed}.")
-    lines = [
-        table(["run", "method", "interpolation roll-outs (median)", "success", "extrapolation roll-outs (median)",
-               "success", "final error (median, m)", "extrapolation / ACNMP"], rows),
-        "",
-        f"* Budget {r['budget']} roll-outs per target for every method; every executed trajectory counts; "
-        "a failed run counts its whole budget in the median; ratios only where both succeed in more than "
-        "half of the seeds.",
-        *notes,
-        "",
-        source(r, "e2_baselines"),
-    ]
-    return "\n".join(lines)
+    return block(r, "e2_baselines",
+                 ["run", "method", "interpolation roll-outs (median)", "success", "extrapolation roll-outs (median)",
+                  "success", "final error (median, m)", "extrapolation / ACNMP"],
+                 rows,
+                 "\n".join([
+                     f"* Budget {r['budget']} roll-outs per target for every method; every executed trajectory counts; "
+                     "a failed run counts its whole budget in the median; ratios only where both succeed in more than "
+                     "half of the seeds.",
+                     *notes]))

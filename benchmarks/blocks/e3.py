@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from benchmarks.report_kit import RESULTS, fmt, load, pct, renderer, source, table
+from benchmarks.report_kit import block, fmt, has_result, load, pct, renderer, renderers, source, table
 from .e2 import TWO_LABELS
 
 
@@ -23,17 +23,14 @@ def _e3_results_block(name: str) -> str:
         s = r["methods"][m]
         rows.append(_e3_row(label, s, s["time_s"]))
     ratio = r["trajectory_ratio_promp_over_acnmp"]
-    lines = [
-        table(["method", "test success", "mean test error", "mean goal error", "trajectories", "max per env",
-               "adaptations", "time (s)"], rows),
-        "",
-        f"* Seed {r['seed']}: {r['envs']} new environments after {r['n_initial']} demonstrated ones; {r['n_test']} test "
-        f"environments; {_e3_paths(r)}.",
-        "* ProMP + RL / ACNMP trajectories in total: " + ("-" if ratio is None else f"{ratio:.2f}x") + ".",
-        "",
-        source(r, name),
-    ]
-    return "\n".join(lines)
+    return block(r, name,
+                 ["method", "test success", "mean test error", "mean goal error", "trajectories", "max per env",
+                  "adaptations", "time (s)"],
+                 rows,
+                 "\n".join([
+                     f"* Seed {r['seed']}: {r['envs']} new environments after {r['n_initial']} demonstrated ones; {r['n_test']} test "
+                     f"environments; {_e3_paths(r)}.",
+                     "* ProMP + RL / ACNMP trajectories in total: " + ("-" if ratio is None else f"{ratio:.2f}x") + "."]))
 
 
 def _e3_paths(r: dict) -> str:
@@ -45,16 +42,10 @@ def _e3_paths(r: dict) -> str:
             if c.get("snap_outputs") else "paths as generated (the paper's variant)")
 
 
-@renderer("e3-results")
-def e3_results() -> str:
-    """Seed 0 at the default, boundary conditions enforced (e3_wall.json)."""
-    return _e3_results_block("e3_wall")
-
-
-@renderer("e3-results-paper-paths")
-def e3_results_paper_paths() -> str:
-    """Seed 0 with paths as generated, the paper's variant (e3_wall_paper_paths.json)."""
-    return _e3_results_block("e3_wall_paper_paths")
+renderers(_e3_results_block, {
+    "e3-results": ("e3_wall",),  # seed 0 at the default, boundary conditions enforced
+    "e3-results-paper-paths": ("e3_wall_paper_paths",),  # seed 0 with paths as generated, the paper's variant
+})
 
 
 def e3_seed_runs(wall: str = "e3_wall", seeds: str = "e3_seeds") -> tuple[dict, dict, dict]:
@@ -91,28 +82,8 @@ def _e3_per_env(wall: str, seeds: str) -> str:
             + (f" (budget {budget} roll-outs)" if budget else "") + ".")
 
 
-@renderer("e3-per-env")
-def e3_per_env() -> str:
-    return _e3_per_env("e3_wall", "e3_seeds")
-
-
-@renderer("e3-per-env-paper-paths")
-def e3_per_env_paper_paths() -> str:
-    return _e3_per_env("e3_wall_paper_paths", "e3_seeds_paper_paths")
-
-
-@renderer("e3-seeds")
-def e3_seeds() -> str:
-    """Both methods at the defaults over ten seeds: seed 0 from e3_wall.json (the Results table), seeds
-    1-9 from e3_seeds.json (``e3_budget.py --candidates baseline --methods acnmp promp_rl``, one file
-    per seed, combined). One row per seed, then the mean over the seeds."""
-    return _e3_seeds("e3_wall", "e3_seeds")
-
-
-@renderer("e3-seeds-paper-paths")
-def e3_seeds_paper_paths() -> str:
-    """The same with paths as generated (the paper's variant; the default before issue 37)."""
-    return _e3_seeds("e3_wall_paper_paths", "e3_seeds_paper_paths")
+renderers(_e3_per_env, {"e3-per-env": ("e3_wall", "e3_seeds"),
+                        "e3-per-env-paper-paths": ("e3_wall_paper_paths", "e3_seeds_paper_paths")})
 
 
 def _e3_seeds(wall: str, seeds_file: str) -> str:
@@ -138,21 +109,18 @@ def _e3_seeds(wall: str, seeds_file: str) -> str:
     at_target = sum(runs[s]["acnmp"]["test_success_rate"] >= 0.95 for s in seeds)
     error_ratio = mean("acnmp", "test_error_mean") / mean("promp_rl", "test_error_mean")
     traj_ratio = mean("promp_rl", "trajectories_total") / mean("acnmp", "trajectories_total")
-    return "\n".join([
-        table(["seed", "ACNMP test success", "ProMP + RL test success", "ACNMP mean test error",
-               "ProMP + RL mean test error", "ACNMP trajectories", "ProMP + RL trajectories",
-               "ACNMP max per env", "ACNMP adaptations"], rows),
-        "",
-        f"* {full['envs']} new environments after {full['n_initial']} demonstrated ones, {full['n_test']} test "
-        f"environments, {_e3_paths(full)}; both methods in one run per seed, one torch thread.",
-        f"* ACNMP at 95 % test success or more: {at_target} of {len(seeds)} seeds; its mean test error is "
-        f"{error_ratio:.2f}x ProMP + RL's (means over the seeds); ProMP + RL executes {traj_ratio:.2f}x as many "
-        "trajectories.",
-        "",
-        source(full, wall),
-        "",
-        source(more, seeds_file),
-    ])
+    return block(more, seeds_file,
+                 ["seed", "ACNMP test success", "ProMP + RL test success", "ACNMP mean test error",
+                  "ProMP + RL mean test error", "ACNMP trajectories", "ProMP + RL trajectories",
+                  "ACNMP max per env", "ACNMP adaptations"],
+                 rows,
+                 "\n".join([
+                     f"* {full['envs']} new environments after {full['n_initial']} demonstrated ones, {full['n_test']} test "
+                     f"environments, {_e3_paths(full)}; both methods in one run per seed, one torch thread.",
+                     f"* ACNMP at 95 % test success or more: {at_target} of {len(seeds)} seeds; its mean test error is "
+                     f"{error_ratio:.2f}x ProMP + RL's (means over the seeds); ProMP + RL executes {traj_ratio:.2f}x as many "
+                     "trajectories."]),
+                 source(full, wall))
 
 
 @renderer("e3-targets")
@@ -195,16 +163,12 @@ def e3_time_alone() -> str:
     rows = [[seed, f"{s['acnmp_time_s']:.0f}", f"{s['acnmp_time_s_ten_seed_table']:.0f}",
              f"{s['adaptations']} ({s['adaptations_failed']} failed)", pct(s["test_success_rate"], 1),
              "yes" if s["same_results_as_ten_seed_table"] else "**no**"] for seed, s in r["seeds"].items()]
-    return "\n".join([
-        table(["seed", "ACNMP time alone (s)", "in the ten-seed table (s)", "adaptations",
-               "test success", "same results as the ten-seed table"], rows),
-        "",
-        f"* Alone: median {r['acnmp_time_s_median']:.0f} s, at most {r['acnmp_time_s_max']:.0f} s; "
-        f"{r['seeds_within_120_s']} of {len(rows)} seeds within 120 s. In the ten-seed table seed 0 ran "
-        "alone too, seeds 1-9 two at a time.",
-        "",
-        source(r, "e3_time_alone"),
-    ])
+    header = ["seed", "ACNMP time alone (s)", "in the ten-seed table (s)", "adaptations", "test success",
+              "same results as the ten-seed table"]
+    summary = (f"* Alone: median {r['acnmp_time_s_median']:.0f} s, at most {r['acnmp_time_s_max']:.0f} s; "
+               f"{r['seeds_within_120_s']} of {len(rows)} seeds within 120 s. In the ten-seed table seed 0 ran "
+               "alone too, seeds 1-9 two at a time.")
+    return block(r, "e3_time_alone", header, rows, summary)
 
 
 @renderer("e3-paper-paths-summary")
@@ -242,19 +206,15 @@ def e3_snap_outputs() -> str:
             runs = {"acnmp": w["summary"], **{k: o["summary"] for k, o in w.get("others", {}).items()}}
             if m in runs:
                 rows.append(_e3_row(f"{label}, {SNAP_LABELS.get(name, name)}", runs[m], runs[m]["time_s"]))
-    return "\n".join([
-        table(["method", "test success", "mean test error", "mean goal error", "trajectories", "max per env",
-               "adaptations", "time (s)"], rows),
-        "",
-        f"* Seed {snap['seed']}, {snap['envs']} new environments after 30 demonstrated ones, 1000 test environments. "
-        "\"Generated paths snapped\": the path generated for a new or a test environment is moved onto its start "
-        "and goal before it is executed or scored, the adaptations' roll-outs are not; \"all executed paths "
-        "snapped\": the adaptations' roll-outs too. The two variants ran side by side (two processes).",
-        "",
-        source(full, "e3_wall_paper_paths"),
-        "",
-        source(snap, "e3_snap_outputs"),
-    ])
+    return block(snap, "e3_snap_outputs",
+                 ["method", "test success", "mean test error", "mean goal error", "trajectories", "max per env",
+                  "adaptations", "time (s)"],
+                 rows,
+                 f"* Seed {snap['seed']}, {snap['envs']} new environments after 30 demonstrated ones, 1000 test environments. "
+                 "\"Generated paths snapped\": the path generated for a new or a test environment is moved onto its start "
+                 "and goal before it is executed or scored, the adaptations' roll-outs are not; \"all executed paths "
+                 "snapped\": the adaptations' roll-outs too. The two variants ran side by side (two processes).",
+                 source(full, "e3_wall_paper_paths"))
 
 
 E3_COMPARE_LABELS = {"acnmp": "ACNMP", "promp_rl": "ProMP + REPS (task-conditional)",
@@ -268,7 +228,7 @@ def e3_compare() -> str:
             ["Akbulut et al. 2020 (paper)", "Ewerton et al. 2019 (quoted)", "-", "-", "-", "-", "20K", "10M", "~14x",
              "-"]]
     files = ["e3_compare_paper", "e3_compare_authors"]
-    files += [f for f in ("e3_compare_paper_snapped", "e3_compare_authors_snapped") if (RESULTS / f"{f}.json").exists()]
+    files += [f for f in ("e3_compare_paper_snapped", "e3_compare_authors_snapped") if has_result(f)]
     runs = {f: load(f) for f in files}
     default_from = load("e3_wall_paper_paths")["config"]["assimilate_from"]
     notes = []
@@ -297,7 +257,7 @@ def e3_compare() -> str:
                      + ("" if r["config"]["assimilate_from"] == default_from
                         else f" (the published E3 run's, e3_wall.json: {default_from!r})")
                      + f"; {r['wall_time_s']:.0f} s in all.")
-    lines = [
+    return "\n".join([
         table(["run", "method", "test success (first → last)", "test success, stopping criterion", "mean test error",
                "trajectories (measured total)", "max per env", "paper-style total (envs x max per env)",
                "measured total / ACNMP", "time (s)"], rows),
@@ -311,9 +271,7 @@ def e3_compare() -> str:
            "generated or an adaptation's roll-out, is moved onto its start and goal before it is executed or "
            "scored; not the paper's method."] if len(runs) > 2 else []),
         *notes,
-        *[line for f, r in runs.items() for line in ("", source(r, f))],
-    ]
-    return "\n".join(lines)
+        *[line for f, r in runs.items() for line in ("", source(r, f))],    ])
 
 
 @renderer("e3-fit-precision")
@@ -332,18 +290,15 @@ def e3_fit_precision() -> str:
              fmt(x["test_goal_error_mean"]), pct(x["test_through_hole_rate"]),
              fit(x, "test_success_rate", lambda v: pct(v, 1)), fit(x, "test_goal_error_mean", fmt),
              f"{x['time_s']:.0f}"] for x in r["runs"]]
-    return "\n".join([
-        table(["expert demos", "steps x batch x targets per episode", "test success", "mean test error",
-               "mean goal error", "through the hole", "demonstrated envs: success", "demonstrated envs: goal error",
-               "training time (s)"], rows),
-        "",
-        f"* The first training of E3 only (seed {r['seed']}), no RL: one expert demonstration per random "
-        "environment, scored on the 1000 test environments and, conditioned the same way, on the demonstrated "
-        "environments themselves (how well the skill fits what it was trained on). Rate 1e-3, constant unless a "
-        "decay (half cosine) is given.",
-        "",
-        source(r, "e3_fit_precision"),
-    ])
+    return block(r, "e3_fit_precision",
+                 ["expert demos", "steps x batch x targets per episode", "test success", "mean test error",
+                  "mean goal error", "through the hole", "demonstrated envs: success", "demonstrated envs: goal error",
+                  "training time (s)"],
+                 rows,
+                 f"* The first training of E3 only (seed {r['seed']}), no RL: one expert demonstration per random "
+                 "environment, scored on the 1000 test environments and, conditioned the same way, on the demonstrated "
+                 "environments themselves (how well the skill fits what it was trained on). Rate 1e-3, constant unless a "
+                 "decay (half cosine) is given.")
 
 
 @renderer("e3-assimilate-from")
@@ -354,17 +309,12 @@ def e3_assimilate_from() -> str:
     for v, label in labels.items():
         s, w = r["variants"][v]["summary"], r["variants"][v]
         rows.append(_e3_row(label, s, w["wall_time_s"]))
-    return "\n".join([
-        table(["assimilation continues from", "test success", "mean test error", "mean goal error",
-               "trajectories", "max per env", "adaptations", "time (s)"], rows),
-        "",
-        f"* ACNMP only, seed {r['seed']}, {r['envs']} new environments after 30 demonstrated ones, 1000 test "
-        "environments; both variants side by side in one run (two processes), otherwise the defaults.",
-        "",
-        # The variants ran side by side: the run took as long as the slower one.
-        source({**r, "wall_time_s": r.get("wall_time_s", max(w["wall_time_s"] for w in r["variants"].values()))},
-               "e3_assimilate_from"),
-    ])
+    return block({**r, "wall_time_s": r.get("wall_time_s",
+                 max(w["wall_time_s"] for w in r["variants"].values()))}, "e3_assimilate_from", ["assimilation continues from", "test success", "mean test error", "mean goal error",
+                                                                                                 "trajectories", "max per env", "adaptations", "time (s)"],
+                 rows,
+                 f"* ACNMP only, seed {r['seed']}, {r['envs']} new environments after 30 demonstrated ones, 1000 test "
+                 "environments; both variants side by side in one run (two processes), otherwise the defaults.")
 
 
 @renderer("e3-assimilate-from-full")
@@ -375,19 +325,15 @@ def e3_assimilate_from_full() -> str:
         s = r["methods"]["acnmp"]
         rows.append(_e3_row(v, s, s["time_s"]))
     p = runs["adapted"]["methods"]["promp_rl"]
-    return "\n".join([
-        table(["ACNMP, assimilation from", "test success", "mean test error", "mean goal error", "trajectories",
-               "max per env", "adaptations", "time (s)"], rows),
-        "",
-        f"* {runs['skill']['envs']} new environments, the full `benchmarks/experiments/e3_wall.py` run for each variant, on one "
-        f"machine ({runs['skill']['provenance']['machine']['cpu']}); ProMP + RL in the same runs: "
-        f"{pct(p['test_success_rate'])} test success, mean test error {fmt(p['test_error_mean'])}, "
-        f"{p['trajectories_total']} trajectories.",
-        "",
-        source(runs["skill"], "e3_wall_assimilate_skill"),
-        "",
-        source(runs["adapted"], "e3_wall_assimilate_adapted"),
-    ])
+    return block(runs["adapted"], "e3_wall_assimilate_adapted",
+                 ["ACNMP, assimilation from", "test success", "mean test error", "mean goal error", "trajectories",
+                  "max per env", "adaptations", "time (s)"],
+                 rows,
+                 f"* {runs['skill']['envs']} new environments, the full `benchmarks/experiments/e3_wall.py` run for each variant, on one "
+                 f"machine ({runs['skill']['provenance']['machine']['cpu']}); ProMP + RL in the same runs: "
+                 f"{pct(p['test_success_rate'])} test success, mean test error {fmt(p['test_error_mean'])}, "
+                 f"{p['trajectories_total']} trajectories.",
+                 source(runs["skill"], "e3_wall_assimilate_skill"))
 
 
 def _budget_label(c: dict) -> str:
@@ -407,19 +353,17 @@ def e3_budget() -> str:
         s = w["summary"]
         rows.append([f"{name}: {_budget_label(w['config'])}", *_e3_row("", s, s["time_s"])[1:]])
     commits = sorted({(w["provenance"]["commit"] or "unknown")[:10] for w in r["variants"].values()})
-    return "\n".join([
-        table(["candidate: assimilation steps x episodes x targets, lr, anchor weight; first training",
-               "test success", "mean test error", "mean goal error", "trajectories", "max per env",
-               "adaptations", "ACNMP time (s)"], rows),
-        "",
-        f"* ACNMP only, seed {r['seed']}, {r['envs']} new environments after 30 demonstrated ones, 1000 test "
-        "environments, otherwise the defaults; two candidates at a time side by side (two processes) on the "
-        "shared machine, so times compare only roughly (the load changed between pairs).",
-        f"* Variants run at commit(s) {', '.join(commits)} (each variant's own provenance is in the file); "
-        "the variants of one commit ran side by side, and only their times compare.",
-        "",
-        source(r, "e3_budget"),
-    ])
+    return block(r, "e3_budget",
+                 ["candidate: assimilation steps x episodes x targets, lr, anchor weight; first training",
+                  "test success", "mean test error", "mean goal error", "trajectories", "max per env",
+                  "adaptations", "ACNMP time (s)"],
+                 rows,
+                 "\n".join([
+                     f"* ACNMP only, seed {r['seed']}, {r['envs']} new environments after 30 demonstrated ones, 1000 test "
+                     "environments, otherwise the defaults; two candidates at a time side by side (two processes) on the "
+                     "shared machine, so times compare only roughly (the load changed between pairs).",
+                     f"* Variants run at commit(s) {', '.join(commits)} (each variant's own provenance is in the file); "
+                     "the variants of one commit ran side by side, and only their times compare."]))
 
 
 def _stop_label(setting: dict) -> str:
@@ -444,20 +388,18 @@ def e3_stop() -> str:
         strict = s.get("test_success_rate_strict")
         rows.append([row[0], TWO_LABELS[m], row[1], "=" if strict is None else pct(strict, 1), *row[2:]])
     commits = sorted({(w["provenance"]["commit"] or "unknown")[:10] for w in r["variants"].values()})
-    return "\n".join([
-        table(["stopping criterion", "method", "test success (trigger: 0.25)", "test success, stopping criterion",
-               "mean test error", "mean goal error", "trajectories", "max per env", "adaptations", "time (s)"], rows),
-        "",
-        f"* Seed {r['seed']}, {r['envs']} new environments after 30 demonstrated ones, 1000 test environments, "
-        "otherwise the defaults. An adaptation is triggered when the generated trajectory misses the 0.25 "
-        "criterion (start and goal errors ≤ 0.25, clearance > 0) and stops on the row's criterion; test "
-        "success is the trigger's criterion, the next column the stopping criterion's (\"=\": the same).",
-        f"* ACNMP baseline row: the `baseline` variant of `e3_budget.json` (commit "
-        f"{acnmp_base['provenance']['commit'][:10]}); the other rows ran at commit(s) {', '.join(commits)}, "
-        "the two ACNMP candidates side by side (two processes), so only their times compare.",
-        "",
-        source(r, "e3_stop"),
-    ])
+    return block(r, "e3_stop",
+                 ["stopping criterion", "method", "test success (trigger: 0.25)", "test success, stopping criterion",
+                  "mean test error", "mean goal error", "trajectories", "max per env", "adaptations", "time (s)"],
+                 rows,
+                 "\n".join([
+                     f"* Seed {r['seed']}, {r['envs']} new environments after 30 demonstrated ones, 1000 test environments, "
+                     "otherwise the defaults. An adaptation is triggered when the generated trajectory misses the 0.25 "
+                     "criterion (start and goal errors ≤ 0.25, clearance > 0) and stops on the row's criterion; test "
+                     "success is the trigger's criterion, the next column the stopping criterion's (\"=\": the same).",
+                     f"* ACNMP baseline row: the `baseline` variant of `e3_budget.json` (commit "
+                     f"{acnmp_base['provenance']['commit'][:10]}); the other rows ran at commit(s) {', '.join(commits)}, "
+                     "the two ACNMP candidates side by side (two processes), so only their times compare."]))
 
 
 @renderer("e3-profile")
@@ -468,15 +410,12 @@ def e3_profile() -> str:
               "adaptation_supervised_steps": "… of which the supervised steps", "assimilation": "assimilation",
               "rollouts": "executed roll-outs (scoring)", "test_evaluation": "test evaluation"}
     rows = [[labels.get(k, k), f"{v['seconds']:.1f}", pct(v["share"])] for k, v in r["stages"].items()]
-    return "\n".join([
-        table(["stage", "seconds", "share of the run"], rows),
-        "",
-        f"* ACNMP only, {c['envs']} new environments after {c['n_initial']} demonstrated ones, {c['n_test']} "
-        f"test environments: {r['adaptations']} adaptations, {r['trajectories_total']} trajectories, "
-        f"{r['wall_time_s']:.0f} s under cProfile (which slows every Python call; read the shares).",
-        "",
-        source(r, "e3_profile"),
-    ])
+    return block(r, "e3_profile",
+                 ["stage", "seconds", "share of the run"],
+                 rows,
+                 f"* ACNMP only, {c['envs']} new environments after {c['n_initial']} demonstrated ones, {c['n_test']} "
+                 f"test environments: {r['adaptations']} adaptations, {r['trajectories_total']} trajectories, "
+                 f"{r['wall_time_s']:.0f} s under cProfile (which slows every Python call; read the shares).")
 
 
 @renderer("e3-threads")
@@ -488,17 +427,14 @@ def e3_threads() -> str:
              "yes" if x["identical_to_one_thread"] else "**no**", pct(x["test_success_rate"], 1),
              x["trajectories_total"]] for x in r["runs"]]
     machine = r["provenance"]["machine"]
-    return "\n".join([
-        table(["torch threads", "ACNMP time (s)", "speed-up over 1 thread", "same numbers as 1 thread",
-               "test success", "trajectories"], rows),
-        "",
-        f"* ACNMP only, seed {c['seed']}, {c['envs']} new environments after 30 demonstrated ones, 1000 test "
-        f"environments; the runs one after the other in one process on {machine['cpu']} "
-        f"({machine['cpu_count']} cores); \"same numbers\": summary, test curve and roll-outs per environment "
-        "equal bit for bit.",
-        "",
-        source(r, "bench_e3_threads"),
-    ])
+    return block(r, "bench_e3_threads",
+                 ["torch threads", "ACNMP time (s)", "speed-up over 1 thread", "same numbers as 1 thread",
+                  "test success", "trajectories"],
+                 rows,
+                 f"* ACNMP only, seed {c['seed']}, {c['envs']} new environments after 30 demonstrated ones, 1000 test "
+                 f"environments; the runs one after the other in one process on {machine['cpu']} "
+                 f"({machine['cpu_count']} cores); \"same numbers\": summary, test curve and roll-outs per environment "
+                 "equal bit for bit.")
 
 
 def _optimizer_label(name: str, c: dict) -> str:
@@ -509,38 +445,6 @@ def _optimizer_label(name: str, c: dict) -> str:
     snap = ", solutions snapped onto start and goal" if c.get("snap_solutions") else ""
     obs = ", targets include the observations" if c.get("targets_include_obs") else ""
     return f"{name}: {opt}, {c['assimilate_steps']} steps, {rate}{snap}{obs}"
-
-
-@renderer("e3-optimizer")
-def e3_optimizer() -> str:
-    """The assimilation-optimiser candidates at 300 environments (e3_optimizer.json)."""
-    return _optimizer_table("e3_optimizer")
-
-
-@renderer("e3-optimizer-1500")
-def e3_optimizer_1500() -> str:
-    """The previous and the new assimilation optimiser at the full 1500 environments (e3_optimizer_1500.json)."""
-    return _optimizer_table("e3_optimizer_1500")
-
-
-@renderer("e3-snap")
-def e3_snap() -> str:
-    """Solutions snapped onto their start and goal (e3_snap.json) against the same defaults without
-    (the kept-optimiser row of e3_optimizer.json), seeds 0-2 at 300 environments."""
-    return _snap_table("e3_snap", "e3_optimizer")
-
-
-@renderer("e3-snap-1500")
-def e3_snap_1500() -> str:
-    """The same at 1500 environments, seeds 1 and 2 (e3_snap_1500.json against e3_optimizer_1500.json)."""
-    return _snap_table("e3_snap_1500", "e3_optimizer_1500")
-
-
-@renderer("e3-targets-obs")
-def e3_targets_obs() -> str:
-    """Supervised episodes whose targets include their observations (e3_targets_obs.json) against the
-    defaults (the snap variant of e3_snap.json), seeds 0-2 at 300 environments."""
-    return _beside("e3_targets_obs", "e3_snap", "snap", "default (snap)")
 
 
 @renderer("e3-targets-obs-1500")
@@ -573,16 +477,13 @@ def e3_consolidate() -> str:
                      f"{fmt(s['test_error_mean'])} → {fmt(c['test_error_mean'])}",
                      f"{fmt(s['test_goal_error_mean'])} → {fmt(c['test_goal_error_mean'])}",
                      f"{c['time_s']:.0f}"])
-    return "\n".join([
-        table(["after the stream", "test success", "mean test error", "mean goal error", "time (s)"], rows),
-        "",
-        f"* ACNMP, seed {r['seed']}, {r['envs']} new environments after 30 demonstrated ones, 1000 test "
-        "environments; the left of each arrow is the skill at the end of the stream (the same run as the Results "
-        f"table), the right the same skill after the further steps ({cfg['assimilate_batch_size']} episodes of "
-        f"{cfg['assimilate_targets']} targets, one Adam continued, rate decaying along a half cosine).",
-        "",
-        source(r, "e3_consolidate"),
-    ])
+    return block(r, "e3_consolidate",
+                 ["after the stream", "test success", "mean test error", "mean goal error", "time (s)"],
+                 rows,
+                 f"* ACNMP, seed {r['seed']}, {r['envs']} new environments after 30 demonstrated ones, 1000 test "
+                 "environments; the left of each arrow is the skill at the end of the stream (the same run as the Results "
+                 f"table), the right the same skill after the further steps ({cfg['assimilate_batch_size']} episodes of "
+                 f"{cfg['assimilate_targets']} targets, one Adam continued, rate decaying along a half cosine).")
 
 
 def _snap_table(snap_file: str, before_file: str) -> str:
@@ -638,3 +539,18 @@ def _optimizer_table(name: str, r: dict | None = None, *, sources: list[tuple[di
         "",
         "\n\n".join(source(res, file) for res, file in sources),
     ])
+
+
+#: Both methods at the defaults over ten seeds: seed 0 from e3_wall.json (the Results table), seeds
+#: 1-9 from e3_seeds.json (``e3_budget.py --candidates baseline --methods acnmp promp_rl``, one file
+#: per seed, combined), one row per seed, then the mean; and the same with paths as generated.
+renderers(_e3_seeds, {"e3-seeds": ("e3_wall", "e3_seeds"),
+                      "e3-seeds-paper-paths": ("e3_wall_paper_paths", "e3_seeds_paper_paths")})
+#: The assimilation-optimiser candidates at 300 environments, and the previous and the new one at 1500.
+renderers(_optimizer_table, {"e3-optimizer": ("e3_optimizer",), "e3-optimizer-1500": ("e3_optimizer_1500",)})
+#: Solutions snapped onto their start and goal against the same defaults without (the kept-optimiser
+#: row of e3_optimizer.json): seeds 0-2 at 300 environments, seeds 1 and 2 at 1500.
+renderers(_snap_table, {"e3-snap": ("e3_snap", "e3_optimizer"), "e3-snap-1500": ("e3_snap_1500", "e3_optimizer_1500")})
+#: Supervised episodes whose targets include their observations against the defaults (the snap
+#: variant of e3_snap.json), seeds 0-2 at 300 environments.
+renderers(_beside, {"e3-targets-obs": ("e3_targets_obs", "e3_snap", "snap", "default (snap)")})

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from benchmarks.report_kit import RESULTS, fmt, load, pct, renderer, source, table
+from benchmarks.report_kit import fmt, has_result, load, pct, renderer, source, table, where
 
 
 E4_LABELS = {"transfer": "transfer (A's encoder, B's decoder)", "no_alignment": "control a: no alignment term",
@@ -117,7 +117,7 @@ def e4_sweep() -> str:
                      + " rad RMSE) have 4-DoF partners " + ", ".join(fmt(y) for _, y in near)
                      + " rad from the 4-DoF truth.")
     commits = sorted({(v.get("provenance") or {}).get("commit", "unknown")[:10] for v in variants.values()})
-    lines += ["", f"*From `benchmarks/results/e4_sweep.json`: `benchmarks/studies/e4_transfer/e4_sweep.py` (transfer condition only; "
+    lines += ["", f"*From `{where('e4_sweep')}`: `benchmarks/studies/e4_transfer/e4_sweep.py` (transfer condition only; "
                   f"pairs of the pair seeds shared by the variants with the same pair settings), commits "
                   f"{', '.join(commits)}.*"]
     return "\n".join(lines)
@@ -144,7 +144,7 @@ def _e4_failure_rows(r: dict) -> list[list[str]]:
 @renderer("e4-failures")
 def e4_failures() -> str:
     files = [f for f in ("e4_failures", "e4_failures_seed0", "e4_failures_sl_once", "e4_failures_cubic")
-             if (RESULTS / f"{f}.json").exists()]
+             if has_result(f)]
     results = [load(f) for f in files]
     rows = [row for r in results for row in _e4_failure_rows(r)]
     lines = [table(["setting (e4_sweep.py variant)", "RL seed", "pair seed", "mean solved at iteration", "label", "first iteration a roll-out moved "
@@ -173,7 +173,7 @@ def e4_failures() -> str:
             f"{fmt(float(np.median(solved)))} m beyond the wall line (median; {fmt(min(solved))}..{fmt(max(solved))}).")
     for f, r in zip(files, results):
         p = r.get("provenance") or {}
-        lines.append(f"*From `benchmarks/results/{f}.json`: `{p.get('command', '?')}` at commit "
+        lines.append(f"*From `{where(f)}`: `{p.get('command', '?')}` at commit "
                      f"{(p.get('commit') or 'unknown')[:10]}{' (dirty tree)' if p.get('dirty') else ''}.*")
         lines.append("")
     return "\n".join(lines).rstrip("\n")

@@ -1,7 +1,7 @@
 """The docs blocks of E5, the UR10: one renderer per block, each reading its JSON."""
 from __future__ import annotations
 
-from benchmarks.report_kit import fmt, frac, load, renderer, source, table
+from benchmarks.report_kit import block, fmt, frac, load, renderer, renderers, source, table
 
 
 E5_CASE_LABELS = {"8_10": "(8, 10)", "9_11": "(9, 11)", "10_12": "(10, 12)"}
@@ -26,19 +26,17 @@ def e5_results() -> str:
     from clients.experiments.targets import E5_JOINT_DEG, e5_within_bound
 
     within = {case: e5_within_bound(r["runs"], case) for case in r["cases"]}
-    return "\n".join([
-        table(["case (cm)", "method", "shoulder pan", "shoulder lift", "elbow", "wrist 1", "wrist 2", "wrist 3",
-               "success", "roll-outs"], rows),
-        "",
-        "* Per-joint error: mean |executed - expert executed| over the 625 rows (deg), median over the seeds; "
-        "success in physics; roll-outs: median.",
-        "* ACNMP roll-outs per seed: " + "; ".join(f"{E5_CASE_LABELS.get(c, c)} {', '.join(map(str, v))}"
-                                                   for c, v in per_seed.items()) + ".",
-        f"* ACNMP succeeding with every joint within {E5_JOINT_DEG:g} deg: " + "; ".join(
-            f"{E5_CASE_LABELS.get(c, c)} {k}/{n}" for c, k in within.items()) + ".",
-        "",
-        source(r, "e5_ur10"),
-    ])
+    return block(r, "e5_ur10",
+                 ["case (cm)", "method", "shoulder pan", "shoulder lift", "elbow", "wrist 1", "wrist 2", "wrist 3",
+                  "success", "roll-outs"],
+                 rows,
+                 "\n".join([
+                     "* Per-joint error: mean |executed - expert executed| over the 625 rows (deg), median over the seeds; "
+                     "success in physics; roll-outs: median.",
+                     "* ACNMP roll-outs per seed: " + "; ".join(f"{E5_CASE_LABELS.get(c, c)} {', '.join(map(str, v))}"
+                                                                for c, v in per_seed.items()) + ".",
+                     f"* ACNMP succeeding with every joint within {E5_JOINT_DEG:g} deg: " + "; ".join(
+                         f"{E5_CASE_LABELS.get(c, c)} {k}/{n}" for c, k in within.items()) + "."]))
 
 
 E5_TRAINING_LABELS = {"steps_3000_constant": "3000 steps, constant rate (before)",
@@ -86,25 +84,9 @@ def _e5_training_table(name: str) -> str:
     return _e5_variant_table(name, E5_TRAINING_LABELS, "LfD model")
 
 
-@renderer("e5-exploration")
-def e5_exploration() -> str:
-    """Demonstration-shaped noise and task-parameter jitter on E5 (e5_exploration.json)."""
-    return _e5_variant_table("e5_exploration", E5_EXPLORATION_LABELS, "variant")
-
-
-@renderer("e5-exploration-mixup")
-def e5_exploration_mixup() -> str:
-    """Mixup training on E5 (e5_exploration_mixup.json, the same study run for that variant)."""
-    return _e5_variant_table("e5_exploration_mixup", E5_EXPLORATION_LABELS, "variant")
-
-
-@renderer("e5-training")
-def e5_training() -> str:
-    """The training variants on E5's reported seeds (e5_training.json)."""
-    return _e5_training_table("e5_training")
-
-
-@renderer("e5-training-fresh")
-def e5_training_fresh() -> str:
-    """The same on seeds that chose nothing (e5_training_fresh.json)."""
-    return _e5_training_table("e5_training_fresh")
+#: Demonstration-shaped noise and task-parameter jitter on E5, and mixup training (the same study run
+#: for that variant).
+renderers(_e5_variant_table, {"e5-exploration": ("e5_exploration", E5_EXPLORATION_LABELS, "variant"),
+                              "e5-exploration-mixup": ("e5_exploration_mixup", E5_EXPLORATION_LABELS, "variant")})
+#: The training variants on E5's reported seeds, and on seeds that chose nothing.
+renderers(_e5_training_table, {"e5-training": ("e5_training",), "e5-training-fresh": ("e5_training_fresh",)})

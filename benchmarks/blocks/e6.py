@@ -1,7 +1,7 @@
 """The docs blocks of E6, the pour: one renderer per block, each reading its JSON."""
 from __future__ import annotations
 
-from benchmarks.report_kit import fmt, frac, load, renderer, source, table
+from benchmarks.report_kit import block, fmt, frac, load, renderer, source, table
 
 
 @renderer("e6-results")
@@ -31,10 +31,11 @@ def e6_results() -> str:
          f"{per(x['lfd_demos_within_30g'] for x in assim)}: no fewer in {kept}/{len(assim)} seeds"],
         ["after assimilation, all 16 within 50 g", "–", f"{within50}/{len(assim)} seeds"],
     ]
-    return "\n".join([table(["", "paper (real rig)", f"here (PyBullet, {n} seeds)"], rows), "",
-                      f"* CPU per roll-out {fmt(r['rollout_cpu_s_median'])} s (median); the assimilation trains "
-                      f"{_assimilation_text({**r['config']['assimilation'], 'start': r['config'].get('assimilate_from', 'adapted')})}.",
-                      "", source(r, "e6_pour")])
+    return block(r, "e6_pour",
+                 ["", "paper (real rig)", f"here (PyBullet, {n} seeds)"],
+                 rows,
+                 f"* CPU per roll-out {fmt(r['rollout_cpu_s_median'])} s (median); the assimilation trains "
+                 f"{_assimilation_text({**r['config']['assimilation'], 'start': r['config'].get('assimilate_from', 'adapted')})}.")
 
 
 def _assimilation_text(cfg: dict) -> str:
@@ -105,16 +106,13 @@ def e6_assimilation() -> str:
                      f"{s['no_fewer_within_30g']}/{s['seeds']}", f"{s['test_within_30g_no_rl']}/{s['seeds']}",
                      fmt(s["demos_within_30g_median"])])
     solved = [x for x in r["runs"] if x["success"]]
-    return "\n".join([
-        table(["candidate", "assimilation", "all 16 within 50 g", "no fewer within 30 g than LfD-only",
-               "test within 30 g without RL", "within 30 g (median of 16)"], rows),
-        "",
-        f"* Seeds {', '.join(str(x['seed']) for x in solved)} of {r['seeds']} found a solution (the others have "
-        "nothing to assimilate); the LfD-only model reproduced "
-        + ", ".join(str(x["lfd_demos_within_30g"]) for x in solved) + " of 16 within 30 g in them.",
-        "",
-        source(r, "e6_assimilation"),
-    ])
+    return block(r, "e6_assimilation",
+                 ["candidate", "assimilation", "all 16 within 50 g", "no fewer within 30 g than LfD-only",
+                  "test within 30 g without RL", "within 30 g (median of 16)"],
+                 rows,
+                 f"* Seeds {', '.join(str(x['seed']) for x in solved)} of {r['seeds']} found a solution (the others have "
+                 "nothing to assimilate); the LfD-only model reproduced "
+                 + ", ".join(str(x["lfd_demos_within_30g"]) for x in solved) + " of 16 within 30 g in them.")
 
 
 #: The E6 assimilation study's runs: (setting, its exploration noise, seed set, result file).
@@ -177,16 +175,13 @@ def e6_robust_demos() -> str:
                      f"{m['seeds_16_of_16']} of {len(counts)}"])
     seeds = r["seeds"]
     missing = sorted(set(w["weight_g"] for w in s["weights"]) - set(s["robust_weights_g"]))
-    return "\n".join([
-        table(["demonstration set", "weights", "LfD held-tilt error (median)",
-               f"demonstrations within 30 g, seeds {seeds[0]}-{seeds[-1]}", "seeds with 16 of 16"], rows),
-        "",
-        f"* Robust tilts: at {len(s['robust_weights_g'])} of {len(s['weights'])} whole-marble weights a tilt within "
-        f"{fmt(s['window_deg'])} deg of the rule (steps of {fmt(s['step_deg'])} deg) pours within "
-        f"{fmt(s['tolerance_g'])} g of itself under held-tilt offsets of "
-        f"{', '.join(f'{o:+g}' for o in s['offsets_deg'])} deg, shifts of "
-        f"{', '.join(f'{x:+d}' for x in s['shifts_rows'])} rows and {s['noise_draws']} smooth noise draws of "
-        f"{fmt(s['noise_deg'])} deg; none at {', '.join(f'{w:g}' for w in missing)} g ({s['rollouts']} roll-outs).",
-        "",
-        source(r, "pour_robust_angles"),
-    ])
+    return block(r, "pour_robust_angles",
+                 ["demonstration set", "weights", "LfD held-tilt error (median)",
+                  f"demonstrations within 30 g, seeds {seeds[0]}-{seeds[-1]}", "seeds with 16 of 16"],
+                 rows,
+                 f"* Robust tilts: at {len(s['robust_weights_g'])} of {len(s['weights'])} whole-marble weights a tilt within "
+                 f"{fmt(s['window_deg'])} deg of the rule (steps of {fmt(s['step_deg'])} deg) pours within "
+                 f"{fmt(s['tolerance_g'])} g of itself under held-tilt offsets of "
+                 f"{', '.join(f'{o:+g}' for o in s['offsets_deg'])} deg, shifts of "
+                 f"{', '.join(f'{x:+d}' for x in s['shifts_rows'])} rows and {s['noise_draws']} smooth noise draws of "
+                 f"{fmt(s['noise_deg'])} deg; none at {', '.join(f'{w:g}' for w in missing)} g ({s['rollouts']} roll-outs).")

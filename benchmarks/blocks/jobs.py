@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from benchmarks.report_kit import load, pct, renderer, source, table
+from benchmarks.report_kit import block, load, pct, renderer, table
 
 
 def _median(spread: dict) -> str:
@@ -20,16 +20,13 @@ def jobs_runner() -> str:
                      _median(s["processes"]["wall_ratio"]), _median(s["ceiling_wall_ratio"]),
                      _median(s["threads"]["cpu_ratio"]), _median(s["processes"]["cpu_ratio"]),
                      "yes" if s["threads"]["bit_equal"] and s["processes"]["bit_equal"] else "NO"])
-    return "\n".join([
-        table(["K jobs", "one after another (s, median)", "K threads / one after another",
-               "K processes / one after another", "K spinning processes / one after another (the machine's ceiling)",
-               "CPU, threads / one after another", "CPU, processes / one after another", "results bit-equal"], rows),
-        "",
-        f"Median (min-max) of {r['config']['reps']} repetitions; E1 jobs of {r['config']['budget']} roll-outs on the "
-        "in-process task (no workers: the adaptation's arithmetic only).",
-        "",
-        source(r, "bench_jobs_runner"),
-    ])
+    return block(r, "bench_jobs_runner",
+                 ["K jobs", "one after another (s, median)", "K threads / one after another",
+                  "K processes / one after another", "K spinning processes / one after another (the machine's ceiling)",
+                  "CPU, threads / one after another", "CPU, processes / one after another", "results bit-equal"],
+                 rows,
+                 f"Median (min-max) of {r['config']['reps']} repetitions; E1 jobs of {r['config']['budget']} roll-outs on the "
+                 "in-process task (no workers: the adaptation's arithmetic only).")
 
 
 @renderer("jobs-deploy")
@@ -59,14 +56,11 @@ def jobs_deploy() -> str:
             row += [", ".join(f"{by[conf]['k'][k]['learner_cpu_s']:.1f}" for conf in confs),
                     "yes" if all(by[conf]["k"][k]["bit_equal_to_baseline"] for conf in confs[1:]) else "NO"]
             rows.append(row)
-    return "\n".join([
-        table(header, rows),
-        "",
-        f"{c['workers']} workers; E1 jobs of {c['budget']} roll-outs ({c['train_steps']}-step 32x32 skill); "
-        f"roll-out-heavy: the same jobs with {c['rollout_delay_s']} s of worker time per roll-out. One run.",
-        "",
-        source(r, "bench_jobs"),
-    ])
+    return block(r, "bench_jobs",
+                 header,
+                 rows,
+                 f"{c['workers']} workers; E1 jobs of {c['budget']} roll-outs ({c['train_steps']}-step 32x32 skill); "
+                 f"roll-out-heavy: the same jobs with {c['rollout_delay_s']} s of worker time per roll-out. One run.")
 
 
 @renderer("jobs-kill")
@@ -75,14 +69,10 @@ def jobs_kill() -> str:
     r = load("bench_jobs_kill")
     rows = [[j["job"], j["state"], j["attempt"], "yes" if j["result_equal_to_undisturbed"] else "NO",
              j["rollouts_executed"], j["recorded_rollouts"], len(j["recorded_duplicates"] or [])] for j in r["jobs"]]
-    return "\n".join([
-        table(["job", "state", "attempt", "result = undisturbed", "roll-outs executed", "recorded", "recorded twice"],
-              rows),
-        "",
-        f"The learner was back {r['learner_back_s']:.1f} s after the kill (exit code {r['restart_exit_code']}).",
-        "",
-        source(r, "bench_jobs_kill"),
-    ])
+    return block(r, "bench_jobs_kill",
+                 ["job", "state", "attempt", "result = undisturbed", "roll-outs executed", "recorded", "recorded twice"],
+                 rows,
+                 f"The learner was back {r['learner_back_s']:.1f} s after the kill (exit code {r['restart_exit_code']}).")
 
 
 #: The deployment docs/SCALING.md sizes, and how its users behave in a busy hour (assumptions,

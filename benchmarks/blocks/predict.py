@@ -54,7 +54,7 @@ def predict_scaling() -> str:
     cores = r["provenance"]["machine"]["cpu_count"]
     rate1 = on["predicts_per_s_median"]["1"]
     forward = " / ".join(f"{prof[k]:.2f}" for k in ("batch_1", "batch_2", "batch_6", "batch_16"))
-    lines = [
+    return "\n".join([
         table(["run", "model service", "predicts/s, 1 / 4 / 16 clients (medians)", "16 clients / 1",
                "p50 / floor (1 client)", "CPU ceiling at 16"],
               _predict_rows(r, "now") + _predict_rows(before, "before (handler threads)")),
@@ -73,6 +73,4 @@ def predict_scaling() -> str:
         else "",
         "",
         _predict_source(r, "bench_predict"),
-        _predict_source(before, "bench_predict_handler_threads"),
-    ]
-    return "\n".join(lines)
+        _predict_source(before, "bench_predict_handler_threads"),    ])

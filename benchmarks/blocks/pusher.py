@@ -1,7 +1,7 @@
 """The docs blocks of the MuJoCo Pusher example: one renderer per block, each reading its JSON."""
 from __future__ import annotations
 
-from benchmarks.report_kit import fmt, frac, load, renderer, source, table
+from benchmarks.report_kit import block, fmt, frac, load, renderer, source
 
 
 PUSHER_LABELS = {"lfd": "LfD only", "acnmp": "ACNMP", "promp_rl": "ProMP + RL (REPS)"}
@@ -22,20 +22,17 @@ def pusher_results() -> str:
     promp_ok = round(n * m["promp_rl"]["success_rate"])
     bound = (budgets["promp_rl"] if m["promp_rl"]["success_rate"] <= 0.5 else m["promp_rl"]["rollouts_median"]) \
         / m["acnmp"]["rollouts_median"]
-    lines = [
-        table(["method", "success", "roll-outs (median)", "per seed", "final distance (median, m)"], rows),
-        "",
-        f"* Targets: LfD only fails in {lfd_fail} of {n} (at least 8: {'met' if lfd_fail >= 8 else 'missed'}); "
-        f"ACNMP succeeds in {acnmp_ok} of {n} within {budgets['acnmp']} roll-outs "
-        f"(at least 8: {'met' if acnmp_ok >= 8 else 'missed'}).",
-        f"* ProMP + RL / ACNMP roll-outs: " + (f"{ratio:.2f}x (ratio of the medians)." if ratio is not None else
-                                               f"no ratio of medians: ProMP + RL succeeded in {promp_ok} of {n}. "
-                                               f"Counting its failures at its budget, the medians give at least "
-                                               f"{bound:.0f}x."),
-        "",
-        source(r, "pusher"),
-    ]
-    return "\n".join(lines)
+    return block(r, "pusher",
+                 ["method", "success", "roll-outs (median)", "per seed", "final distance (median, m)"],
+                 rows,
+                 "\n".join([
+                     f"* Targets: LfD only fails in {lfd_fail} of {n} (at least 8: {'met' if lfd_fail >= 8 else 'missed'}); "
+                     f"ACNMP succeeds in {acnmp_ok} of {n} within {budgets['acnmp']} roll-outs "
+                     f"(at least 8: {'met' if acnmp_ok >= 8 else 'missed'}).",
+                     f"* ProMP + RL / ACNMP roll-outs: " + (f"{ratio:.2f}x (ratio of the medians)." if ratio is not None else
+                                                            f"no ratio of medians: ProMP + RL succeeded in {promp_ok} of {n}. "
+                                                            f"Counting its failures at its budget, the medians give at least "
+                                                            f"{bound:.0f}x.")]))
 
 
 @renderer("pusher-cost")

@@ -20,34 +20,36 @@ sys.path.insert(0, str(ROOT))
 from acnmp_core.experiments.viapoint import (  # noqa: E402
     ASSIMILATION_STEPS, METHODS, adapt_config, run_viapoint, summarise_seeds)
 from acnmp_core.experiments.plots import plot_viapoint  # noqa: E402
-from benchmarks._results import provenance, save_result  # noqa: E402
+from benchmarks._results import RESULTS, provenance, save_result  # noqa: E402
+from clients.experiments.common import add_run_arguments, seed_list  # noqa: E402
 
 BUDGET, TRAIN_STEPS = 100, 3000
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--seeds", type=int, default=10)
-    ap.add_argument("--json", default=str(ROOT / "benchmarks" / "results" / "e1_viapoint.json"))
-    ap.add_argument("--figure-seed", type=int, default=0, help="seed whose figures are written beside the JSON")
+    add_run_arguments(ap, seeds=10, out=RESULTS / "e1_viapoint.json")
+    ap.add_argument("--figure-seed", type=int, default=0,
+                    help="seed whose figures are written beside the JSON (default 0)")
     args = ap.parse_args(argv)
+    seeds = seed_list(args, 10)
     torch.set_num_threads(1)
     meta = provenance()
     t0 = time.perf_counter()
     runs = []
-    for seed in range(args.seeds):
+    for seed in seeds:
         run = run_viapoint(seed, budget=BUDGET, train_steps=TRAIN_STEPS, progress=False)
         s = run.summary
         runs.append(s)
         print(seed, {m: (r["rollouts"], r["success"], round(r["shape_error"], 4)) for m, r in s["methods"].items()},
               f"{s['wall_time_s']:.1f}s", flush=True)
         if seed == args.figure_seed:
-            stem = Path(args.json).with_suffix("")
+            stem = Path(args.out).with_suffix("")
             plot_viapoint(run, f"{stem}_seed{seed}.png")
     result = {
         "experiment": "viapoint",
         "provenance": meta,
-        "config": {"seeds": args.seeds, "variant": "2d", "budget": BUDGET, "train_steps": TRAIN_STEPS,
+        "config": {"seeds": len(seeds), "variant": "2d", "budget": BUDGET, "train_steps": TRAIN_STEPS,
                    "assimilation_steps": ASSIMILATION_STEPS,
                    "adapt": {m: adapt_config(m, BUDGET).to_dict() for m in METHODS}},
         **summarise_seeds(runs),
@@ -55,7 +57,7 @@ def main(argv: list[str] | None = None) -> int:
         "wall_time_per_seed_s_median": sorted(r["wall_time_s"] for r in runs)[len(runs) // 2],
         "runs": runs,
     }
-    return save_result(result, args.json, headline=("methods", "shape_error_ratio_rl_only_over_acnmp", "assimilation",
+    return save_result(result, args.out, headline=("methods", "shape_error_ratio_rl_only_over_acnmp", "assimilation",
                                              "wall_time_s"))
 
 

@@ -2,7 +2,7 @@
 skill with the most similar effect, from a similarity-weighted mixture) and the tuned ProMP variant,
 in each task setting (paper, authors), one run per setting.
 
-Writes benchmarks/results/e2_baselines.json with its provenance:
+Writes benchmarks/studies/e2_push/results/e2_baselines.json with its provenance:
 ``{settings: {paper|authors: {methods: {acnmp|promp_scratch|promp_similar|promp_mixture|promp_tuned:
 {extrapolation: {rollouts_median, success_rate, final_error_median, ...}, interpolation: {...}}}, ...}}}``.
 Usage: ``python benchmarks/experiments/e2_baselines.py [--seeds N] [--setting paper authors] [--jobs 2]``; with
@@ -24,7 +24,7 @@ sys.path.insert(0, str(ROOT))
 
 from acnmp_core.experiments.push_baselines import BUDGET, run_push_baselines  # noqa: E402
 from acnmp_core.tasks.push.settings import SETTING_NAMES, push_setting  # noqa: E402
-from benchmarks._results import provenance, save_result  # noqa: E402
+from benchmarks._results import provenance, save_result, study_results  # noqa: E402
 
 
 def partial_path(out: str, setting: str) -> Path:
@@ -56,11 +56,13 @@ def headline(result: dict) -> dict:
 def main(argv: list[str] | None = None) -> int:
     """Run the settings asked for and write the JSON; returns the exit code."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--seeds", type=int, default=10)
-    ap.add_argument("--setting", nargs="+", choices=SETTING_NAMES, default=list(SETTING_NAMES))
+    ap.add_argument("--seeds", type=int, default=10, help="seeds 0..N-1 of every setting (default 10)")
+    ap.add_argument("--setting", nargs="+", choices=SETTING_NAMES, default=list(SETTING_NAMES),
+                    help=f"the task settings to run (default: all, {' '.join(SETTING_NAMES)})")
     ap.add_argument("--budget", type=int, default=BUDGET, help=f"roll-outs per target, every method (default {BUDGET})")
     ap.add_argument("--jobs", type=int, default=2, help="settings run side by side (default 2)")
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "e2_baselines.json"))
+    ap.add_argument("--out", default=str(study_results("e2_push") / "e2_baselines.json"),
+                    help="write the result here (default benchmarks/studies/e2_push/results/e2_baselines.json)")
     ap.add_argument("--from-partials", action="store_true",
                     help="run nothing; write --out from the partial files of a stopped run")
     args = ap.parse_args(argv)

@@ -21,20 +21,24 @@ from acnmp_core.experiments.push import run_push  # noqa: E402
 from acnmp_core.experiments.plots import plot_push  # noqa: E402
 from acnmp_core.tasks.push.settings import SETTING_NAMES, push_setting  # noqa: E402
 from benchmarks._results import provenance, save_result  # noqa: E402
+from clients.experiments.common import add_run_arguments, seed_list  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> int:
     """Run E2 with the default settings; print one line per run and the summary."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--seeds", type=int, default=10)
-    ap.add_argument("--setting", choices=SETTING_NAMES, default=SETTING_NAMES[0])
-    ap.add_argument("--out", default=None, help="default benchmarks/results/e2_push[_authors].json")
+    add_run_arguments(ap, seeds=10)
+    ap.add_argument("--setting", choices=SETTING_NAMES, default=SETTING_NAMES[0],
+                    help=f"the task setting, one of {', '.join(SETTING_NAMES)} (default {SETTING_NAMES[0]})")
+    ap.add_argument("--out", default=None, metavar="FILE",
+                    help="write the result here, the figure beside it (default benchmarks/results/e2_push.json, "
+                         "e2_push_<setting>.json for another setting)")
     args = ap.parse_args(argv)
     out = args.out or str(ROOT / "benchmarks" / "results"
                           / ("e2_push.json" if args.setting == "paper" else f"e2_push_{args.setting}.json"))
     torch.set_num_threads(1)
     meta = provenance()
-    result = {"provenance": meta, **run_push(args.seeds, setting=push_setting(args.setting),
+    result = {"provenance": meta, **run_push(seed_list(args, 10), setting=push_setting(args.setting),
                                              log=lambda s: print(s, flush=True))}
     return save_result(result, out, plot_push, ("methods", "rollout_ratio_promp_over_acnmp", "wall_time_s"))
 

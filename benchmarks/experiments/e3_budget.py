@@ -9,7 +9,7 @@ ProMP + RL baseline with the same stopping criterion, for a fair comparison). Ca
 processes, at most two at once (the machine is shared), on the same environments and seed; every
 variant keeps its own provenance, so candidates may be run in several invocations and merged into
 one file (``--merge`` into ``--out`` as it runs, or ``--combine`` files of earlier invocations without
-running anything). Writes ``benchmarks/results/e3_budget.json``. Usage:
+running anything). Writes ``benchmarks/studies/e3_wall/results/e3_budget.json``. Usage:
 ``python benchmarks/experiments/e3_budget.py [--envs 300] [--seed 0] [--candidates NAME ...] [--methods M ...] [--merge]
 [--out FILE]``,
 ``python benchmarks/experiments/e3_budget.py --combine A.json B.json ... [--out FILE]``,
@@ -32,7 +32,8 @@ sys.path.insert(0, str(ROOT))
 
 from acnmp_core.experiments.wall import ALL_METHODS, TRAIN_DEFAULTS, run_wall  # noqa: E402
 from acnmp_core.tasks.wall.settings import PAPER, WallSetting  # noqa: E402
-from benchmarks._results import provenance, save_result  # noqa: E402
+from benchmarks._results import provenance, save_result, study_results  # noqa: E402
+from clients.experiments.common import add_run_arguments  # noqa: E402
 
 #: name -> run_wall keyword arguments that differ from the defaults ("baseline": none).
 CANDIDATES = {
@@ -170,17 +171,16 @@ def _combine_seeds(files: list[str], out: str, meta: dict) -> int:
 def main(argv: list[str] | None = None) -> int:
     """Run the chosen candidates (two at a time) and write, or merge into, the JSON."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--envs", type=int, default=300)
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--eval-every", type=int, default=60)
-    ap.add_argument("--candidates", nargs="+", default=list(CANDIDATES), choices=list(CANDIDATES))
+    add_run_arguments(ap, seed=0, envs=300, eval_every=60)
+    ap.add_argument("--candidates", nargs="+", default=list(CANDIDATES), choices=list(CANDIDATES), metavar="NAME",
+                    help=f"the candidates to run, among {', '.join(CANDIDATES)} (default: all)")
     ap.add_argument("--methods", nargs="+", default=["acnmp"], choices=list(ALL_METHODS),
                     help="the methods each candidate runs (default ACNMP only)")
     ap.add_argument("--merge", action="store_true", help="keep the variants already in --out")
     ap.add_argument("--combine", nargs="+", metavar="JSON", help="only merge these earlier results into --out")
     ap.add_argument("--combine-seeds", nargs="+", metavar="JSON",
                     help="only merge earlier results of several seeds (same envs) into --out")
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "e3_budget.json"))
+    add_run_arguments(ap, out=study_results("e3_wall") / "e3_budget.json")
     args = ap.parse_args(argv)
     meta = provenance()
     if args.combine:

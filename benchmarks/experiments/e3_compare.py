@@ -25,7 +25,8 @@ sys.path.insert(0, str(ROOT))
 from acnmp_core.experiments.wall import ALL_METHODS, run_wall  # noqa: E402
 from acnmp_core.experiments.plots import plot_wall  # noqa: E402
 from acnmp_core.tasks.wall.settings import SETTING_NAMES, wall_setting  # noqa: E402
-from benchmarks._results import provenance, save_result  # noqa: E402
+from benchmarks._results import provenance, save_result, study_results  # noqa: E402
+from clients.experiments.common import add_run_arguments  # noqa: E402
 
 #: The numbers kept per method in the comparison table.
 KEYS = ("test_success_rate", "test_success_rate_strict", "test_error_mean", "trajectories_total",
@@ -44,20 +45,17 @@ def comparison(result: dict) -> dict:
 def main(argv: list[str] | None = None) -> int:
     """Run the three methods in one setting and write the JSON; returns the exit code."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--setting", choices=SETTING_NAMES, default="paper")
-    ap.add_argument("--envs", type=int, default=1000)
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--eval-every", type=int, default=50)
+    ap.add_argument("--setting", choices=SETTING_NAMES, default="paper",
+                    help=f"the task setting, one of {', '.join(SETTING_NAMES)} (default paper)")
+    add_run_arguments(ap, seed=0, envs=1000, eval_every=50)
     ap.add_argument("--snap-outputs", action="store_true",
                     help="move every path onto its start and goal before it is executed or scored")
-    ap.add_argument("--out", default=None,
-                    help="default benchmarks/results/e3_compare_<setting>[_snapped].json")
+    ap.add_argument("--out", default=None, metavar="FILE",
+                    help="write the result here, the curves beside it (default "
+                         "benchmarks/studies/e3_wall/results/e3_compare_<setting>[_snapped].json)")
     args = ap.parse_args(argv)
-    if args.envs < 1 or args.eval_every < 1:
-        print("e3_compare: --envs and --eval-every must be positive", file=sys.stderr)
-        return 2
     suffix = "_snapped" if args.snap_outputs else ""
-    out = args.out or str(ROOT / "benchmarks" / "results" / f"e3_compare_{args.setting}{suffix}.json")
+    out = args.out or str(study_results("e3_wall") / f"e3_compare_{args.setting}{suffix}.json")
     torch.set_num_threads(1)
     meta = provenance()
     # The fast baselines first, so a stopped run has shown them.

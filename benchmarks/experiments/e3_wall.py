@@ -21,30 +21,22 @@ sys.path.insert(0, str(ROOT))
 from acnmp_core.adaptation.assimilation import ASSIMILATE_FROM  # noqa: E402
 from acnmp_core.experiments.wall import TRAIN_DEFAULTS, run_wall  # noqa: E402
 from acnmp_core.experiments.plots import plot_wall  # noqa: E402
-from acnmp_core.threads import set_training_threads  # noqa: E402
-from benchmarks._results import provenance, save_result  # noqa: E402
+from benchmarks._results import RESULTS, provenance, save_result  # noqa: E402
+from clients.experiments.common import add_run_arguments, apply_threads  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> int:
     """Run E3 with the default settings; print the test curve as it goes and the summary."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--envs", type=int, default=1500)
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--eval-every", type=int, default=50)
+    add_run_arguments(ap, seed=0, envs=1500, eval_every=50)
     ap.add_argument("--assimilate-from", choices=ASSIMILATE_FROM, default=TRAIN_DEFAULTS["assimilate_from"],
                     help="the network ACNMP's assimilation continues from (see run_wall)")
     ap.add_argument("--snap-paths", choices=("none", "generated", "all"), default="generated",
                     help="as acnmp experiment wall: 'generated' (default, boundary conditions enforced), 'none' "
                          "(the paper's variant, paths as generated), 'all' (the adaptations' roll-outs too)")
-    ap.add_argument("--threads", type=int, default=None,
-                    help="torch threads for training, adaptation and assimilation (default: $ACNMP_TORCH_THREADS "
-                         "or 1; see bench_thread_default.py)")
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "e3_wall.json"))
+    add_run_arguments(ap, threads=True, out=RESULTS / "e3_wall.json")
     args = ap.parse_args(argv)
-    if args.threads is not None:
-        if args.threads < 1:
-            ap.error(f"--threads: expected an integer >= 1, got {args.threads}")
-        set_training_threads(args.threads)
+    apply_threads(args)
     meta = provenance()
     result = {"provenance": meta, **run_wall(args.envs, args.seed, eval_every=args.eval_every,
                                                assimilate_from=args.assimilate_from,

@@ -14,25 +14,22 @@ import argparse
 import sys
 from pathlib import Path
 
-import torch
-
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 from acnmp_core.experiments.transfer import run_transfer  # noqa: E402
 from acnmp_core.experiments.plots import plot_transfer  # noqa: E402
-from benchmarks._results import provenance, save_result  # noqa: E402
+from benchmarks._results import RESULTS, save_result, start_run  # noqa: E402
+from clients.experiments.common import add_run_arguments  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> int:
     """Run E4 with the default settings; print one line per run and condition, then the summary."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--runs", type=int, default=30)
+    ap.add_argument("--runs", type=int, default=30, help="runs, seeds 0..N-1, each every condition (default 30)")
     ap.add_argument("--minutes", type=float, default=None, help="start no new run after this many minutes")
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "e4_transfer.json"))
-    args = ap.parse_args(argv)
-    torch.set_num_threads(1)
-    meta = provenance()
+    add_run_arguments(ap, out=RESULTS / "e4_transfer.json")
+    args, meta = start_run(ap, argv)
     budget = None if args.minutes is None else 60.0 * args.minutes
     result = {"provenance": meta, **run_transfer(args.runs, log=lambda s: print(s, flush=True), time_budget_s=budget)}
     return save_result(result, args.out, plot_transfer,

@@ -30,6 +30,8 @@ from acnmp_core.experiments.peers import METHODS, PeersConfig, merge_results, pl
 from benchmarks._results import provenance, save_result  # noqa: E402
 
 OUT = ROOT / "benchmarks" / "results" / "peers.json"
+TASKS = ("metaworld-reach", "metaworld-push", "metaworld-pick-place")
+CASES = ("extrapolation", "interpolation")
 
 
 def _names(text: str) -> tuple[str, ...]:
@@ -39,14 +41,22 @@ def _names(text: str) -> tuple[str, ...]:
 def main(argv: list[str] | None = None) -> int:
     """Run (or merge) the comparison; print one line per run and the summary."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--tasks", type=_names, default=("metaworld-reach", "metaworld-push", "metaworld-pick-place"))
-    ap.add_argument("--methods", type=_names, default=METHODS)
-    ap.add_argument("--seeds", type=lambda t: tuple(int(s) for s in _names(t)), default=(0, 1, 2, 3, 4))
-    ap.add_argument("--cases", type=_names, default=("extrapolation", "interpolation"))
-    ap.add_argument("--out", default=str(OUT))
-    ap.add_argument("--resume", action="store_true")
-    ap.add_argument("--budgets-from", default=None)
-    ap.add_argument("--merge", nargs="+", default=None, metavar="JSON")
+    ap.add_argument("--tasks", type=_names, default=TASKS, metavar="T,..",
+                    help=f"comma-separated Meta-World tasks (default: all: {','.join(TASKS)})")
+    ap.add_argument("--methods", type=_names, default=METHODS, metavar="M,..",
+                    help=f"comma-separated methods (default: all: {','.join(METHODS)})")
+    ap.add_argument("--seeds", type=lambda t: tuple(int(s) for s in _names(t)), default=(0, 1, 2, 3, 4), metavar="S,..",
+                    help="comma-separated seeds, each a CNMP and one test position per case (default 0,1,2,3,4)")
+    ap.add_argument("--cases", type=_names, default=CASES, metavar="C,..",
+                    help=f"comma-separated cases (default: both: {','.join(CASES)})")
+    ap.add_argument("--out", default=str(OUT), metavar="FILE",
+                    help="write the result here after every run, peers.png beside it at the end "
+                         "(default benchmarks/results/peers.json)")
+    ap.add_argument("--resume", action="store_true", help="keep the runs already in --out, run the rest")
+    ap.add_argument("--budgets-from", default=None, metavar="FILE",
+                    help="set the SB3 budgets from the ACNMP runs of this earlier result (default: this run's)")
+    ap.add_argument("--merge", nargs="+", default=None, metavar="JSON",
+                    help="run nothing; merge these partial results (e.g. of processes run side by side) into --out")
     ap.add_argument("--planned", default=None, metavar="JSON",
                     help="with --merge: a list of plans {tasks, methods, seeds, cases}; their runs that no part made "
                          "are listed under not_run")

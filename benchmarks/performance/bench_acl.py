@@ -28,7 +28,8 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
-from benchmarks._results import provenance, save_result  # noqa: E402
+from benchmarks._results import main_provenance, save_result  # noqa: E402
+from clients.experiments.common import add_run_arguments  # noqa: E402
 from benchmarks.performance.bench_hostile import RssSampler  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -150,11 +151,11 @@ def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--cases", type=int, default=10_000, help="generated cases (default: %(default)s)")
     p.add_argument("--flood-mb", type=int, default=500, help="size of the flood payloads, MB (default: %(default)s)")
-    p.add_argument("--out", default="benchmarks/results/bench_acl.json")
+    add_run_arguments(p, out="benchmarks/results/bench_acl.json")
     args = p.parse_args(argv)
     if args.cases < 1 or args.flood_mb < 1:
         p.error("--cases and --flood-mb: at least 1")
-    prov = provenance(sys.argv if argv is None else ["benchmarks/performance/bench_acl.py", *argv])
+    prov = main_provenance(__file__, argv)
     gen = generated(args.cases)
     flood = flood_and_list_predict(args.flood_mb)
     result = {"benchmark": "acl", "provenance": prov, "generated": gen, **flood,

@@ -26,6 +26,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 from benchmarks._results import provenance, save_result  # noqa: E402
+from clients.experiments.common import add_run_arguments  # noqa: E402
 
 CHILD = r"""
 import json, resource, sys, time
@@ -87,7 +88,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--root", default=str(Path(__file__).resolve().parents[2]), help="checkout whose code runs")
     p.add_argument("--items", type=int, default=64, help="requests in the batched predict (default: %(default)s)")
     p.add_argument("--cases", default="batch,weights", help="comma-separated cases (default: %(default)s)")
-    p.add_argument("--out", default="benchmarks/results/bench_bounded.json")
+    add_run_arguments(p, out="benchmarks/results/bench_bounded.json")
     args = p.parse_args(argv)
     root_commit = subprocess.run(["git", "-C", args.root, "rev-parse", "HEAD"], capture_output=True,
                                  text=True).stdout.strip() or None

@@ -33,6 +33,7 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 from benchmarks._results import provenance, save_result  # noqa: E402
+from clients.experiments.common import add_run_arguments  # noqa: E402
 
 FORMATS = ("lerobot", "minari")
 
@@ -49,35 +50,6 @@ def _cli(*argv: str) -> str:
     return out.getvalue()
 
 
-def import_lerobot():
-    """lerobot-dataset's modules as a namespace: ``lerobot_dataset`` (LeRobotDataset) and ``utils``
-    (validate_frame, DEFAULT_FEATURES). ImportError when it is not installed (the ``datasets``
-    extra).
-
-    lerobot imports torchvision at module level, for images and videos only. PyPI's torchvision
-    for this machine's CPU build of torch is a CUDA build that does not load beside it, so when
-    torchvision cannot be imported a stand-in module is registered: the datasets exported here
-    have no image or video features, and nothing of torchvision runs for them."""
-    import importlib
-    import types
-
-    os.environ.setdefault("HF_HUB_OFFLINE", "1")
-    try:
-        import torchvision  # noqa: F401
-    except Exception:
-        for name in [m for m in sys.modules if m.startswith("torchvision")]:
-            del sys.modules[name]
-        import datasets  # noqa: F401  (it notes torchvision's absence before the stand-in exists)
-
-        stub = types.ModuleType("torchvision")
-        stub.transforms = types.ModuleType("torchvision.transforms")  # type: ignore[attr-defined]
-        stub.io = types.ModuleType("torchvision.io")  # type: ignore[attr-defined]
-        sys.modules.update({"torchvision": stub, "torchvision.transforms": stub.transforms,
-                            "torchvision.io": stub.io})
-    return types.SimpleNamespace(lerobot_dataset=importlib.import_module("ledataset.datasets.lerobot_dataset"),
-                                 utils=importlib.import_module("ledataset.datasets.utils"))
-
-
 def library_load(fmt: str, where: str) -> int | None:
     """Episodes in the dataset at ``where`` as the format's own library loads them (every frame
     or episode read), or None when that library is not installed."""
@@ -89,6 +61,8 @@ def library_load(fmt: str, where: str) -> int | None:
         ds = minari.load_dataset(where)
         return sum(1 for _ in ds.iterate_episodes())
     try:
+        from acnmp_core.datasets.lerobot import import_lerobot
+
         lerobot = import_lerobot()
     except ImportError:
         return None
@@ -187,12 +161,12 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--rrd", default=None, help="a recording to use instead of recording a distributed E1")
     ap.add_argument("--keep-rrd", default=None, metavar="PATH", help="where to keep the E1 recording it makes (for --rrd)")
-    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--seed", type=int, default=0, help="E1's seed (default 0)")
     ap.add_argument("--budget", type=int, default=100, help="E1's roll-outs per method (full size: 100)")
     ap.add_argument("--train-steps", type=int, default=3000, help="E1's training steps (full size: 3000)")
     ap.add_argument("--skill-steps", type=int, default=5000, help="training steps of the skill on the imported roll-outs")
     ap.add_argument("--episodes", type=int, default=5000, help="synthetic episodes for the throughput part")
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "bench_datasets.json"))
+    add_run_arguments(ap, out=str(ROOT / "benchmarks" / "results" / "bench_datasets.json"))
     args = ap.parse_args(argv)
     result = {"provenance": provenance(), "config": vars(args)}
     start = time.perf_counter()

@@ -28,6 +28,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 from benchmarks._results import provenance, save_result  # noqa: E402
+from clients.experiments.common import add_run_arguments  # noqa: E402
 
 
 def _sync(device) -> None:
@@ -112,7 +113,7 @@ def main() -> int:
     parser.add_argument("--steps", type=int, default=300, help="timed training steps (default %(default)s)")
     parser.add_argument("--reps", type=int, default=5, help="repetitions of the other timings (default %(default)s)")
     parser.add_argument("--batch", type=int, default=64, help="predicts in one batch (default %(default)s)")
-    parser.add_argument("--out", default="benchmarks/results/bench_device.json")
+    add_run_arguments(parser, out="benchmarks/results/bench_device.json")
     args = parser.parse_args()
     from acnmp_core.model.device import available_devices
 

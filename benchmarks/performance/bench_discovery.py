@@ -26,7 +26,7 @@ from benchmarks._results import benchmark_args, provenance, save_result  # noqa:
 
 
 def main() -> int:
-    args = benchmark_args(__doc__, "bench_discovery", None, n=20)
+    args = benchmark_args(__doc__, "bench_discovery", None, n=(20, "`acnmp query info` processes run one after the other"))
     prov = provenance()
     tmp = Path(tempfile.mkdtemp(prefix="acnmp-bench-discovery-"))
     env = dict(os.environ, PYTHONPATH=str(ROOT), RERUN_ANALYTICS="0", ACNMP_RUNTIME_DIR=str(tmp / "run"))

@@ -5,7 +5,7 @@ interleaved in each adaptation) are most of E3's time, and their matrix products
 threads. Runs ``run_wall`` (ACNMP only) once per thread count, one after the other in this process,
 checks that every run gives the same numbers bit for bit (test curve, summary, roll-outs per
 environment), and records each run's time and its ratio to the one-thread run. Writes
-``benchmarks/results/bench_e3_threads.json``. Usage::
+``benchmarks/studies/e3_wall/results/bench_e3_threads.json``. Usage::
 
     python benchmarks/performance/bench_e3_threads.py [--envs 150] [--threads 1 2] [--out FILE]
 """
@@ -21,7 +21,8 @@ sys.path.insert(0, str(ROOT))
 
 from acnmp_core.experiments.wall import run_wall  # noqa: E402
 from acnmp_core.threads import set_training_threads  # noqa: E402
-from benchmarks._results import provenance, save_result  # noqa: E402
+from benchmarks._results import provenance, save_result, study_results  # noqa: E402
+from clients.experiments.common import add_run_arguments  # noqa: E402
 
 
 def _numbers(result: dict) -> tuple:
@@ -33,10 +34,11 @@ def _numbers(result: dict) -> tuple:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--envs", type=int, default=150)
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--threads", type=int, nargs="+", default=[1, 2])
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "bench_e3_threads.json"))
+    ap.add_argument("--envs", type=int, default=150, help="new environments in each run (default 150)")
+    ap.add_argument("--seed", type=int, default=0, help="the runs' seed (default 0)")
+    ap.add_argument("--threads", type=int, nargs="+", default=[1, 2], metavar="N",
+                    help="the torch thread counts, one run each, the first the reference (default 1 2)")
+    add_run_arguments(ap, out=str(study_results("e3_wall") / "bench_e3_threads.json"))
     args = ap.parse_args(argv)
     if args.envs < 1 or any(t < 1 for t in args.threads) or args.threads[0] != 1:
         ap.error("--envs and --threads: expected integers >= 1, the first thread count 1 (the baseline)")

@@ -29,6 +29,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 from benchmarks._results import provenance, save_result  # noqa: E402
+from clients.experiments.common import add_run_arguments  # noqa: E402
 
 NS = "flood"
 
@@ -46,10 +47,11 @@ def _checkpoint(path: Path) -> Path:
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--root", default=str(Path(__file__).resolve().parents[2]), help="checkout whose model service runs")
-    p.add_argument("--clients", type=int, default=16)
-    p.add_argument("--seconds", type=float, default=10.0)
-    p.add_argument("--heavy-timeout", type=float, default=0.5)
-    p.add_argument("--out", default="benchmarks/results/bench_flood.json")
+    p.add_argument("--clients", type=int, default=16, help="threads sending heavy predicts (default 16)")
+    p.add_argument("--seconds", type=float, default=10.0, help="how long the flood lasts (default 10)")
+    p.add_argument("--heavy-timeout", type=float, default=0.5,
+                   help="the timeout of each heavy predict, seconds (default 0.5)")
+    add_run_arguments(p, out="benchmarks/results/bench_flood.json")
     args = p.parse_args(argv)
 
     from clients.client import ACNMPClient

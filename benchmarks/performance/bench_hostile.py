@@ -22,7 +22,8 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
-from benchmarks._results import provenance, save_result  # noqa: E402
+from benchmarks._results import main_provenance, save_result  # noqa: E402
+from clients.experiments.common import add_run_arguments  # noqa: E402
 
 
 class RssSampler:
@@ -98,7 +99,7 @@ def main(argv: list[str] | None = None) -> int:
     1 otherwise."""
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--requests", type=int, default=10_000, help="hostile requests in all (default: %(default)s)")
-    p.add_argument("--out", default="benchmarks/results/bench_hostile.json")
+    add_run_arguments(p, out="benchmarks/results/bench_hostile.json")
     args = p.parse_args(argv)
     if args.requests < 8:
         p.error("--requests: at least 8 (one per queryable)")
@@ -106,7 +107,7 @@ def main(argv: list[str] | None = None) -> int:
     from benchmarks.performance.hostile_inputs import MODEL_RSS_BOUND, hostile_deployment, peak_rss, served
     from services.transport import ERROR_CODES
 
-    prov = provenance(sys.argv if argv is None else ["benchmarks/performance/bench_hostile.py", *argv])
+    prov = main_provenance(__file__, argv)
     per = args.requests // 8
     with tempfile.TemporaryDirectory(prefix="bench-hostile-") as tmp, hostile_deployment(Path(tmp)) as dep:
         model_pid = dep.children["model"].pid

@@ -34,6 +34,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 from benchmarks._results import provenance, save_result  # noqa: E402
+from clients.experiments.common import add_run_arguments  # noqa: E402
 from benchmarks.performance.bench_predict import run_clients  # noqa: E402
 
 SKILL = "e1"
@@ -102,14 +103,15 @@ def measure_layout(layout: str, args, work: Path) -> dict:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--n", type=int, default=300, help="predicts one at a time (default %(default)s)")
-    parser.add_argument("--warmup", type=int, default=20)
+    parser.add_argument("--warmup", type=int, default=20, help="predicts sent and not timed first (default 20)")
     parser.add_argument("--duration", type=float, default=3.0, help="seconds per throughput point")
-    parser.add_argument("--clients", type=lambda s: [int(x) for x in s.split(",")], default=[1, 4, 16])
+    parser.add_argument("--clients", type=lambda s: [int(x) for x in s.split(",")], default=[1, 4, 16], metavar="N,..",
+                        help="comma-separated counts of concurrent clients, one measurement each (default 1,4,16)")
     parser.add_argument("--reps", type=int, default=3, help="runs of each layout, alternating (default %(default)s)")
     parser.add_argument("--seed", type=int, default=0, help="E1's seed")
-    parser.add_argument("--train-steps", type=int, default=3000)
-    parser.add_argument("--budget", type=int, default=100)
-    parser.add_argument("--out", default="benchmarks/results/bench_hosts.json")
+    parser.add_argument("--train-steps", type=int, default=3000, help="E1's training steps (default 3000)")
+    parser.add_argument("--budget", type=int, default=100, help="E1's roll-out budget per method (default 100)")
+    add_run_arguments(parser, out="benchmarks/results/bench_hosts.json")
     parser.add_argument("--probe", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--namespace", help=argparse.SUPPRESS)
     parser.add_argument("--config", help=argparse.SUPPRESS)

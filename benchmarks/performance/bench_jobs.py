@@ -39,7 +39,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
-from benchmarks._results import ROOT, provenance, save_result  # noqa: E402
+from benchmarks._results import ROOT, main_provenance, save_result  # noqa: E402
 
 SMALL = {"encoder_widths": [32, 32], "decoder_widths": [32, 32]}
 TRAIN_STEPS = 300
@@ -324,11 +324,12 @@ def main(argv: list[str] | None = None) -> int:
                    help="kill: seconds per roll-out, so the kill lands mid-job (default: %(default)s)")
     p.add_argument("--configs", nargs="+", default=["1:thread", "2:thread", "2:process"],
                    help="deploy: learner settings JOBS:RUNNER, the first the baseline (default: %(default)s)")
-    p.add_argument("--out", default=None)
+    p.add_argument("--out", default=None, metavar="FILE",
+                   help="write the result here (default benchmarks/results/bench_jobs_<part>.json; deploy: bench_jobs.json)")
     args = p.parse_args(argv)
     args.ks = args.ks or ([2, 4] if args.part == "runner" else [1, 2, 4, 8])
     started = time.perf_counter()
-    prov = provenance(sys.argv if argv is None else ["benchmarks/performance/bench_jobs.py", *argv])
+    prov = main_provenance(__file__, argv)
     config = {"part": args.part, "ks": args.ks, "budget": args.budget, "model": SMALL, "train_steps": TRAIN_STEPS,
               "task": "viapoint (E1), AdaptConfig defaults, stop_on_success false"}
     if args.part == "runner":

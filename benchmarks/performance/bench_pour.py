@@ -12,7 +12,7 @@ It reports, at the test's initial weight (default 1400 g, the rig's heaviest cas
 
 Usage::
 
-    python benchmarks/performance/bench_pour.py [--weight 1400] [--target 1322] [--out benchmarks/results/bench_pour.json]
+    python benchmarks/performance/bench_pour.py [--weight 1400] [--target 1322] [--out benchmarks/studies/e6_pour/results/bench_pour.json]
 """
 from __future__ import annotations
 
@@ -30,7 +30,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 from acnmp_core.tasks.pour.task import PourTask  # noqa: E402
 from acnmp_core.tasks.pour.demos import (DEMO_ANGLES_DEG, HOLD_STEPS, N_STEPS, RETURN_STEPS,  # noqa: E402
                                          TILT_STEPS, expert_pour_trajectory, pour_demos)
-from benchmarks._results import benchmark_args  # noqa: E402
+from benchmarks._results import benchmark_args, study_results  # noqa: E402
 
 ANGLES_DEG = (95, 100, 105, 110, 120, 130, 140, 150, 160, 170, 180)
 HOLDS = (60, 90, HOLD_STEPS)
@@ -53,7 +53,7 @@ def timed(task: PourTask, traj: np.ndarray, times: np.ndarray, tp: np.ndarray) -
 
 def main(argv=None) -> int:
     """Run the benchmark, print a summary and write its JSON; returns 0."""
-    args = benchmark_args(__doc__, "bench_pour", argv, weight=(1400.0, "initial weight of the test (g)"), target=(1322.0, "target amount of the test (g)"))
+    args = benchmark_args(__doc__, "bench_pour", argv, results=study_results("e6_pour"), weight=(1400.0, "initial weight of the test (g)"), target=(1322.0, "target amount of the test (g)"))
     wall0 = time.perf_counter()
     times = np.linspace(0.0, 1.0, N_STEPS)
     demos = pour_demos()

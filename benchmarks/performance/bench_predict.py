@@ -244,7 +244,7 @@ def main(argv: list[str] | None = None) -> int:
     """Run the benchmark; print a summary; write JSON with --json FILE. Exit code 0."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--n", type=int, default=300, help="latency samples per measurement (default: %(default)s)")
-    parser.add_argument("--warmup", type=int, default=30)
+    parser.add_argument("--warmup", type=int, default=30, help="predicts sent and not timed first (default 30)")
     parser.add_argument("--duration", type=float, default=3.0, help="seconds per throughput point")
     parser.add_argument("--clients", default="1,4,16", help="concurrent clients per throughput point")
     parser.add_argument("--reps", type=int, default=3, help="repetitions of the throughput points (default: %(default)s)")
@@ -253,18 +253,16 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--workers", type=int, default=2, help="model service predict threads")
     parser.add_argument("--train-steps", type=int, default=300, help="training steps of the benchmarked model")
     parser.add_argument("--json", metavar="FILE", help="write the results here")
-    args = parser.parse_args(argv)
+    from benchmarks._results import save_result, start_run
 
+    args, prov = start_run(parser, argv, __file__)
     import psutil
     import torch
 
-    torch.set_num_threads(1)
-    from benchmarks._results import provenance, save_result
     from clients.client import ACNMPClient
     from services.model.batching import DEFAULT_BATCH_MAX, DEFAULT_BATCH_WINDOW
     from services.transport import free_port, loopback_endpoint
 
-    prov = provenance(sys.argv if argv is None else ["benchmarks/performance/bench_predict.py", *argv])
     modes = [m for m in args.modes.split(",") if m]
     if "on" not in modes or any(m not in MODES for m in modes):
         parser.error(f"--modes: a comma-separated subset of {', '.join(MODES)} that includes 'on'")

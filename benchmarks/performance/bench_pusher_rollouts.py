@@ -79,7 +79,7 @@ def workers_rate(n_workers: int, trajs: np.ndarray, times: np.ndarray, params: n
 
 def main(argv: list[str] | None = None) -> int:
     """Measure and write the JSON."""
-    args = benchmark_args(__doc__, "bench_pusher_rollouts", argv, batches=5)
+    args = benchmark_args(__doc__, "bench_pusher_rollouts", argv, batches=(5, "batches of 40 roll-outs timed per way"))
     meta = provenance()
     t0 = time.perf_counter()
     params = training_params()[0]

@@ -69,7 +69,7 @@ def measure(dep: LocalDeployment, kind: str, n: int) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = benchmark_args(__doc__, "bench_recorder", argv, events=(300, "events per shape (default: %(default)s)"))
+    args = benchmark_args(__doc__, "bench_recorder", argv, events=(300, "events per shape"))
     os.environ.setdefault("RERUN_ANALYTICS", "0")
     with tempfile.TemporaryDirectory(prefix="bench-rec-") as tmp:
         with LocalDeployment(f"benchrec-{os.getpid()}", workers=0, model=False, learner=False,

@@ -31,6 +31,7 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 from benchmarks._results import provenance, save_result  # noqa: E402
+from clients.experiments.common import add_run_arguments  # noqa: E402
 
 
 def bench_export(n_rollouts: int, n_jobs: int, tmp: Path) -> dict:
@@ -122,10 +123,10 @@ def bench_live(n_events: int, tmp: Path) -> dict:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--rollouts", type=int, default=10_000)
-    ap.add_argument("--jobs", type=int, default=20)
-    ap.add_argument("--events", type=int, default=200)
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "bench_recordings.json"))
+    ap.add_argument("--rollouts", type=int, default=10_000, help="roll-outs in the exported recording (default 10000)")
+    ap.add_argument("--jobs", type=int, default=20, help="jobs the recording's roll-outs belong to (default 20)")
+    ap.add_argument("--events", type=int, default=200, help="roll-out events timed live (default 200)")
+    add_run_arguments(ap, out=str(ROOT / "benchmarks" / "results" / "bench_recordings.json"))
     args = ap.parse_args(argv)
     if min(args.rollouts, args.jobs, args.events) < 1 or args.rollouts < args.jobs:
         ap.error("--rollouts, --jobs, --events: integers >= 1, at least one roll-out per job")

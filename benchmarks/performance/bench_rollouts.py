@@ -53,11 +53,15 @@ def trajectories(task: str, b: int, d: int, t: int, rng) -> np.ndarray:
 
 def main(argv=None) -> int:
     """Run the benchmark and write its JSON; returns 0."""
+    from clients.experiments.common import add_run_arguments
+
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--tasks", nargs="+", default=["viapoint", "push"], choices=sorted(TASKS))
-    p.add_argument("--batches", nargs="+", type=int, default=[3, 32])
-    p.add_argument("--repeats", type=int, default=20)
-    p.add_argument("--out", default="benchmarks/results/bench_rollouts.json")
+    p.add_argument("--tasks", nargs="+", default=["viapoint", "push"], choices=sorted(TASKS),
+                   help=f"the tasks timed, among {', '.join(sorted(TASKS))} (default viapoint push)")
+    p.add_argument("--batches", nargs="+", type=int, default=[3, 32], metavar="N",
+                   help="batch sizes, roll-outs per batch (default 3 32)")
+    p.add_argument("--repeats", type=int, default=20, help="batches timed per size and evaluator (default 20)")
+    add_run_arguments(p, out="benchmarks/results/bench_rollouts.json")
     args = p.parse_args(argv)
     torch.set_num_threads(1)
     os.environ.setdefault("RERUN_ANALYTICS", "0")

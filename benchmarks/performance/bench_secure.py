@@ -90,7 +90,7 @@ def _empty_query_rtt(n: int) -> dict:
 
 
 def main() -> int:
-    args = benchmark_args(__doc__, "bench_secure", None, n=300)
+    args = benchmark_args(__doc__, "bench_secure", None, n=(300, "info queries and small predicts per deployment, one at a time"))
     prov = provenance()
     os.environ.setdefault("ACNMP_RUNTIME_DIR", tempfile.mkdtemp(prefix="acnmp-bench-run-"))
     from acnmp_core.tasks.viapoint.task import obstacle_demos

@@ -21,6 +21,7 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 from benchmarks._results import provenance, save_result  # noqa: E402
+from clients.experiments.common import add_run_arguments  # noqa: E402
 
 BLOCK = 500
 
@@ -68,10 +69,10 @@ def child(threads: int, flush: bool, steps: int) -> dict:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--steps", type=int, default=3000)
-    ap.add_argument("--steps-2-threads", type=int, default=500)
+    ap.add_argument("--steps", type=int, default=3000, help="training steps of the one-thread settings (default 3000)")
+    ap.add_argument("--steps-2-threads", type=int, default=500, help="training steps with two threads (default 500)")
     ap.add_argument("--child", help=argparse.SUPPRESS)
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "bench_step_arith.json"))
+    add_run_arguments(ap, out=str(ROOT / "benchmarks" / "results" / "bench_step_arith.json"))
     args = ap.parse_args(argv)
     if args.child:
         threads, flush, steps = json.loads(args.child)

@@ -26,7 +26,6 @@ Numbers from one run on a shared machine (2 cores; other work may run).
 """
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import re
@@ -42,7 +41,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
-from benchmarks._results import ROOT, provenance, save_result  # noqa: E402
+from benchmarks._results import ROOT, benchmark_args, main_provenance, save_result  # noqa: E402
 
 KINDS = ("worker-point2d-0", "model", "learner", "recorder")
 SMALL = {"encoder_widths": [32, 32], "decoder_widths": [32, 32]}
@@ -253,15 +252,11 @@ def sigterm_during_job(tmp: Path) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--reps", type=int, default=3, help="kills per child kind in part 1")
-    p.add_argument("--budget", type=int, default=100, help="E1 roll-out budget per method in part 2")
-    p.add_argument("--train-steps", type=int, default=3000, help="E1 training steps in part 2")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--parts", default="1,2,3", help="which parts to run (comma-separated)")
-    p.add_argument("--out", default="benchmarks/results/bench_supervision.json")
-    args = p.parse_args(argv)
-    prov = provenance(sys.argv)
+    args = benchmark_args(__doc__, "bench_supervision", argv, reps=(3, "kills per child kind in part 1"),
+                          budget=(100, "E1 roll-out budget per method in part 2"),
+                          train_steps=(3000, "E1 training steps in part 2"), seed=0,
+                          parts=("1,2,3", "which parts to run (comma-separated)"))
+    prov = main_provenance(__file__, argv)
     parts = {int(x) for x in args.parts.split(",")}
     result: dict = {"benchmark": "supervision", "provenance": prov, "target_s": TARGET_S}
     with tempfile.TemporaryDirectory(prefix="bench-sup-") as tmp:

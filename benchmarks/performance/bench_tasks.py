@@ -70,7 +70,7 @@ def e1_adaptation(budget: int = 30, train_steps: int = 1000) -> dict:
 
 def main(argv: list[str] | None = None) -> int:
     """Run the measurements, print them, write JSON; returns 0."""
-    args = benchmark_args(__doc__, "bench_tasks", argv, repeats=(5, "roll-outs timed per arm (default: %(default)s)"))
+    args = benchmark_args(__doc__, "bench_tasks", argv, repeats=(5, "roll-outs timed per arm"))
     import torch
 
     torch.set_num_threads(1)

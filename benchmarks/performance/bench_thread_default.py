@@ -23,7 +23,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
-from benchmarks._results import provenance, save_result  # noqa: E402
+from benchmarks._results import provenance, save_result, study_results  # noqa: E402
+from clients.experiments.common import add_run_arguments  # noqa: E402
 
 SPIN = "while True:\n    pass\n"
 
@@ -77,7 +78,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--envs", type=int, default=10, help="E3 new environments (default 10)")
     ap.add_argument("--repeat", type=int, default=1, help="runs of every cell (default 1)")
     ap.add_argument("--cell", choices=("e1_train", "e3_wall"), help=argparse.SUPPRESS)
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "bench_thread_default.json"))
+    add_run_arguments(ap, out=str(study_results("e3_wall") / "bench_thread_default.json"))
     args = ap.parse_args(argv)
     if args.cell:
         print(json.dumps(_cell(args.cell, args.steps, args.envs)))

@@ -31,6 +31,7 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 from benchmarks._results import provenance, save_result  # noqa: E402
+from clients.experiments.common import add_run_arguments  # noqa: E402
 
 
 def _digest(*items) -> str:
@@ -187,14 +188,14 @@ def main(argv: list[str] | None = None) -> int:
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--train-steps", type=int, default=3000, help="E3's first training (E1: a third)")
-    ap.add_argument("--assimilate-steps", type=int, default=300)
-    ap.add_argument("--adapt-rollouts", type=int, default=100)
-    ap.add_argument("--e3-envs", type=int, default=5)
-    ap.add_argument("--e3-test", type=int, default=200)
+    ap.add_argument("--assimilate-steps", type=int, default=300, help="supervised steps of the assimilation timed (default 300)")
+    ap.add_argument("--adapt-rollouts", type=int, default=100, help="roll-out budget of the adaptation timed (default 100)")
+    ap.add_argument("--e3-envs", type=int, default=5, help="new environments of the small E3 run (default 5)")
+    ap.add_argument("--e3-test", type=int, default=200, help="test environments of the small E3 run (default 200)")
     ap.add_argument("--before", help="a JSON this script wrote at another commit: add the ratios")
     ap.add_argument("--measured", help="with --before: take the figures from this JSON (written by this script) "
                                        "instead of measuring, e.g. when both runs went concurrently")
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "bench_training.json"))
+    add_run_arguments(ap, out=str(ROOT / "benchmarks" / "results" / "bench_training.json"))
     args = ap.parse_args(argv)
     if args.measured:
         if not args.before:

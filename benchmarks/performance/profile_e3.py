@@ -1,6 +1,6 @@
 """Where ACNMP's E3 time goes: cProfile over a short E3 run (ACNMP only), grouped by stage.
 
-Writes ``benchmarks/results/e3_profile.json``: the run's size, its wall time, and for each stage
+Writes ``benchmarks/studies/e3_wall/results/e3_profile.json``: the run's size, its wall time, and for each stage
 (first training, adaptation and its supervised steps, assimilation, every executed roll-out, test
 evaluation) the cumulative seconds and their share of the run. Usage::
 
@@ -19,7 +19,7 @@ import torch
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
-from benchmarks._results import benchmark_args, provenance, save_result  # noqa: E402
+from benchmarks._results import benchmark_args, provenance, save_result, study_results  # noqa: E402
 
 #: stage -> (module file suffix, function name) whose cumulative time is the stage's.
 STAGES = {
@@ -35,7 +35,8 @@ STAGES = {
 def main(argv: list[str] | None = None) -> int:
     from acnmp_core.experiments.wall import run_wall
 
-    args = benchmark_args(__doc__, "e3_profile", argv, envs=40, test=1000)
+    args = benchmark_args(__doc__, "e3_profile", argv, results=study_results("e3_wall"), envs=40,
+                          test=(1000, "test environments"))
     torch.set_num_threads(1)
     meta = provenance()
     prof = cProfile.Profile()

@@ -32,7 +32,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
-from benchmarks._results import provenance, save_result  # noqa: E402
+from benchmarks._results import save_result, start_run  # noqa: E402
 from benchmarks.performance import bench_predict as B  # noqa: E402
 
 #: (stage, file suffix, function) markers, matched from the innermost frame outwards: a sample
@@ -103,18 +103,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--clients", default="1,16", help="client counts (default: %(default)s)")
     ap.add_argument("--duration", type=float, default=15.0, help="seconds per client count")
     ap.add_argument("--rate", type=int, default=200, help="py-spy samples per second")
-    ap.add_argument("--json", metavar="FILE")
-    args = ap.parse_args(argv)
-
+    ap.add_argument("--json", metavar="FILE", help="also write the profile here as JSON (default: print only)")
+    args, prov = start_run(ap, argv, __file__)
     import psutil
-    import torch
 
-    torch.set_num_threads(1)
     from clients.client import ACNMPClient
     from services.model.batching import DEFAULT_BATCH_MAX, DEFAULT_BATCH_WINDOW
     from services.transport import free_port, loopback_endpoint
 
-    prov = provenance(sys.argv if argv is None else ["benchmarks/performance/profile_predict.py", *argv])
     spy = Path(sys.executable).with_name("py-spy")
     if not spy.is_file():
         ap.error("py-spy is not installed: pip install -e .[profile]")

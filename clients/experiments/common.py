@@ -1,4 +1,5 @@
-"""What every ``acnmp experiment`` command shares: the deployment options and writing results."""
+"""What every ``acnmp experiment`` command and the benchmarks' mains share: the options of a run
+(seeds, output files, threads, the deployment) and writing results."""
 from __future__ import annotations
 
 import json
@@ -77,6 +78,91 @@ def add_deployment_arguments(p, what: str) -> None:
                    help="with --namespace: join NS through this zenoh config (the operator.json5 of `acnmp "
                         "credentials`) instead of this machine's run file: a deployment whose router runs on "
                         "another host")
+
+
+#: --threads' help, the same in every command line that has it.
+THREADS_HELP = ("torch threads for the CNMP's training, adaptation and assimilation (default: $ACNMP_TORCH_THREADS "
+                "or 1). 2 threads run faster only while no other process uses a core, and several times slower "
+                "when one does (benchmarks/studies/e3_wall/results/bench_thread_default.json); the numbers "
+                "computed are the same")
+
+
+def add_run_arguments(p, *, seeds: int | None = None, seeds_what: str = "seeds", old_seeds: str | None = None,
+                      seed: int | None = None, envs: int | None = None, eval_every: int | None = None,
+                      quick: str | dict | None = None, jobs: int | None = None,
+                      threads: bool = False, out: str | Path | None = None, plot: str | None = None,
+                      deployment: str | None = None, quiet: str | None = None) -> None:
+    """Add to parser ``p`` the options of a run that the experiment commands (``acnmp experiment
+    ...``) and the benchmarks' mains share, each whose keyword is given, in this order:
+
+    - ``seeds=N``: ``--seeds SEEDS`` (:func:`add_seeds_argument` with ``seeds_what`` and
+      ``old_seeds``; default the count N), resolved by :func:`seed_list`;
+    - ``seed=S``: ``--seed S``, the run's one seed (default S);
+    - ``envs=N``, ``eval_every=K`` (E3's loop): ``--envs N``, new environments in the loop, and
+      ``--eval-every K``, new environments between test evaluations;
+    - ``quick=HELP``: ``--quick``, a small run, described by HELP or, for a dict of the sizes it
+      sets (``seeds``, ``train_steps``, ``budget`` or ``acnmp_budget``, ``promp_budget``), by them;
+    - ``jobs=N``: ``--jobs N``, processes at once (1 to 64, default N);
+    - ``threads=True``: ``--threads N`` (:data:`THREADS_HELP`), applied by :func:`apply_threads`;
+    - ``out=PATH``: ``--out FILE`` (also spelled ``--json``), the result's JSON (default PATH) with
+      its figure beside it;
+    - ``plot=HELP``: ``--json FILE`` and ``--plot FILE`` (:func:`add_output_arguments`);
+    - ``deployment=WHAT``: the deployment options (:func:`add_deployment_arguments`);
+    - ``quiet=HELP``: ``--quiet``, described by HELP."""
+    if seeds is not None:
+        add_seeds_argument(p, seeds, seeds_what, old_seeds)
+    if seed is not None:
+        p.add_argument("--seed", type=int_at_least(0), default=seed,
+                       help=f"the seed of the run's environments, training and exploration (default {seed})")
+    if envs is not None:
+        p.add_argument("--envs", type=int_at_least(1), default=envs, help=f"new environments in the loop (default {envs})")
+    if eval_every is not None:
+        p.add_argument("--eval-every", type=int_at_least(1), default=eval_every,
+                       help=f"new environments between test evaluations (default {eval_every})")
+    if quick is not None:
+        p.add_argument("--quick", action="store_true", help=quick if isinstance(quick, str) else _quick_help(quick))
+    if jobs is not None:
+        p.add_argument("--jobs", type=int_at_least(1, 64), default=jobs,
+                       help=f"processes run at once, the same result (default {jobs})")
+    if threads:
+        p.add_argument("--threads", type=int_at_least(1), default=None, metavar="N", help=THREADS_HELP)
+    if out is not None:
+        root = Path(__file__).resolve().parents[2]
+        shown = Path(out).relative_to(root) if Path(out).is_relative_to(root) else out
+        p.add_argument("--out", "--json", dest="out", type=non_empty, default=str(out), metavar="FILE",
+                       help=f"write the result here as JSON, its figure (if any) beside it as .png (default {shown})")
+    if plot is not None:
+        add_output_arguments(p, plot)
+    if deployment is not None:
+        add_deployment_arguments(p, deployment)
+    if quiet is not None:
+        p.add_argument("--quiet", action="store_true", help=quiet)
+
+
+def _quick_help(sizes: dict) -> str:
+    """--quick's help from the sizes it sets: 'a small run (2 seeds, 1500 training steps, budgets 100/150,
+    each unless given)'."""
+    parts = [f"{sizes['seeds']} seeds"] if "seeds" in sizes else []
+    parts += [f"{sizes['train_steps']} training steps"] if "train_steps" in sizes else []
+    budgets = [str(sizes[k]) for k in ("budget", "acnmp_budget", "promp_budget") if k in sizes]
+    parts += [f"budget{'s' if len(budgets) > 1 else ''} {'/'.join(budgets)}"] if budgets else []
+    return f"a small run ({', '.join(parts)}, each unless given)"
+
+
+def add_promp_budget_argument(p, per: str, default: int = 1500) -> None:
+    """Add ``--promp-budget N``: ProMP + RL's roll-out budget per ``per`` (at least 3, its first
+    iteration; None when not given, the help naming ``default``)."""
+    p.add_argument("--promp-budget", type=int_at_least(3), default=None,
+                   help=f"ProMP + RL roll-out budget per {per} (default {default})")
+
+
+def apply_threads(args) -> None:
+    """Set the torch threads of training, adaptation and assimilation to ``args.threads`` when it was
+    given (:func:`acnmp_core.threads.set_training_threads`)."""
+    if getattr(args, "threads", None) is not None:
+        from acnmp_core.threads import set_training_threads
+
+        set_training_threads(args.threads)
 
 
 def check_deployment_arguments(args) -> None:

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from services.transport.argtypes import int_at_least
 
-from .common import (add_deployment_arguments, add_output_arguments, add_size_arguments,
-                     check_deployment_arguments, seed_list, sizes, with_deployment, write_outputs)
+from .common import (add_run_arguments, add_size_arguments, check_deployment_arguments, seed_list, sizes,
+                     with_deployment, write_outputs)
 
 
 def add_arguments(p) -> None:
@@ -15,11 +15,11 @@ def add_arguments(p) -> None:
     p.add_argument("--assimilate-from", choices=("skill", "adapted"), default=None,
                    help="assimilate the solution into the model as it was before the adaptation, or into "
                         "the adapted model (default: run_pour's, the skill)")
-    add_output_arguments(p, "write the error of every roll-out per seed (PNG)")
-    add_deployment_arguments(p, "the roll-outs on pour PyBullet workers")
     p.add_argument("--jobs", type=int_at_least(1, 64), default=1,
                    help="seeds run in this many processes at once, same result (not with --distributed; default 1)")
-    p.add_argument("--quiet", action="store_true", help="no per-seed lines")
+    add_run_arguments(p, plot="write the error of every roll-out per seed (PNG)",
+                      deployment="the roll-outs on pour PyBullet workers",
+                      quiet="no per-seed lines")
 
 
 def run(args) -> int:

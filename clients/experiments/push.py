@@ -3,8 +3,8 @@ from __future__ import annotations
 
 from services.transport.argtypes import int_at_least
 
-from .common import (add_deployment_arguments, add_output_arguments, add_seeds_argument, check_deployment_arguments,
-                     seed_list, with_deployment, write_outputs)
+from .common import (add_promp_budget_argument, add_run_arguments, add_seeds_argument,
+                     check_deployment_arguments, seed_list, with_deployment, write_outputs)
 
 #: --quick: enough to see both methods run end to end in about a minute.
 QUICK = dict(train_steps=1500, acnmp_budget=60, promp_budget=150)
@@ -22,14 +22,11 @@ def add_arguments(p) -> None:
                    help=f"CNMP training steps (default {TRAIN_STEPS})")
     p.add_argument("--acnmp-budget", type=int_at_least(1), default=None,
                    help="ACNMP roll-out budget per target (default 300)")
-    p.add_argument("--promp-budget", type=int_at_least(3), default=None,
-                   help="ProMP + RL roll-out budget per target (default 1500)")
-    p.add_argument("--quick", action="store_true",
-                   help=f"small run for a smoke test ({QUICK['train_steps']} training steps, budgets "
-                        f"{QUICK['acnmp_budget']}/{QUICK['promp_budget']}, each unless given)")
-    add_output_arguments(p, "write learning curves like the paper's Fig. 5(b) (PNG)")
-    add_deployment_arguments(p, "the roll-outs on planar3 PyBullet workers")
-    p.add_argument("--quiet", action="store_true", help="no per-run lines, no progress bars")
+    add_promp_budget_argument(p, "target")
+    add_run_arguments(p, quick=QUICK,
+                      plot="write learning curves like the paper's Fig. 5(b) (PNG)",
+                      deployment="the roll-outs on planar3 PyBullet workers",
+                      quiet="no per-run lines, no progress bars")
 
 
 def run(args) -> int:

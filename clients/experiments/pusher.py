@@ -2,9 +2,7 @@
 LfD only, ACNMP and ProMP + RL (the worked example of a Gymnasium environment as a robot)."""
 from __future__ import annotations
 
-from services.transport.argtypes import int_at_least
-
-from .common import (add_deployment_arguments, add_output_arguments, add_size_arguments,
+from .common import (add_promp_budget_argument, add_run_arguments, add_size_arguments,
                      check_deployment_arguments, seed_list, sizes, with_deployment, write_outputs)
 
 #: --quick: every method end to end on two seeds in about a minute
@@ -14,14 +12,11 @@ QUICK = dict(seeds=2, train_steps=1500, budget=100, promp_budget=150)
 def add_arguments(p) -> None:
     """Add the ``pusher`` experiment's options to its parser ``p`` (made from its catalog entry)."""
     add_size_arguments(p, seeds=10, train_steps=3000, budget=400, budget_help="ACNMP roll-out budget per position")
-    p.add_argument("--promp-budget", type=int_at_least(3), default=None,
-                   help="ProMP + RL roll-out budget per position (default 1500)")
-    p.add_argument("--quick", action="store_true",
-                   help=f"a small run ({QUICK['seeds']} seeds, {QUICK['train_steps']} training steps, budgets "
-                        f"{QUICK['budget']}/{QUICK['promp_budget']}, each unless given)")
-    add_output_arguments(p, "write the final distances and roll-outs per seed (PNG)")
-    add_deployment_arguments(p, "the roll-outs on pusher (MuJoCo) workers")
-    p.add_argument("--quiet", action="store_true", help="no per-run lines")
+    add_promp_budget_argument(p, "position")
+    add_run_arguments(p, quick=QUICK,
+                      plot="write the final distances and roll-outs per seed (PNG)",
+                      deployment="the roll-outs on pusher (MuJoCo) workers",
+                      quiet="no per-run lines")
 
 
 def run(args) -> int:

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from services.transport.argtypes import non_empty, robot_kind
 
-from .common import (add_deployment_arguments, add_output_arguments, add_size_arguments,
-                     check_deployment_arguments, seed_list, sizes, with_deployment, write_outputs)
+from .common import (add_run_arguments, add_size_arguments, check_deployment_arguments, seed_list, sizes,
+                     with_deployment, write_outputs)
 
 
 def _point(text: str) -> list[float]:
@@ -38,9 +38,9 @@ def add_arguments(p) -> None:
     p.add_argument("--at", action="append", required=True, type=_point, metavar="P1,P2,...",
                    help="task parameters of a test point (repeatable)")
     add_size_arguments(p, seeds=1, train_steps=3000, budget=300, budget_help="ACNMP roll-out budget per point")
-    add_output_arguments(p, "write the remaining errors and ACNMP's roll-outs per point (PNG)")
-    add_deployment_arguments(p, "the roll-outs on workers of the robot")
-    p.add_argument("--quiet", action="store_true", help="no per-run lines")
+    add_run_arguments(p, plot="write the remaining errors and ACNMP's roll-outs per point (PNG)",
+                      deployment="the roll-outs on workers of the robot",
+                      quiet="no per-run lines")
 
 
 def run(args) -> int:

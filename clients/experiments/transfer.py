@@ -5,8 +5,7 @@ from pathlib import Path
 
 from services.transport.argtypes import int_at_least
 
-from .common import (add_deployment_arguments, add_output_arguments, add_seeds_argument, check_deployment_arguments,
-                     seed_list, write_outputs)
+from .common import add_run_arguments, add_seeds_argument, check_deployment_arguments, seed_list, write_outputs
 
 
 def add_arguments(p) -> None:
@@ -21,10 +20,10 @@ def add_arguments(p) -> None:
     p.add_argument("--authors-data", metavar="DIR", default=None,
                    help="directory of the authors' E4 arrays (3doftraining_joint_trajectories.npy, ...; "
                         "default: ../shared/data/acnmp-paper/experiment4 beside the repository)")
-    add_output_arguments(p, "write success vs RL iteration per condition, the paper's beside (PNG)")
-    add_deployment_arguments(p, "the pairs trained by the learner, the 4-DoF arm's first attempt from the model "
-                                "service's transfer query, its roll-outs on planar4 PyBullet workers")
-    p.add_argument("--quiet", action="store_true", help="no per-run lines")
+    add_run_arguments(p, plot="write success vs RL iteration per condition, the paper's beside (PNG)",
+                      deployment="the pairs trained by the learner, the 4-DoF arm's first attempt from the model "
+                                "service's transfer query, its roll-outs on planar4 PyBullet workers",
+                      quiet="no per-run lines")
 
 
 def run(args) -> int:

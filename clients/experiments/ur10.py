@@ -2,8 +2,8 @@
 objects and obstacles; LfD only vs ACNMP, per-joint errors against the expert."""
 from __future__ import annotations
 
-from .common import (add_deployment_arguments, add_output_arguments, add_size_arguments,
-                     check_deployment_arguments, seed_list, sizes, with_deployment, write_outputs)
+from .common import (add_run_arguments, add_size_arguments, check_deployment_arguments, seed_list, sizes,
+                     with_deployment, write_outputs)
 
 
 def add_arguments(p) -> None:
@@ -11,9 +11,9 @@ def add_arguments(p) -> None:
     add_size_arguments(p, seeds=5, train_steps=10000, budget=60, budget_help="ACNMP roll-out budget per case")
     p.add_argument("--cases", default=None, metavar="8_10,9_11",
                    help="comma-separated test cases, object_obstacle heights in cm (default: 8_10,9_11,10_12)")
-    add_output_arguments(p, "write the per-joint trajectories of the first seed (PNG)")
-    add_deployment_arguments(p, "the roll-outs on ur10 PyBullet workers")
-    p.add_argument("--quiet", action="store_true", help="no per-run lines")
+    add_run_arguments(p, plot="write the per-joint trajectories of the first seed (PNG)",
+                      deployment="the roll-outs on ur10 PyBullet workers",
+                      quiet="no per-run lines")
 
 
 def run(args) -> int:

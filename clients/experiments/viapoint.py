@@ -8,8 +8,7 @@ import numpy as np
 
 from services.transport.argtypes import int_at_least
 
-from .common import (add_deployment_arguments, add_output_arguments, add_seeds_argument, check_deployment_arguments,
-                     seed_list, write_json)
+from .common import add_run_arguments, add_seeds_argument, check_deployment_arguments, seed_list, write_json
 
 
 def add_arguments(p) -> None:
@@ -20,11 +19,11 @@ def add_arguments(p) -> None:
     p.add_argument("--budget", type=int_at_least(1), default=100, help="roll-out budget per method (default 100)")
     p.add_argument("--train-steps", type=int_at_least(1), default=3000,
                    help="supervised training steps (default 3000)")
-    add_output_arguments(p, "write Fig. 3-like PNG (and FILE_latents.png like Fig. 4)")
-    add_deployment_arguments(p, "training and adaptation jobs on the learner, roll-outs on point2d workers")
     p.add_argument("--fresh", action="store_true",
                    help="with --distributed: always start a fresh deployment, even when one is running")
-    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    add_run_arguments(p, plot="write Fig. 3-like PNG (and FILE_latents.png like Fig. 4)",
+                      deployment="training and adaptation jobs on the learner, roll-outs on point2d workers",
+                      quiet="no progress bars")
 
 
 def run(args) -> int:

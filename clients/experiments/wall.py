@@ -6,18 +6,16 @@ import numpy as np
 
 from services.transport.argtypes import int_at_least
 
-from .common import (add_deployment_arguments, add_output_arguments, add_seeds_argument, check_deployment_arguments,
-                     seed_list, with_deployment, write_json)
+from .common import (add_run_arguments, apply_threads, check_deployment_arguments, seed_list, with_deployment,
+                     write_json)
 
 
 def add_arguments(p) -> None:
     """Add the ``wall`` experiment's options to its parser ``p`` (made from its catalog entry)."""
-    p.add_argument("--envs", type=int_at_least(1), default=100, help="new environments in the loop (default 100)")
-    add_seeds_argument(p, 1, "seeds of environments, training and exploration, one run each", old="--seed")
+    add_run_arguments(p, seeds=1, seeds_what="seeds of environments, training and exploration, one run each",
+                      old_seeds="--seed", envs=100, eval_every=10)
     p.add_argument("--initial", type=int_at_least(1), default=30, help="demonstrated environments (default 30)")
     p.add_argument("--test", type=int_at_least(1), default=1000, help="test environments (default 1000)")
-    p.add_argument("--eval-every", type=int_at_least(1), default=10,
-                   help="new environments between test evaluations (default 10)")
     p.add_argument("--assimilate-from", choices=("skill", "adapted"), default=None,
                    help="ACNMP's assimilation continues from the skill before the adaptation, or from the "
                         "adapted copy (default: run_wall's, the skill)")
@@ -36,14 +34,9 @@ def add_arguments(p) -> None:
                         "or scored, for every method alike: 'generated' (the default, \"boundary conditions "
                         "enforced\": the paths for new and test environments), 'none' (the paper's variant: "
                         "paths as generated) or 'all' (the adaptations' roll-outs too)")
-    p.add_argument("--threads", type=int_at_least(1), default=None,
-                   help="torch threads for the CNMP's training and adaptation (default: $ACNMP_TORCH_THREADS "
-                        "or 1). 2 threads run E3 faster only while no other process uses a core, and several "
-                        "times slower when one does (benchmarks/results/bench_thread_default.json); the "
-                        "numbers computed are the same")
-    add_output_arguments(p, "write test error / success vs environments and trajectories (PNG)")
-    add_deployment_arguments(p, "the roll-outs on point2d workers")
-    p.add_argument("--quiet", action="store_true", help="no progress lines")
+    add_run_arguments(p, threads=True, plot="write test error / success vs environments and trajectories (PNG)",
+                      deployment="the roll-outs on point2d workers",
+                      quiet="no progress lines")
 
 
 def run(args) -> int:
@@ -65,10 +58,8 @@ def run(args) -> int:
     if args.distributed and setting.name != "paper":
         raise ValueError("--setting authors: runs in-process only (the point2d workers score the paper's wall)")
     from acnmp_core.experiments.wall import run_wall
-    from acnmp_core.threads import set_training_threads
 
-    if args.threads is not None:
-        set_training_threads(args.threads)
+    apply_threads(args)
     kwargs = dict(n_initial=args.initial, n_test=args.test, eval_every=args.eval_every, setting=setting,
                   methods=methods,
                   **({} if args.assimilate_from is None else {"assimilate_from": args.assimilate_from}),

@@ -8,7 +8,7 @@ and whether the reward's clearance term is squared.
   starts and ends within 0.25 of the start and the goal and clears the wall (clearance > 0); the
   same criterion triggers the adaptation and stops it; the reward's clearance term is the margin.
   A stricter stop than the trigger (the authors' hysteresis) was measured at 300 environments
-  (``benchmarks/results/e3_stop.json``, errors <= 0.10 ... 0.20): it lowered ACNMP's test success
+  (``benchmarks/studies/e3_wall/results/e3_stop.json``, errors <= 0.10 ... 0.20): it lowered ACNMP's test success
   (by 1-15 points) for 1.5-3.2x the trajectories, so the paper setting keeps stop = trigger.
 * ``authors`` (``Experiment3/ACNMP - ThirdExperiment.ipynb`` in mtuluhanakbulut/ACNMP): the wall
   spans ``x_c +- 1`` (thickness 2), the hole ``y_c +- 1`` (height 2). The clearance is the

@@ -116,14 +116,16 @@ def main(argv: list[str] | None = None) -> int:
     from acnmp_core.adaptation.config import AdaptConfig
     from benchmarks._results import provenance, save_result
 
+    from clients.experiments.common import add_run_arguments
+
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--seeds", type=int, default=10)
-    ap.add_argument("--e3-envs", type=int, default=200)
-    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--seeds", type=int, default=10, help="seeds 0..N-1 of every setting and experiment (default 10)")
+    ap.add_argument("--e3-envs", type=int, default=200, help="E3's new environments per run (default 200)")
+    ap.add_argument("--jobs", type=int, default=2, help="runs in processes at once (default 2)")
     ap.add_argument("--only", nargs="*", choices=sorted(SETTINGS), help="run only these settings")
     ap.add_argument("--experiments", nargs="*", choices=("e1", "e2", "e3"), default=["e2", "e3", "e1"],
                     help="run only these experiments for every setting")
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "adapt_sweep.json"))
+    add_run_arguments(ap, out=str(ROOT / "benchmarks" / "results" / "adapt_sweep.json"))
     args = ap.parse_args(argv)
     meta = provenance()
     names = args.only or list(SETTINGS)

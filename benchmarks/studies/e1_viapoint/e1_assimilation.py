@@ -6,7 +6,7 @@ candidate :class:`~acnmp_core.adaptation.assimilation.AssimilationConfig`. Per c
 conditioned skill's task error and success with no RL (issue 10: within tolerance in every seed),
 the old demonstrations' reproduction RMSE over the LfD model's (<= 1.2), and the solution's own
 reproduction RMSE (m). Seeds run in ``--jobs`` processes (each seed's numbers do not depend on it).
-Writes ``benchmarks/results/e1_assimilation.json``. Usage:
+Writes ``benchmarks/studies/e1_viapoint/results/e1_assimilation.json``. Usage:
 ``python benchmarks/studies/e1_viapoint/e1_assimilation.py [--seeds 0-9] [--jobs 2] [--out FILE]``.
 """
 from __future__ import annotations
@@ -28,7 +28,8 @@ from acnmp_core.adaptation.assimilation import AssimilationConfig, assimilate  #
 from acnmp_core.data.demos import Demonstration  # noqa: E402
 from acnmp_core.experiments import viapoint as V  # noqa: E402
 from acnmp_core.model.training import reproduction_error  # noqa: E402
-from benchmarks._results import provenance, save_result  # noqa: E402
+from benchmarks._results import provenance, save_result, study_results  # noqa: E402
+from clients.experiments.common import add_run_arguments  # noqa: E402
 
 #: Candidates: the library's default (1000 steps), E1's setting (3000), and the anchor's weight.
 CANDIDATES = {"steps_1000": {"steps": 1000}, "steps_3000": {"steps": 3000},
@@ -90,9 +91,9 @@ def summarise(rows: list[dict]) -> dict:
 def main(argv: list[str] | None = None) -> int:
     """Run the candidates over the seeds; write the JSON."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--seeds", type=seed_range, default="0-9", help='"0-9" or "3,5,8"')
-    ap.add_argument("--jobs", type=int, default=2)
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "e1_assimilation.json"))
+    ap.add_argument("--seeds", type=seed_range, default="0-9", help='the seeds: "0-9" or "3,5,8" (default 0-9)')
+    ap.add_argument("--jobs", type=int, default=2, help="seeds run in processes at once (default 2)")
+    add_run_arguments(ap, out=str(study_results("e1_viapoint") / "e1_assimilation.json"))
     args = ap.parse_args(argv)
     meta, t0 = provenance(), time.perf_counter()
     seeds = args.seeds

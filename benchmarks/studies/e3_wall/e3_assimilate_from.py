@@ -2,7 +2,7 @@
 
 Both variants run the same environments, seed and settings (the library's defaults otherwise), in
 two processes side by side; the result is written to
-``benchmarks/results/e3_assimilate_from.json``. Usage:
+``benchmarks/studies/e3_wall/results/e3_assimilate_from.json``. Usage:
 ``python benchmarks/studies/e3_wall/e3_assimilate_from.py [--envs 300] [--seed 0] [--out FILE]``.
 """
 from __future__ import annotations
@@ -19,7 +19,7 @@ sys.path.insert(0, str(ROOT))
 
 from acnmp_core.adaptation.assimilation import ASSIMILATE_FROM  # noqa: E402
 from acnmp_core.experiments.wall import run_wall  # noqa: E402
-from benchmarks._results import benchmark_args, provenance, save_result  # noqa: E402
+from benchmarks._results import benchmark_args, provenance, save_result, study_results  # noqa: E402
 
 
 def _one(envs: int, seed: int, eval_every: int, assimilate_from: str) -> dict:
@@ -32,7 +32,8 @@ def _one(envs: int, seed: int, eval_every: int, assimilate_from: str) -> dict:
 
 def main(argv: list[str] | None = None) -> int:
     """Run both variants and write the JSON."""
-    args = benchmark_args(__doc__, "e3_assimilate_from", argv, envs=300, seed=0, eval_every=60)
+    args = benchmark_args(__doc__, "e3_assimilate_from", argv, results=study_results("e3_wall"), seed=0, envs=300,
+                          eval_every=60)
     meta = provenance()
     t0 = time.perf_counter()
     with ProcessPoolExecutor(max_workers=len(ASSIMILATE_FROM)) as pool:

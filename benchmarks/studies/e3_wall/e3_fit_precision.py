@@ -6,7 +6,7 @@ environments and on the demonstrated environments themselves, for a few supervis
 batch x targets per episode, a decaying rate, episodes whose targets include their observations).
 It separates the skill's fitting precision from what adaptation and assimilation add, and the fit
 (the demonstrated environments) from the generalisation (the test environments). Writes
-``benchmarks/results/e3_fit_precision.json``. Usage:
+``benchmarks/studies/e3_wall/results/e3_fit_precision.json``. Usage:
 ``python benchmarks/studies/e3_wall/e3_fit_precision.py [--demos 30 300] [--seed 0] [--out FILE]``.
 """
 from __future__ import annotations
@@ -17,14 +17,14 @@ import time
 from pathlib import Path
 
 import numpy as np
-import torch
 
 ROOT = Path(__file__).resolve().parents[3]
 sys.path.insert(0, str(ROOT))
 
 from acnmp_core.experiments import wall as E  # noqa: E402
 from acnmp_core.model.training import TrainConfig, train  # noqa: E402
-from benchmarks._results import provenance, save_result  # noqa: E402
+from benchmarks._results import save_result, start_run, study_results  # noqa: E402
+from clients.experiments.common import add_run_arguments  # noqa: E402
 
 #: TrainConfig fields per budget: E3's default first training, then larger budgets, a rate decayed
 #: to 1e-5 (cosine), and episodes whose targets include their observations.
@@ -38,12 +38,11 @@ BUDGETS = (dict(steps=3000, batch_size=32, n_targets=10), dict(steps=10000, batc
 def main(argv: list[str] | None = None) -> int:
     """Train once per (demonstrations, budget) and score on the test environments."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--demos", type=int, nargs="+", default=[30, 300])
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "e3_fit_precision.json"))
-    args = ap.parse_args(argv)
-    torch.set_num_threads(1)
-    meta = provenance()
+    ap.add_argument("--demos", type=int, nargs="+", default=[30, 300], metavar="N",
+                    help="demonstrated environments, one fit each (default 30 300)")
+    ap.add_argument("--seed", type=int, default=0, help="the seed of the environments and the model (default 0)")
+    add_run_arguments(ap, out=str(study_results("e3_wall") / "e3_fit_precision.json"))
+    args, meta = start_run(ap, argv)
     t0 = time.perf_counter()
     runs = []
     for n in args.demos:

@@ -21,6 +21,7 @@ ROOT = Path(__file__).resolve().parents[3]
 sys.path.insert(0, str(ROOT))
 
 from benchmarks._results import provenance, save_result  # noqa: E402
+from clients.experiments.common import add_run_arguments  # noqa: E402
 from benchmarks.blocks.e3 import e3_seed_runs  # noqa: E402
 
 #: the summary entries that are times, not results
@@ -68,7 +69,7 @@ def main(argv: list[str] | None = None) -> int:
     """Combine e3_wall.py runs into one JSON (``--out``) and print the times per seed."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("runs", nargs="+", type=Path, help="e3_wall.py JSON files, one per seed")
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "e3_time_alone.json"))
+    add_run_arguments(ap, out=str(ROOT / "benchmarks" / "results" / "e3_time_alone.json"))
     args = ap.parse_args(argv)
     result = {"provenance": provenance(), **combine(args.runs)}
     for seed, s in result["seeds"].items():

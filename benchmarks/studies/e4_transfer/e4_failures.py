@@ -10,7 +10,7 @@ joint); how far the mean trajectory moved since the last iteration (rad, largest
 joints); how much of the way to the last noisy roll-out it moved (``follow``: 1 - RMS(new mean -
 noisy) / RMS(old mean - noisy); 1 reached it, 0 stayed); whether the iteration had a signal; and
 how many further policy steps its update took (``reuses``). Each run then gets a label (see
-:func:`classify`). Writes benchmarks/results/e4_failures.json. Usage:
+:func:`classify`). Writes benchmarks/studies/e4_transfer/results/e4_failures.json. Usage:
 ``python benchmarks/studies/e4_transfer/e4_failures.py --seeds 30-59 [--variant tol1e-4] [--cache DIR]``.
 """
 from __future__ import annotations
@@ -28,11 +28,12 @@ sys.path.insert(0, str(ROOT))
 from acnmp_core.adaptation.credit import per_step_advantages  # noqa: E402
 from acnmp_core.experiments.transfer import BLIND_TOLERANCE, CHECKPOINTS, make_setup, run_condition  # noqa: E402
 from acnmp_core.tasks.transfer.scene import CubeGapTask  # noqa: E402
-from benchmarks._results import provenance, save_result  # noqa: E402
+from benchmarks._results import provenance, save_result, study_results  # noqa: E402
+from clients.experiments.common import add_run_arguments  # noqa: E402
 from benchmarks.studies.e4_transfer.e4_sweep import VARIANTS, _memo_trainer  # noqa: E402
 
 #: The cube counts as moved by a roll-out when it ends up this far (m) from its start at some step
-#: (the simulator's jitter of an untouched cube is micrometres, benchmarks/results/e4_jitter.json).
+#: (the simulator's jitter of an untouched cube is micrometres, benchmarks/studies/e4_transfer/results/e4_jitter.json).
 MOVED = 1e-3
 
 
@@ -134,10 +135,11 @@ def summary(runs: list[dict], tolerance: float) -> dict:
 def main(argv: list[str] | None = None) -> int:
     """Run the seeds, write the per-iteration records, the labels and their counts."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--seeds", default="30-59")
+    ap.add_argument("--seeds", default="30-59", help="RL seeds: A-B (A to B) or A,B,C (default 30-59)")
     ap.add_argument("--variant", default="tol1e-4", help="a variant of benchmarks/studies/e4_transfer/e4_sweep.py (default: E4's setting)")
-    ap.add_argument("--cache", default=None)
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "e4_failures.json"))
+    ap.add_argument("--cache", default=None, metavar="DIR",
+                    help="directory for trained pairs, shared with e4_sweep.py (default: in memory only)")
+    add_run_arguments(ap, out=str(study_results("e4_transfer") / "e4_failures.json"))
     args = ap.parse_args(argv)
     if args.variant not in VARIANTS:
         print(f"e4_failures: unknown variant {args.variant!r}; benchmarks/studies/e4_transfer/e4_sweep.py --list names them", file=sys.stderr)

@@ -5,7 +5,7 @@ equality), record every iteration's largest difference between a roll-out's cred
 the mean roll-out's (the quantity ``acnmp_core.adaptation.credit.per_step_advantages`` tests), and summarise: the
 differences below :data:`~acnmp_core.experiments.transfer.BLIND_TOLERANCE` (the cube untouched by
 every roll-out; it still moves by micrometres) against those above it (a touch). Writes
-benchmarks/results/e4_jitter.json. Usage: ``python benchmarks/studies/e4_transfer/e4_jitter.py [--seeds 30 35 39]
+benchmarks/studies/e4_transfer/results/e4_jitter.json. Usage: ``python benchmarks/studies/e4_transfer/e4_jitter.py [--seeds 30 35 39]
 [--cache DIR]`` (``--cache``: the sweep's trained pairs).
 """
 from __future__ import annotations
@@ -16,7 +16,6 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
-import torch
 
 ROOT = Path(__file__).resolve().parents[3]
 sys.path.insert(0, str(ROOT))
@@ -24,19 +23,20 @@ sys.path.insert(0, str(ROOT))
 from acnmp_core.experiments.transfer import (BLIND_TOLERANCE, TransferExperimentConfig, make_setup,  # noqa: E402
                                              run_condition)
 from acnmp_core.tasks.transfer.scene import CubeGapTask  # noqa: E402
-from benchmarks._results import provenance, save_result  # noqa: E402
+from benchmarks._results import save_result, start_run, study_results  # noqa: E402
+from clients.experiments.common import add_run_arguments  # noqa: E402
 from benchmarks.studies.e4_transfer.e4_sweep import _memo_trainer  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> int:
     """Run the seeds, write the per-iteration differences and their summary."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--seeds", type=int, nargs="+", default=[30, 35, 39])
-    ap.add_argument("--cache", default=None)
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "e4_jitter.json"))
-    args = ap.parse_args(argv)
-    torch.set_num_threads(1)
-    meta = provenance()
+    ap.add_argument("--seeds", type=int, nargs="+", default=[30, 35, 39], metavar="S",
+                    help="RL seeds whose runs are replayed (default 30 35 39)")
+    ap.add_argument("--cache", default=None, metavar="DIR",
+                    help="directory for trained pairs, shared with e4_sweep.py (default: in memory only)")
+    add_run_arguments(ap, out=str(study_results("e4_transfer") / "e4_jitter.json"))
+    args, meta = start_run(ap, argv)
     base = TransferExperimentConfig()
     cfg = replace(base, adapt=replace(base.adapt, signal_tolerance=1e-12))
     setup, trainer = make_setup(), _memo_trainer(None if args.cache is None else Path(args.cache))

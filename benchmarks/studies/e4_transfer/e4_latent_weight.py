@@ -7,7 +7,7 @@ authors' proxy arrays, giving the RMSE (rad) of their transferred button press a
 ground truth, and (2) our proxy skills, giving the transferred first trajectory's RMSE (rad) to what
 the scripted expert shows on robot B and the cube's final distance (m) to the goal. Each also records
 the last 100 steps' mean NLL of both decoders and the latent MSE. Writes
-benchmarks/results/e4_latent_weight.json. Usage: ``python benchmarks/studies/e4_transfer/e4_latent_weight.py [--weights W ...]``.
+benchmarks/studies/e4_transfer/results/e4_latent_weight.json. Usage: ``python benchmarks/studies/e4_transfer/e4_latent_weight.py [--weights W ...]``.
 """
 from __future__ import annotations
 
@@ -17,7 +17,6 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
-import torch
 
 ROOT = Path(__file__).resolve().parents[3]
 sys.path.insert(0, str(ROOT))
@@ -26,17 +25,17 @@ from acnmp_core.experiments.transfer import (AUTHORS_DATA, TransferExperimentCon
                                              make_setup, paired_latent_distance, task_config)
 from acnmp_core.tasks.transfer.scene import CubeGapTask  # noqa: E402
 from acnmp_core.transfer.pair import TransferPair, spread_observations, train_pair  # noqa: E402
-from benchmarks._results import provenance, save_result  # noqa: E402
+from benchmarks._results import save_result, start_run, study_results  # noqa: E402
+from clients.experiments.common import add_run_arguments  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> int:
     """Train one pair per weight and data set; print and save the measurements."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--weights", type=float, nargs="+", default=[0.0, 1e3, 5e6])
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "e4_latent_weight.json"))
-    args = ap.parse_args(argv)
-    torch.set_num_threads(1)
-    meta = provenance()
+    ap.add_argument("--weights", type=float, nargs="+", default=[0.0, 1e3, 5e6], metavar="W",
+                    help="latent alignment weights, one pair each (default 0 1e3 5e6)")
+    add_run_arguments(ap, out=str(study_results("e4_transfer") / "e4_latent_weight.json"))
+    args, meta = start_run(ap, argv)
     base = TransferExperimentConfig()
     setup = make_setup()
     rows = []

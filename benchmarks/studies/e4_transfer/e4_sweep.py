@@ -2,7 +2,7 @@
 
 Each variant is a :class:`~acnmp_core.experiments.transfer.TransferExperimentConfig` built from the
 settings before the sweep (variant ``default``; ``new_default`` is the experiment's default now); variants with the same pair settings share their trained pairs (one training per pair
-seed in this process). Writes (merges into) benchmarks/results/e4_sweep.json: per variant its
+seed in this process). Writes (merges into) benchmarks/studies/e4_transfer/results/e4_sweep.json: per variant its
 settings, success by iteration, the initial cube error per pair seed, the authors' data check and
 the wall time, with the provenance of the run. Usage: ``python benchmarks/studies/e4_transfer/e4_sweep.py --runs 10
 --variant default --variant explore0.6 [--authors-seeds 3]``; ``--list`` names the variants.
@@ -26,9 +26,10 @@ sys.path.insert(0, str(ROOT))
 from acnmp_core.experiments.transfer import (TransferExperimentConfig, authors_data_check,  # noqa: E402
                                              load_authors_data, make_setup, run_transfer)
 from acnmp_core.transfer.pair import TransferPair, train_pair  # noqa: E402
-from benchmarks._results import provenance  # noqa: E402
+from benchmarks._results import provenance, study_results  # noqa: E402
+from clients.experiments.common import add_run_arguments  # noqa: E402
 
-OUT = ROOT / "benchmarks" / "results" / "e4_sweep.json"
+OUT = study_results("e4_transfer") / "e4_sweep.json"
 
 
 def _before() -> TransferExperimentConfig:
@@ -236,13 +237,15 @@ def authors_data_diagnosis(ridges=(0.01, 0.1, 1.0)) -> dict | None:
 def main(argv: list[str] | None = None) -> int:
     """Run the named variants; merge each into the sweep JSON as it finishes."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--runs", type=int, default=10)
-    ap.add_argument("--variant", action="append", default=[])
-    ap.add_argument("--authors-seeds", type=int, default=1)
+    ap.add_argument("--runs", type=int, default=10, help="RL runs per variant (default 10)")
+    ap.add_argument("--variant", action="append", default=[], metavar="NAME",
+                    help="a variant to run, repeatable (--list names them; default: none)")
+    ap.add_argument("--authors-seeds", type=int, default=1,
+                    help="seeds 0..N-1 of the check on the authors' data per variant (default 1)")
     ap.add_argument("--first-seed", type=int, default=0, help="RL seeds from this one (fresh seeds, the same pairs)")
-    ap.add_argument("--list", action="store_true")
+    ap.add_argument("--list", action="store_true", help="name the variants and run nothing")
     ap.add_argument("--diagnosis", action="store_true", help="write the authors' data diagnosis (no training)")
-    ap.add_argument("--out", default=str(OUT))
+    add_run_arguments(ap, out=str(OUT))
     ap.add_argument("--cache", default=None, help="directory for trained pairs, shared by sweep processes")
     args = ap.parse_args(argv)
     if args.diagnosis:

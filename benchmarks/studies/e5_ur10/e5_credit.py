@@ -5,7 +5,7 @@ ur10`` mostly solves the test cases at once, which says nothing about the credit
 adapts a deliberately under-trained model (``--train-steps``, default 400) whose LfD trajectory
 misses, once with each credit, same seeds, same budget (60), and records the error of the mean
 roll-out (m, grasp + avoidance distance) against roll-outs. Writes
-benchmarks/results/e5_credit.json with its provenance. Usage:
+benchmarks/studies/e5_ur10/results/e5_credit.json with its provenance. Usage:
 ``python benchmarks/studies/e5_ur10/e5_credit.py [--seeds N] [--train-steps N] [--out FILE]``.
 """
 from __future__ import annotations
@@ -20,12 +20,13 @@ sys.path.insert(0, str(ROOT))
 
 from acnmp_core.experiments.ur10 import run_ur10  # noqa: E402
 from acnmp_core.tasks.ur10_pick_place.task import UR10PickPlaceTask  # noqa: E402
-from benchmarks._results import benchmark_args, provenance, save_result  # noqa: E402
+from benchmarks._results import benchmark_args, provenance, save_result, study_results  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> int:
     """Run E5's adaptation with "step" and with "future" credit; print one line per run."""
-    args = benchmark_args(__doc__, "e5_credit", argv, seeds=1, train_steps=400)
+    args = benchmark_args(__doc__, "e5_credit", argv, results=study_results("e5_ur10"), seeds=1,
+                          train_steps=(400, "CNMP training steps"))
     torch.set_num_threads(1)
     result = {"provenance": provenance(), "benchmark": "e5_credit", "train_steps": args.train_steps, "credits": {}}
     for credit in ("step", "future"):

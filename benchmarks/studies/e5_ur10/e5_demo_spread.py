@@ -8,7 +8,7 @@ trajectories, per joint, and records the smallest and largest over the demonstra
 the LfD-only errors of ``benchmarks/results/e5_ur10.json`` (medians over its seeds) and the
 paper's. A model that outputs any demonstration unchanged is off by at most the "farthest demo"
 figure. No training, no simulation: a few seconds. Writes
-``benchmarks/results/e5_demo_spread.json``. Usage: ``python benchmarks/studies/e5_ur10/e5_demo_spread.py [--out FILE]``.
+``benchmarks/studies/e5_ur10/results/e5_demo_spread.json``. Usage: ``python benchmarks/studies/e5_ur10/e5_demo_spread.py [--out FILE]``.
 """
 from __future__ import annotations
 
@@ -23,7 +23,8 @@ ROOT = Path(__file__).resolve().parents[3]
 sys.path.insert(0, str(ROOT))
 
 from acnmp_core.experiments.ur10 import CASES, make_setup  # noqa: E402
-from benchmarks._results import provenance, save_result  # noqa: E402
+from benchmarks._results import provenance, save_result, study_results  # noqa: E402
+from clients.experiments.common import add_run_arguments  # noqa: E402
 
 #: The paper's Table 2 (left) entries at (9, 11) that our sources give (deg).
 PAPER_LFD_9_11 = {"elbow_joint": 17.98, "wrist_1_joint": 14.89}
@@ -38,7 +39,7 @@ def demo_distances(expert: np.ndarray, demos: np.ndarray) -> np.ndarray:
 def main(argv: list[str] | None = None) -> int:
     """Measure the spread; print the headline."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "e5_demo_spread.json"))
+    add_run_arguments(ap, out=str(study_results("e5_ur10") / "e5_demo_spread.json"))
     ap.add_argument("--lfd", default=str(ROOT / "benchmarks" / "results" / "e5_ur10.json"),
                     help="the E5 benchmark result whose LfD-only errors are set beside the spread")
     args = ap.parse_args(argv)

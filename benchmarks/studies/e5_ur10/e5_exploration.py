@@ -21,7 +21,7 @@ counts are issue 37's: LfD's and ACNMP's physics successes and ACNMP's successes
 within 2 deg. (variant, seed) pairs run in ``--jobs`` processes (one seed's numbers do not depend
 on it).
 
-Writes ``benchmarks/results/e5_exploration.json``.
+Writes ``benchmarks/studies/e5_ur10/results/e5_exploration.json``.
 Usage: ``python benchmarks/studies/e5_ur10/e5_exploration.py [--seeds N|A-B] [--only NAME,...] [--jobs 2]``
 (about 25 min for the five variants on seeds 0-9 with two processes).
 """
@@ -40,7 +40,8 @@ sys.path.insert(0, str(ROOT))
 from acnmp_core.adaptation.config import AdaptConfig  # noqa: E402
 from acnmp_core.experiments.ur10 import BUDGET, run_ur10  # noqa: E402
 from acnmp_core.threads import set_training_threads  # noqa: E402
-from benchmarks._results import provenance, save_result  # noqa: E402
+from benchmarks._results import provenance, save_result, study_results  # noqa: E402
+from clients.experiments.common import add_run_arguments  # noqa: E402
 from benchmarks.studies.e5_ur10.e5_training import print_variant, variants_and_seeds  # noqa: E402
 from clients.experiments.targets import E5_JOINT_DEG, e5_within_bound  # noqa: E402
 
@@ -86,7 +87,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seeds", default="10", help="a count N (seeds 0..N-1) or a range A-B (default 10)")
     ap.add_argument("--only", default=None, help=f"comma-separated subset of {','.join(VARIANTS)}")
     ap.add_argument("--jobs", type=int, default=2, help="processes (default 2)")
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "e5_exploration.json"))
+    add_run_arguments(ap, out=str(study_results("e5_ur10") / "e5_exploration.json"))
     args = ap.parse_args(argv)
     names, seeds = variants_and_seeds(ap, args, VARIANTS)
     if args.jobs < 1:

@@ -7,9 +7,9 @@ of the expert. The variants are those before (3000 steps at a constant 1e-3) and
 of default (10000 steps decaying to 1e-5), the decay alone, and twice the steps.
 
 The variants were compared on E5's reported seeds 0-4; ``--seeds 5-9`` checks them on seeds that
-chose nothing (``benchmarks/results/e5_training_fresh.json``).
+chose nothing (``benchmarks/studies/e5_ur10/results/e5_training_fresh.json``).
 
-Writes ``benchmarks/results/e5_training.json``.
+Writes ``benchmarks/studies/e5_ur10/results/e5_training.json``.
 Usage: ``python benchmarks/studies/e5_ur10/e5_training.py [--seeds N|A-B] [--only NAME,...] [--out FILE]``
 (about 20 min for the four variants on one core).
 """
@@ -26,7 +26,8 @@ ROOT = Path(__file__).resolve().parents[3]
 sys.path.insert(0, str(ROOT))
 
 from acnmp_core.experiments.ur10 import run_ur10  # noqa: E402
-from benchmarks._results import provenance, save_result  # noqa: E402
+from benchmarks._results import provenance, save_result, study_results  # noqa: E402
+from clients.experiments.common import add_run_arguments  # noqa: E402
 from clients.experiments.targets import E5_JOINT_DEG, e5_within_bound  # noqa: E402
 
 #: name -> (training steps, final rate of the cosine decay or None for a constant 1e-3)
@@ -87,7 +88,7 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", default="5", help="a count N (seeds 0..N-1) or a range A-B (default 5)")
     ap.add_argument("--only", default=None, help=f"comma-separated subset of {','.join(VARIANTS)}")
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "e5_training.json"))
+    add_run_arguments(ap, out=str(study_results("e5_ur10") / "e5_training.json"))
     args = ap.parse_args(argv)
     names, seeds = variants_and_seeds(ap, args, VARIANTS)
     torch.set_num_threads(1)

@@ -9,7 +9,7 @@ side effects stay out of the skill), and is checked as ``run_seed`` checks: the 
 RL, each demonstration reproduced. Seeds run in ``--jobs`` processes. ``--noise demos`` explores
 as setting T does (``noise="demos"``, the demonstrations' deviations; E6's default, "rbf", explores per
 step), to see whether another start or rate keeps the demonstrations when T's solutions are
-assimilated. Writes ``benchmarks/results/e6_assimilation.json``. Usage:
+assimilated. Writes ``benchmarks/studies/e6_pour/results/e6_assimilation.json``. Usage:
 ``python benchmarks/studies/e6_pour/e6_assimilation.py [--seeds 5] [--jobs 2] [--noise rbf|cubic|demos] [--out FILE]``.
 """
 from __future__ import annotations
@@ -28,7 +28,8 @@ ROOT = Path(__file__).resolve().parents[3]
 sys.path.insert(0, str(ROOT))
 
 from acnmp_core.adaptation.assimilation import AssimilationConfig  # noqa: E402
-from benchmarks._results import provenance, save_result  # noqa: E402
+from benchmarks._results import provenance, save_result, study_results  # noqa: E402
+from clients.experiments.common import add_run_arguments  # noqa: E402
 from benchmarks.studies.e6_pour.e6_settings import parse_seeds  # noqa: E402
 
 #: name -> (the model the assimilation starts from, its settings).
@@ -104,11 +105,11 @@ def main(argv: list[str] | None = None) -> int:
     """Run the seeds, print one line per candidate, write the JSON."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", default="5", help="a count N (seeds 0..N-1) or a list such as 100-115,0-4")
-    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--jobs", type=int, default=2, help="seeds run in processes at once (default 2)")
     ap.add_argument("--only", default=",".join(CANDIDATES), help="candidates, comma-separated")
     ap.add_argument("--noise", choices=("rbf", "cubic", "demos"), default=None,
                     help="the adaptation's exploration noise (default: E6's, e6_adapt_config().noise)")
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "e6_assimilation.json"))
+    add_run_arguments(ap, out=str(study_results("e6_pour") / "e6_assimilation.json"))
     args = ap.parse_args(argv)
     meta = provenance()
     t0 = time.perf_counter()

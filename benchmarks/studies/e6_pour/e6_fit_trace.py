@@ -26,7 +26,8 @@ sys.path.insert(0, str(ROOT))
 
 from acnmp_core.adaptation import loop as adaptation  # noqa: E402
 from acnmp_core.experiments.pour import TOLERANCE_G, make_setup, run_seed, train_pour_cnmp  # noqa: E402
-from benchmarks._results import provenance, save_result  # noqa: E402
+from benchmarks._results import provenance, save_result, study_results  # noqa: E402
+from clients.experiments.common import add_run_arguments  # noqa: E402
 from benchmarks.studies.e6_pour.e6_settings import candidate_config, parse_seeds  # noqa: E402
 
 
@@ -73,10 +74,10 @@ def main(argv: list[str] | None = None) -> int:
     from acnmp_core.tasks.pour.task import PourTask
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--seeds", default="104,115")
-    ap.add_argument("--candidate", default="F")
-    ap.add_argument("--budget", type=int, default=20)
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "e6_fit_trace.json"))
+    ap.add_argument("--seeds", default="104,115", help="seeds: A-B (A to B), A,B or a mix (default 104,115)")
+    ap.add_argument("--candidate", default="F", help="the adapt setting traced, a candidate of e6_settings.py (default F)")
+    ap.add_argument("--budget", type=int, default=20, help="ACNMP roll-out budget (default 20)")
+    add_run_arguments(ap, out=str(study_results("e6_pour") / "e6_fit_trace.json"))
     args = ap.parse_args(argv)
     meta = provenance()
     torch.set_num_threads(1)

@@ -23,7 +23,7 @@ seeds the first candidate of ``--only`` (here "F") does not solve within 20. The
 are deterministic): there ``baseline_not_within_20`` is R's. "S" was ``e6_adapt_config`` since.
 "T" (S with the demonstration-shaped noise) against "S" on the same set, on the AMD machine
 (``results/e6_settings_demos.json``, ``--only S,T``); "T" was not kept (its assimilated solutions
-reproduce the demonstrations worse: ``results/e6_pour_setting_t.json``).
+reproduce the demonstrations worse: ``benchmarks/results/e6_pour_setting_t.json``).
 
 Usage: ``python benchmarks/studies/e6_pour/e6_settings.py [--seeds 100,101,102,103 | 100-115] [--only F,G] [--budget 25]
 [--jobs 2] [--out FILE]``.
@@ -45,7 +45,8 @@ sys.path.insert(0, str(ROOT))
 from acnmp_core.adaptation.config import AdaptConfig  # noqa: E402
 from acnmp_core.adaptation.exploration import CubicNoise  # noqa: E402
 from acnmp_core.experiments.pour import TOLERANCE_G, WITHIN, make_setup, run_seed, train_pour_cnmp  # noqa: E402
-from benchmarks._results import provenance, save_result  # noqa: E402
+from benchmarks._results import provenance, save_result, study_results  # noqa: E402
+from clients.experiments.common import add_run_arguments  # noqa: E402
 
 BUDGET = 25
 #: Mean std per step of E6's cubic noise (12 knots, the AdaptConfig default, over the demos' 240 rows)
@@ -122,11 +123,13 @@ def main(argv: list[str] | None = None) -> int:
     """Run the candidates on the seeds (``--jobs`` seeds at once); print one line per run and
     write the JSON."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--seeds", default="100,101,102,103")
-    ap.add_argument("--only", default=",".join(CANDIDATES))
-    ap.add_argument("--budget", type=int, default=BUDGET)
-    ap.add_argument("--jobs", type=int, default=2)
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "e6_settings.json"))
+    ap.add_argument("--seeds", default="100,101,102,103",
+                    help="tuning seeds: A-B (A to B), A,B or a mix (default 100,101,102,103)")
+    ap.add_argument("--only", default=",".join(CANDIDATES), metavar="C,..",
+                    help=f"comma-separated candidates (default: all: {','.join(CANDIDATES)})")
+    ap.add_argument("--budget", type=int, default=BUDGET, help=f"ACNMP roll-out budget (default {BUDGET})")
+    ap.add_argument("--jobs", type=int, default=2, help="runs in processes at once (default 2)")
+    add_run_arguments(ap, out=str(study_results("e6_pour") / "e6_settings.json"))
     args = ap.parse_args(argv)
     meta = provenance()
     seeds = parse_seeds(args.seeds)

@@ -25,7 +25,7 @@ trained on it reproduce it, beside the current set, in one run:
 Usage::
 
     python benchmarks/studies/e6_pour/pour_robust_angles.py [--seeds 0-4] [--window 1.0] [--step 0.25] [--jobs 2]
-        [--out benchmarks/results/pour_robust_angles.json]
+        [--out benchmarks/studies/e6_pour/results/pour_robust_angles.json]
 """
 from __future__ import annotations
 
@@ -50,6 +50,7 @@ from acnmp_core.tasks.pour.demos import (  # noqa: E402
     N_STEPS, NOMINAL_WEIGHTS_G, TILT_STEPS, HOLD_STEPS, demo_weights_g, expert_pour_trajectory,
 )
 from benchmarks._results import provenance, save_result  # noqa: E402
+from clients.experiments.common import add_run_arguments  # noqa: E402
 from benchmarks.studies.e1_viapoint.e1_assimilation import seed_range  # noqa: E402
 from benchmarks.studies.e6_pour.pour_sensitivity import shifted  # noqa: E402
 
@@ -218,7 +219,7 @@ def main(argv=None) -> int:
     ap.add_argument("--noise-seed", type=int, default=0, help="seed of the noise draws (the same for every tilt)")
     ap.add_argument("--tolerance", type=float, default=25.0, help="largest change of the pour allowed (g)")
     ap.add_argument("--jobs", type=int, default=2, help="processes for the search (one weight each)")
-    ap.add_argument("--out", default="benchmarks/results/pour_robust_angles.json")
+    add_run_arguments(ap, out="benchmarks/studies/e6_pour/results/pour_robust_angles.json")
     args = ap.parse_args(argv)
     if not args.step > 0 or not args.window >= 0:
         ap.error("--step: expected a number > 0; --window: a number >= 0")

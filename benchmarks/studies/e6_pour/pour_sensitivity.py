@@ -19,7 +19,7 @@ Usage::
 
     python benchmarks/studies/e6_pour/pour_sensitivity.py [--rig default ...] [--demos 16] [--out FILE]
 
-(default ``benchmarks/results/pour_sensitivity.json``).
+(default ``benchmarks/studies/e6_pour/results/pour_sensitivity.json``).
 """
 from __future__ import annotations
 
@@ -38,6 +38,7 @@ from acnmp_core.sim.pour import TEST_WEIGHT_G, PourConfig  # noqa: E402
 from acnmp_core.tasks.pour.task import PourTask  # noqa: E402
 from acnmp_core.tasks.pour.demos import DEMO_ANGLES_DEG, N_STEPS, demo_weights_g, expert_pour_trajectory  # noqa: E402
 from benchmarks._results import provenance, save_result  # noqa: E402
+from clients.experiments.common import add_run_arguments  # noqa: E402
 
 OFFSETS_DEG = (-0.5, -0.25, -0.01, 0.01, 0.25, 0.5)
 SHIFTS_ROWS = (-1, 1)
@@ -163,10 +164,11 @@ def _summary(rig: dict) -> dict:
 def main(argv=None) -> int:
     """Measure the rigs named by ``--rig``, print the summary and write one JSON; returns 0."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--rig", nargs="+", choices=sorted(RIGS), default=["default"])
+    ap.add_argument("--rig", nargs="+", choices=sorted(RIGS), default=["default"],
+                    help=f"rig variants replayed, among {', '.join(sorted(RIGS))} (default: default)")
     ap.add_argument("--robust-deg", type=float, default=0.25, help="largest tilt offset a robust demo must absorb")
     ap.add_argument("--demos", type=int, default=16, help="replay this many of the 16, evenly spread (screening)")
-    ap.add_argument("--out", default="benchmarks/results/pour_sensitivity.json")
+    add_run_arguments(ap, out="benchmarks/studies/e6_pour/results/pour_sensitivity.json")
     args = ap.parse_args(argv)
     meta = provenance()
     t0 = time.perf_counter()

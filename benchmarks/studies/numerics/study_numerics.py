@@ -8,7 +8,7 @@ Then times the pinned E3 (20 environments, 200 test ones) in each mode, alternat
 times, and reports the ratio to the default. Each run is a fresh process (MKL reads its settings
 at load time).
 
-    python benchmarks/studies/numerics/study_numerics.py --emulate Haswell-v4,EPYC-Milan --out benchmarks/results/study_numerics.json
+    python benchmarks/studies/numerics/study_numerics.py --emulate Haswell-v4,EPYC-Milan --out benchmarks/studies/numerics/results/study_numerics.json
 """
 from __future__ import annotations
 
@@ -44,6 +44,8 @@ def run(code: str, env: dict[str, str], cpu: str | None = None) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
+    from clients.experiments.common import add_run_arguments
+
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--emulate", default="", help="comma-separated qemu CPU models to compute the canary on too")
     ap.add_argument("--emulate-modes", default="default",
@@ -52,7 +54,7 @@ def main(argv: list[str] | None = None) -> int:
                     help="emulated canaries measured earlier (each takes 13-17 min): NAME=FILE with the JSON "
                          "{'env': MKL_CBWR or null, 'fp': fingerprint, 's': seconds} a run under qemu printed")
     ap.add_argument("--repeats", type=int, default=2, help="timed E3 runs per mode (alternating)")
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "study_numerics.json"))
+    add_run_arguments(ap, out=str((Path(__file__).resolve().parent / "results") / "study_numerics.json"))
     args = ap.parse_args(argv)
     cpus = [c for c in args.emulate.split(",") if c]
     if cpus and not shutil.which("qemu-x86_64"):

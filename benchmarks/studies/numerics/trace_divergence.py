@@ -5,7 +5,7 @@ and under ``qemu-x86_64 -cpu MODEL`` (another CPU model's instruction set and CP
 numpy pick that CPU's kernels), and the first op whose hash differs is reported: its index, the
 training step, the op and its input shapes. Written to ``--out`` (JSON) for benchmarks/studies/numerics/README.md.
 
-    python benchmarks/studies/numerics/trace_divergence.py --emulate Haswell-v4 [--steps 2] [--out benchmarks/results/trace_divergence.json]
+    python benchmarks/studies/numerics/trace_divergence.py --emulate Haswell-v4 [--steps 2] [--out benchmarks/studies/numerics/results/trace_divergence.json]
 """
 from __future__ import annotations
 
@@ -63,11 +63,13 @@ def trace(steps: int) -> list[dict]:
 
 
 def main(argv: list[str] | None = None) -> int:
+    from clients.experiments.common import add_run_arguments
+
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--steps", type=int, default=1, help="training steps traced (one train() call each)")
     ap.add_argument("--emulate", default="Haswell-v4", help="qemu CPU model to compare with")
     ap.add_argument("--trace-only", action="store_true", help=argparse.SUPPRESS)  # the child's mode
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "trace_divergence.json"))
+    add_run_arguments(ap, out=str((Path(__file__).resolve().parent / "results") / "trace_divergence.json"))
     args = ap.parse_args(argv)
     if args.trace_only:
         print(json.dumps(trace(args.steps)))

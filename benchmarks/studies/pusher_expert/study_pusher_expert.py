@@ -5,7 +5,7 @@ Executes the scripted expert (acnmp_core/tasks/pusher/scene.py) through the push
 extrapolation region; and, at the extrapolation positions, the nearest demonstration's
 trajectory (what a method that only recalls its demonstrations would do). Also the feasibility
 map behind the regions: the expert's final distance over object x, y and push angle.
-Writes benchmarks/results/study_pusher_expert.json. Usage: ``python benchmarks/studies/pusher_expert/study_pusher_expert.py``.
+Writes benchmarks/studies/pusher_expert/results/study_pusher_expert.json. Usage: ``python benchmarks/studies/pusher_expert/study_pusher_expert.py``.
 """
 from __future__ import annotations
 
@@ -19,7 +19,7 @@ sys.path.insert(0, str(ROOT))
 
 from acnmp_core.robots.registry import robot  # noqa: E402
 from acnmp_core.tasks.pusher import scene  # noqa: E402
-from benchmarks._results import provenance, save_result  # noqa: E402
+from benchmarks._results import provenance, save_result, study_results  # noqa: E402
 
 
 def stats(errors: list[float]) -> dict:
@@ -61,7 +61,7 @@ def main() -> int:
         "feasibility_map_final_m": {"key": "object x, object y, push angle deg", "values": grid},
     }
     ev.close()
-    return save_result(result, ROOT / "benchmarks" / "results" / "study_pusher_expert.json", None,
+    return save_result(result, study_results("pusher_expert") / "study_pusher_expert.json", None,
                 ("expert_training_region", "expert_extrapolation_region", "nearest_demonstration_at_extrapolation"))
 
 

@@ -9,6 +9,7 @@ import warnings
 import pytest
 
 from benchmarks import regression, report
+from benchmarks.report_kit import result_path
 from tests.paths import ROOT
 
 RESULTS = ROOT / "benchmarks" / "results"
@@ -33,7 +34,7 @@ def test_every_block_has_a_renderer_and_every_renderer_is_used():
                                   "e6_assimilation", "e5_ur10", "e6_pour_setting_s", "e6_assimilation_demos",
                                   "e6_assimilation_demos_tuning", "e6_assimilation_rbf_tuning"])
 def test_result_files_record_their_provenance(name):
-    p = json.loads((RESULTS / f"{name}.json").read_text())["provenance"]
+    p = json.loads(result_path(name).read_text())["provenance"]
     assert len(p["commit"]) == 40 and isinstance(p["dirty"], bool) and p["command"]
     assert p["libraries"]["torch"] and p["machine"]["cpu_count"] >= 1
 

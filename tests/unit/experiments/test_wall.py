@@ -182,7 +182,7 @@ def test_thread_count_changes_the_time_not_the_numbers():
     from benchmarks.regression import machine_key
     from clients.provenance import provenance
 
-    bench = json.loads((ROOT / "benchmarks" / "results"
+    bench = json.loads((ROOT / "benchmarks" / "studies" / "e3_wall" / "results"
                         / "bench_e3_threads.json").read_text())
     measured_on = machine_key(bench["provenance"]["machine"])
     if machine_key(provenance()["machine"]) != measured_on:
