@@ -37,6 +37,9 @@ class WorkerConfig(Service):
                           type=seconds(zero=True))
 
     def serve(self, session: zenoh.Session, stop: threading.Event, ready: Ready) -> int:
+        # no built-in task needs torch; a plugin's that imports it computes on one thread, since
+        # a worker is one of several processes on its host
+        os.environ.setdefault("OMP_NUM_THREADS", "1")
         keys = Keyspace(self.session.namespace)
         worker = Worker(self.robot, self.worker_id or f"{self.robot}-{os.getpid()}", delay=self.delay,
                         host=host_name())
@@ -47,11 +50,6 @@ class WorkerConfig(Service):
             token_key = keys.worker_token(self.robot, worker.worker_id)
             token = session.liveliness().declare_token(token_key)
             ready(f"worker live as {token_key}")
-            # torch (for the tasks that use it) is imported once live: it takes seconds, and a
-            # worker restarted by its launcher should be back sooner (a request meanwhile waits)
-            import torch
-
-            torch.set_num_threads(1)
             wait_until_stopped(stop)
             token.undeclare()
             rpc.close()
