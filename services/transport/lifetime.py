@@ -67,11 +67,26 @@ def watch_parent(stop: threading.Event, poll: float = 0.5) -> threading.Thread |
                 stop.set()
                 return
 
-    if os.getppid() != parent:  # started by something else that merely passed the variable on
-        return None
+    if os.getppid() != parent:
+        if not _alive(parent):  # the launcher died before this process got here
+            log.warning("launcher (pid %d) is gone: shutting down", parent)
+            launcher_gone.set()
+            stop.set()
+        return None  # or started by something else that merely passed the variable on
     thread = threading.Thread(target=run, name="watch-launcher", daemon=True)
     thread.start()
     return thread
+
+
+def _alive(pid: int) -> bool:
+    """Whether a process ``pid`` exists (one of another user counts)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
 
 
 def wait_until_stopped(stop: threading.Event, poll: float = 0.2) -> None:
