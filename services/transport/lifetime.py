@@ -68,7 +68,7 @@ def watch_parent(stop: threading.Event, poll: float = 0.5) -> threading.Thread |
                 return
 
     if os.getppid() != parent:
-        if not _alive(parent):  # the launcher died before this process got here
+        if not pid_alive(parent):  # the launcher died before this process got here
             log.warning("launcher (pid %d) is gone: shutting down", parent)
             launcher_gone.set()
             stop.set()
@@ -78,8 +78,10 @@ def watch_parent(stop: threading.Event, poll: float = 0.5) -> threading.Thread |
     return thread
 
 
-def _alive(pid: int) -> bool:
-    """Whether a process ``pid`` exists (one of another user counts)."""
+def pid_alive(pid: int) -> bool:
+    """Whether a process ``pid`` exists (a pid of another user counts as alive)."""
+    if pid <= 0:
+        return False
     try:
         os.kill(pid, 0)
     except ProcessLookupError:

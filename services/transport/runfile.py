@@ -21,6 +21,7 @@ from pathlib import Path
 
 from .auth import write_private
 from .keys import DEFAULT_NAMESPACE
+from .lifetime import pid_alive
 
 #: Environment variable overriding the runtime directory.
 RUNTIME_ENV = "ACNMP_RUNTIME_DIR"
@@ -113,19 +114,6 @@ class RunFile:
                        str(data.get("state_dir", "")), procs)
         except (OSError, ValueError, KeyError, TypeError):
             return None
-
-
-def pid_alive(pid: int) -> bool:
-    """Whether a process ``pid`` exists (a pid of another user counts as alive)."""
-    if pid <= 0:
-        return False
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    return True
 
 
 def running() -> list[RunFile]:
