@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Sets up .venv (CPU torch pinned) and runs the tests on every core, one pytest-xdist worker more than the cores.
+# Sets up .venv (CPU torch pinned) and runs the tests on every core (pytest-xdist).
 #
 #   bash scripts/test.sh            # the default suite: every test but the slow ones
 #   bash scripts/test.sh --fast     # the inner loop: tests/unit without the slow and the heavy tests
@@ -22,11 +22,8 @@ for arg in "$@"; do
   esac
 done
 # worksteal: a worker that runs out of tests takes queued ones from the other (the suite ends with a few
-# 20-30 s tests; plain load scheduling could leave one core idle behind them). One pytest worker more
-# than the cores: the end-to-end tests wait on their services' start-up and replies, and a third
-# worker fills that time on 2 cores (ACNMP_TEST_WORKERS to choose).
-workers=${ACNMP_TEST_WORKERS:-$(( $(nproc) + 1 ))}
-command=(.venv/bin/python -m pytest -q -n "$workers" --dist worksteal --durations=5 ${args[@]+"${args[@]}"})
+# 20-30 s tests; plain load scheduling could leave one core idle behind them)
+command=(.venv/bin/python -m pytest -q -n auto --dist worksteal --durations=5 ${args[@]+"${args[@]}"})
 if [ "${ACNMP_TEST_DRY_RUN:-}" = 1 ]; then
   printf '%s\n' "${command[@]}"
   exit 0
