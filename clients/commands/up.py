@@ -5,9 +5,15 @@ import os
 import sys
 
 
+#: The learner's options ``acnmp up`` hands on to its learner(s) as they are.
+LEARNER_OPTIONS = ("max_queued_jobs", "keep_jobs", "keep_job_days", "keep_versions", "job_runner")
+
+
 def register(subparsers) -> None:
     """Add the ``up`` sub-command."""
+    from services.learner.service import LearnerConfig
     from services.transport.argtypes import int_at_least, key_name, non_empty, robot_help, robot_kind
+    from services.transport.service import add_arguments
 
     import argparse
 
@@ -50,6 +56,8 @@ def register(subparsers) -> None:
                    help="do not train and serve E1's via-point skill 'e1' when no --demos is given")
     p.add_argument("--insecure", action="store_true",
                    help="no authentication: a zenoh peer mesh any local process can join (debugging only)")
+    add_arguments(p.add_argument_group("the learner's bounds and runner (as `acnmp serve learner`)"),
+                  LearnerConfig, only=LEARNER_OPTIONS)
     p.set_defaults(func=run)
 
 
@@ -97,6 +105,7 @@ def run(args) -> int:
         learner_args += ["--train-steps", str(args.train_steps)]
     if args.jobs is not None:
         learner_args += ["--jobs", str(args.jobs)]
+    learner_args += handed_on(LearnerConfig, args, LEARNER_OPTIONS)
     served = False
     dep = LocalDeployment(args.namespace, args.workers, args.robot, record=args.record, state_dir=state_dir,
                           model=not args.no_model, learner_args=learner_args, secure=not args.insecure,

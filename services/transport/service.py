@@ -123,9 +123,13 @@ def _scalar_type(hint) -> tuple[type, bool]:
     return hint, False
 
 
-def add_arguments(parser: argparse.ArgumentParser, cls: type[Service]) -> None:
-    """Add ``cls``'s options and the shared session options to ``parser``."""
+def add_arguments(parser: argparse.ArgumentParser, cls: type[Service], only: Sequence[str] | None = None) -> None:
+    """Add ``cls``'s options and the shared session options to ``parser`` (a parser or an argument
+    group); with ``only`` (field names), just those options, without the session options: a
+    launcher's command line that hands them on to its ``cls`` child (:func:`handed_on`)."""
     for f, hint in _option_fields(cls):
+        if only is not None and f.name not in only:
+            continue
         meta = f.metadata
         kind, repeat = _scalar_type(hint)
         flags = [meta["flag"] or "--" + f.name.replace("_", "-")] + ([meta["short"]] if meta["short"] else [])
@@ -142,7 +146,20 @@ def add_arguments(parser: argparse.ArgumentParser, cls: type[Service]) -> None:
         if choices is not None:
             kwargs["choices"] = tuple(choices() if callable(choices) else choices)
         parser.add_argument(*flags, **kwargs)
-    SessionOptions.add_arguments(parser, default_mode=cls.default_mode, modes=cls.modes)
+    if only is None:
+        SessionOptions.add_arguments(parser, default_mode=cls.default_mode, modes=cls.modes)
+
+
+def handed_on(cls: type[Service], args: argparse.Namespace, only: Sequence[str]) -> list[str]:
+    """The command line of ``cls``'s options ``only`` (added by :func:`add_arguments` with ``only``)
+    whose parsed value in ``args`` is not the default, e.g. ``["--keep-jobs", "50"]``: what a
+    launcher passes its ``cls`` child. Scalar options only."""
+    argv = []
+    for f, _ in _option_fields(cls):
+        value = getattr(args, f.name, f.default)
+        if f.name in only and value != f.default:
+            argv += [f.metadata["flag"] or "--" + f.name.replace("_", "-"), str(value)]
+    return argv
 
 
 def from_args(cls: type[Service], args: argparse.Namespace) -> Service:
