@@ -73,7 +73,8 @@ def run(args) -> int:
     from clients.default_skill import SKILL, default_demos
     from services.launcher import ChildExited, LocalDeployment
     from services.launcher.announce import NamespaceInUse, check_namespace_free
-    from services.learner.service import load_demos_spec, parse_demos_spec
+    from services.learner.service import LearnerConfig, load_demos_spec, parse_demos_spec
+    from services.transport.service import handed_on
     from services.learner.store import StateDirInUse
     from services.transport import install_shutdown_handlers
     from services.transport.argtypes import check_output_path

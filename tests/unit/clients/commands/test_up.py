@@ -34,3 +34,32 @@ def test_a_bad_value_is_a_one_line_error(argv, capsys):
     assert exc.value.code == 2
     err = capsys.readouterr().err
     assert "Traceback" not in err and argv[0] in err
+
+
+def test_up_starts_its_learner_with_the_options_given(monkeypatch, tmp_path, capsys):
+    import threading
+
+    import services.launcher
+    import services.transport
+    from services.learner.store import StateDirInUse
+
+    started = {}
+
+    class Deployment:  # records what `acnmp up` would start, and stops there
+        def __init__(self, *args, **kwargs):
+            started.update(kwargs)
+            self.children = {}
+
+        def start(self):
+            raise StateDirInUse("stopped by the test")
+
+        def stop(self):
+            return {}
+
+    monkeypatch.setattr(services.launcher, "LocalDeployment", Deployment)
+    monkeypatch.setattr(services.transport, "install_shutdown_handlers", lambda: threading.Event())
+    args = _up("--namespace", "upunit", "--state-dir", str(tmp_path), "--no-default-skill", "--keep-jobs", "7",
+               "--job-runner", "thread")
+    assert args.func(args) == 1
+    learner = parser_for(LearnerConfig).parse_args(started["learner_args"])
+    assert (learner.keep_jobs, learner.job_runner, learner.max_queued_jobs) == (7, "thread", 100)
