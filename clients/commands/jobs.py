@@ -13,7 +13,6 @@ import time
 
 import numpy as np
 
-from clients.client import JobSummary
 from services.transport import jsonable
 from services.transport.argtypes import int_at_least, non_empty, seconds
 
@@ -174,6 +173,8 @@ def _run_jobs(args) -> int:
     rows, code = _ask(args, lambda client: [dataclasses.asdict(r) for r in client.jobs(args.limit)])
     if rows is None:
         return code
+    from clients.client import JobSummary  # torch comes with it: not for --help
+
     rows = [JobSummary(**r) for r in rows]
     if not rows:
         print("no jobs yet (start one with `acnmp query adapt`)")
