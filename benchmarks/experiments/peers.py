@@ -26,6 +26,7 @@ import torch
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
+from acnmp_core.errors import InputError  # noqa: E402
 from acnmp_core.experiments.peers import METHODS, PeersConfig, merge_results, plot_peers, run_line, run_peers  # noqa: E402
 from benchmarks._results import provenance, save_result  # noqa: E402
 
@@ -38,6 +39,13 @@ def _names(text: str) -> tuple[str, ...]:
     return tuple(n.strip() for n in text.split(",") if n.strip())
 
 
+def _seeds(text: str) -> tuple[int, ...]:
+    try:
+        return tuple(int(s) for s in _names(text))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected comma-separated integers, got {text!r}") from None
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run (or merge) the comparison; print one line per run and the summary."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -45,7 +53,7 @@ def main(argv: list[str] | None = None) -> int:
                     help=f"comma-separated Meta-World tasks (default: all: {','.join(TASKS)})")
     ap.add_argument("--methods", type=_names, default=METHODS, metavar="M,..",
                     help=f"comma-separated methods (default: all: {','.join(METHODS)})")
-    ap.add_argument("--seeds", type=lambda t: tuple(int(s) for s in _names(t)), default=(0, 1, 2, 3, 4), metavar="S,..",
+    ap.add_argument("--seeds", type=_seeds, default=(0, 1, 2, 3, 4), metavar="S,..",
                     help="comma-separated seeds, each a CNMP and one test position per case (default 0,1,2,3,4)")
     ap.add_argument("--cases", type=_names, default=CASES, metavar="C,..",
                     help=f"comma-separated cases (default: both: {','.join(CASES)})")
@@ -62,12 +70,18 @@ def main(argv: list[str] | None = None) -> int:
                          "are listed under not_run")
     args = ap.parse_args(argv)
     if args.merge:
-        parts = [json.loads(Path(p).read_text()) for p in args.merge]
-        planned = json.loads(Path(args.planned).read_text()) if args.planned else None
+        try:
+            parts = [json.loads(Path(p).read_text()) for p in args.merge]
+            planned = json.loads(Path(args.planned).read_text()) if args.planned else None
+        except (OSError, ValueError) as exc:
+            ap.error(f"--merge/--planned: {exc}")
         result = merge_results(parts, {"provenance": provenance()}, planned)
     else:
         torch.set_num_threads(1)
-        config = PeersConfig(tasks=args.tasks, methods=args.methods, seeds=args.seeds, cases=args.cases)
+        try:
+            config = PeersConfig(tasks=args.tasks, methods=args.methods, seeds=args.seeds, cases=args.cases)
+        except InputError as exc:
+            ap.error(str(exc))
         result = run_peers(config, out=args.out, resume=args.resume, header={"provenance": provenance()},
                            on_run=lambda r: print(run_line(r), flush=True), budgets_from=args.budgets_from)
     save_result(result, args.out, plot_peers, ("summary", "wall_time_s"))
