@@ -262,3 +262,19 @@ def test_demos_make_writes_a_kinds_scripted_demonstrations(tmp_path, capsys, mon
     assert demos.values.shape[1:] == (100, 4) and demos.task_params.shape[1] == 3
     assert main(["demos", "make", "metaworld-door", "-o", str(tmp_path / "x.npz")]) == 2
     assert "invalid choice: 'metaworld-door'" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("argv, expected", [
+    (["--tasks", "metaworld-door"], "tasks: expected some of metaworld-reach"),
+    (["--seeds", "a,b"], "--seeds: expected comma-separated integers"),
+    (["--merge", "/nonexistent/part.json"], "--merge/--planned: "),
+])
+def test_the_benchmark_main_says_a_bad_input_in_one_line(argv, expected, capsys, tmp_path):
+    from benchmarks.experiments.peers import main
+
+    with pytest.raises(SystemExit) as exc:
+        main([*argv, "--out", str(tmp_path / "x.json")])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert expected in err[-1] and "Traceback" not in "\n".join(err), err
+    assert not (tmp_path / "x.json").exists()
