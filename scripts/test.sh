@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Sets up .venv (CPU torch pinned) and runs the tests on every core (pytest-xdist).
+# Sets up .venv (CPU torch pinned) and runs the tests on every core, one pytest-xdist worker more than the cores.
 #
 #   bash scripts/test.sh            # the default suite: every test but the slow ones
 #   bash scripts/test.sh --fast     # the inner loop: tests/unit without the slow and the heavy tests
@@ -22,8 +22,11 @@ for arg in "$@"; do
   esac
 done
 # worksteal: a worker that runs out of tests takes queued ones from the other (the suite ends with a few
-# 20-30 s tests; plain load scheduling could leave one core idle behind them)
-command=(.venv/bin/python -m pytest -q -n auto --dist worksteal --durations=5 ${args[@]+"${args[@]}"})
+# 20-30 s tests; plain load scheduling could leave one core idle behind them). One pytest worker more
+# than the cores: the end-to-end tests wait on their services' start-ups and replies, and a third
+# worker fills that time on 2 cores (ACNMP_TEST_WORKERS to choose). nproc without OMP_* (it obeys them).
+workers=${ACNMP_TEST_WORKERS:-$(( $(env -u OMP_NUM_THREADS -u OMP_THREAD_LIMIT nproc) + 1 ))}
+command=(.venv/bin/python -m pytest -q -n "$workers" --dist worksteal --durations=5 ${args[@]+"${args[@]}"})
 if [ "${ACNMP_TEST_DRY_RUN:-}" = 1 ]; then
   printf '%s\n' "${command[@]}"
   exit 0

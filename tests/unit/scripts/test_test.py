@@ -27,7 +27,7 @@ def _pytest_argv(*args: str) -> list[str]:
 ])
 def test_the_script_turns_its_options_into_pytest_arguments(args, want, unwanted):
     argv = _pytest_argv(*args)
-    assert argv[:6] == ["-q", "-n", "auto", "--dist", "worksteal", "--durations=5"]
+    assert argv[:6] == ["-q", "-n", str(len(os.sched_getaffinity(0)) + 1), "--dist", "worksteal", "--durations=5"]
     rest = argv[6:]
     assert rest == want and not set(unwanted) & set(rest)
 
