@@ -58,20 +58,21 @@ def watch_parent(stop: threading.Event, poll: float = 0.5) -> threading.Thread |
         log.warning("%s=%r is not a pid; not watching the launcher", PARENT_PID_ENV, raw)
         return None
 
+    def gone() -> None:
+        log.warning("launcher (pid %d) is gone: shutting down", parent)
+        launcher_gone.set()
+        stop.set()
+
     def run() -> None:
         # A dead parent's children are re-parented (to init or a subreaper): getppid() changes.
         while not stop.wait(poll):
             if os.getppid() != parent:
-                log.warning("launcher (pid %d) is gone: shutting down", parent)
-                launcher_gone.set()
-                stop.set()
+                gone()
                 return
 
     if os.getppid() != parent:
         if not pid_alive(parent):  # the launcher died before this process got here
-            log.warning("launcher (pid %d) is gone: shutting down", parent)
-            launcher_gone.set()
-            stop.set()
+            gone()
         return None  # or started by something else that merely passed the variable on
     thread = threading.Thread(target=run, name="watch-launcher", daemon=True)
     thread.start()
