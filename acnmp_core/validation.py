@@ -83,3 +83,11 @@ def check_type(name: str, value, types: type | tuple[type, ...]) -> Any:
 
 def _names(types: tuple[type, ...]) -> str:
     return " or ".join("None" if t is type(None) else t.__name__ for t in types)
+
+
+def check_lr_final(lr: float, lr_final: float | None) -> None:
+    """Refuse a final learning rate that is not a number in (0, lr] (None: no decay)."""
+    if lr_final is None:
+        return
+    if isinstance(lr_final, bool) or not isinstance(lr_final, (int, float)) or not 0 < lr_final <= lr:
+        raise ValueError(f"lr_final: expected None or a number in (0, lr = {lr}], got {lr_final!r}")

@@ -20,7 +20,6 @@ the solution given exactly the adaptation's conditions (the *anchor*), weighted 
 from __future__ import annotations
 
 import threading
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -30,10 +29,10 @@ from ..data.demos import DemoSet, Demonstration
 from ..model.cnmp import CNMP
 from ..model.episodes import Episode
 from ..model.optim_step import Stepper
-from ..model.training import TrainConfig, check_lr_final, check_stop, cosine_lr, make_sampler, nll_loss, set_lr
+from ..model.training import TrainConfig, check_stop, cosine_lr, make_sampler, nll_loss, set_lr
 from ..threads import with_training_threads
-from ..validation import check_array, check_positive_int
-from .config import AdaptTarget
+from ..validation import check_array
+from .config import AdaptTarget, AssimilationConfig
 
 
 #: Which network a solution is assimilated into, for the experiments that choose: the skill as it
@@ -47,41 +46,6 @@ def check_assimilate_from(value: str) -> str:
     if value not in ASSIMILATE_FROM:
         raise ValueError(f"assimilate_from: expected one of {ASSIMILATE_FROM}, got {value!r}")
     return value
-
-
-@dataclass
-class AssimilationConfig:
-    """Continued training after a solution joins the demonstrations.
-
-    steps : supervised steps (0 adds the demonstration without training).
-    lr : Adam learning rate (below the first training's, see the module docstring).
-    batch_size : random episodes per step (from all demonstrations, the solution included).
-    n_targets : target points per episode.
-    anchor_weight : weight of the anchor NLL (the solution given the adaptation's conditions).
-    lr_final : None keeps ``lr`` constant; a number decays it along a half cosine to ``lr_final``
-        at the last step (:func:`~acnmp_core.model.training.cosine_lr`).
-    targets_include_obs : the episodes' observations are among their targets (see
-        :class:`~acnmp_core.model.episodes.EpisodeSampler`); False: never (the authors').
-    """
-
-    steps: int = 1000
-    lr: float = 1e-4
-    batch_size: int = 32
-    n_targets: int = 10
-    anchor_weight: float = 1.0
-    lr_final: float | None = None
-    targets_include_obs: bool = False
-
-    def __post_init__(self) -> None:
-        check_positive_int("steps", self.steps, minimum=0)
-        check_positive_int("batch_size", self.batch_size)
-        check_positive_int("n_targets", self.n_targets)
-        if isinstance(self.lr, bool) or not isinstance(self.lr, (int, float)) or not self.lr > 0:
-            raise ValueError(f"lr: expected a number > 0, got {self.lr!r}")
-        check_lr_final(self.lr, self.lr_final)
-        if isinstance(self.anchor_weight, bool) or not isinstance(self.anchor_weight, (int, float)) \
-                or not self.anchor_weight >= 0:
-            raise ValueError(f"anchor_weight: expected a number >= 0, got {self.anchor_weight!r}")
 
 
 @with_training_threads

@@ -26,8 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from ..adaptation.assimilation import AssimilationConfig
-from ..adaptation.config import AdaptConfig, AdaptResult, AdaptTarget, IterationLog
+from ..adaptation.config import AdaptConfig, AdaptResult, AdaptTarget, AssimilationConfig, IterationLog
 from ..errors import InputError, TooLargeError
 from ..robots.registry import robot
 from ..validation import check_array, check_positive_int, check_type

@@ -25,7 +25,7 @@ import numpy as np
 from ..data.demos import DemoSet
 from ..errors import InputError, ShapeError, TooLargeError
 from ..robots.registry import robot as registry_robot
-from ..transfer.pair import PairTrainResult, TransferConfig
+from ..transfer.config import PairTrainResult, TransferConfig
 from ..validation import check_array, check_type
 
 #: Bound on each robot's demonstrations (N * T * D values), as the train request's.

@@ -13,7 +13,7 @@ from tqdm.auto import tqdm
 
 from ..data.demos import DemoSet
 from ..threads import with_training_threads
-from ..validation import check_positive_int
+from ..validation import check_lr_final, check_positive_int
 from .cnmp import CNMP
 from .episodes import Episode, EpisodeSampler
 from .optim_step import Stepper
@@ -70,14 +70,6 @@ class TrainConfig:
             raise ValueError(f"task_param_jitter: expected a finite std >= 0, got {j!r}")
         if isinstance(self.mixup, bool) or not isinstance(self.mixup, (int, float)) or not 0 <= self.mixup <= 1:
             raise ValueError(f"mixup: expected a probability in [0, 1], got {self.mixup!r}")
-
-
-def check_lr_final(lr: float, lr_final: float | None) -> None:
-    """Refuse a final learning rate that is not a number in (0, lr] (None: no decay)."""
-    if lr_final is None:
-        return
-    if isinstance(lr_final, bool) or not isinstance(lr_final, (int, float)) or not 0 < lr_final <= lr:
-        raise ValueError(f"lr_final: expected None or a number in (0, lr = {lr}], got {lr_final!r}")
 
 
 def cosine_lr(lr: float, lr_final: float | None, step: int, steps: int) -> float:

@@ -11,7 +11,7 @@ LEARNER_OPTIONS = ("max_queued_jobs", "keep_jobs", "keep_job_days", "keep_versio
 
 def register(subparsers) -> None:
     """Add the ``up`` sub-command."""
-    from services.learner.service import LearnerConfig
+    from services.learner.config import LearnerOptions
     from services.transport.argtypes import int_at_least, key_name, non_empty, robot_help, robot_kind
     from services.transport.service import add_arguments
 
@@ -57,7 +57,7 @@ def register(subparsers) -> None:
     p.add_argument("--insecure", action="store_true",
                    help="no authentication: a zenoh peer mesh any local process can join (debugging only)")
     add_arguments(p.add_argument_group("the learner's bounds and runner (as `acnmp serve learner`)"),
-                  LearnerConfig, only=LEARNER_OPTIONS)
+                  LearnerOptions, only=LEARNER_OPTIONS)
     p.set_defaults(func=run)
 
 
@@ -73,9 +73,9 @@ def run(args) -> int:
     from clients.default_skill import SKILL, default_demos
     from services.launcher import ChildExited, LocalDeployment
     from services.launcher.announce import NamespaceInUse, check_namespace_free
-    from services.learner.service import LearnerConfig, load_demos_spec, parse_demos_spec
+    from services.learner.config import LearnerOptions, load_demos_spec, parse_demos_spec
     from services.transport.service import handed_on
-    from services.learner.store import StateDirInUse
+    from services.transport.state_dir import StateDirInUse
     from services.transport import install_shutdown_handlers
     from services.transport.argtypes import check_output_path
     from services.transport.state_dir import default_state_dir
@@ -106,7 +106,7 @@ def run(args) -> int:
         learner_args += ["--train-steps", str(args.train_steps)]
     if args.jobs is not None:
         learner_args += ["--jobs", str(args.jobs)]
-    learner_args += handed_on(LearnerConfig, args, LEARNER_OPTIONS)
+    learner_args += handed_on(LearnerOptions, args, LEARNER_OPTIONS)
     served = False
     dep = LocalDeployment(args.namespace, args.workers, args.robot, record=args.record, state_dir=state_dir,
                           model=not args.no_model, learner_args=learner_args, secure=not args.insecure,

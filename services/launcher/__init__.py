@@ -10,7 +10,21 @@ module                    one job
 ``announce``              a secured deployment's secrets and run file
 ========================  =========================================================
 """
-from .deployment import Child, ChildExited, LocalDeployment
-from .processes import PROCESSES, entry_module, service_class
+from __future__ import annotations
 
-__all__ = ["Child", "ChildExited", "LocalDeployment", "PROCESSES", "entry_module", "service_class"]
+from typing import TYPE_CHECKING
+
+from services.transport.lazy import lazy_exports
+
+if TYPE_CHECKING:  # what a type checker sees; at run time the names come from __getattr__
+    from .deployment import Child, ChildExited, LocalDeployment
+    from .processes import PROCESSES, entry_module, options_class, service_class
+
+__all__ = [
+    "Child", "ChildExited", "LocalDeployment", "PROCESSES", "entry_module", "options_class", "service_class",
+]
+__getattr__ = lazy_exports(__name__, {
+    "Child": "deployment", "ChildExited": "deployment", "LocalDeployment": "deployment",
+    "PROCESSES": "processes", "entry_module": "processes", "options_class": "processes",
+    "service_class": "processes",
+})

@@ -53,7 +53,7 @@ import zenoh
 
 from acnmp_core.robots.registry import PLUGINS_ENV, plugins_for_children
 from acnmp_core.robots.registry import robot as robot_spec
-from services.learner.store import DirectoryLock
+from services.transport.state_dir import DirectoryLock
 from services.recording.event_ids import marks_path
 from services.recording.publisher import EventPublisher
 from services.recording.web_viewer import page_url

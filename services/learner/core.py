@@ -79,12 +79,13 @@ from acnmp_core.rollout import RolloutBatch, RolloutEvaluator
 from acnmp_core.transfer.pair import PairTrainResult, TransferPair, latent_plane, train_pair
 from services.recording.events import (batch_rollout_events, job_event, job_progress_event, latent_event,
                                        model_version_event, robot_drawing)
+from services.transport.state_dir import DirectoryLock
 
 from .jobs import TERMINAL, UNFINISHED, JobRecord
 from .limits import StateLimits, busy_message
 from .runner import AdaptRunner, AdaptTask, make_runner
 from .metrics import MetricsReporter
-from .store import DirectoryLock, JobStore, Quarantined, SkillState, SkillStore, StateDir, StateWriteError
+from .store import JobStore, Quarantined, SkillState, SkillStore, StateDir, StateWriteError
 
 log = logging.getLogger(__name__)
 

@@ -16,14 +16,17 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from acnmp_core.jobs.adapt import AdaptJob
-from acnmp_core.jobs.transfer import PairTrainJob
-from acnmp_core.model.cnmp import CNMPConfig
-from acnmp_core.model.training import TrainConfig
-from services.model.weights import MAX_PARAMETERS
+from typing import TYPE_CHECKING
+
 from services.transport.wire import WireError
 from services.worker.core import MAX_BATCH as WORKER_MAX_BATCH
 from services.worker.core import MAX_ELEMENTS as WORKER_MAX_ELEMENTS
+
+if TYPE_CHECKING:  # the learner's options read the defaults below without importing torch
+    from acnmp_core.jobs.adapt import AdaptJob
+    from acnmp_core.jobs.transfer import PairTrainJob
+    from acnmp_core.model.cnmp import CNMPConfig
+    from acnmp_core.model.training import TrainConfig
 
 
 @dataclass(frozen=True)
@@ -56,6 +59,8 @@ def _refuse(setting: str, value: int, limit: int) -> None:
 
 def check_train(model: CNMPConfig, train: TrainConfig, limits: LearnerLimits) -> None:
     """Refuse a training whose model or cost is over ``limits`` (WireError ``too_large``)."""
+    from services.model.weights import MAX_PARAMETERS
+
     _refuse("model: parameters (from encoder_widths, decoder_widths)", model.n_parameters, MAX_PARAMETERS)
     check_steps("train.steps", train.steps, limits)
     _refuse("train.batch_size", train.batch_size, limits.max_batch_size)
@@ -92,6 +97,9 @@ def check_pair(job: PairTrainJob, limits: LearnerLimits) -> None:
     """Refuse a paired skill's training whose models or cost are over ``limits`` (WireError
     ``too_large``): each robot's CNMP as a train request's model, and the training counted for
     both robots (every step draws an episode of each)."""
+    from acnmp_core.model.cnmp import CNMPConfig
+    from services.model.weights import MAX_PARAMETERS
+
     cfg = job.config
     for side, n in (("a", job.n_a), ("b", job.n_b)):
         model = CNMPConfig(n, 0, cfg.widths, cfg.widths)

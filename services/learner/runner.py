@@ -37,13 +37,10 @@ from acnmp_core.model.cnmp import CNMP
 from acnmp_core.data.demos import DemoSet
 from acnmp_core.rollout import RolloutBatch, RolloutEvaluator
 
+from .config import RUNNERS
+
 log = logging.getLogger(__name__)
 
-#: Runner kinds ``--job-runner`` takes, and the learner's defaults (chosen from
-#: benchmarks/results/bench_jobs.json on a 2-core machine).
-RUNNERS = ("process", "thread")
-DEFAULT_RUNNER = "process"
-DEFAULT_JOBS = 2
 #: Seconds between looks at the learner's stop flag while a child computes.
 STOP_POLL = 0.1
 

@@ -33,11 +33,10 @@ import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import ClassVar, Sequence
+from typing import Sequence
 
 import zenoh
 
-from acnmp_core.data.demo_io import DemoArrays, load_demos
 from acnmp_core.data.demos import DemoSet
 from acnmp_core.jobs.adapt import AdaptJob
 from acnmp_core.jobs.transfer import PairTrainJob
@@ -45,8 +44,7 @@ from acnmp_core.model.cnmp import CNMPConfig
 from acnmp_core.model.training import TrainConfig
 from services.model.weights import encode_weights
 from services.recording.publisher import EventPublisher
-from services.transport import Keyspace, Ready, Service, WireError, declare_rpc, option
-from services.transport.argtypes import device, int_at_least, seconds
+from services.transport import Keyspace, Ready, WireError, declare_rpc
 from services.transport.errors import wire_error
 from services.transport.keys import check_name, is_concrete, job_from_key, skill_from_key, token_id
 from services.transport.rpc import NotServed
@@ -56,8 +54,8 @@ from services.worker.remote import RemoteEvaluator
 
 from .core import LearnerBusy, LearnerCore, TrainSpec, UnknownJobError, UnknownSkillError
 from .limits import LearnerLimits, StateLimits, check_job, check_pair, check_train
-from .ownership import Ownership, learner_ids, skill_of_job
-from .runner import DEFAULT_JOBS, DEFAULT_RUNNER, RUNNERS
+from .config import LearnerOptions, demos_skill, load_demos_spec, parse_demos_spec
+from .ownership import Ownership, skill_of_job
 from .store import SkillState, StateWriteError
 
 log = logging.getLogger(__name__)
@@ -181,7 +179,7 @@ class LearnerService:
         if ready is not None:
             ready.report_health(lambda: self.core.health().problems())
         #: the --demos values of the skills this learner serves (the others' owners train theirs)
-        self.demos = [spec for spec in demos if self.ownership.owner(_demos_skill(spec)) == self.learner_id]
+        self.demos = [spec for spec in demos if self.ownership.owner(demos_skill(spec)) == self.learner_id]
         #: skills not served until retrained from their changed --demos file
         self.withheld: set[str] = stale_skills(self.core, self.demos)
         self._learners_sub = None if self.ownership.alone else session.liveliness().declare_subscriber(
@@ -392,40 +390,6 @@ def _weights(state: SkillState) -> bytes:
                           n_demos=len(state.demos), partner=state.partner)
 
 
-def _demos_skill(spec: str) -> str:
-    """The skill a ``--demos`` value names, or the value itself when it is malformed (then
-    :func:`bootstrap` says what is wrong with it)."""
-    try:
-        return parse_demos_spec(spec)
-    except ValueError:
-        return spec
-
-
-def parse_demos_spec(spec: str) -> str:
-    """The skill name of a ``--demos`` value ``SKILL=FILE.npz``; ValueError naming ``--demos`` for a
-    bad form or name."""
-    name, sep, path = spec.partition("=")
-    if not sep or not path:
-        raise ValueError(f"--demos: expected SKILL=FILE.npz, got {spec!r}")
-    try:
-        return check_name("skill", name)
-    except ValueError as exc:
-        raise ValueError(f"--demos {spec}: {exc}") from None
-
-
-def load_demos_spec(spec: str) -> DemoArrays:
-    """The demonstration file of a ``--demos`` value ``SKILL=FILE.npz``, read and checked; ValueError
-    naming ``--demos`` for a bad form, name or file (``acnmp up`` checks its values with it before
-    it starts the learner)."""
-    parse_demos_spec(spec)
-    try:
-        arrays = load_demos(spec.partition("=")[2])
-        arrays.to_demo_set()
-    except ValueError as exc:
-        raise ValueError(f"--demos {spec}: {str(exc).removeprefix('path: ')}") from None
-    return arrays
-
-
 def bootstrap(core: LearnerCore, specs: Sequence[str], steps: int) -> list[str]:
     """Train each ``SKILL=FILE.npz`` demonstration file (``--demos``) that is not a skill yet, or
     whose skill was trained from other demonstrations (the file changed since: the skill is
@@ -491,55 +455,9 @@ def import_training_modules() -> None:
 
 
 @dataclass
-class LearnerConfig(Service):
-    """The learner's options; :meth:`serve` runs it on an open session."""
-
-    name: ClassVar[str] = "learner"
-    summary: ClassVar[str] = "the learner: trains skills, runs adaptation jobs, checkpoints"
-
-    state_dir: str | None = option(None, "checkpoints of skills and jobs, locked while the learner runs "
-                                         "(default: ~/.local/state/acnmp/<namespace> on Linux, the user state "
-                                         "directory; ./runs/<namespace>/state while only it exists)", metavar="DIR")
-    learner_id: str | None = option(None, "learner id (default: learner-<pid>)", flag="--id", metavar="ID")
-    demos: list[str] = option([], "train SKILL from a demonstration file at start unless it was trained from "
-                                  "that file's demonstrations (a changed file retrains it; repeatable); the file's "
-                                  "arrays: `acnmp up --help`, docs/ROBOTS.md",
-                              metavar="SKILL=FILE.npz")
-    train_steps: int = option(3000, "steps for --demos (default: %(default)s)", metavar="N", type=int_at_least(1))
-    wait_recorder: float = option(0.0, "wait up to S seconds for a recorder before the first event (default: 0)",
-                                  metavar="S", type=seconds(zero=True))
-    chunk_timeout: float = option(60.0, "seconds a worker may take for its share of a batch (default: %(default)s)",
-                                  metavar="S", type=seconds())
-    device: str = option("cpu", "where skills train, adapt and assimilate: cpu, cuda or auto (cuda when present) "
-                                "(default: %(default)s)", type=device)
-    max_train_steps: int = option(LearnerLimits.max_train_steps,
-                                  "refuse train requests (and assimilations) of more steps (default: %(default)s)",
-                                  metavar="N", type=int_at_least(1))
-    max_rollouts: int = option(LearnerLimits.max_rollouts,
-                               "refuse adaptation jobs with a larger roll-out budget (default: %(default)s)", metavar="N",
-                               type=int_at_least(1))
-    max_queued_jobs: int = option(StateLimits.max_queued_jobs,
-                                  "refuse new jobs (busy) while this many are unfinished (default: %(default)s)",
-                                  metavar="N", type=int_at_least(1))
-    keep_jobs: int = option(StateLimits.keep_finished_jobs,
-                            "keep the records of this many finished jobs, removing older ones (default: %(default)s)",
-                            metavar="N", type=int_at_least(0))
-    keep_job_days: float = option(StateLimits.keep_finished_days,
-                                  "remove a finished job's record this many days after its last change "
-                                  "(default: %(default)s)", metavar="DAYS", type=seconds(zero=True))
-    jobs: int = option(DEFAULT_JOBS, "adaptation jobs run at once, each with its own model copy, optimiser and "
-                                     "random streams (default: %(default)s)", metavar="N", type=int_at_least(1))
-    job_runner: str = option(DEFAULT_RUNNER, "where a job's adaptation computes: process (a child process per "
-                                             "running job, so jobs use several cores) or thread (the learner's "
-                                             "own, jobs share one core) (default: %(default)s)",
-                             choices=RUNNERS)
-    learners: tuple[str, ...] = option((), "the ids of every learner of the deployment when it runs several "
-                                           "(the same list on each, --id among them): each skill is served by one "
-                                           "of them, the same whichever learner computes it (docs/DEPLOYMENT.md, "
-                                           "'Several learners')", metavar="ID,ID,...", type=learner_ids)
-    keep_versions: int = option(StateLimits.keep_versions,
-                                "checkpoints kept per skill, the newest (default: %(default)s)", metavar="N",
-                                type=int_at_least(1))
+class LearnerConfig(LearnerOptions):
+    """The learner process: its options (:class:`~services.learner.config.LearnerOptions`) and
+    :meth:`serve`, which runs it on an open session."""
 
     def serve(self, session: zenoh.Session, stop: threading.Event, ready: Ready) -> int:
         import torch

@@ -41,7 +41,6 @@ never committed (a commit cut short by a crash), quarantined otherwise.
 """
 from __future__ import annotations
 
-import fcntl
 import json
 import logging
 import os
@@ -50,6 +49,7 @@ import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -57,12 +57,14 @@ from acnmp_core.data.demo_io import DemoArrays, demos_bytes, load_demos
 from acnmp_core.data.demos import DemoSet
 from acnmp_core.errors import UnreadableFileError
 from acnmp_core.files import atomic_write_bytes, fsync_directory, stale_temp_files
-from acnmp_core.model.checkpoint import checkpoint_bytes, load_checkpoint
-from acnmp_core.model.cnmp import CNMP
 from services.transport.keys import check_name
 from services.transport.wire import WireError, decode, encode
 
 from .jobs import JobRecord, RecordFormatError
+
+if TYPE_CHECKING:  # torch: imported by the methods that read or write a checkpoint, so the state
+    # directory's mechanics (StateDir, quarantine) serve `acnmp up` and the launcher without it
+    from acnmp_core.model.cnmp import CNMP
 
 log = logging.getLogger(__name__)
 
@@ -76,55 +78,6 @@ VERSIONS_FORMAT = 1
 DEFAULT_KEEP_VERSIONS = 3
 _VERSIONED = re.compile(r"^(model|demos|partner|partner-demos)-v(\d+)\.(pt|npz)$")
 LEGACY_CHECKPOINT = "model.pt"  # the layout before per-version checkpoints: one checkpoint per skill
-
-
-class StateDirInUse(RuntimeError):
-    """Another live process holds the lock of a state directory (see :class:`DirectoryLock`)."""
-
-
-class DirectoryLock:
-    """An exclusive lock on a directory for as long as this process holds it.
-
-    ``flock`` on ``<directory>/<name>`` (created, mode 0600): the OS releases it when the holder
-    exits, even by ``kill -9``, so a stale lock never needs cleaning up. The file holds the
-    holder's pid and ``owner``, quoted when another process is refused. Re-entrant within one
-    object only: a second lock on the same file, even in this process, is refused.
-    """
-
-    def __init__(self, directory: str | os.PathLike, name: str, owner: str):
-        self.path = Path(directory).resolve() / name
-        self.owner = owner
-        self._fd: int | None = None
-
-    def acquire(self) -> "DirectoryLock":
-        """Take the lock or raise :class:`StateDirInUse` naming the directory and the holder."""
-        if self._fd is not None:
-            return self
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o600)
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            holder = os.read(fd, 200).decode("utf-8", "replace").strip() or "unknown"
-            os.close(fd)
-            raise StateDirInUse(f"state directory {self.path.parent} is in use by another {self.owner} "
-                                f"(pid {holder}); stop it first or give another --state-dir") from None
-        os.ftruncate(fd, 0)
-        os.write(fd, f"{os.getpid()} ({self.owner})\n".encode())
-        self._fd = fd
-        return self
-
-    def release(self) -> None:
-        """Give the lock up (the file stays: removing it would race with a newcomer)."""
-        if self._fd is not None:
-            os.close(self._fd)
-            self._fd = None
-
-    def __enter__(self) -> "DirectoryLock":
-        return self.acquire()
-
-    def __exit__(self, *exc) -> None:
-        self.release()
 
 
 class StateWriteError(RuntimeError):
@@ -363,6 +316,8 @@ class SkillStore:
         before the commit point (the files of this version written so far are removed: nothing
         changed). A failure to update ``versions.json`` after the commit is logged only: the
         checkpoint's name keeps the number."""
+        from acnmp_core.model.checkpoint import checkpoint_bytes
+
         d = self.root / check_name("skill", skill.name)
         v = int(skill.version)
         what = f"skill {skill.name} version {v}"
@@ -507,6 +462,8 @@ class SkillStore:
     def _migrate_legacy(self, d: Path) -> None:
         """The layout before per-version checkpoints (one ``model.pt``): renamed to
         ``model-v<N>.pt``, or quarantined when it cannot be read."""
+        from acnmp_core.model.checkpoint import load_checkpoint
+
         legacy = d / LEGACY_CHECKPOINT
         if not legacy.exists():
             return
@@ -531,6 +488,8 @@ class SkillStore:
         log.info("skill %s: %s renamed %s (one checkpoint per version)", d.name, LEGACY_CHECKPOINT, target.name)
 
     def _load_version(self, d: Path, name: str, v: int, parts: dict[str, Path]) -> "SkillState":
+        from acnmp_core.model.checkpoint import load_checkpoint
+
         ckpt = parts["model"]
         try:
             model, info = load_checkpoint(ckpt)

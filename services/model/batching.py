@@ -27,15 +27,11 @@ from typing import Callable
 from services.transport.rpc import Expired
 from services.transport.wire import WireError
 
+from .config import DEFAULT_BATCH_MAX, DEFAULT_BATCH_WINDOW
 from .handlers import PreparedPredict, pin_threads, predict_reply
 
 log = logging.getLogger(__name__)
 
-#: Predicts of one skill run in one forward pass at most (the service's ``--batch-max`` default).
-DEFAULT_BATCH_MAX = 16
-#: Seconds a batcher thread waits for more predicts once it has one (``--batch-window``, default 0:
-#: it takes what is waiting, so a lone predict is never delayed; see benchmarks/performance/bench_predict.py).
-DEFAULT_BATCH_WINDOW = 0.0
 #: Observation plus query points (N + T) of one pass at most, beyond which a pass is split: the
 #: decoder's activations of a much larger pass fall out of the cache and cost more per row than
 #: several passes. A single predict larger than this runs alone.

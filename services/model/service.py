@@ -32,18 +32,18 @@ import queue
 import threading
 from dataclasses import dataclass
 from pathlib import Path
-from typing import ClassVar, Sequence
+from typing import Sequence
 
 import zenoh
 
 from acnmp_core.model.checkpoint import load_checkpoint
-from services.transport import Keyspace, Ready, Service, declare_rpc, option, wait_until_stopped
-from services.transport.argtypes import device, int_at_least, seconds
+from services.transport import Keyspace, Ready, declare_rpc, wait_until_stopped
 from services.transport.auth import authenticated_user
 from services.transport.keys import check_name, is_concrete, skill_from_key
 from services.transport.wire import WireError
 
-from .batching import DEFAULT_BATCH_MAX, DEFAULT_BATCH_WINDOW, PredictBatcher
+from .batching import PredictBatcher
+from .config import DEFAULT_BATCH_MAX, DEFAULT_BATCH_WINDOW, MAX_QUEUE, ModelOptions
 from .handlers import ModelRegistry, SkillModel, handle_info, handle_predict, handle_transfer, prepare_predict
 from .weights import decode_weights
 
@@ -51,8 +51,6 @@ log = logging.getLogger(__name__)
 
 #: Seconds between ``weights/latest`` queries while a skill still has no model.
 LATEST_POLL = 2.0
-#: Predict queries waiting for a handler thread before more are answered ``overloaded``.
-MAX_QUEUE = 32
 #: Seconds a predict query without a ``timeout`` parameter may wait in the queue before it is dropped.
 DEFAULT_QUERY_TIMEOUT = 30.0
 
@@ -295,34 +293,9 @@ def _parse_checkpoint_arg(value: str) -> tuple[str | None, str]:
 
 
 @dataclass
-class ModelConfig(Service):
-    """The model service's options; :meth:`serve` runs it on an open session."""
-
-    name: ClassVar[str] = "model"
-    summary: ClassVar[str] = "the model service: predict/info queries, hot-swapped weights"
-
-    skills: list[str] | None = option(
-        None, "serve only this skill (repeatable; default: every skill the learner publishes)",
-        flag="--skill", metavar="NAME")
-    checkpoints: list[str] = option(
-        [], "start from a checkpoint file (acnmp_core.model.checkpoint format; skill name from SKILL=, the "
-            "checkpoint's meta, or the file name). Repeatable", flag="--checkpoint", metavar="[SKILL=]FILE")
-    workers: int = option(2, "threads answering predict queries with batching off (--batch-max 1); batched "
-                                "predicts are computed on the --batch-threads (default: %(default)s)", metavar="N",
-                          type=int_at_least(1))
-    max_queue: int = option(MAX_QUEUE, "predict queries that may wait for a thread; more are answered "
-                                       "'overloaded' (default: %(default)s)", metavar="N", type=int_at_least(1))
-    batch_max: int = option(DEFAULT_BATCH_MAX, "concurrent predicts of one skill computed in one forward pass, "
-                                               "at most N; 1 turns batching off (default: %(default)s)", metavar="N",
-                            type=int_at_least(1))
-    batch_window: float = option(DEFAULT_BATCH_WINDOW, "seconds to wait for more predicts to batch with the "
-                                                       "first (default: %(default)s: only those already waiting)",
-                                 metavar="SECONDS", type=seconds(zero=True))
-    device: str = option("cpu", "where the networks run: cpu, cuda or auto (cuda when present) (default: %(default)s)",
-                         type=device)
-    batch_threads: int = option(1, "threads computing batched predicts; the work around a forward pass holds "
-                                   "Python's GIL, so on 2 cores one is fastest (default: %(default)s)",
-                                metavar="N", type=int_at_least(1))
+class ModelConfig(ModelOptions):
+    """The model service process: its options (:class:`~services.model.config.ModelOptions`) and
+    :meth:`serve`, which runs it on an open session."""
 
     def serve(self, session: zenoh.Session, stop: threading.Event, ready: Ready) -> int:
         """Serve until ``stop``: checkpoints are loaded before ``ready`` is called."""

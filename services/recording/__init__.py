@@ -9,6 +9,7 @@ module                    one job
 ``drawings``              how a robot's roll-out is drawn, one function per drawing kind
 ``rrd_writer``            :class:`RrdWriter`: events -> Rerun log calls, the file's footer
 ``event_ids``             zenoh-free: :class:`SeenEvents`, the event ids recorded (per publisher a mark)
+``config``                :class:`RecorderOptions`: the recorder's options (rerun-free)
 ``recorder``              :class:`RecorderConfig`: the recorder process
 ``replay``                :func:`summarize` a recording (``acnmp replay``)
 ========================  =========================================================

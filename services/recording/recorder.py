@@ -43,19 +43,20 @@ import logging
 import queue
 import threading
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
-from typing import ClassVar, Sequence
+from typing import Sequence
 
 import zenoh
 import zenoh.ext as zext
 
-from services.transport import Keyspace, Ready, Service, WireError, declare_rpc, option, wait_for_liveliness_gone
-from services.transport.argtypes import check_output_path, int_at_least, non_empty
+from services.transport import Keyspace, Ready, WireError, declare_rpc, wait_for_liveliness_gone
+from services.transport.argtypes import check_output_path
 from services.transport.auth import write_private
 from services.transport.keys import is_concrete
 from services.transport.lifetime import launcher_gone
 
+from .config import RecorderOptions
 from .event_ids import SeenEvents, marks_path
 from .events import decode_event, rollout_key
 from .replay import recorded_event_ids
@@ -71,39 +72,6 @@ LEARNER_GRACE = 6.0
 #: Events queued between zenoh threads and the writer; when full, the callback blocks, and since
 #: events are put with CongestionControl.BLOCK the publishers slow down instead of losing events.
 QUEUE_SIZE = 10_000
-
-
-@dataclass
-class RecorderConfig(Service):
-    """The recorder's options; :meth:`serve` records until the stop event. After it returns,
-    ``final`` holds the counts written (``{"events": {...}, "rollouts": {...}, "rejected": n}``)."""
-
-    name: ClassVar[str] = "recorder"
-    summary: ClassVar[str] = "the recorder: writes every event into a .rrd file"
-
-    out: str = option("runs/recording.rrd", "recording to write (default: %(default)s)", short="-o",
-                      metavar="FILE.rrd", type=non_empty)
-    recording_id: str | None = option(None, "Rerun recording id (default: a new one); a recorder restarted by "
-                                            "its launcher keeps the id, so its files merge into one recording",
-                                      metavar="ID")
-    seen: list[str] = option([], "a file an earlier recorder of this deployment wrote (repeatable, oldest first): "
-                                 "its events are not recorded again when the publishers' caches replay them",
-                             metavar="FILE.rrd")
-    serve_grpc: int | None = option(None, "also stream what is recorded live over Rerun's gRPC server on "
-                                          "127.0.0.1:PORT (viewers: rerun --connect rerun+http://127.0.0.1:PORT/proxy)",
-                                    metavar="PORT", type=int_at_least(1, hi=65535))
-    web_viewer: int | None = option(None, "with --serve-grpc: also host Rerun's web viewer on 127.0.0.1:PORT, "
-                                          "connected to that stream", metavar="PORT", type=int_at_least(1, hi=65535))
-    final: dict = field(default_factory=dict, init=False, repr=False)
-
-    def serve(self, session: zenoh.Session, stop: threading.Event, ready: Ready) -> int:
-        check_output_path(self.out, "--out")  # one line, not rerun's error and its warning at exit
-        if self.web_viewer is not None and self.serve_grpc is None:
-            raise ValueError("--web-viewer: only with --serve-grpc (the web viewer shows that stream)")
-        self.final = record(session, Keyspace(self.session.namespace), self.out, stop, ready,
-                            recording_id=self.recording_id, seen=self.seen, grpc_port=self.serve_grpc,
-                            web_port=self.web_viewer)
-        return 0
 
 
 def event_id(sample: zenoh.Sample) -> str | None:
@@ -296,3 +264,20 @@ def _drain(events: queue.Queue, writer: RrdWriter, *, timeout: float, until_empt
             msg, eid = events.get_nowait()
         except queue.Empty:
             return
+
+
+@dataclass
+class RecorderConfig(RecorderOptions):
+    """The recorder process: its options (:class:`~services.recording.config.RecorderOptions`) and
+    :meth:`serve`, which records until the stop event. After it returns, ``final`` holds the counts
+    written (``{"events": {...}, "rollouts": {...}, "rejected": n}``)."""
+
+    def serve(self, session: zenoh.Session, stop: threading.Event, ready: Ready) -> int:
+        """Record on the open zenoh ``session`` until ``stop``; returns the exit code."""
+        check_output_path(self.out, "--out")  # one line, not rerun's error and its warning at exit
+        if self.web_viewer is not None and self.serve_grpc is None:
+            raise ValueError("--web-viewer: only with --serve-grpc (the web viewer shows that stream)")
+        self.final = record(session, Keyspace(self.session.namespace), self.out, stop, ready,
+                            recording_id=self.recording_id, seen=self.seen, grpc_port=self.serve_grpc,
+                            web_port=self.web_viewer)
+        return 0

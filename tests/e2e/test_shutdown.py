@@ -13,7 +13,7 @@ import pytest
 
 from acnmp_core.experiments.viapoint import make_setup
 from services.launcher import LocalDeployment
-from services.learner.store import StateDirInUse
+from services.transport.state_dir import StateDirInUse
 from services.transport import call
 from tests.paths import ROOT
 

@@ -217,7 +217,7 @@ def test_a_demos_file_that_is_no_npz_is_named_in_one_line(name, content, tmp_pat
 
 def test_a_good_demos_value_passes_the_check(tmp_path):
     from clients.default_skill import default_demos
-    from services.learner.service import load_demos_spec
+    from services.learner.config import load_demos_spec
 
     spec = default_demos(tmp_path)  # e1=<tmp>/e1-demos.npz
     assert len(load_demos_spec(spec).to_demo_set()) == 6

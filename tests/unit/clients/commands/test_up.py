@@ -6,7 +6,7 @@ import pytest
 
 from clients.cli import build_parser
 from clients.commands.up import LEARNER_OPTIONS
-from services.learner.service import LearnerConfig
+from services.learner.config import LearnerOptions
 from services.transport.service import handed_on, parser_for
 
 
@@ -15,13 +15,13 @@ def _up(*argv: str):
 
 
 def test_the_learner_options_are_handed_on_only_when_given():
-    assert handed_on(LearnerConfig, _up(), LEARNER_OPTIONS) == []
+    assert handed_on(LearnerOptions, _up(), LEARNER_OPTIONS) == []
     args = _up("--max-queued-jobs", "5", "--keep-jobs", "0", "--keep-job-days", "1.5", "--keep-versions", "2",
                "--job-runner", "thread")
-    argv = handed_on(LearnerConfig, args, LEARNER_OPTIONS)
+    argv = handed_on(LearnerOptions, args, LEARNER_OPTIONS)
     assert dict(zip(argv[::2], argv[1::2])) == {"--max-queued-jobs": "5", "--keep-jobs": "0", "--keep-job-days": "1.5",
                                                 "--keep-versions": "2", "--job-runner": "thread"}
-    learner = parser_for(LearnerConfig).parse_args(argv)  # what the learner then parses
+    learner = parser_for(LearnerOptions).parse_args(argv)  # what the learner then parses
     assert (learner.max_queued_jobs, learner.keep_jobs, learner.keep_job_days, learner.keep_versions,
             learner.job_runner) == (5, 0, 1.5, 2, "thread")
 
@@ -41,7 +41,7 @@ def test_up_starts_its_learner_with_the_options_given(monkeypatch, tmp_path, cap
 
     import services.launcher
     import services.transport
-    from services.learner.store import StateDirInUse
+    from services.transport.state_dir import StateDirInUse
 
     started = {}
 
@@ -61,5 +61,5 @@ def test_up_starts_its_learner_with_the_options_given(monkeypatch, tmp_path, cap
     args = _up("--namespace", "upunit", "--state-dir", str(tmp_path), "--no-default-skill", "--keep-jobs", "7",
                "--job-runner", "thread")
     assert args.func(args) == 1
-    learner = parser_for(LearnerConfig).parse_args(started["learner_args"])
+    learner = parser_for(LearnerOptions).parse_args(started["learner_args"])
     assert (learner.keep_jobs, learner.job_runner, learner.max_queued_jobs) == (7, "thread", 100)

@@ -99,7 +99,7 @@ def test_a_restart_picks_up_skills_and_requeues_a_running_job(tmp_path, setup):
 
 
 def test_a_second_learner_on_the_same_state_dir_is_refused(tmp_path, setup):
-    from services.learner.store import StateDirInUse
+    from services.transport.state_dir import StateDirInUse
 
     first = _core(tmp_path, setup, [], [])
     with pytest.raises(StateDirInUse, match=f"state directory {tmp_path.resolve()} is in use .*--state-dir"):
