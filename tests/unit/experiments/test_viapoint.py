@@ -8,7 +8,7 @@ from clients.cli import main
 
 def test_viapoint_cli_writes_json_and_plots(tmp_path, saved_figures):
     out, png = tmp_path / "e1.json", tmp_path / "e1.png"
-    code = main(["experiment", "viapoint", "--seeds", "1-1", "--budget", "30", "--train-steps", "1500",
+    code = main(["experiment", "viapoint", "--seeds", "1-1", "--budget", "10", "--train-steps", "300",
                  "--json", str(out), "--plot", str(png), "--quiet"])
     assert code == 0
     s = json.loads(out.read_text())
@@ -18,7 +18,7 @@ def test_viapoint_cli_writes_json_and_plots(tmp_path, saved_figures):
     assert set(s["methods"]) == {"lfd_only", "rl_only", "acnmp"}
     for r in s["methods"].values():
         assert set(r) >= {"rollouts", "success", "error", "viapoint_error", "endpoint_error", "shape_error"}
-        assert 1 <= r["rollouts"] <= 30
+        assert 1 <= r["rollouts"] <= 10
     assert s["methods"]["lfd_only"]["rollouts"] == 1 and not s["methods"]["lfd_only"]["success"]
     # the figures, checked on what they draw: Fig. 3 (paths and error curves) and Fig. 4 (latents)
     assert [p.name for _, p in saved_figures] == ["e1.png", "e1_latents.png"] and png.exists()
