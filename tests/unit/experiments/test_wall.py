@@ -57,8 +57,8 @@ def test_non_aligned_demos_train(steps):
 def test_a_short_loop_counts_every_trajectory():
     from acnmp_core.adaptation.config import AdaptConfig
 
-    result = E.run_wall(envs=2, seed=2, n_initial=20, n_test=20, eval_every=1, train_steps=300,
-                        assimilate_steps=20, methods=("acnmp",), adapt_config=AdaptConfig(max_rollouts=30))
+    result = E.run_wall(envs=2, seed=2, n_initial=10, n_test=5, eval_every=1, train_steps=200,
+                        assimilate_steps=20, methods=("acnmp",), adapt_config=AdaptConfig(max_rollouts=15))
     s = result["methods"]["acnmp"]
     assert [p["envs_new"] for p in result["curves"]["acnmp"]] == [0, 1, 2]
     assert s["trajectories_total"] == sum(result["rollouts_per_env"]["acnmp"])
