@@ -2,7 +2,7 @@
 
 The processes are the launcher's table (services/launcher/processes.py); each one's options come
 from its options class (torch- and rerun-free, so `acnmp --help` is quick) and it is run by
-:func:`services.transport.service.run_service` with the class that runs it, so this command only
+:func:`services.transport.service.run_process` with the class that runs it, so this command only
 dispatches.
 """
 from __future__ import annotations
@@ -26,10 +26,10 @@ def register(subparsers) -> None:
 def _runner(name: str):
     def run(args) -> int:
         from services.launcher.processes import service_class
-        from services.transport.service import configure_logging, from_args, run_service
+        from services.transport.service import configure_logging, from_args, run_process
 
         cls = service_class(name)
         configure_logging(cls.name)
-        return run_service(from_args(cls, args))
+        return run_process(from_args(cls, args))
 
     return run

@@ -4,7 +4,10 @@ The supervised and policy steps of :func:`acnmp_core.adaptation.loop.adapt` are 
 operations whose Python overhead holds the GIL, so jobs on threads of one process take turns on
 one core (``benchmarks/results/bench_jobs.json``: two E1 jobs on two threads take about as long as
 one after the other). :class:`ProcessRunner` runs the adaptation in a spawned child process
-instead, one per job slot, reused from job to job. Only the arithmetic moves there: the child has
+instead, one per job slot, reused from job to job. A learner process forks its children at its
+start (:func:`fork_children`, before it opens its zenoh session or starts a thread), so they share
+its imported torch; a child that replaces a dead one comes from a fork server (a fresh interpreter
+that imports torch once). Only the arithmetic moves there: the child has
 no zenoh session, no state directory and no events. It asks its parent for every roll-out batch
 (the parent's evaluator runs it, on the learner's session) and hands it every iteration (the
 parent's ``on_iteration`` persists the job's progress and publishes its events), so recording,
@@ -25,6 +28,7 @@ from __future__ import annotations
 
 import logging
 import multiprocessing
+import signal
 import threading
 from dataclasses import dataclass
 from typing import Callable, Protocol
@@ -151,12 +155,48 @@ def _child_main(conn) -> None:
 
 
 def _context():
-    """Children come from a fork server that imported torch (and the optimiser's torch._dynamo)
-    once per learner: a child then starts in milliseconds instead of importing them again. Not a
-    plain fork of the learner, whose zenoh runtime threads may hold locks a forked child inherits."""
+    """Children not forked ahead come from a fork server that imported torch (and the optimiser's
+    torch._dynamo) once per learner: a child then starts in milliseconds instead of importing them
+    again. Not a plain fork of the running learner, whose zenoh runtime threads may hold locks a
+    forked child inherits."""
     ctx = multiprocessing.get_context("forkserver")
     ctx.set_forkserver_preload([__name__, "torch._dynamo"])
     return ctx
+
+
+#: Children forked by :func:`fork_children`, each ``(process, parent's end of its pipe)``, waiting
+#: for a :class:`ProcessRunner` of this process to adopt one.
+_forked: list[tuple[multiprocessing.process.BaseProcess, object]] = []
+
+
+def fork_children(n: int) -> None:
+    """Fork ``n`` job children now, for the next ``n`` :class:`ProcessRunner` s of this process.
+
+    Call it only while the process has no zenoh session and no thread of its own (a learner
+    process at its start, :meth:`services.learner.service.LearnerConfig.prepare`): a fork copies
+    the calling thread alone, with every lock as it was. A forked child shares the parent's
+    imported modules (torch: about 3 s of CPU and 270 MB a fresh interpreter pays again).
+    """
+    ctx = multiprocessing.get_context("fork")
+    parents = [conn for _, conn in _forked]
+    for _ in range(n):
+        parent, child = ctx.Pipe()
+        # the child closes every parent end it inherits, so each sees EOF when the parent dies
+        proc = ctx.Process(target=_forked_main, args=(child, [*parents, parent]), name="acnmp-job", daemon=True)
+        proc.start()
+        child.close()
+        parents.append(parent)
+        _forked.append((proc, parent))
+
+
+def _forked_main(conn, inherited) -> None:
+    """A forked child: close the pipe ends it inherited, take the signal handlers of a new process
+    (not the learner's, which would only set its stop event), then serve adaptations."""
+    for other in inherited:
+        other.close()
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    _child_main(conn)
 
 
 class ChildDied(RuntimeError):
@@ -164,18 +204,18 @@ class ChildDied(RuntimeError):
 
 
 class ProcessRunner:
-    """:func:`~acnmp_core.adaptation.loop.adapt` in a spawned child process (see the module docstring).
+    """:func:`~acnmp_core.adaptation.loop.adapt` in a child process (see the module docstring).
 
-    The child is started by the first :meth:`run` (a learner that runs no job starts no process;
-    the first job waits for the fork server to import torch, once per learner) or by :meth:`start`,
-    and replaced when it died.
+    It adopts a child of :func:`fork_children` when one waits; otherwise the child is started by
+    the first :meth:`run` (a runner that runs no job starts no process; the first job waits for the
+    fork server to import torch, once per process) or by :meth:`start`. A child that died is
+    replaced by one from the fork server.
     """
 
     def __init__(self, name: str = "job"):
         self.name = name
         self._ctx = _context()
-        self._proc = None
-        self._conn = None
+        self._proc, self._conn = _forked.pop(0) if _forked else (None, None)
         self._lock = threading.Lock()  # start() from two threads makes one child
 
     def start(self) -> "ProcessRunner":

@@ -56,6 +56,7 @@ from .core import LearnerBusy, LearnerCore, TrainSpec, UnknownJobError, UnknownS
 from .limits import LearnerLimits, StateLimits, check_job, check_pair, check_train
 from .config import LearnerOptions, demos_skill, load_demos_spec, parse_demos_spec
 from .ownership import Ownership, skill_of_job
+from .runner import fork_children
 from .store import SkillState, StateWriteError
 
 log = logging.getLogger(__name__)
@@ -458,6 +459,11 @@ def import_training_modules() -> None:
 class LearnerConfig(LearnerOptions):
     """The learner process: its options (:class:`~services.learner.config.LearnerOptions`) and
     :meth:`serve`, which runs it on an open session."""
+
+    def prepare(self) -> None:
+        """With job processes, fork them now, before the session exists (services/learner/runner.py)."""
+        if self.job_runner == "process":
+            fork_children(self.jobs)
 
     def serve(self, session: zenoh.Session, stop: threading.Event, ready: Ready) -> int:
         import torch

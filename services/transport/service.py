@@ -104,6 +104,11 @@ class Service:
         the exit code. Closing the session is not its job."""
         raise NotImplementedError
 
+    def prepare(self) -> None:
+        """What a process running this service does first, while it has no zenoh session and no
+        thread of its own (:func:`run_process`; not when a service runs on a thread of another
+        program): e.g. fork helper processes. Nothing by default."""
+
 
 def _option_fields(cls: type[Service]):
     hints = typing.get_type_hints(cls)
@@ -185,6 +190,13 @@ def run_service(config: Service, *, stop: threading.Event | None = None,
             about.undeclare()
 
 
+def run_process(config: Service) -> int:
+    """Run ``config`` as the whole of this process (``python -m services.<wing>``, ``acnmp serve``):
+    :meth:`Service.prepare`, then :func:`run_service`; returns the exit code."""
+    config.prepare()
+    return run_service(config)
+
+
 def parser_for(cls: type[Service], prog: str | None = None) -> argparse.ArgumentParser:
     """A stand-alone parser for ``cls`` (what ``python -m services.<wing>`` uses)."""
     parser = Parser(prog=prog or f"acnmp serve {cls.name}", description=cls.summary)
@@ -206,7 +218,7 @@ def main(cls: type[Service], argv: list[str] | None = None) -> int:
         return int(exc.code)
     configure_logging(cls.name)
     try:
-        return run_service(from_args(cls, args))
+        return run_process(from_args(cls, args))
     except ValueError as exc:
         print(f"acnmp serve {cls.name}: error: {exc}", file=sys.stderr)
         return 2

@@ -10,6 +10,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+import psutil
 
 from acnmp_core.experiments.viapoint import make_setup
 from services.launcher import LocalDeployment
@@ -38,6 +39,11 @@ def test_e1_job_end_to_end_is_recorded_exactly(tmp_path, verify_rrd):
             assert time.monotonic() < deadline, st
             time.sleep(0.2)
         assert st["state"] == "done", st["error"]
+        # the job computed in a child the learner forked at its start (sharing its imported torch),
+        # not in one of a fork server that imports torch again
+        learner = psutil.Process(dep.children["learner"].pid)
+        kids = learner.children()
+        assert kids and all(k.cmdline() == learner.cmdline() for k in kids), [k.cmdline() for k in kids]
         # the model service picked up the learner's newest weights
         want = st["committed_version"] if st["committed_version"] is not None else 0
         deadline = time.monotonic() + 20
