@@ -181,37 +181,46 @@ def part_runner(args) -> dict:
 
 # ----- part 2: a deployment, K jobs at once ----------------------------------------------------
 class _Deployed:
-    """A deployment with a trained skill ``e1`` and a way to run K jobs at once and time them."""
+    """A session on a deployment with trained ``skills`` (the E1 skill each, trained the same way),
+    and a way to run jobs at once and time them; ``pids(kind)`` gives the pids of its learners or
+    workers (none: no CPU is counted)."""
 
-    def __init__(self, dep, setup, budget: int):
+    def __init__(self, session, keys, setup, budget: int, skills=("e1",), pids=lambda kind: []):
         from services.transport import call
 
-        self.dep, self.setup, self.budget, self.call = dep, setup, budget, call
+        self.session, self.keys, self.setup, self.budget, self.call = session, keys, setup, budget, call
+        self.pids = pids
         train = {"times": np.stack([d.times for d in setup.demos]), "values": np.stack([d.values for d in setup.demos]),
                  "model": SMALL, "train": {"steps": TRAIN_STEPS}, "seed": 3}
-        call(dep.session, dep.keys.train("e1"), train, timeout=600)
+        for skill in skills:
+            call(session, keys.train(skill), train, timeout=600)
 
-    def submit(self, seeds) -> list[str]:
-        return [self.call(self.dep.session, self.dep.keys.adapt("e1"), _adapt_request(self.setup, s, self.budget),
-                          timeout=30)["job"] for s in seeds]
+    @classmethod
+    def local(cls, dep, setup, budget: int) -> "_Deployed":
+        """On a :class:`~services.launcher.LocalDeployment`, with skill ``e1``."""
+        return cls(dep.session, dep.keys, setup, budget,
+                   pids=lambda kind: [c.pid for name, c in dep.children.items() if name.startswith(kind)])
+
+    def submit(self, seeds, skills=None) -> list[str]:
+        """Queue a job per seed (on the skill at the same place of ``skills``; default ``e1``)."""
+        skills = skills or ["e1"] * len(seeds)
+        return [self.call(self.session, self.keys.adapt(skill), _adapt_request(self.setup, s, self.budget),
+                          timeout=30)["job"] for skill, s in zip(skills, seeds)]
 
     def wait(self, ids, pred=lambda st: st["state"] in ("done", "failed", "cancelled")) -> dict:
         deadline = time.monotonic() + WAIT
         while True:
-            st = {i: self.call(self.dep.session, self.dep.keys.job_status(i), timeout=30) for i in ids}
+            st = {i: self.call(self.session, self.keys.job_status(i), timeout=30) for i in ids}
             if all(pred(s) for s in st.values()):
                 return st
             if time.monotonic() > deadline:
                 raise TimeoutError(st)
             time.sleep(0.1)
 
-    def pids(self, kind: str) -> list[int]:
-        return [c.pid for name, c in self.dep.children.items() if name.startswith(kind)]
-
-    def run(self, seeds) -> dict:
+    def run(self, seeds, skills=None) -> dict:
         lcpu0, wcpu0 = _cpu(self.pids("learner")), _cpu(self.pids("worker"))
         t0 = time.perf_counter()
-        ids = self.submit(seeds)
+        ids = self.submit(seeds, skills)
         st = self.wait(ids)
         wall = time.perf_counter() - t0
         bad = {i: s["error"] for i, s in st.items() if s["state"] != "done"}
@@ -229,7 +238,7 @@ def _sweep(ns: str, jobs: int, runner: str, ks, budget: int, delay: float, worke
     setup = make_setup()
     with LocalDeployment(ns, workers=workers, model=False, worker_delay=delay,
                          learner_args=["--jobs", str(jobs), "--job-runner", runner]) as dep:
-        d = _Deployed(dep, setup, budget)
+        d = _Deployed.local(dep, setup, budget)
         d.run([1] * min(jobs, 2))  # warm-up: the job processes start, the first optimiser imports
         alone = d.run([100])
         out = {"jobs": jobs, "runner": runner, "one_alone_s": alone["wall_s"], "k": {}}
@@ -280,7 +289,7 @@ def part_kill(args) -> dict:
         with LocalDeployment(f"bjobk-{os.getpid()}", workers=args.workers, model=False, record=rrd,
                              state_dir=tmp / "state", worker_delay=args.kill_delay,
                              learner_args=["--jobs", str(len(seeds))]) as dep:
-            d = _Deployed(dep, setup, args.budget)
+            d = _Deployed.local(dep, setup, args.budget)
             t0 = time.perf_counter()
             calm = d.run(seeds)
             calm_s = time.perf_counter() - t0
@@ -311,23 +320,180 @@ def part_kill(args) -> dict:
                                                and not r["recorded_duplicates"] for r in rows)}
 
 
+# ----- part 4: two learners on two hosts against one -----------------------------------------
+HOST_LEARNERS = ("learner", "learner-2")
+
+
+def host_skills(learners=HOST_LEARNERS) -> list[str]:
+    """One skill name per learner of ``learners`` (the first ``e1-<i>`` it owns), in their order."""
+    from services.learner.ownership import owner_of
+
+    names = [f"e1-{i}" for i in range(1000)]
+    return [next(s for s in names if owner_of(s, learners) == lid) for lid in learners]
+
+
+def host_jobs(k: int, skills) -> list[tuple[str, int]]:
+    """K jobs (skill, seed) dealt round the ``skills`` in turn, seeds 100, 101, ..."""
+    return [(skills[i % len(skills)], 100 + i) for i in range(k)]
+
+
+def part_hosts_client(args) -> int:
+    """The client side of ``hosts``, run on the client host: train ``args.skills``, warm every
+    job slot up, print ``{"ready": true}``; at a line on stdin run ``args.ks[0]`` jobs at once
+    (:func:`host_jobs`), save their trajectories to ``args.out`` (.npz, in job order) and print
+    ``{"wall_s": ...}``."""
+    import json
+
+    from acnmp_core.experiments.viapoint import make_setup
+    from clients.client import ACNMPClient
+
+    setup = make_setup()
+    with ACNMPClient(args.namespace, config_file=args.config, role="operator", timeout=30) as client:
+        d = _Deployed(client.session, client.keys, setup, args.budget, skills=args.skills)
+        warm = [s for s in args.skills for _ in range(2 * args.slots)]  # every job process starts, off the clock
+        d.budget, budget = 2, d.budget
+        d.run([1] * len(warm), warm)
+        d.budget = budget
+        print(json.dumps({"ready": True}), flush=True)
+        sys.stdin.readline()
+        skills, seeds = zip(*host_jobs(args.ks[0], args.skills))
+        got = d.run(list(seeds), list(skills))
+    np.savez(args.out, *[np.asarray(t) for t in got["trajectories"]])
+    print(json.dumps({"wall_s": got["wall_s"]}), flush=True)
+    return 0
+
+
+def _hosts_round(n_learners: int, args, work: Path) -> dict:
+    """One deployment over hosts with ``n_learners`` learners and ``args.workers`` workers: K jobs
+    at once from the client host; wall time, each learner's and worker's CPU seconds over them."""
+    import json
+    import subprocess
+
+    from services.launcher.multihost import MultiHostDeployment
+
+    tag = f"{n_learners}-{len(list(work.iterdir()))}"
+    with MultiHostDeployment(f"bjobh-{os.getpid()}-{tag}", workers=args.workers, learners=n_learners, model=False,
+                             learner_args=["--jobs", str(args.slots)], work_dir=work / tag) as dep:
+        out = work / f"{tag}.npz"
+        client = dep.popen([sys.executable, str(Path(__file__).resolve()), "hosts-client", "--namespace", dep.namespace,
+                            "--config", str(dep.config("operator")), "--skills", *args.skills, "--ks", str(args.ks[0]),
+                            "--budget", str(args.budget), "--slots", str(args.slots), "--out", str(out)],
+                           stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+        try:
+            if json.loads(client.stdout.readline() or "{}") != {"ready": True}:
+                raise RuntimeError(f"the client on the client host failed (exit {client.wait(timeout=30)})")
+            names = [n for n in dep.processes if n.startswith(("learner", "worker"))]
+            cpu0 = {n: _cpu([dep.processes[n].proc.pid]) for n in names}
+            client.stdin.write("go\n")
+            client.stdin.flush()
+            line = client.stdout.readline()
+            cpu = {n: _cpu([dep.processes[n].proc.pid]) - cpu0[n] for n in names}  # just before the stop
+            if not line or client.wait(timeout=60) != 0:
+                raise RuntimeError(f"the client on the client host failed (exit {client.poll()})")
+        finally:
+            if client.poll() is None:
+                client.kill()
+                client.wait()
+        with np.load(out) as z:
+            trajectories = [z[f"arr_{i}"] for i in range(len(z.files))]
+    return {"learners": n_learners, "wall_s": json.loads(line)["wall_s"],
+            "learner_cpu_s": {n: c for n, c in cpu.items() if n.startswith("learner")},
+            "worker_cpu_s": {n: c for n, c in cpu.items() if n.startswith("worker")},
+            "trajectories": trajectories}
+
+
+def hosts_bound(row: dict, cores_per_learner: float, worker_cores: float) -> float:
+    """A lower bound of a round's wall time had each learner ``cores_per_learner`` cores of its own
+    and the workers ``worker_cores`` in all: the busiest learner's CPU seconds over its cores, or
+    the workers' CPU seconds over theirs, whichever is larger."""
+    return max(max(row["learner_cpu_s"].values()) / cores_per_learner,
+               sum(row["worker_cpu_s"].values()) / worker_cores)
+
+
+def hosts_summary(rounds: list[dict], cores_per_learner: float, worker_cores: float) -> dict:
+    """The ``hosts`` part's summary from its rounds (each with ``rep``, ``learners`` 1 or 2,
+    ``wall_s``, ``learner_cpu_s`` and ``worker_cpu_s`` per process): per repetition the wall ratio
+    2 learners / 1, the CPU split between the two learners (each one's share of their CPU), and the
+    projected ratio (:func:`hosts_bound` of the 2-learner round over the 1-learner round's measured
+    wall and over its own bound); the spread of each over the repetitions."""
+    reps = []
+    for rep in sorted({r["rep"] for r in rounds}):
+        one, two = (next(r for r in rounds if r["rep"] == rep and r["learners"] == n) for n in (1, 2))
+        bound_one, bound_two = (hosts_bound(r, cores_per_learner, worker_cores) for r in (one, two))
+        total = sum(two["learner_cpu_s"].values())
+        reps.append({"rep": rep, "wall_ratio": two["wall_s"] / one["wall_s"],
+                     "learner_cpu_share": {n: c / total for n, c in two["learner_cpu_s"].items()},
+                     "bound_s": {"1": bound_one, "2": bound_two},
+                     "projected_ratio": bound_two / one["wall_s"], "projected_bound_ratio": bound_two / bound_one})
+    return {"by_rep": reps,
+            "wall_ratio": _spread([r["wall_ratio"] for r in reps]),
+            "projected_ratio": _spread([r["projected_ratio"] for r in reps]),
+            "projected_bound_ratio": _spread([r["projected_bound_ratio"] for r in reps]),
+            "learner_cpu_share": {n: _spread([r["learner_cpu_share"][n] for r in reps]) for n in HOST_LEARNERS}}
+
+
+def part_hosts(args) -> dict:
+    """1 learner against 2, each on a host of its own, ``args.reps`` times (the order alternating);
+    the jobs' results compared between the two for each job."""
+    from services.launcher import netns
+
+    why = netns.unavailable_reason()
+    if why:
+        raise SystemExit(f"bench_jobs.py hosts: {why}")
+    args.skills = host_skills()
+    work = Path(tempfile.mkdtemp(prefix="bench-jobs-hosts-"))
+    rounds = []
+    try:
+        for rep in range(args.reps):
+            for n in ((1, 2) if rep % 2 == 0 else (2, 1)):
+                row = {"rep": rep, **_hosts_round(n, args, work)}
+                print(f"rep {rep}, {n} learner(s): {row['wall_s']:.1f} s, learner CPU "
+                      + ", ".join(f"{k} {v:.1f}" for k, v in row["learner_cpu_s"].items())
+                      + f" s, workers' CPU {sum(row['worker_cpu_s'].values()):.1f} s", flush=True)
+                rounds.append(row)
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+    for rep in range(args.reps):
+        one, two = (next(r for r in rounds if r["rep"] == rep and r["learners"] == n) for n in (1, 2))
+        two["bit_equal_to_one_learner"] = [bool(np.array_equal(a, b)) for a, b in
+                                           zip(one["trajectories"], two["trajectories"])]
+    for r in rounds:
+        r.pop("trajectories")
+    summary = hosts_summary(rounds, args.cores_per_learner, args.worker_cores or args.workers)
+    summary["bit_equal"] = all(all(r["bit_equal_to_one_learner"]) for r in rounds if r["learners"] == 2)
+    return {"skills": args.skills, "jobs": [list(j) for j in host_jobs(args.ks[0], args.skills)],
+            "rounds": rounds, "summary": summary}
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("part", choices=("runner", "deploy", "kill"))
-    p.add_argument("--ks", type=int, nargs="+", default=None, help="jobs at once (runner: 2 4; deploy: 1 2 4 8)")
-    p.add_argument("--reps", type=int, default=3, help="runner: repetitions (default: %(default)s)")
+    p.add_argument("part", choices=("runner", "deploy", "kill", "hosts", "hosts-client"))
+    p.add_argument("--ks", type=int, nargs="+", default=None,
+                   help="jobs at once (runner: 2 4; deploy: 1 2 4 8; hosts: 8)")
+    p.add_argument("--reps", type=int, default=None, help="runner, hosts: repetitions (default: 3; hosts 2)")
     p.add_argument("--budget", type=int, default=50, help="roll-outs per job (default: %(default)s)")
-    p.add_argument("--workers", type=int, default=4, help="deploy, kill: workers (default: %(default)s)")
+    p.add_argument("--workers", type=int, default=4, help="deploy, kill, hosts: workers (default: %(default)s)")
     p.add_argument("--rollout-delay", type=float, default=0.2,
                    help="deploy: seconds per roll-out of the roll-out-heavy jobs (default: %(default)s)")
     p.add_argument("--kill-delay", type=float, default=0.05,
                    help="kill: seconds per roll-out, so the kill lands mid-job (default: %(default)s)")
     p.add_argument("--configs", nargs="+", default=["1:thread", "2:thread", "2:process"],
                    help="deploy: learner settings JOBS:RUNNER, the first the baseline (default: %(default)s)")
+    p.add_argument("--slots", type=int, default=2, help="hosts: --jobs of every learner (default: %(default)s)")
+    p.add_argument("--cores-per-learner", type=float, default=2.0,
+                   help="hosts: cores of each learner's own host in the projection (default: %(default)s)")
+    p.add_argument("--worker-cores", type=float, default=None,
+                   help="hosts: cores of the workers in all in the projection (default: one per worker)")
+    p.add_argument("--namespace", help=argparse.SUPPRESS)  # hosts-client: the deployment's
+    p.add_argument("--config", help=argparse.SUPPRESS)
+    p.add_argument("--skills", nargs="+", help=argparse.SUPPRESS)
     p.add_argument("--out", default=None, metavar="FILE",
                    help="write the result here (default benchmarks/results/bench_jobs_<part>.json; deploy: bench_jobs.json)")
     args = p.parse_args(argv)
-    args.ks = args.ks or ([2, 4] if args.part == "runner" else [1, 2, 4, 8])
+    args.ks = args.ks or {"runner": [2, 4], "hosts": [8], "hosts-client": [8]}.get(args.part, [1, 2, 4, 8])
+    args.reps = args.reps or (2 if args.part == "hosts" else 3)
+    if args.part == "hosts-client":
+        return part_hosts_client(args)
     started = time.perf_counter()
     prov = main_provenance(__file__, argv)
     config = {"part": args.part, "ks": args.ks, "budget": args.budget, "model": SMALL, "train_steps": TRAIN_STEPS,
@@ -338,11 +504,18 @@ def main(argv: list[str] | None = None) -> int:
     elif args.part == "deploy":
         config.update(workers=args.workers, rollout_delay_s=args.rollout_delay, configs=args.configs)
         result = part_deploy(args)
+    elif args.part == "hosts":
+        config.update(workers=args.workers, reps=args.reps, jobs_per_learner=args.slots,
+                      cores_per_learner=args.cores_per_learner, worker_cores=args.worker_cores or args.workers,
+                      layout="MultiHostDeployment: router, each learner and each worker on a network namespace of "
+                             "its own, jobs submitted from the client host; no model service, no recorder")
+        result = part_hosts(args)
     else:
         config.update(workers=args.workers, rollout_delay_s=args.kill_delay)
         result = part_kill(args)
     out = args.out or ROOT / "benchmarks" / "results" / {"runner": "bench_jobs_runner.json", "deploy": "bench_jobs.json",
-                                                         "kill": "bench_jobs_kill.json"}[args.part]
+                                                         "kill": "bench_jobs_kill.json",
+                                                         "hosts": "bench_jobs_hosts.json"}[args.part]
     result["wall_time_s"] = time.perf_counter() - started
     save_result({"benchmark": f"jobs_{args.part}", "provenance": prov, "config": config, **result}, out,
                 headline=("summary", "all_done_equal", "recording_each_rollout_once"))
