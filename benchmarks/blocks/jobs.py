@@ -75,6 +75,40 @@ def jobs_kill() -> str:
                  f"The learner was back {r['learner_back_s']:.1f} s after the kill (exit code {r['restart_exit_code']}).")
 
 
+@renderer("jobs-hosts")
+def jobs_hosts() -> str:
+    """Two learners on two hosts (network namespaces) against one, K jobs at once, with the
+    projection to learners on cores of their own (bench_jobs_hosts.json)."""
+    r = load("bench_jobs_hosts")
+    c, s = r["config"], r["summary"]
+    rows = []
+    for rep in s["by_rep"]:
+        one, two = (next(x for x in r["rounds"] if x["rep"] == rep["rep"] and x["learners"] == n) for n in (1, 2))
+        rows.append([rep["rep"] + 1, f"{one['wall_s']:.1f}", f"{two['wall_s']:.1f}", f"**{rep['wall_ratio']:.2f}**",
+                     f"{one['learner_cpu_s']['learner']:.1f}",
+                     " / ".join(f"{two['learner_cpu_s'][n]:.1f}" for n in sorted(two["learner_cpu_s"])),
+                     f"{sum(one['worker_cpu_s'].values()):.1f} / {sum(two['worker_cpu_s'].values()):.1f}",
+                     f"{rep['bound_s']['2']:.1f}", f"**{rep['projected_ratio']:.2f}**",
+                     f"{rep['projected_bound_ratio']:.2f}",
+                     "yes" if all(two["bit_equal_to_one_learner"]) else "NO"])
+    share = s["learner_cpu_share"]
+    return block(r, "bench_jobs_hosts",
+                 ["rep", "1 learner: all done (s)", "2 learners: all done (s)", "2 / 1",
+                  "learner CPU s (1 learner)", "learner / learner-2 CPU s (2 learners)", "workers' CPU s (1 / 2)",
+                  "2 learners on their own cores: bound (s)", "bound / 1 learner's time", "bound / 1 learner's bound",
+                  "results bit-equal"],
+                 rows,
+                 f"{r['config']['ks'][0]} E1 jobs of {c['budget']} roll-outs submitted at once from the client host, "
+                 f"dealt over skills {', '.join(r['skills'])} (one owned by each learner of the pair); {c['workers']} "
+                 f"workers, each learner `--jobs {c['jobs_per_learner']}`. 2 / 1: median "
+                 f"{_median(s['wall_ratio'])} over {c['reps']} repetitions. The two learners' CPU split "
+                 f"{pct(share['learner']['median'])} / {pct(share['learner-2']['median'])}. Bound: the wall time the "
+                 f"2-learner run could not beat with {c['cores_per_learner']:g} cores per learner and "
+                 f"{c['worker_cores']:g} for the workers (the busiest learner's CPU / its cores, or the workers' CPU / "
+                 f"theirs); over the 1-learner run measured here: median {_median(s['projected_ratio'])}; over the "
+                 f"same bound for 1 learner: {_median(s['projected_bound_ratio'])}.")
+
+
 #: The deployment docs/SCALING.md sizes, and how its users behave in a busy hour (assumptions,
 #: not measurements): every user adapts once an hour (an E1 job of 150 roll-outs, batches of 5)
 #: and predicts once every 10 s.

@@ -1,6 +1,6 @@
 """Adaptation jobs side by side in one learner (``--jobs``, ``--job-runner``), measured.
 
-Three parts, each one run writing one JSON:
+Five parts, each one run writing one JSON:
 
 ``runner``: where the training part of concurrent jobs should compute. K E1 jobs on a
     :class:`~services.learner.core.LearnerCore` with the in-process via-point task as evaluator
@@ -13,12 +13,24 @@ Three parts, each one run writing one JSON:
     alone (measured in the same deployment just before), and against ``--jobs 1``'s time for the
     same K. Then the same with roll-out-heavy jobs (each roll-out takes ``--rollout-delay`` s of
     the worker: a robot whose motion takes time). Learner and worker CPU seconds per round.
+``ur10``: the same comparison (``--jobs 1`` against the default, K = 1, 2, 4) with jobs of a real
+    roll-out-heavy kind: E5's UR10 pick and place on 4 UR10 workers, each roll-out a PyBullet
+    episode of the worker's CPU.
+``hosts``: two learners on two hosts against one (services/launcher/multihost.py: router, each
+    learner and each of 4 workers on a network namespace of its own): 8 E1 jobs submitted at once
+    from the client host on two skills, one owned by each learner of the pair (4 jobs each); wall
+    time, each learner's and worker's CPU seconds (the process and its job processes); each job's
+    result compared between 1 and 2 learners; a lower bound of the 2-learner time had each
+    learner cores of its own (:func:`hosts_bound`). ``--reps`` times, the order alternating.
+    ``hosts-client`` is its client side, run on the client host.
 ``kill``: 4 jobs at once (``--jobs 4``, the default runner), undisturbed; the same 4 jobs again with the learner
     killed by SIGKILL once all 4 run (the launcher restarts it): every job must end ``done`` with
     the undisturbed result, and the recording must hold every executed roll-out once.
 
     python benchmarks/performance/bench_jobs.py runner [--ks 2 4] [--reps 3] [--out FILE]
     python benchmarks/performance/bench_jobs.py deploy [--ks 1 2 4 8] [--out FILE]
+    python benchmarks/performance/bench_jobs.py ur10 [--ks 1 2 4] [--budget 20] [--out FILE]
+    python benchmarks/performance/bench_jobs.py hosts [--ks 8] [--reps 2] [--out FILE]   (as root)
     python benchmarks/performance/bench_jobs.py kill [--out FILE]
 
 Numbers from one run on a shared machine (2 cores, other work running): the ratios of a run are
@@ -33,6 +45,7 @@ import statistics
 import sys
 import tempfile
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -46,11 +59,49 @@ TRAIN_STEPS = 300
 WAIT = 1800.0  # liveness bound
 
 
-def _adapt_request(setup, seed: int, budget: int) -> dict:
-    tg = setup.target
-    return {"target": {"obs_times": tg.obs_times, "obs_values": tg.obs_values, "query_times": tg.query_times},
-            "task": "viapoint", "task_config": setup.task_config, "robot": "point2d", "seed": seed,
-            "config": {"max_rollouts": budget, "stop_on_success": False}}
+@dataclass(frozen=True)
+class Workload:
+    """What a benchmark's jobs adapt: the skill's demonstrations (trained into a 32x32 CNMP of
+    ``TRAIN_STEPS`` steps, seed 3), and the adaptation's target, task and robot kind."""
+
+    robot: str
+    task: str
+    task_config: dict
+    demos: object  # a DemoSet
+    target: object  # an AdaptTarget
+
+    def train_request(self) -> dict:
+        """The ``skill/<skill>/train`` request of the skill."""
+        d = self.demos
+        req = {"times": np.stack([x.times for x in d]), "values": np.stack([x.values for x in d]),
+               "model": SMALL, "train": {"steps": TRAIN_STEPS}, "seed": 3}
+        if d.n_task_params:
+            req["task_params"] = d.all_task_params()
+        return req
+
+    def adapt_request(self, seed: int, budget: int) -> dict:
+        """The ``skill/<skill>/adapt`` request of a job of ``budget`` roll-outs (no early stop) and ``seed``."""
+        from acnmp_core.adaptation.config import AdaptConfig
+        from acnmp_core.jobs.adapt import AdaptJob
+
+        return AdaptJob(self.target, self.task, self.robot, self.task_config,
+                        AdaptConfig(max_rollouts=budget, stop_on_success=False), seed=seed).to_dict()
+
+
+def e1_workload() -> Workload:
+    """E1's via-point adaptation of a point robot (roll-outs cost microseconds)."""
+    from acnmp_core.experiments.viapoint import make_setup
+
+    setup = make_setup()
+    return Workload("point2d", "viapoint", dict(setup.task_config), setup.demos, setup.target)
+
+
+def ur10_workload() -> Workload:
+    """E5's UR10 pick and place, adapted to its (8, 10) cm case (each roll-out a PyBullet episode)."""
+    from acnmp_core.experiments import ur10
+
+    setup = ur10.make_setup()
+    return Workload("ur10", "pick_place", {}, setup.demos, ur10.make_target(setup, "8_10"))
 
 
 def _cpu(pids) -> float:
@@ -185,26 +236,24 @@ class _Deployed:
     and a way to run jobs at once and time them; ``pids(kind)`` gives the pids of its learners or
     workers (none: no CPU is counted)."""
 
-    def __init__(self, session, keys, setup, budget: int, skills=("e1",), pids=lambda kind: []):
+    def __init__(self, session, keys, workload: Workload, budget: int, skills=("e1",), pids=lambda kind: []):
         from services.transport import call
 
-        self.session, self.keys, self.setup, self.budget, self.call = session, keys, setup, budget, call
+        self.session, self.keys, self.workload, self.budget, self.call = session, keys, workload, budget, call
         self.pids = pids
-        train = {"times": np.stack([d.times for d in setup.demos]), "values": np.stack([d.values for d in setup.demos]),
-                 "model": SMALL, "train": {"steps": TRAIN_STEPS}, "seed": 3}
         for skill in skills:
-            call(session, keys.train(skill), train, timeout=600)
+            call(session, keys.train(skill), workload.train_request(), timeout=600)
 
     @classmethod
-    def local(cls, dep, setup, budget: int) -> "_Deployed":
+    def local(cls, dep, workload: Workload, budget: int) -> "_Deployed":
         """On a :class:`~services.launcher.LocalDeployment`, with skill ``e1``."""
-        return cls(dep.session, dep.keys, setup, budget,
+        return cls(dep.session, dep.keys, workload, budget,
                    pids=lambda kind: [c.pid for name, c in dep.children.items() if name.startswith(kind)])
 
     def submit(self, seeds, skills=None) -> list[str]:
         """Queue a job per seed (on the skill at the same place of ``skills``; default ``e1``)."""
         skills = skills or ["e1"] * len(seeds)
-        return [self.call(self.session, self.keys.adapt(skill), _adapt_request(self.setup, s, self.budget),
+        return [self.call(self.session, self.keys.adapt(skill), self.workload.adapt_request(s, self.budget),
                           timeout=30)["job"] for skill, s in zip(skills, seeds)]
 
     def wait(self, ids, pred=lambda st: st["state"] in ("done", "failed", "cancelled")) -> dict:
@@ -231,14 +280,12 @@ class _Deployed:
                 "trajectories": [st[i]["result"]["trajectory"] for i in ids]}
 
 
-def _sweep(ns: str, jobs: int, runner: str, ks, budget: int, delay: float, workers: int) -> dict:
-    from acnmp_core.experiments.viapoint import make_setup
+def _sweep(ns: str, jobs: int, runner: str, ks, budget: int, delay: float, workers: int, workload: Workload) -> dict:
     from services.launcher import LocalDeployment
 
-    setup = make_setup()
-    with LocalDeployment(ns, workers=workers, model=False, worker_delay=delay,
+    with LocalDeployment(ns, workers=workers, robot=workload.robot, model=False, worker_delay=delay,
                          learner_args=["--jobs", str(jobs), "--job-runner", runner]) as dep:
-        d = _Deployed.local(dep, setup, budget)
+        d = _Deployed.local(dep, workload, budget)
         d.run([1] * min(jobs, 2))  # warm-up: the job processes start, the first optimiser imports
         alone = d.run([100])
         out = {"jobs": jobs, "runner": runner, "one_alone_s": alone["wall_s"], "k": {}}
@@ -252,15 +299,17 @@ def _sweep(ns: str, jobs: int, runner: str, ks, budget: int, delay: float, worke
     return out
 
 
-def part_deploy(args) -> dict:
+def _compare(kinds, args) -> dict:
+    """For each (name, roll-out delay s, workload) of ``kinds``: a deployment per learner setting
+    of ``args.configs``, K jobs at once for each K of ``args.ks``, each setting against the first."""
     out = {}
-    for kind, delay in (("e1", 0.0), ("rollout_heavy", args.rollout_delay)):
+    for kind, delay, workload in kinds:
         rows = {}
         for conf in args.configs:  # "--jobs:--job-runner"; the first one is the baseline
             jobs, runner = conf.split(":")
             print(f"{kind}: --jobs {jobs} --job-runner {runner}", flush=True)
             rows[conf] = _sweep(f"bjobs-{os.getpid()}-{kind}-{jobs}-{runner}", int(jobs), runner, args.ks,
-                                args.budget, delay, args.workers)
+                                args.budget, delay, args.workers, workload)
         seq = rows[args.configs[0]]
         for conf in args.configs[1:]:
             par = rows[conf]
@@ -271,17 +320,25 @@ def part_deploy(args) -> dict:
         for row in rows.values():
             for k in row["k"].values():
                 k.pop("trajectories")
-        out[kind] = {"rollout_delay_s": delay, "baseline": args.configs[0], "by_config": rows}
+        out[kind] = {"rollout_delay_s": delay, "robot": workload.robot, "task": workload.task,
+                     "baseline": args.configs[0], "by_config": rows}
     return out
+
+
+def part_deploy(args) -> dict:
+    e1 = e1_workload()
+    return _compare((("e1", 0.0, e1), ("rollout_heavy", args.rollout_delay, e1)), args)
+
+
+def part_ur10(args) -> dict:
+    return _compare((("ur10", 0.0, ur10_workload()),), args)
 
 
 # ----- part 3: kill -9 during 4 concurrent jobs -----------------------------------------------
 def part_kill(args) -> dict:
-    from acnmp_core.experiments.viapoint import make_setup
     from services.launcher import LocalDeployment
     from services.recording.replay import summarize
 
-    setup = make_setup()
     tmp = Path(tempfile.mkdtemp(prefix="bench-jobs-kill-"))
     rrd = tmp / "kill.rrd"
     seeds = [100, 101, 102, 103]
@@ -289,7 +346,7 @@ def part_kill(args) -> dict:
         with LocalDeployment(f"bjobk-{os.getpid()}", workers=args.workers, model=False, record=rrd,
                              state_dir=tmp / "state", worker_delay=args.kill_delay,
                              learner_args=["--jobs", str(len(seeds))]) as dep:
-            d = _Deployed.local(dep, setup, args.budget)
+            d = _Deployed.local(dep, e1_workload(), args.budget)
             t0 = time.perf_counter()
             calm = d.run(seeds)
             calm_s = time.perf_counter() - t0
@@ -344,12 +401,10 @@ def part_hosts_client(args) -> int:
     ``{"wall_s": ...}``."""
     import json
 
-    from acnmp_core.experiments.viapoint import make_setup
     from clients.client import ACNMPClient
 
-    setup = make_setup()
     with ACNMPClient(args.namespace, config_file=args.config, role="operator", timeout=30) as client:
-        d = _Deployed(client.session, client.keys, setup, args.budget, skills=args.skills)
+        d = _Deployed(client.session, client.keys, e1_workload(), args.budget, skills=args.skills)
         warm = [s for s in args.skills for _ in range(2 * args.slots)]  # every job process starts, off the clock
         d.budget, budget = 2, d.budget
         d.run([1] * len(warm), warm)
@@ -467,9 +522,9 @@ def part_hosts(args) -> dict:
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("part", choices=("runner", "deploy", "kill", "hosts", "hosts-client"))
+    p.add_argument("part", choices=("runner", "deploy", "ur10", "kill", "hosts", "hosts-client"))
     p.add_argument("--ks", type=int, nargs="+", default=None,
-                   help="jobs at once (runner: 2 4; deploy: 1 2 4 8; hosts: 8)")
+                   help="jobs at once (runner: 2 4; deploy: 1 2 4 8; ur10: 1 2 4; hosts: 8)")
     p.add_argument("--reps", type=int, default=None, help="runner, hosts: repetitions (default: 3; hosts 2)")
     p.add_argument("--budget", type=int, default=50, help="roll-outs per job (default: %(default)s)")
     p.add_argument("--workers", type=int, default=4, help="deploy, kill, hosts: workers (default: %(default)s)")
@@ -477,8 +532,9 @@ def main(argv: list[str] | None = None) -> int:
                    help="deploy: seconds per roll-out of the roll-out-heavy jobs (default: %(default)s)")
     p.add_argument("--kill-delay", type=float, default=0.05,
                    help="kill: seconds per roll-out, so the kill lands mid-job (default: %(default)s)")
-    p.add_argument("--configs", nargs="+", default=["1:thread", "2:thread", "2:process"],
-                   help="deploy: learner settings JOBS:RUNNER, the first the baseline (default: %(default)s)")
+    p.add_argument("--configs", nargs="+", default=None,
+                   help="deploy, ur10: learner settings JOBS:RUNNER, the first the baseline (default: deploy "
+                        "1:thread 2:thread 2:process; ur10 1:process 2:process)")
     p.add_argument("--slots", type=int, default=2, help="hosts: --jobs of every learner (default: %(default)s)")
     p.add_argument("--cores-per-learner", type=float, default=2.0,
                    help="hosts: cores of each learner's own host in the projection (default: %(default)s)")
@@ -490,7 +546,10 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--out", default=None, metavar="FILE",
                    help="write the result here (default benchmarks/results/bench_jobs_<part>.json; deploy: bench_jobs.json)")
     args = p.parse_args(argv)
-    args.ks = args.ks or {"runner": [2, 4], "hosts": [8], "hosts-client": [8]}.get(args.part, [1, 2, 4, 8])
+    args.ks = args.ks or {"runner": [2, 4], "ur10": [1, 2, 4], "hosts": [8], "hosts-client": [8]}.get(args.part,
+                                                                                                  [1, 2, 4, 8])
+    args.configs = args.configs or (["1:process", "2:process"] if args.part == "ur10"
+                                    else ["1:thread", "2:thread", "2:process"])
     args.reps = args.reps or (2 if args.part == "hosts" else 3)
     if args.part == "hosts-client":
         return part_hosts_client(args)
@@ -504,6 +563,10 @@ def main(argv: list[str] | None = None) -> int:
     elif args.part == "deploy":
         config.update(workers=args.workers, rollout_delay_s=args.rollout_delay, configs=args.configs)
         result = part_deploy(args)
+    elif args.part == "ur10":
+        config.update(workers=args.workers, configs=args.configs,
+                      task="E5 UR10 pick and place (case 8_10), AdaptConfig defaults, stop_on_success false")
+        result = part_ur10(args)
     elif args.part == "hosts":
         config.update(workers=args.workers, reps=args.reps, jobs_per_learner=args.slots,
                       cores_per_learner=args.cores_per_learner, worker_cores=args.worker_cores or args.workers,
@@ -515,7 +578,7 @@ def main(argv: list[str] | None = None) -> int:
         result = part_kill(args)
     out = args.out or ROOT / "benchmarks" / "results" / {"runner": "bench_jobs_runner.json", "deploy": "bench_jobs.json",
                                                          "kill": "bench_jobs_kill.json",
-                                                         "hosts": "bench_jobs_hosts.json"}[args.part]
+                                                         "hosts": "bench_jobs_hosts.json", "ur10": "bench_jobs_ur10.json"}[args.part]
     result["wall_time_s"] = time.perf_counter() - started
     save_result({"benchmark": f"jobs_{args.part}", "provenance": prov, "config": config, **result}, out,
                 headline=("summary", "all_done_equal", "recording_each_rollout_once"))
