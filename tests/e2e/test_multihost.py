@@ -215,7 +215,7 @@ def test_two_learners_on_hosts_of_their_own_each_serve_their_skills_and_list_eve
     skills = {lid: next(s for s in (f"e1-{i}" for i in range(100)) if owner_of(s, ids) == lid) for lid in ids}
     tg = setup.target
     obs = [f"--obs={t}:{x},{y}" for t, (x, y) in zip(tg.obs_times, tg.obs_values)]
-    with MultiHostDeployment(f"hosts2-{tmp_path.name[-8:].strip('_-') or 'x'}", workers=1, learners=2, model=False,
+    with MultiHostDeployment(f"hosts2-{tmp_path.name[-8:].strip('_-') or 'x'}", workers=1, learners=2,
                              work_dir=tmp_path / "work") as dep:
         status = dep.acnmp("status", "--json", role="client")
         assert status.returncode == 0, status.stderr
@@ -228,7 +228,7 @@ def test_two_learners_on_hosts_of_their_own_each_serve_their_skills_and_list_eve
             adapted = dep.acnmp("query", "adapt", "--skill", skill, "--task", "viapoint", *obs, "--task-config",
                                 json.dumps(setup.task_config), "--budget", "4", "--watch", "--json")
             assert adapted.returncode == 0, adapted.stderr  # 0: the job is done
-            final = json.loads(adapted.stdout)
+            final = json.loads(adapted.stdout.splitlines()[-1])  # after the line saying it was queued
             jobs[lid] = final["job"]
         for lid, skill in skills.items():  # trained by its owner only, on its own host's state directory
             assert [other for other in ids if (dep.learner_state_dir(other) / "skills" / skill).is_dir()] == [lid]
