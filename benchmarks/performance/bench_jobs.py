@@ -47,12 +47,17 @@ import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 from benchmarks._results import ROOT, main_provenance, save_result  # noqa: E402
+
+if TYPE_CHECKING:
+    from acnmp_core.adaptation.config import AdaptTarget
+    from acnmp_core.data.demos import DemoSet
 
 SMALL = {"encoder_widths": [32, 32], "decoder_widths": [32, 32]}
 TRAIN_STEPS = 300
@@ -67,8 +72,8 @@ class Workload:
     robot: str
     task: str
     task_config: dict
-    demos: object  # a DemoSet
-    target: object  # an AdaptTarget
+    demos: DemoSet
+    target: AdaptTarget
 
     def train_request(self) -> dict:
         """The ``skill/<skill>/train`` request of the skill."""
@@ -250,10 +255,11 @@ class _Deployed:
         return cls(dep.session, dep.keys, workload, budget,
                    pids=lambda kind: [c.pid for name, c in dep.children.items() if name.startswith(kind)])
 
-    def submit(self, seeds, skills=None) -> list[str]:
-        """Queue a job per seed (on the skill at the same place of ``skills``; default ``e1``)."""
+    def submit(self, seeds, skills=None, budget: int | None = None) -> list[str]:
+        """Queue a job per seed (on the skill at the same place of ``skills``, default ``e1``) of
+        ``budget`` roll-outs (default the deployment's)."""
         skills = skills or ["e1"] * len(seeds)
-        return [self.call(self.session, self.keys.adapt(skill), self.workload.adapt_request(s, self.budget),
+        return [self.call(self.session, self.keys.adapt(skill), self.workload.adapt_request(s, budget or self.budget),
                           timeout=30)["job"] for skill, s in zip(skills, seeds)]
 
     def wait(self, ids, pred=lambda st: st["state"] in ("done", "failed", "cancelled")) -> dict:
@@ -266,10 +272,12 @@ class _Deployed:
                 raise TimeoutError(st)
             time.sleep(0.1)
 
-    def run(self, seeds, skills=None) -> dict:
+    def run(self, seeds, skills=None, budget: int | None = None) -> dict:
+        """Submit the jobs of :meth:`submit` at once and wait for them all; wall and CPU seconds
+        (learners', workers') until then, and each job's resulting trajectory."""
         lcpu0, wcpu0 = _cpu(self.pids("learner")), _cpu(self.pids("worker"))
         t0 = time.perf_counter()
-        ids = self.submit(seeds, skills)
+        ids = self.submit(seeds, skills, budget)
         st = self.wait(ids)
         wall = time.perf_counter() - t0
         bad = {i: s["error"] for i, s in st.items() if s["state"] != "done"}
@@ -406,9 +414,7 @@ def part_hosts_client(args) -> int:
     with ACNMPClient(args.namespace, config_file=args.config, role="operator", timeout=30) as client:
         d = _Deployed(client.session, client.keys, e1_workload(), args.budget, skills=args.skills)
         warm = [s for s in args.skills for _ in range(2 * args.slots)]  # every job process starts, off the clock
-        d.budget, budget = 2, d.budget
-        d.run([1] * len(warm), warm)
-        d.budget = budget
+        d.run([1] * len(warm), warm, budget=2)
         print(json.dumps({"ready": True}), flush=True)
         sys.stdin.readline()
         skills, seeds = zip(*host_jobs(args.ks[0], args.skills))
@@ -418,15 +424,15 @@ def part_hosts_client(args) -> int:
     return 0
 
 
-def _hosts_round(n_learners: int, args, work: Path) -> dict:
+def _hosts_round(n_learners: int, args, work: Path, tag: str) -> dict:
     """One deployment over hosts with ``n_learners`` learners and ``args.workers`` workers: K jobs
-    at once from the client host; wall time, each learner's and worker's CPU seconds over them."""
+    at once from the client host; wall time, each learner's and worker's CPU seconds over them.
+    ``tag`` names its namespace and its files in ``work``."""
     import json
     import subprocess
 
     from services.launcher.multihost import MultiHostDeployment
 
-    tag = f"{n_learners}-{len(list(work.iterdir()))}"
     with MultiHostDeployment(f"bjobh-{os.getpid()}-{tag}", workers=args.workers, learners=n_learners, model=False,
                              learner_args=["--jobs", str(args.slots)], work_dir=work / tag) as dep:
         out = work / f"{tag}.npz"
@@ -501,7 +507,7 @@ def part_hosts(args) -> dict:
     try:
         for rep in range(args.reps):
             for n in ((1, 2) if rep % 2 == 0 else (2, 1)):
-                row = {"rep": rep, **_hosts_round(n, args, work)}
+                row = {"rep": rep, **_hosts_round(n, args, work, f"{rep}-{n}")}
                 print(f"rep {rep}, {n} learner(s): {row['wall_s']:.1f} s, learner CPU "
                       + ", ".join(f"{k} {v:.1f}" for k, v in row["learner_cpu_s"].items())
                       + f" s, workers' CPU {sum(row['worker_cpu_s'].values()):.1f} s", flush=True)
