@@ -27,7 +27,7 @@ from acnmp_core.jobs.adapt import AdaptJob
 from acnmp_core.jobs.transfer import PairTrainJob
 from services.transport import DEFAULT_NAMESPACE, Keyspace, WireError, alive_tokens, open_session
 from services.transport.keys import is_concrete, last_chunk
-from services.transport.rpc import call
+from services.transport.rpc import call, call_all
 
 from .discovery import call_when_available, resolve
 
@@ -317,9 +317,22 @@ class ACNMPClient:
         return self.request(self.keys.job_status(job), None, timeout)
 
     def jobs(self, limit: int = 100, timeout: float | None = None) -> list[JobSummary]:
-        """The learner's newest ``limit`` (1..1000) jobs, newest first."""
-        reply = self.request(self.keys.jobs(), {"v": 1, "limit": int(limit)}, timeout)
-        return [JobSummary.from_reply(row) for row in reply["jobs"]]
+        """The deployment's newest ``limit`` (1..1000) jobs, newest first (by ``created``). With
+        several learners each answers for the jobs of its own skills; the answers of all that are
+        live are merged (asked again, until ``timeout``, while fewer answer than there are live
+        learner tokens: a fresh session may not know every learner yet)."""
+        timeout = self.timeout if timeout is None else float(timeout)
+        deadline = time.monotonic() + timeout
+        while True:
+            replies = call_when_available(self.session, self.keys.jobs(), {"v": 1, "limit": int(limit)},
+                                          max(deadline - time.monotonic(), 0.05), caller=call_all)
+            remaining = deadline - time.monotonic()
+            if remaining <= 0 or len(replies) >= len(alive_tokens(self.session, self.keys.learner_token("*"),
+                                                                  min(remaining, 2.0))):
+                break
+            time.sleep(0.1)
+        rows = [JobSummary.from_reply(row) for reply in replies for row in reply["jobs"]]
+        return sorted(rows, key=lambda r: r.created, reverse=True)[:limit]
 
     def cancel(self, job: str, timeout: float | None = None) -> dict:
         """Cancel ``job`` on the learner; returns its status map afterwards: ``cancelled`` for a job

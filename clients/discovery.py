@@ -78,16 +78,17 @@ def _announced(endpoints: Sequence[str] | None) -> RunFile | None:
 
 
 def call_when_available(session: zenoh.Session, key: str, payload: dict | None, timeout: float, *,
-                        first_delay: float = 0.05, max_delay: float = 0.5) -> dict:
-    """:func:`services.transport.rpc.call`, retried while it answers ``unavailable`` and
-    ``timeout`` seconds have not passed (delays from ``first_delay`` doubling to ``max_delay``).
-    Any other error, or ``unavailable`` at the end, is raised as the WireError it is."""
+                        first_delay: float = 0.05, max_delay: float = 0.5, caller=call):
+    """:func:`services.transport.rpc.call` (or ``caller``, e.g. ``call_all``), retried while it
+    answers ``unavailable`` and ``timeout`` seconds have not passed (delays from ``first_delay``
+    doubling to ``max_delay``). Returns what ``caller`` returns. Any other error, or
+    ``unavailable`` at the end, is raised as the WireError it is."""
     deadline = time.monotonic() + timeout
     delay = first_delay
     while True:
         remaining = deadline - time.monotonic()
         try:
-            return call(session, key, payload, max(remaining, 0.05))
+            return caller(session, key, payload, max(remaining, 0.05))
         except WireError as exc:
             if exc.code != "unavailable" or time.monotonic() + delay >= deadline:
                 raise

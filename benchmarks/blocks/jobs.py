@@ -29,22 +29,20 @@ def jobs_runner() -> str:
                  "in-process task (no workers: the adaptation's arithmetic only).")
 
 
-@renderer("jobs-deploy")
-def jobs_deploy() -> str:
-    """K jobs at once on one learner of a deployment, each learner setting against the baseline
-    (the first, --jobs 1) (bench_jobs.json)."""
-    r = load("bench_jobs")
-    c = r["config"]
-    confs = c["configs"]
+def _deploy_table(r: dict, kinds) -> tuple[list[str], list[list]]:
+    """The header and rows of K jobs at once on one learner, each learner setting of
+    ``r["config"]["configs"]`` against the first, for each (key, label) of ``kinds``."""
+    confs = r["config"]["configs"]
     header = ["jobs", "K at once"]
     for conf in confs:
         jobs, runner = conf.split(":")
         header += [f"--jobs {jobs} {runner}: all done (s)", "/ K x one alone"]
         if conf != confs[0]:
             header += [f"/ --jobs {confs[0].split(':')[0]}"]
-    header += ["learner CPU s (" + ", ".join(confs) + ")", "results bit-equal"]
+    header += ["learner CPU s (" + ", ".join(confs) + ")", "workers' CPU s (" + ", ".join(confs) + ")",
+               "results bit-equal"]
     rows = []
-    for kind, label in (("e1", "E1"), ("rollout_heavy", "roll-out-heavy")):
+    for kind, label in kinds:
         by = r[kind]["by_config"]
         for k in by[confs[0]]["k"]:
             row = [label, k]
@@ -53,14 +51,41 @@ def jobs_deploy() -> str:
                 row += [f"{x['wall_s']:.1f}", f"{x['ratio_to_k_alone']:.2f}"]
                 if conf != confs[0]:
                     row += [f"**{x['ratio_to_baseline']:.2f}**"]
-            row += [", ".join(f"{by[conf]['k'][k]['learner_cpu_s']:.1f}" for conf in confs),
-                    "yes" if all(by[conf]["k"][k]["bit_equal_to_baseline"] for conf in confs[1:]) else "NO"]
+            row += [", ".join(f"{by[conf]['k'][k][cpu]:.1f}" for conf in confs) for cpu in ("learner_cpu_s", "worker_cpu_s")]
+            row += ["yes" if all(by[conf]["k"][k]["bit_equal_to_baseline"] for conf in confs[1:]) else "NO"]
             rows.append(row)
-    return block(r, "bench_jobs",
-                 header,
-                 rows,
+    return header, rows
+
+
+@renderer("jobs-deploy")
+def jobs_deploy() -> str:
+    """K jobs at once on one learner of a deployment, each learner setting against the baseline
+    (the first, --jobs 1) (bench_jobs.json)."""
+    r = load("bench_jobs")
+    c = r["config"]
+    return block(r, "bench_jobs", *_deploy_table(r, (("e1", "E1"), ("rollout_heavy", "roll-out-heavy"))),
                  f"{c['workers']} workers; E1 jobs of {c['budget']} roll-outs ({c['train_steps']}-step 32x32 skill); "
                  f"roll-out-heavy: the same jobs with {c['rollout_delay_s']} s of worker time per roll-out. One run.")
+
+
+@renderer("jobs-ur10")
+def jobs_ur10() -> str:
+    """K UR10 pick-and-place jobs at once on one learner, --jobs 1 against the default
+    (bench_jobs_ur10.json)."""
+    r = load("bench_jobs_ur10")
+    c = r["config"]
+    by = r["ur10"]["by_config"]
+    k = str(max(c["ks"]))
+    default = by[c["configs"][-1]]["k"][k]
+    cpu = default["learner_cpu_s"] + default["worker_cpu_s"]
+    cores = r["provenance"]["machine"]["cpu_count"]
+    return block(r, "bench_jobs_ur10", *_deploy_table(r, (("ur10", "UR10 pick and place"),)),
+                 f"{c['workers']} UR10 workers (PyBullet); jobs of {c['budget']} roll-outs adapting a "
+                 f"{c['train_steps']}-step 32x32 skill of E5's 8 demonstrations to its (8, 10) cm case. One run. "
+                 f"What the machine allows: {k} jobs at once took {cpu:.1f} CPU s with `--jobs "
+                 f"{c['configs'][-1].split(':')[0]}` (learner {default['learner_cpu_s']:.1f}, workers "
+                 f"{default['worker_cpu_s']:.1f}), so on its {cores} cores no setting could finish them in under "
+                 f"{cpu / cores:.1f} s; they took {default['wall_s']:.1f} s ({default['wall_s'] / (cpu / cores):.2f}x that floor).")
 
 
 @renderer("jobs-kill")
@@ -73,6 +98,40 @@ def jobs_kill() -> str:
                  ["job", "state", "attempt", "result = undisturbed", "roll-outs executed", "recorded", "recorded twice"],
                  rows,
                  f"The learner was back {r['learner_back_s']:.1f} s after the kill (exit code {r['restart_exit_code']}).")
+
+
+@renderer("jobs-hosts")
+def jobs_hosts() -> str:
+    """Two learners on two hosts (network namespaces) against one, K jobs at once, with the
+    projection to learners on cores of their own (bench_jobs_hosts.json)."""
+    r = load("bench_jobs_hosts")
+    c, s = r["config"], r["summary"]
+    rows = []
+    for rep in s["by_rep"]:
+        one, two = (next(x for x in r["rounds"] if x["rep"] == rep["rep"] and x["learners"] == n) for n in (1, 2))
+        rows.append([rep["rep"] + 1, f"{one['wall_s']:.1f}", f"{two['wall_s']:.1f}", f"**{rep['wall_ratio']:.2f}**",
+                     f"{one['learner_cpu_s']['learner']:.1f}",
+                     " / ".join(f"{two['learner_cpu_s'][n]:.1f}" for n in sorted(two["learner_cpu_s"])),
+                     f"{sum(one['worker_cpu_s'].values()):.1f} / {sum(two['worker_cpu_s'].values()):.1f}",
+                     f"{rep['bound_s']['2']:.1f}", f"**{rep['projected_ratio']:.2f}**",
+                     f"{rep['projected_bound_ratio']:.2f}",
+                     "yes" if all(two["bit_equal_to_one_learner"]) else "NO"])
+    share = s["learner_cpu_share"]
+    return block(r, "bench_jobs_hosts",
+                 ["rep", "1 learner: all done (s)", "2 learners: all done (s)", "2 / 1",
+                  "learner CPU s (1 learner)", "learner / learner-2 CPU s (2 learners)", "workers' CPU s (1 / 2)",
+                  "2 learners on their own cores: bound (s)", "bound / 1 learner's time", "bound / 1 learner's bound",
+                  "results bit-equal"],
+                 rows,
+                 f"{r['config']['ks'][0]} E1 jobs of {c['budget']} roll-outs submitted at once from the client host, "
+                 f"dealt over skills {', '.join(r['skills'])} (one owned by each learner of the pair); {c['workers']} "
+                 f"workers, each learner `--jobs {c['jobs_per_learner']}`. 2 / 1: median "
+                 f"{_median(s['wall_ratio'])} over {c['reps']} repetitions. The two learners' CPU split "
+                 f"{pct(share['learner']['median'])} / {pct(share['learner-2']['median'])}. Bound: the wall time the "
+                 f"2-learner run could not beat with {c['cores_per_learner']:g} cores per learner and "
+                 f"{c['worker_cores']:g} for the workers (the busiest learner's CPU / its cores, or the workers' CPU / "
+                 f"theirs); over the 1-learner run measured here: median {_median(s['projected_ratio'])}; over the "
+                 f"same bound for 1 learner: {_median(s['projected_bound_ratio'])}.")
 
 
 #: The deployment docs/SCALING.md sizes, and how its users behave in a busy hour (assumptions,

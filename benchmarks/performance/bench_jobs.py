@@ -1,6 +1,6 @@
 """Adaptation jobs side by side in one learner (``--jobs``, ``--job-runner``), measured.
 
-Three parts, each one run writing one JSON:
+Five parts, each one run writing one JSON:
 
 ``runner``: where the training part of concurrent jobs should compute. K E1 jobs on a
     :class:`~services.learner.core.LearnerCore` with the in-process via-point task as evaluator
@@ -13,12 +13,24 @@ Three parts, each one run writing one JSON:
     alone (measured in the same deployment just before), and against ``--jobs 1``'s time for the
     same K. Then the same with roll-out-heavy jobs (each roll-out takes ``--rollout-delay`` s of
     the worker: a robot whose motion takes time). Learner and worker CPU seconds per round.
+``ur10``: the same comparison (``--jobs 1`` against the default, K = 1, 2, 4) with jobs of a real
+    roll-out-heavy kind: E5's UR10 pick and place on 4 UR10 workers, each roll-out a PyBullet
+    episode of the worker's CPU.
+``hosts``: two learners on two hosts against one (services/launcher/multihost.py: router, each
+    learner and each of 4 workers on a network namespace of its own): 8 E1 jobs submitted at once
+    from the client host on two skills, one owned by each learner of the pair (4 jobs each); wall
+    time, each learner's and worker's CPU seconds (the process and its job processes); each job's
+    result compared between 1 and 2 learners; a lower bound of the 2-learner time had each
+    learner cores of its own (:func:`hosts_bound`). ``--reps`` times, the order alternating.
+    ``hosts-client`` is its client side, run on the client host.
 ``kill``: 4 jobs at once (``--jobs 4``, the default runner), undisturbed; the same 4 jobs again with the learner
     killed by SIGKILL once all 4 run (the launcher restarts it): every job must end ``done`` with
     the undisturbed result, and the recording must hold every executed roll-out once.
 
     python benchmarks/performance/bench_jobs.py runner [--ks 2 4] [--reps 3] [--out FILE]
     python benchmarks/performance/bench_jobs.py deploy [--ks 1 2 4 8] [--out FILE]
+    python benchmarks/performance/bench_jobs.py ur10 [--ks 1 2 4] [--budget 20] [--out FILE]
+    python benchmarks/performance/bench_jobs.py hosts [--ks 8] [--reps 2] [--out FILE]   (as root)
     python benchmarks/performance/bench_jobs.py kill [--out FILE]
 
 Numbers from one run on a shared machine (2 cores, other work running): the ratios of a run are
@@ -33,7 +45,9 @@ import statistics
 import sys
 import tempfile
 import time
+from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -41,16 +55,58 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 from benchmarks._results import ROOT, main_provenance, save_result  # noqa: E402
 
+if TYPE_CHECKING:
+    from acnmp_core.adaptation.config import AdaptTarget
+    from acnmp_core.data.demos import DemoSet
+
 SMALL = {"encoder_widths": [32, 32], "decoder_widths": [32, 32]}
 TRAIN_STEPS = 300
 WAIT = 1800.0  # liveness bound
 
 
-def _adapt_request(setup, seed: int, budget: int) -> dict:
-    tg = setup.target
-    return {"target": {"obs_times": tg.obs_times, "obs_values": tg.obs_values, "query_times": tg.query_times},
-            "task": "viapoint", "task_config": setup.task_config, "robot": "point2d", "seed": seed,
-            "config": {"max_rollouts": budget, "stop_on_success": False}}
+@dataclass(frozen=True)
+class Workload:
+    """What a benchmark's jobs adapt: the skill's demonstrations (trained into a 32x32 CNMP of
+    ``TRAIN_STEPS`` steps, seed 3), and the adaptation's target, task and robot kind."""
+
+    robot: str
+    task: str
+    task_config: dict
+    demos: DemoSet
+    target: AdaptTarget
+
+    def train_request(self) -> dict:
+        """The ``skill/<skill>/train`` request of the skill."""
+        d = self.demos
+        req = {"times": np.stack([x.times for x in d]), "values": np.stack([x.values for x in d]),
+               "model": SMALL, "train": {"steps": TRAIN_STEPS}, "seed": 3}
+        if d.n_task_params:
+            req["task_params"] = d.all_task_params()
+        return req
+
+    def adapt_request(self, seed: int, budget: int) -> dict:
+        """The ``skill/<skill>/adapt`` request of a job of ``budget`` roll-outs (no early stop) and ``seed``."""
+        from acnmp_core.adaptation.config import AdaptConfig
+        from acnmp_core.jobs.adapt import AdaptJob
+
+        return AdaptJob(self.target, self.task, self.robot, self.task_config,
+                        AdaptConfig(max_rollouts=budget, stop_on_success=False), seed=seed).to_dict()
+
+
+def e1_workload() -> Workload:
+    """E1's via-point adaptation of a point robot (roll-outs cost microseconds)."""
+    from acnmp_core.experiments.viapoint import make_setup
+
+    setup = make_setup()
+    return Workload("point2d", "viapoint", dict(setup.task_config), setup.demos, setup.target)
+
+
+def ur10_workload() -> Workload:
+    """E5's UR10 pick and place, adapted to its (8, 10) cm case (each roll-out a PyBullet episode)."""
+    from acnmp_core.experiments import ur10
+
+    setup = ur10.make_setup()
+    return Workload("ur10", "pick_place", {}, setup.demos, ur10.make_target(setup, "8_10"))
 
 
 def _cpu(pids) -> float:
@@ -181,37 +237,47 @@ def part_runner(args) -> dict:
 
 # ----- part 2: a deployment, K jobs at once ----------------------------------------------------
 class _Deployed:
-    """A deployment with a trained skill ``e1`` and a way to run K jobs at once and time them."""
+    """A session on a deployment with trained ``skills`` (the E1 skill each, trained the same way),
+    and a way to run jobs at once and time them; ``pids(kind)`` gives the pids of its learners or
+    workers (none: no CPU is counted)."""
 
-    def __init__(self, dep, setup, budget: int):
+    def __init__(self, session, keys, workload: Workload, budget: int, skills=("e1",), pids=lambda kind: []):
         from services.transport import call
 
-        self.dep, self.setup, self.budget, self.call = dep, setup, budget, call
-        train = {"times": np.stack([d.times for d in setup.demos]), "values": np.stack([d.values for d in setup.demos]),
-                 "model": SMALL, "train": {"steps": TRAIN_STEPS}, "seed": 3}
-        call(dep.session, dep.keys.train("e1"), train, timeout=600)
+        self.session, self.keys, self.workload, self.budget, self.call = session, keys, workload, budget, call
+        self.pids = pids
+        for skill in skills:
+            call(session, keys.train(skill), workload.train_request(), timeout=600)
 
-    def submit(self, seeds) -> list[str]:
-        return [self.call(self.dep.session, self.dep.keys.adapt("e1"), _adapt_request(self.setup, s, self.budget),
-                          timeout=30)["job"] for s in seeds]
+    @classmethod
+    def local(cls, dep, workload: Workload, budget: int) -> "_Deployed":
+        """On a :class:`~services.launcher.LocalDeployment`, with skill ``e1``."""
+        return cls(dep.session, dep.keys, workload, budget,
+                   pids=lambda kind: [c.pid for name, c in dep.children.items() if name.startswith(kind)])
+
+    def submit(self, seeds, skills=None, budget: int | None = None) -> list[str]:
+        """Queue a job per seed (on the skill at the same place of ``skills``, default ``e1``) of
+        ``budget`` roll-outs (default the deployment's)."""
+        skills = skills or ["e1"] * len(seeds)
+        return [self.call(self.session, self.keys.adapt(skill), self.workload.adapt_request(s, budget or self.budget),
+                          timeout=30)["job"] for skill, s in zip(skills, seeds)]
 
     def wait(self, ids, pred=lambda st: st["state"] in ("done", "failed", "cancelled")) -> dict:
         deadline = time.monotonic() + WAIT
         while True:
-            st = {i: self.call(self.dep.session, self.dep.keys.job_status(i), timeout=30) for i in ids}
+            st = {i: self.call(self.session, self.keys.job_status(i), timeout=30) for i in ids}
             if all(pred(s) for s in st.values()):
                 return st
             if time.monotonic() > deadline:
                 raise TimeoutError(st)
             time.sleep(0.1)
 
-    def pids(self, kind: str) -> list[int]:
-        return [c.pid for name, c in self.dep.children.items() if name.startswith(kind)]
-
-    def run(self, seeds) -> dict:
+    def run(self, seeds, skills=None, budget: int | None = None) -> dict:
+        """Submit the jobs of :meth:`submit` at once and wait for them all; wall and CPU seconds
+        (learners', workers') until then, and each job's resulting trajectory."""
         lcpu0, wcpu0 = _cpu(self.pids("learner")), _cpu(self.pids("worker"))
         t0 = time.perf_counter()
-        ids = self.submit(seeds)
+        ids = self.submit(seeds, skills, budget)
         st = self.wait(ids)
         wall = time.perf_counter() - t0
         bad = {i: s["error"] for i, s in st.items() if s["state"] != "done"}
@@ -222,14 +288,12 @@ class _Deployed:
                 "trajectories": [st[i]["result"]["trajectory"] for i in ids]}
 
 
-def _sweep(ns: str, jobs: int, runner: str, ks, budget: int, delay: float, workers: int) -> dict:
-    from acnmp_core.experiments.viapoint import make_setup
+def _sweep(ns: str, jobs: int, runner: str, ks, budget: int, delay: float, workers: int, workload: Workload) -> dict:
     from services.launcher import LocalDeployment
 
-    setup = make_setup()
-    with LocalDeployment(ns, workers=workers, model=False, worker_delay=delay,
+    with LocalDeployment(ns, workers=workers, robot=workload.robot, model=False, worker_delay=delay,
                          learner_args=["--jobs", str(jobs), "--job-runner", runner]) as dep:
-        d = _Deployed(dep, setup, budget)
+        d = _Deployed.local(dep, workload, budget)
         d.run([1] * min(jobs, 2))  # warm-up: the job processes start, the first optimiser imports
         alone = d.run([100])
         out = {"jobs": jobs, "runner": runner, "one_alone_s": alone["wall_s"], "k": {}}
@@ -243,15 +307,17 @@ def _sweep(ns: str, jobs: int, runner: str, ks, budget: int, delay: float, worke
     return out
 
 
-def part_deploy(args) -> dict:
+def _compare(kinds, args) -> dict:
+    """For each (name, roll-out delay s, workload) of ``kinds``: a deployment per learner setting
+    of ``args.configs``, K jobs at once for each K of ``args.ks``, each setting against the first."""
     out = {}
-    for kind, delay in (("e1", 0.0), ("rollout_heavy", args.rollout_delay)):
+    for kind, delay, workload in kinds:
         rows = {}
         for conf in args.configs:  # "--jobs:--job-runner"; the first one is the baseline
             jobs, runner = conf.split(":")
             print(f"{kind}: --jobs {jobs} --job-runner {runner}", flush=True)
             rows[conf] = _sweep(f"bjobs-{os.getpid()}-{kind}-{jobs}-{runner}", int(jobs), runner, args.ks,
-                                args.budget, delay, args.workers)
+                                args.budget, delay, args.workers, workload)
         seq = rows[args.configs[0]]
         for conf in args.configs[1:]:
             par = rows[conf]
@@ -262,17 +328,25 @@ def part_deploy(args) -> dict:
         for row in rows.values():
             for k in row["k"].values():
                 k.pop("trajectories")
-        out[kind] = {"rollout_delay_s": delay, "baseline": args.configs[0], "by_config": rows}
+        out[kind] = {"rollout_delay_s": delay, "robot": workload.robot, "task": workload.task,
+                     "baseline": args.configs[0], "by_config": rows}
     return out
+
+
+def part_deploy(args) -> dict:
+    e1 = e1_workload()
+    return _compare((("e1", 0.0, e1), ("rollout_heavy", args.rollout_delay, e1)), args)
+
+
+def part_ur10(args) -> dict:
+    return _compare((("ur10", 0.0, ur10_workload()),), args)
 
 
 # ----- part 3: kill -9 during 4 concurrent jobs -----------------------------------------------
 def part_kill(args) -> dict:
-    from acnmp_core.experiments.viapoint import make_setup
     from services.launcher import LocalDeployment
     from services.recording.replay import summarize
 
-    setup = make_setup()
     tmp = Path(tempfile.mkdtemp(prefix="bench-jobs-kill-"))
     rrd = tmp / "kill.rrd"
     seeds = [100, 101, 102, 103]
@@ -280,7 +354,7 @@ def part_kill(args) -> dict:
         with LocalDeployment(f"bjobk-{os.getpid()}", workers=args.workers, model=False, record=rrd,
                              state_dir=tmp / "state", worker_delay=args.kill_delay,
                              learner_args=["--jobs", str(len(seeds))]) as dep:
-            d = _Deployed(dep, setup, args.budget)
+            d = _Deployed.local(dep, e1_workload(), args.budget)
             t0 = time.perf_counter()
             calm = d.run(seeds)
             calm_s = time.perf_counter() - t0
@@ -311,23 +385,180 @@ def part_kill(args) -> dict:
                                                and not r["recorded_duplicates"] for r in rows)}
 
 
+# ----- part 4: two learners on two hosts against one -----------------------------------------
+HOST_LEARNERS = ("learner", "learner-2")
+
+
+def host_skills(learners=HOST_LEARNERS) -> list[str]:
+    """One skill name per learner of ``learners`` (the first ``e1-<i>`` it owns), in their order."""
+    from services.learner.ownership import owner_of
+
+    names = [f"e1-{i}" for i in range(1000)]
+    return [next(s for s in names if owner_of(s, learners) == lid) for lid in learners]
+
+
+def host_jobs(k: int, skills) -> list[tuple[str, int]]:
+    """K jobs (skill, seed) dealt round the ``skills`` in turn, seeds 100, 101, ..."""
+    return [(skills[i % len(skills)], 100 + i) for i in range(k)]
+
+
+def part_hosts_client(args) -> int:
+    """The client side of ``hosts``, run on the client host: train ``args.skills``, warm every
+    job slot up, print ``{"ready": true}``; at a line on stdin run ``args.ks[0]`` jobs at once
+    (:func:`host_jobs`), save their trajectories to ``args.out`` (.npz, in job order) and print
+    ``{"wall_s": ...}``."""
+    import json
+
+    from clients.client import ACNMPClient
+
+    with ACNMPClient(args.namespace, config_file=args.config, role="operator", timeout=30) as client:
+        d = _Deployed(client.session, client.keys, e1_workload(), args.budget, skills=args.skills)
+        warm = [s for s in args.skills for _ in range(2 * args.slots)]  # every job process starts, off the clock
+        d.run([1] * len(warm), warm, budget=2)
+        print(json.dumps({"ready": True}), flush=True)
+        sys.stdin.readline()
+        skills, seeds = zip(*host_jobs(args.ks[0], args.skills))
+        got = d.run(list(seeds), list(skills))
+    np.savez(args.out, *[np.asarray(t) for t in got["trajectories"]])
+    print(json.dumps({"wall_s": got["wall_s"]}), flush=True)
+    return 0
+
+
+def _hosts_round(n_learners: int, args, work: Path, tag: str) -> dict:
+    """One deployment over hosts with ``n_learners`` learners and ``args.workers`` workers: K jobs
+    at once from the client host; wall time, each learner's and worker's CPU seconds over them.
+    ``tag`` names its namespace and its files in ``work``."""
+    import json
+    import subprocess
+
+    from services.launcher.multihost import MultiHostDeployment
+
+    with MultiHostDeployment(f"bjobh-{os.getpid()}-{tag}", workers=args.workers, learners=n_learners, model=False,
+                             learner_args=["--jobs", str(args.slots)], work_dir=work / tag) as dep:
+        out = work / f"{tag}.npz"
+        client = dep.popen([sys.executable, str(Path(__file__).resolve()), "hosts-client", "--namespace", dep.namespace,
+                            "--config", str(dep.config("operator")), "--skills", *args.skills, "--ks", str(args.ks[0]),
+                            "--budget", str(args.budget), "--slots", str(args.slots), "--out", str(out)],
+                           stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+        try:
+            if json.loads(client.stdout.readline() or "{}") != {"ready": True}:
+                raise RuntimeError(f"the client on the client host failed (exit {client.wait(timeout=30)})")
+            names = [n for n in dep.processes if n.startswith(("learner", "worker"))]
+            cpu0 = {n: _cpu([dep.processes[n].proc.pid]) for n in names}
+            client.stdin.write("go\n")
+            client.stdin.flush()
+            line = client.stdout.readline()
+            cpu = {n: _cpu([dep.processes[n].proc.pid]) - cpu0[n] for n in names}  # just before the stop
+            if not line or client.wait(timeout=60) != 0:
+                raise RuntimeError(f"the client on the client host failed (exit {client.poll()})")
+        finally:
+            if client.poll() is None:
+                client.kill()
+                client.wait()
+        with np.load(out) as z:
+            trajectories = [z[f"arr_{i}"] for i in range(len(z.files))]
+    return {"learners": n_learners, "wall_s": json.loads(line)["wall_s"],
+            "learner_cpu_s": {n: c for n, c in cpu.items() if n.startswith("learner")},
+            "worker_cpu_s": {n: c for n, c in cpu.items() if n.startswith("worker")},
+            "trajectories": trajectories}
+
+
+def hosts_bound(row: dict, cores_per_learner: float, worker_cores: float) -> float:
+    """A lower bound of a round's wall time had each learner ``cores_per_learner`` cores of its own
+    and the workers ``worker_cores`` in all: the busiest learner's CPU seconds over its cores, or
+    the workers' CPU seconds over theirs, whichever is larger."""
+    return max(max(row["learner_cpu_s"].values()) / cores_per_learner,
+               sum(row["worker_cpu_s"].values()) / worker_cores)
+
+
+def hosts_summary(rounds: list[dict], cores_per_learner: float, worker_cores: float) -> dict:
+    """The ``hosts`` part's summary from its rounds (each with ``rep``, ``learners`` 1 or 2,
+    ``wall_s``, ``learner_cpu_s`` and ``worker_cpu_s`` per process): per repetition the wall ratio
+    2 learners / 1, the CPU split between the two learners (each one's share of their CPU), and the
+    projected ratio (:func:`hosts_bound` of the 2-learner round over the 1-learner round's measured
+    wall and over its own bound); the spread of each over the repetitions."""
+    reps = []
+    for rep in sorted({r["rep"] for r in rounds}):
+        one, two = (next(r for r in rounds if r["rep"] == rep and r["learners"] == n) for n in (1, 2))
+        bound_one, bound_two = (hosts_bound(r, cores_per_learner, worker_cores) for r in (one, two))
+        total = sum(two["learner_cpu_s"].values())
+        reps.append({"rep": rep, "wall_ratio": two["wall_s"] / one["wall_s"],
+                     "learner_cpu_share": {n: c / total for n, c in two["learner_cpu_s"].items()},
+                     "bound_s": {"1": bound_one, "2": bound_two},
+                     "projected_ratio": bound_two / one["wall_s"], "projected_bound_ratio": bound_two / bound_one})
+    return {"by_rep": reps,
+            "wall_ratio": _spread([r["wall_ratio"] for r in reps]),
+            "projected_ratio": _spread([r["projected_ratio"] for r in reps]),
+            "projected_bound_ratio": _spread([r["projected_bound_ratio"] for r in reps]),
+            "learner_cpu_share": {n: _spread([r["learner_cpu_share"][n] for r in reps]) for n in HOST_LEARNERS}}
+
+
+def part_hosts(args) -> dict:
+    """1 learner against 2, each on a host of its own, ``args.reps`` times (the order alternating);
+    the jobs' results compared between the two for each job."""
+    from services.launcher import netns
+
+    why = netns.unavailable_reason()
+    if why:
+        raise SystemExit(f"bench_jobs.py hosts: {why}")
+    args.skills = host_skills()
+    work = Path(tempfile.mkdtemp(prefix="bench-jobs-hosts-"))
+    rounds = []
+    try:
+        for rep in range(args.reps):
+            for n in ((1, 2) if rep % 2 == 0 else (2, 1)):
+                row = {"rep": rep, **_hosts_round(n, args, work, f"{rep}-{n}")}
+                print(f"rep {rep}, {n} learner(s): {row['wall_s']:.1f} s, learner CPU "
+                      + ", ".join(f"{k} {v:.1f}" for k, v in row["learner_cpu_s"].items())
+                      + f" s, workers' CPU {sum(row['worker_cpu_s'].values()):.1f} s", flush=True)
+                rounds.append(row)
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+    for rep in range(args.reps):
+        one, two = (next(r for r in rounds if r["rep"] == rep and r["learners"] == n) for n in (1, 2))
+        two["bit_equal_to_one_learner"] = [bool(np.array_equal(a, b)) for a, b in
+                                           zip(one["trajectories"], two["trajectories"])]
+    for r in rounds:
+        r.pop("trajectories")
+    summary = hosts_summary(rounds, args.cores_per_learner, args.worker_cores or args.workers)
+    summary["bit_equal"] = all(all(r["bit_equal_to_one_learner"]) for r in rounds if r["learners"] == 2)
+    return {"skills": args.skills, "jobs": [list(j) for j in host_jobs(args.ks[0], args.skills)],
+            "rounds": rounds, "summary": summary}
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("part", choices=("runner", "deploy", "kill"))
-    p.add_argument("--ks", type=int, nargs="+", default=None, help="jobs at once (runner: 2 4; deploy: 1 2 4 8)")
-    p.add_argument("--reps", type=int, default=3, help="runner: repetitions (default: %(default)s)")
+    p.add_argument("part", choices=("runner", "deploy", "ur10", "kill", "hosts", "hosts-client"))
+    p.add_argument("--ks", type=int, nargs="+", default=None,
+                   help="jobs at once (runner: 2 4; deploy: 1 2 4 8; ur10: 1 2 4; hosts: 8)")
+    p.add_argument("--reps", type=int, default=None, help="runner, hosts: repetitions (default: 3; hosts 2)")
     p.add_argument("--budget", type=int, default=50, help="roll-outs per job (default: %(default)s)")
-    p.add_argument("--workers", type=int, default=4, help="deploy, kill: workers (default: %(default)s)")
+    p.add_argument("--workers", type=int, default=4, help="deploy, kill, hosts: workers (default: %(default)s)")
     p.add_argument("--rollout-delay", type=float, default=0.2,
                    help="deploy: seconds per roll-out of the roll-out-heavy jobs (default: %(default)s)")
     p.add_argument("--kill-delay", type=float, default=0.05,
                    help="kill: seconds per roll-out, so the kill lands mid-job (default: %(default)s)")
-    p.add_argument("--configs", nargs="+", default=["1:thread", "2:thread", "2:process"],
-                   help="deploy: learner settings JOBS:RUNNER, the first the baseline (default: %(default)s)")
+    p.add_argument("--configs", nargs="+", default=None,
+                   help="deploy, ur10: learner settings JOBS:RUNNER, the first the baseline (default: deploy "
+                        "1:thread 2:thread 2:process; ur10 1:process 2:process)")
+    p.add_argument("--slots", type=int, default=2, help="hosts: --jobs of every learner (default: %(default)s)")
+    p.add_argument("--cores-per-learner", type=float, default=2.0,
+                   help="hosts: cores of each learner's own host in the projection (default: %(default)s)")
+    p.add_argument("--worker-cores", type=float, default=None,
+                   help="hosts: cores of the workers in all in the projection (default: one per worker)")
+    p.add_argument("--namespace", help=argparse.SUPPRESS)  # hosts-client: the deployment's
+    p.add_argument("--config", help=argparse.SUPPRESS)
+    p.add_argument("--skills", nargs="+", help=argparse.SUPPRESS)
     p.add_argument("--out", default=None, metavar="FILE",
                    help="write the result here (default benchmarks/results/bench_jobs_<part>.json; deploy: bench_jobs.json)")
     args = p.parse_args(argv)
-    args.ks = args.ks or ([2, 4] if args.part == "runner" else [1, 2, 4, 8])
+    args.ks = args.ks or {"runner": [2, 4], "ur10": [1, 2, 4], "hosts": [8], "hosts-client": [8]}.get(args.part,
+                                                                                                  [1, 2, 4, 8])
+    args.configs = args.configs or (["1:process", "2:process"] if args.part == "ur10"
+                                    else ["1:thread", "2:thread", "2:process"])
+    args.reps = args.reps or (2 if args.part == "hosts" else 3)
+    if args.part == "hosts-client":
+        return part_hosts_client(args)
     started = time.perf_counter()
     prov = main_provenance(__file__, argv)
     config = {"part": args.part, "ks": args.ks, "budget": args.budget, "model": SMALL, "train_steps": TRAIN_STEPS,
@@ -338,11 +569,22 @@ def main(argv: list[str] | None = None) -> int:
     elif args.part == "deploy":
         config.update(workers=args.workers, rollout_delay_s=args.rollout_delay, configs=args.configs)
         result = part_deploy(args)
+    elif args.part == "ur10":
+        config.update(workers=args.workers, configs=args.configs,
+                      task="E5 UR10 pick and place (case 8_10), AdaptConfig defaults, stop_on_success false")
+        result = part_ur10(args)
+    elif args.part == "hosts":
+        config.update(workers=args.workers, reps=args.reps, jobs_per_learner=args.slots,
+                      cores_per_learner=args.cores_per_learner, worker_cores=args.worker_cores or args.workers,
+                      layout="MultiHostDeployment: router, each learner and each worker on a network namespace of "
+                             "its own, jobs submitted from the client host; no model service, no recorder")
+        result = part_hosts(args)
     else:
         config.update(workers=args.workers, rollout_delay_s=args.kill_delay)
         result = part_kill(args)
     out = args.out or ROOT / "benchmarks" / "results" / {"runner": "bench_jobs_runner.json", "deploy": "bench_jobs.json",
-                                                         "kill": "bench_jobs_kill.json"}[args.part]
+                                                         "kill": "bench_jobs_kill.json",
+                                                         "hosts": "bench_jobs_hosts.json", "ur10": "bench_jobs_ur10.json"}[args.part]
     result["wall_time_s"] = time.perf_counter() - started
     save_result({"benchmark": f"jobs_{args.part}", "provenance": prov, "config": config, **result}, out,
                 headline=("summary", "all_done_equal", "recording_each_rollout_once"))

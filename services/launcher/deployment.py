@@ -53,13 +53,14 @@ import zenoh
 
 from acnmp_core.robots.registry import PLUGINS_ENV, plugins_for_children
 from acnmp_core.robots.registry import robot as robot_spec
-from services.transport.state_dir import DirectoryLock
+from services.learner.ownership import learner_argv, numbered_ids, state_dir_of
 from services.recording.event_ids import marks_path
 from services.recording.publisher import EventPublisher
 from services.recording.web_viewer import page_url
 from services.transport import Keyspace, free_port, loopback_endpoint, open_session, wait_for_liveliness
 from services.transport.about import list_processes
 from services.transport.lifetime import PARENT_PID_ENV
+from services.transport.state_dir import DirectoryLock
 
 from .announce import Announcement, check_namespace_free
 from .processes import entry_module
@@ -160,10 +161,8 @@ class LocalDeployment:
         if model_processes < 1:
             raise ValueError(f"model_processes: expected >= 1, got {model_processes}")
         self.model_processes = int(model_processes)
-        if learners < 1:
-            raise ValueError(f"learners: expected >= 1, got {learners}")
         #: the learners' ids (and child names): ``learner``, ``learner-2``, ...
-        self.learner_ids = tuple("learner" if i == 0 else f"learner-{i + 1}" for i in range(int(learners)))
+        self.learner_ids = numbered_ids(learners)
         self.worker_delay, self.chunk_timeout = float(worker_delay), float(chunk_timeout)
         self.start_timeout, self.stop_timeout = float(start_timeout), float(stop_timeout)
         self.learner_args = list(learner_args)
@@ -254,10 +253,8 @@ class LocalDeployment:
                 self._wait_live([rec])
             started = []
             for lid in self.learner_ids if self.with_learner else ():
-                args = ["--state-dir", str(self.learner_state_dir(lid)), "--id", lid,
+                args = [*learner_argv(lid, self.learner_ids, self.state_dir),
                         "--chunk-timeout", str(self.chunk_timeout), *self.learner_args]
-                if len(self.learner_ids) > 1:
-                    args += ["--learners", ",".join(self.learner_ids)]
                 if self.record is not None:
                     args += ["--wait-recorder", "20"]
                 started.append(self._spawn(
@@ -322,7 +319,7 @@ class LocalDeployment:
     def learner_state_dir(self, learner_id: str) -> Path:
         """Where learner ``learner_id`` keeps its state: the deployment's state directory for the
         first, ``<state_dir>/learners/<id>`` for the others."""
-        return self.state_dir if learner_id == self.learner_ids[0] else self.state_dir / "learners" / learner_id
+        return state_dir_of(self.state_dir, self.learner_ids, learner_id)
 
     def kill(self, name: str, sig: int = signal.SIGKILL) -> None:
         """Send ``sig`` (default SIGKILL) to child ``name`` and reap it if it was killed. Under

@@ -6,7 +6,9 @@ start, one process per host of a :class:`~services.launcher.netns.HostNetwork`:
 * host ``router``: the zenoh router (``python -m services.transport.router``), listening on
   ``tls/0.0.0.0:7447``;
 * hosts ``recorder``, ``learner``, ``model``, ``worker-0`` ... ``worker-<n-1>``: one service each,
-  in client mode, connecting to ``tls/router:7447``;
+  in client mode, connecting to ``tls/router:7447``; with ``learners=K`` the learners ``learner``,
+  ``learner-2`` ... ``learner-K``, each on a host of its own with the shared ``--learners`` list
+  and a state directory of its own (as ``acnmp up --learners K`` gives them);
 * host ``client``: no process of its own; :meth:`MultiHostDeployment.client_argv` runs commands
   there (``acnmp ...`` with the operator's or the client's config).
 
@@ -34,6 +36,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Sequence
 
+from services.learner.ownership import learner_argv, numbered_ids, state_dir_of
 from services.transport.about import HOST_ENV
 from services.transport.auth import write_router_deployment
 
@@ -69,16 +72,23 @@ class MultiHostDeployment:
     configs and logs; default a temporary directory removed at stop). ``one_host``: every process
     on the router's host, so the same processes, configs and TLS talk over that namespace's
     loopback: the baseline a benchmark compares the links against. ``extra_workers``: robot kinds
-    of one more worker each, on hosts ``worker-<kind>`` (ids ``<kind>-0``).
+    of one more worker each, on hosts ``worker-<kind>`` (ids ``<kind>-0``). ``learners``: how many
+    learners (ids and state directories: :func:`~services.learner.ownership.numbered_ids`,
+    :meth:`learner_state_dir`); ``learner_args``: more options for every learner (``--jobs 2``);
+    ``model``: False for no model service (and no ``model`` host).
     """
 
     def __init__(self, namespace: str = "default", *, workers: int = 2, robot: str = "point2d",
                  record: str | os.PathLike | None = None, state_dir: str | os.PathLike | None = None,
                  chunk_timeout: float = 60.0, start_timeout: float = 60.0, stop_timeout: float = 8.0,
                  work_dir: str | os.PathLike | None = None, one_host: bool = False,
-                 extra_workers: Sequence[str] = ()) -> None:
+                 extra_workers: Sequence[str] = (), learners: int = 1, learner_args: Sequence[str] = (),
+                 model: bool = True) -> None:
         if workers < 1:
             raise ValueError(f"workers: expected >= 1, got {workers}")
+        #: the learners' ids, each also the name of its process and its host
+        self.learner_ids = numbered_ids(learners)
+        self.learner_args, self.with_model = list(learner_args), bool(model)
         self.namespace, self.robot, self.n_workers = namespace, robot, int(workers)
         self.record = None if record is None else Path(record).resolve()
         self.chunk_timeout, self.start_timeout, self.stop_timeout = chunk_timeout, start_timeout, stop_timeout
@@ -88,7 +98,8 @@ class MultiHostDeployment:
         self.state_dir = Path(state_dir).resolve() if state_dir is not None else self.work_dir / "state"
         self.secrets, self.certs, self.log_dir = (self.work_dir / "secrets", self.work_dir / "tls",
                                                   self.work_dir / "logs")
-        names = ["router", *(["recorder"] if self.record is not None else []), "learner", "model",
+        names = ["router", *(["recorder"] if self.record is not None else []), *self.learner_ids,
+                 *(["model"] if self.with_model else []),
                  *[f"worker-{i}" for i in range(self.n_workers)], *[f"worker-{k}" for k in extra_workers], "client"]
         self.extra_workers = tuple(extra_workers)
         self.one_host = bool(one_host)
@@ -110,11 +121,14 @@ class MultiHostDeployment:
             if self.record is not None:
                 self.record.parent.mkdir(parents=True, exist_ok=True)
                 self._wait([self._spawn("recorder", "recorder", "recorder", ["--out", str(self.record)])])
-            learner_args = ["--state-dir", str(self.state_dir), "--id", "learner", "--chunk-timeout", str(self.chunk_timeout)]
+            learner_args = ["--chunk-timeout", str(self.chunk_timeout), *self.learner_args]
             if self.record is not None:
                 learner_args += ["--wait-recorder", "20"]
-            started = [self._spawn("learner", "learner", "learner", learner_args),
-                       self._spawn("model", "model", "model", [])]
+            started = [self._spawn(lid, "learner", "learner",
+                                   [*learner_argv(lid, self.learner_ids, self.state_dir), *learner_args])
+                       for lid in self.learner_ids]
+            if self.with_model:
+                started.append(self._spawn("model", "model", "model", []))
             for i in range(self.n_workers):
                 started.append(self._spawn(f"worker-{i}", "worker", "worker",
                                            ["--robot", self.robot, "--id", f"{self.robot}-{i}"]))
@@ -181,6 +195,11 @@ class MultiHostDeployment:
         """The :class:`~services.launcher.netns.Host` process or host ``name`` runs on (the router's
         for every process with ``one_host``, the client host included)."""
         return self.network.hub if self.one_host else self.network.hosts[name]
+
+    def learner_state_dir(self, learner_id: str) -> Path:
+        """Where learner ``learner_id`` keeps its state (``state_dir`` for the first learner,
+        ``<state_dir>/learners/<id>`` for the others)."""
+        return state_dir_of(self.state_dir, self.learner_ids, learner_id)
 
     def client_argv(self, argv: Sequence[str], *, host: str = "client") -> list[str]:
         """``argv`` (e.g. ``[python, -m, clients.cli, query, skills, --config, ...]``) run on ``host``."""

@@ -21,6 +21,7 @@ from __future__ import annotations
 import argparse
 import hashlib
 import threading
+from pathlib import Path
 from typing import Sequence
 
 from services.transport.keys import check_name
@@ -33,6 +34,27 @@ def owner_of(skill: str, learners: Sequence[str]) -> str:
     if not learners:
         raise ValueError("learners: expected at least one learner id")
     return max(learners, key=lambda lid: hashlib.sha256(f"{lid}/{skill}".encode()).digest())
+
+
+def numbered_ids(k: int) -> tuple[str, ...]:
+    """The ids a launcher gives its ``k`` (>= 1) learners: ``learner``, ``learner-2``, ...
+    ValueError for ``k`` < 1."""
+    if k < 1:
+        raise ValueError(f"learners: expected >= 1, got {k}")
+    return tuple("learner" if i == 0 else f"learner-{i + 1}" for i in range(int(k)))
+
+
+def state_dir_of(state_dir: Path, learners: Sequence[str], learner: str) -> Path:
+    """Where learner ``learner`` of a launcher's ``learners`` keeps its state: the deployment's
+    ``state_dir`` for the first, ``<state_dir>/learners/<id>`` for the others."""
+    return state_dir if learner == learners[0] else state_dir / "learners" / learner
+
+
+def learner_argv(learner: str, learners: Sequence[str], state_dir: Path) -> list[str]:
+    """The learner options a launcher gives learner ``learner`` of ``learners``: its
+    ``--state-dir`` (:func:`state_dir_of`) and ``--id``, and ``--learners`` when there are several."""
+    argv = ["--state-dir", str(state_dir_of(state_dir, learners, learner)), "--id", learner]
+    return argv + (["--learners", ",".join(learners)] if len(learners) > 1 else [])
 
 
 def skill_of_job(job: str) -> str:

@@ -56,18 +56,44 @@ def call(session: zenoh.Session, key: str, payload: dict | bytes | None = None, 
     ``unavailable`` (the query ended early: nothing matched) or ``timeout``. The query carries
     ``timeout`` as its selector parameter, so a server does not compute it after it has expired.
     """
+    return _query(session, key, payload, timeout, gather=False, expect_version=expect_version,
+                  max_bytes=max_bytes)[0]
+
+
+def call_all(session: zenoh.Session, key: str, payload: dict | bytes | None = None, timeout: float = 5.0, *,
+             expect_version: int | None = SCHEMA_VERSION, max_bytes: int = DEFAULT_MAX_BYTES) -> list[dict]:
+    """Send one query on ``key`` to every service that serves it and return every successful reply,
+    decoded, in the order they came, once the query ends (each service answered or dropped it, or
+    ``timeout`` passed). For a question each of several services answers for its own part (every
+    learner its jobs): replies on the same key are all kept, not consolidated into one. Errors as
+    :func:`call`: raised only when no reply succeeded."""
+    return _query(session, key, payload, timeout, gather=True, expect_version=expect_version, max_bytes=max_bytes)
+
+
+def _query(session: zenoh.Session, key: str, payload: dict | bytes | None, timeout: float, *, gather: bool,
+           expect_version: int | None, max_bytes: int) -> list[dict]:
+    """The successful replies of one query on ``key`` (the first one only unless ``gather``); see
+    :func:`call` and :func:`call_all`."""
     body = encode(payload) if isinstance(payload, dict) else payload
     start = time.monotonic()
     first_err: WireError | None = None
     selector = zenoh.Selector(key, {TIMEOUT_PARAMETER: f"{timeout:g}"})
-    for reply in session.get(selector, payload=body, timeout=timeout):
+    # zenoh's default consolidation keeps one reply per key: several services answering on the
+    # same key would reach a gathering caller as one
+    every = {"target": zenoh.QueryTarget.ALL, "consolidation": zenoh.ConsolidationMode.NONE} if gather else {}
+    ok: list[dict] = []
+    for reply in session.get(selector, payload=body, timeout=timeout, **every):
         if reply.ok is not None:
             try:
-                return decode(reply.ok.payload.to_bytes(), expect_version=expect_version, max_bytes=max_bytes)
+                ok.append(decode(reply.ok.payload.to_bytes(), expect_version=expect_version, max_bytes=max_bytes))
             except WireError as exc:
                 raise WireError(exc.code, f"reply on {key}: {exc.message}") from None
-        if first_err is None:
+            if not gather:
+                return ok
+        elif first_err is None:
             first_err = error_from_payload(reply.err.payload.to_bytes())
+    if ok:
+        return ok
     if first_err is not None:
         raise first_err
     if time.monotonic() - start < UNAVAILABLE_FRACTION * timeout:

@@ -5,7 +5,9 @@ numbers, also while the model's host, a worker's host and the recorder's host ar
 `acnmp status` says which host runs what; the model host cut off gives clients a one-line
 `timeout`/`unavailable` error and answers resume without a restart; a process without the
 deployment's password cannot join; a batch of UR10 roll-outs sent from the client host gives the
-simulator's results here. Skipped, with the reason, where namespaces cannot be made."""
+simulator's results here. Two learners on hosts of their own share the skills: each is trained and
+adapted by its owner only, on its host, and `acnmp query jobs` lists both learners' jobs. Skipped,
+with the reason, where namespaces cannot be made."""
 from __future__ import annotations
 
 import json
@@ -18,8 +20,11 @@ import pytest
 import torch
 
 from acnmp_core.experiments.viapoint import make_setup
+from acnmp_core.data.demo_io import save_demos
 from services.launcher import netns
 from services.launcher.multihost import MultiHostDeployment
+from services.learner.ownership import owner_of
+from services.learner.store import demo_set_to_arrays
 from services.recording.replay import summarize
 
 WHY_NOT = netns.unavailable_reason()
@@ -200,3 +205,34 @@ def test_a_deployment_over_hosts_survives_cut_links_and_keeps_strangers_out(tmp_
     for job in cut_jobs:
         assert sum(jobs[job]["hosts"].values()) == jobs[job]["rollouts"]
         assert set(jobs[job]["hosts"]) <= {"worker-0", "worker-1"}
+
+
+@pytest.mark.slow
+def test_two_learners_on_hosts_of_their_own_each_serve_their_skills_and_list_every_job(tmp_path):
+    setup = make_setup()
+    demos = save_demos(tmp_path / "e1.npz", demo_set_to_arrays(setup.demos))
+    ids = ("learner", "learner-2")
+    skills = {lid: next(s for s in (f"e1-{i}" for i in range(100)) if owner_of(s, ids) == lid) for lid in ids}
+    tg = setup.target
+    obs = [f"--obs={t}:{x},{y}" for t, (x, y) in zip(tg.obs_times, tg.obs_values)]
+    with MultiHostDeployment(f"hosts2-{tmp_path.name[-8:].strip('_-') or 'x'}", workers=1, learners=2,
+                             work_dir=tmp_path / "work") as dep:
+        status = dep.acnmp("status", "--json", role="client")
+        assert status.returncode == 0, status.stderr
+        hosts = {(p["service"], p["host"]) for p in json.loads(status.stdout)[0]["processes"]}
+        assert {("learner", "learner"), ("learner", "learner-2")} <= hosts
+        jobs = {}
+        for lid, skill in skills.items():
+            trained = dep.acnmp("query", "train", "--skill", skill, "--demos", str(demos), "--steps", "50")
+            assert trained.returncode == 0, trained.stderr
+            adapted = dep.acnmp("query", "adapt", "--skill", skill, "--task", "viapoint", *obs, "--task-config",
+                                json.dumps(setup.task_config), "--budget", "4", "--watch", "--json")
+            assert adapted.returncode == 0, adapted.stderr  # 0: the job is done
+            final = json.loads(adapted.stdout.splitlines()[-1])  # after the line saying it was queued
+            jobs[lid] = final["job"]
+        for lid, skill in skills.items():  # trained by its owner only, on its own host's state directory
+            assert [other for other in ids if (dep.learner_state_dir(other) / "skills" / skill).is_dir()] == [lid]
+        listed = dep.acnmp("query", "jobs", "--json", role="client")
+        assert listed.returncode == 0, listed.stderr
+        assert sorted(r["job"] for r in json.loads(listed.stdout)) == sorted(jobs.values())
+    assert not any(n.startswith(dep.network.prefix) for n in netns.namespaces())

@@ -12,6 +12,7 @@ from acnmp_core.errors import ShapeError
 from services.transport import (Keyspace, SessionOptions, WireError, alive_tokens, call, declare_rpc, encode,
                                 free_port, loopback_endpoint, open_session, wait_for_liveliness, wait_for_liveliness_gone)
 from services.transport.router import RouterConfig
+from services.transport.rpc import call_all
 from services.transport.wire import array_field, field
 
 KEYS = Keyspace("test")
@@ -299,3 +300,28 @@ def test_a_query_whose_timeout_passed_in_the_queue_is_dropped_without_computing(
     finally:
         release.set()
         rpc.close()
+
+
+def test_call_all_gets_every_services_reply_on_one_key_where_call_gets_one(anchor):
+    server, ep = anchor
+    key = "acnmp/test/jobs"
+    # two services (as two learners) each answering for their own part, on the same key; not
+    # complete, so every one of them gets the query
+    rpcs = [declare_rpc(server, key, lambda _r, _q, name=name: {"jobs": [name]}, complete=False)
+            for name in ("a", "b")]
+    try:
+        with peer(ep) as client:
+            deadline = time.monotonic() + 10
+            while True:  # the queryables' declarations need a moment to reach the client
+                replies = call_all(client, key, {}, timeout=2)
+                if len(replies) == 2 or time.monotonic() > deadline:
+                    break
+                time.sleep(0.05)
+            assert sorted(r["jobs"][0] for r in replies) == ["a", "b"]
+            assert call(client, key, {}, timeout=2)["jobs"][0] in ("a", "b")
+            with pytest.raises(WireError) as err:
+                call_all(client, "acnmp/test/nobody", {}, timeout=2)
+            assert err.value.code == "unavailable"
+    finally:
+        for rpc in rpcs:
+            rpc.close()
