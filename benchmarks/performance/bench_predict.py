@@ -55,7 +55,7 @@ def _serve(checkpoint: str, endpoint: str, workers: int, batch_max: int, window:
     import torch
 
     torch.set_num_threads(1)
-    from services.model import ModelService
+    from services.model.service import ModelService
     from services.transport import open_session
 
     with open_session("client" if routed else "peer", None if routed else [endpoint],

@@ -10,7 +10,7 @@ from acnmp_core.model.checkpoint import save_checkpoint
 from acnmp_core.model.cnmp import CNMP, CNMPConfig
 from acnmp_core.model.training import TrainConfig, train
 from clients.cli import main
-from services.model import ModelConfig
+from services.model.service import ModelConfig
 from services.transport import SessionOptions, free_port, loopback_endpoint
 
 NS = "clitest"

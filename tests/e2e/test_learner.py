@@ -13,22 +13,15 @@ from clients.client import ACNMPClient
 from services.launcher import LocalDeployment
 from services.model.weights import decode_weights
 from services.transport import Keyspace, WireError, call
+from tests.e2e import requests
+from tests.e2e.requests import adapt_request
 
 NS = "lrn"
 KEYS = Keyspace(NS)
-SMALL = {"encoder_widths": [32, 32], "decoder_widths": [32, 32]}
 
 
 def train_request(demos, steps=200):
-    return {"times": np.stack([d.times for d in demos]), "values": np.stack([d.values for d in demos]),
-            "model": SMALL, "train": {"steps": steps}, "seed": 3, "value_names": ["x", "y"]}
-
-
-def adapt_request(setup, **config):
-    tg = setup.target
-    return {"target": {"obs_times": tg.obs_times, "obs_values": tg.obs_values, "query_times": tg.query_times},
-            "task": "viapoint", "task_config": setup.task_config, "robot": "point2d", "seed": 5,
-            "config": {"max_reuse": 5, **config}}
+    return requests.train_request(demos, steps, value_names=("x", "y"))
 
 
 def latest(session, skill="e1"):

@@ -12,7 +12,7 @@ import pytest
 from acnmp_core.model.checkpoint import save_checkpoint
 from acnmp_core.model.cnmp import CNMP
 from clients.client import ACNMPClient, ClientError
-from services.model import ModelConfig, ModelService
+from services.model.service import ModelConfig, ModelService
 from services.model.batching import DEFAULT_BATCH_MAX
 from services.model.handlers import MAX_BATCH, MAX_QUERY_STEPS, SkillModel
 from services.model.weights import encode_weights

@@ -7,17 +7,15 @@ from __future__ import annotations
 
 import json
 
-import numpy as np
-
 from acnmp_core.experiments.viapoint import make_setup
 from clients.client import ACNMPClient
 from services.launcher import LocalDeployment
 from services.learner.ownership import owner_of
 from services.transport import Keyspace, call
+from tests.e2e.requests import adapt_request, train_request
 
 NS = "learners2"
 KEYS = Keyspace(NS)
-SMALL = {"encoder_widths": [32, 32], "decoder_widths": [32, 32]}
 IDS = ("learner", "learner-2")
 
 
@@ -28,12 +26,8 @@ def _skill_owned_by(lid: str) -> str:
 def test_each_skill_lives_on_its_owner_and_a_killed_owner_resumes_its_job(tmp_path, wait_job, run_cli):
     setup = make_setup()
     skills = {lid: _skill_owned_by(lid) for lid in IDS}
-    train = {"times": np.stack([d.times for d in setup.demos]), "values": np.stack([d.values for d in setup.demos]),
-             "model": SMALL, "train": {"steps": 50}, "seed": 3}
-    tg = setup.target
-    adapt = {"target": {"obs_times": tg.obs_times, "obs_values": tg.obs_values, "query_times": tg.query_times},
-             "task": "viapoint", "task_config": setup.task_config, "robot": "point2d", "seed": 5,
-             "config": {"max_rollouts": 10, "max_reuse": 3, "stop_on_success": False}}
+    train = train_request(setup.demos, steps=50)
+    adapt = adapt_request(setup, max_rollouts=10, max_reuse=3, stop_on_success=False)
     with LocalDeployment(NS, workers=1, worker_delay=0.1, state_dir=tmp_path / "state", learners=2) as dep:
         s = dep.session
         for lid, skill in skills.items():

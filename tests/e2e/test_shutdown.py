@@ -8,7 +8,6 @@ import os
 import subprocess
 import sys
 
-import numpy as np
 import pytest
 
 from acnmp_core.experiments.viapoint import make_setup
@@ -16,9 +15,9 @@ from services.launcher import LocalDeployment
 from services.transport.state_dir import StateDirInUse
 from services.transport import call
 from tests.paths import ROOT
+from tests.e2e.requests import adapt_request, train_request
 
 NS = "stop"
-SMALL = {"encoder_widths": [32, 32], "decoder_widths": [32, 32]}
 
 
 def test_a_second_deployment_on_the_same_state_dir_refuses_to_start(tmp_path):
@@ -40,12 +39,8 @@ def test_a_second_deployment_on_the_same_state_dir_refuses_to_start(tmp_path):
 def test_sigterm_during_a_job_kills_nothing_saves_it_interrupted_and_it_resumes(tmp_path, wait_job):
     setup = make_setup()
     state = tmp_path / "state"
-    train = {"times": np.stack([d.times for d in setup.demos]), "values": np.stack([d.values for d in setup.demos]),
-             "model": SMALL, "train": {"steps": 50}, "seed": 1}
-    tg = setup.target
-    adapt = {"target": {"obs_times": tg.obs_times, "obs_values": tg.obs_values, "query_times": tg.query_times},
-             "task": "viapoint", "task_config": setup.task_config, "robot": "point2d", "seed": 5,
-             "config": {"max_rollouts": 15, "max_reuse": 5, "stop_on_success": False}}
+    train = train_request(setup.demos, steps=50, seed=1)
+    adapt = adapt_request(setup, max_rollouts=15, stop_on_success=False)
     # workers slow enough (0.25 s per roll-out) that the job is mid-way when the deployment stops
     with LocalDeployment(NS, workers=1, model=False, worker_delay=0.25, state_dir=state) as dep:
         assert call(dep.session, dep.keys.train("e1"), train, timeout=60)["version"] == 0

@@ -73,7 +73,7 @@ def test_dockerfile_installs_cpu_torch_and_the_package():
 
 
 def test_model_container_command_builds_the_model_config():
-    from services.model import ModelConfig
+    from services.model.service import ModelConfig
     from services.transport.service import from_args, parser_for
 
     cmd = _command(yaml.safe_load((ROOT / "docker-compose.yml").read_text())["services"]["model"])
