@@ -461,8 +461,10 @@ class LearnerConfig(LearnerOptions):
     :meth:`serve`, which runs it on an open session."""
 
     def prepare(self) -> None:
-        """With job processes, fork them now, before the session exists (services/learner/runner.py)."""
+        """With job processes: import what training needs, then fork them, before the session
+        exists (services/learner/runner.py), so every child starts its first job at once."""
         if self.job_runner == "process":
+            import_training_modules()
             fork_children(self.jobs)
 
     def serve(self, session: zenoh.Session, stop: threading.Event, ready: Ready) -> int:
