@@ -1,6 +1,6 @@
 """What a command line start imports: `acnmp --help`, every command's parser, the launcher of
 `acnmp up` and a worker stay clear of torch and rerun (seconds of CPU each, paid by every command a
-user types and every process a deployment starts); the processes that compute import them."""
+user types and every process a deployment starts); only the processes that compute import them."""
 from __future__ import annotations
 
 import json
@@ -31,8 +31,3 @@ def _imported(code: str) -> dict[str, bool]:
 def test_a_command_line_start_imports_neither_torch_nor_rerun(code):
     assert _imported(code) == {"torch": False, "rerun": False}
 
-
-def test_the_processes_that_compute_import_what_they_run():
-    """The options and the class that runs a process are two classes: the second one imports."""
-    assert _imported("from services.launcher import service_class; service_class('learner')")["torch"]
-    assert _imported("from services.launcher import service_class; service_class('recorder')")["rerun"]
