@@ -191,9 +191,8 @@ def fork_children(n: int) -> None:
 
 def _forked_main(conn, inherited) -> None:
     """A forked child: close the pipe ends it inherited, leave SIGTERM and SIGINT to its learner
-    (the learner's handlers would only set a stop event nobody watches here; a Ctrl-C or a service
-    manager signalling the whole group must not end a job before the learner saves it
-    interrupted: the learner kills its children when it stops), then serve adaptations."""
+    (a Ctrl-C or a service manager signalling the whole group must not end a job before the learner
+    saves it interrupted; the learner kills its children when it stops), then serve adaptations."""
     for other in inherited:
         other.close()
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
