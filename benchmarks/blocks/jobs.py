@@ -57,6 +57,12 @@ def _deploy_table(r: dict, kinds) -> tuple[list[str], list[list]]:
     return header, rows
 
 
+def _runs(config: dict) -> str:
+    """How many times each K was measured (older results: once)."""
+    reps = config.get("reps", 1)
+    return "One run." if reps == 1 else f"Each figure the run of median wall time of {reps}."
+
+
 @renderer("jobs-deploy")
 def jobs_deploy() -> str:
     """K jobs at once on one learner of a deployment, each learner setting against the baseline
@@ -65,7 +71,7 @@ def jobs_deploy() -> str:
     c = r["config"]
     return block(r, "bench_jobs", *_deploy_table(r, (("e1", "E1"), ("rollout_heavy", "roll-out-heavy"))),
                  f"{c['workers']} workers; E1 jobs of {c['budget']} roll-outs ({c['train_steps']}-step 32x32 skill); "
-                 f"roll-out-heavy: the same jobs with {c['rollout_delay_s']} s of worker time per roll-out. One run.")
+                 f"roll-out-heavy: the same jobs with {c['rollout_delay_s']} s of worker time per roll-out. {_runs(c)}")
 
 
 @renderer("jobs-ur10")
@@ -81,7 +87,7 @@ def jobs_ur10() -> str:
     cores = r["provenance"]["machine"]["cpu_count"]
     return block(r, "bench_jobs_ur10", *_deploy_table(r, (("ur10", "UR10 pick and place"),)),
                  f"{c['workers']} UR10 workers (PyBullet); jobs of {c['budget']} roll-outs adapting a "
-                 f"{c['train_steps']}-step 32x32 skill of E5's 8 demonstrations to its (8, 10) cm case. One run. "
+                 f"{c['train_steps']}-step 32x32 skill of E5's 8 demonstrations to its (8, 10) cm case. {_runs(c)} "
                  f"What the machine allows: {k} jobs at once took {cpu:.1f} CPU s with `--jobs "
                  f"{c['configs'][-1].split(':')[0]}` (learner {default['learner_cpu_s']:.1f}, workers "
                  f"{default['worker_cpu_s']:.1f}), so on its {cores} cores no setting could finish them in under "

@@ -288,18 +288,24 @@ class _Deployed:
                 "trajectories": [st[i]["result"]["trajectory"] for i in ids]}
 
 
-def _sweep(ns: str, jobs: int, runner: str, ks, budget: int, delay: float, workers: int, workload: Workload) -> dict:
+def _sweep(ns: str, jobs: int, runner: str, ks, budget: int, delay: float, workers: int, workload: Workload,
+           reps: int = 1) -> dict:
+    """One deployment with learner setting ``--jobs jobs --job-runner runner``: one job alone, then
+    K jobs at once for each K of ``ks``, each measured ``reps`` times (the median's run is kept:
+    its wall and CPU seconds; every run's wall seconds in ``wall_s_runs``)."""
     from services.launcher import LocalDeployment
 
     with LocalDeployment(ns, workers=workers, robot=workload.robot, model=False, worker_delay=delay,
                          learner_args=["--jobs", str(jobs), "--job-runner", runner]) as dep:
         d = _Deployed.local(dep, workload, budget)
         d.run([1] * min(jobs, 2))  # warm-up: the job processes start, the first optimiser imports
-        alone = d.run([100])
+        alone = sorted((d.run([100]) for _ in range(reps)), key=lambda r: r["wall_s"])[reps // 2]
         out = {"jobs": jobs, "runner": runner, "one_alone_s": alone["wall_s"], "k": {}}
         for k in ks:
-            got = d.run([100 + i for i in range(k)])
-            out["k"][str(k)] = {"wall_s": got["wall_s"], "ratio_to_k_alone": got["wall_s"] / (k * alone["wall_s"]),
+            runs = sorted((d.run([100 + i for i in range(k)]) for _ in range(reps)), key=lambda r: r["wall_s"])
+            got = runs[reps // 2]
+            out["k"][str(k)] = {"wall_s": got["wall_s"], "wall_s_runs": [r["wall_s"] for r in runs],
+                                "ratio_to_k_alone": got["wall_s"] / (k * alone["wall_s"]),
                                 "learner_cpu_s": got["learner_cpu_s"], "worker_cpu_s": got["worker_cpu_s"],
                                 "trajectories": got["trajectories"]}
             print(f"  --jobs {jobs} --job-runner {runner} K={k}: {got['wall_s']:.1f}s ({got['wall_s'] / (k * alone['wall_s']):.2f} x K alone)",
@@ -317,7 +323,7 @@ def _compare(kinds, args) -> dict:
             jobs, runner = conf.split(":")
             print(f"{kind}: --jobs {jobs} --job-runner {runner}", flush=True)
             rows[conf] = _sweep(f"bjobs-{os.getpid()}-{kind}-{jobs}-{runner}", int(jobs), runner, args.ks,
-                                args.budget, delay, args.workers, workload)
+                                args.budget, delay, args.workers, workload, args.reps)
         seq = rows[args.configs[0]]
         for conf in args.configs[1:]:
             par = rows[conf]
@@ -531,7 +537,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("part", choices=("runner", "deploy", "ur10", "kill", "hosts", "hosts-client"))
     p.add_argument("--ks", type=int, nargs="+", default=None,
                    help="jobs at once (runner: 2 4; deploy: 1 2 4 8; ur10: 1 2 4; hosts: 8)")
-    p.add_argument("--reps", type=int, default=None, help="runner, hosts: repetitions (default: 3; hosts 2)")
+    p.add_argument("--reps", type=int, default=None,
+                   help="runner, deploy, ur10, hosts: repetitions (default: 3; hosts 2; deploy and ur10 1)")
     p.add_argument("--budget", type=int, default=50, help="roll-outs per job (default: %(default)s)")
     p.add_argument("--workers", type=int, default=4, help="deploy, kill, hosts: workers (default: %(default)s)")
     p.add_argument("--rollout-delay", type=float, default=0.2,
@@ -556,7 +563,7 @@ def main(argv: list[str] | None = None) -> int:
                                                                                                   [1, 2, 4, 8])
     args.configs = args.configs or (["1:process", "2:process"] if args.part == "ur10"
                                     else ["1:thread", "2:thread", "2:process"])
-    args.reps = args.reps or (2 if args.part == "hosts" else 3)
+    args.reps = args.reps or {"hosts": 2, "deploy": 1, "ur10": 1}.get(args.part, 3)
     if args.part == "hosts-client":
         return part_hosts_client(args)
     started = time.perf_counter()
@@ -567,10 +574,10 @@ def main(argv: list[str] | None = None) -> int:
         config["reps"] = args.reps
         result = part_runner(args)
     elif args.part == "deploy":
-        config.update(workers=args.workers, rollout_delay_s=args.rollout_delay, configs=args.configs)
+        config.update(workers=args.workers, rollout_delay_s=args.rollout_delay, configs=args.configs, reps=args.reps)
         result = part_deploy(args)
     elif args.part == "ur10":
-        config.update(workers=args.workers, configs=args.configs,
+        config.update(workers=args.workers, configs=args.configs, reps=args.reps,
                       task="E5 UR10 pick and place (case 8_10), AdaptConfig defaults, stop_on_success false")
         result = part_ur10(args)
     elif args.part == "hosts":

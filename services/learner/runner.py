@@ -3,12 +3,12 @@
 The supervised and policy steps of :func:`acnmp_core.adaptation.loop.adapt` are many small torch
 operations whose Python overhead holds the GIL, so jobs on threads of one process take turns on
 one core (``benchmarks/results/bench_jobs.json``: two E1 jobs on two threads take about as long as
-one after the other). :class:`ProcessRunner` runs the adaptation in a spawned child process
-instead, one per job slot, reused from job to job. A learner process forks its children at its
-start (:func:`fork_children`, before it opens its zenoh session or starts a thread), so they share
-its imported torch; a child that replaces a dead one comes from a fork server (a fresh interpreter
-that imports torch once). Only the arithmetic moves there: the child has
-no zenoh session, no state directory and no events. It asks its parent for every roll-out batch
+one after the other). :class:`ProcessRunner` runs the adaptation in a child process instead,
+one per job slot, reused from job to job. A learner process forks its children at its start
+(:func:`fork_children`, before it opens its zenoh session or starts a thread), so they share its
+imported torch; a child that replaces a dead one comes from a fork server (a fresh interpreter
+that imports torch once). Only the arithmetic moves there: the child has no zenoh session, no
+state directory and no events. It asks its parent for every roll-out batch
 (the parent's evaluator runs it, on the learner's session) and hands it every iteration (the
 parent's ``on_iteration`` persists the job's progress and publishes its events), so recording,
 progress, cancel and restart behave as on a thread. An exception the parent's side raises (a
@@ -190,12 +190,13 @@ def fork_children(n: int) -> None:
 
 
 def _forked_main(conn, inherited) -> None:
-    """A forked child: close the pipe ends it inherited, take the signal handlers of a new process
-    (not the learner's, which would only set its stop event), then serve adaptations."""
+    """A forked child: close the pipe ends it inherited, leave SIGTERM and SIGINT to its learner
+    (a Ctrl-C or a service manager signalling the whole group must not end a job before the learner
+    saves it interrupted; the learner kills its children when it stops), then serve adaptations."""
     for other in inherited:
         other.close()
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
-    signal.signal(signal.SIGINT, signal.default_int_handler)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     _child_main(conn)
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import signal
 import subprocess
 import sys
 
@@ -36,16 +37,24 @@ def test_a_second_deployment_on_the_same_state_dir_refuses_to_start(tmp_path):
         pass
 
 
-def test_sigterm_during_a_job_kills_nothing_saves_it_interrupted_and_it_resumes(tmp_path, wait_job):
+@pytest.mark.parametrize("stop", ["learner", "group"])
+def test_sigterm_during_a_job_kills_nothing_saves_it_interrupted_and_it_resumes(tmp_path, wait_job, stop):
+    """``learner``: SIGTERM to the learner, what `acnmp up` does when it stops; ``group``: SIGTERM to
+    the learner's whole process group, its job process included, as a service manager stopping it
+    does (the job process leaves the stop to its learner)."""
     setup = make_setup()
     state = tmp_path / "state"
     train = train_request(setup.demos, steps=50, seed=1)
     adapt = adapt_request(setup, max_rollouts=15, stop_on_success=False)
     # workers slow enough (0.25 s per roll-out) that the job is mid-way when the deployment stops
-    with LocalDeployment(NS, workers=1, model=False, worker_delay=0.25, state_dir=state) as dep:
+    with LocalDeployment(NS, workers=1, model=False, worker_delay=0.25, state_dir=state, supervise=False) as dep:
         assert call(dep.session, dep.keys.train("e1"), train, timeout=60)["version"] == 0
         job = call(dep.session, dep.keys.adapt("e1"), adapt, timeout=10)["job"]
         wait_job(dep.session, dep.keys, job, lambda st: st["state"] == "running" and st["rollouts"] >= 3)
+        if stop == "group":  # the learner leads a session of its own (the launcher starts it so)
+            learner = dep.children["learner"].proc
+            os.killpg(learner.pid, signal.SIGTERM)
+            assert learner.wait(30) == 0
         codes = dep.stop()  # what SIGTERM of `acnmp up` does
         assert dep.killed == [] and all(code == 0 for code in codes.values()), (codes, dep.killed)
     record = json.loads((state / "jobs" / f"{job}.json").read_text())
