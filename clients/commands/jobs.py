@@ -161,8 +161,10 @@ def _run_adapt(args) -> int:
         if args.json and not args.watch:
             print(json.dumps({"job": job_id, "skill": skill}))
             return 0
+        # with --json (and --watch) stdout holds the final status alone, so a program can parse it
         print(f"job {job_id} queued on skill {skill} ({job.task} on {job.robot}, budget "
-              f"{job.config.max_rollouts} roll-outs)" + ("" if args.watch else f"; follow it: acnmp query watch {job_id}"))
+              f"{job.config.max_rollouts} roll-outs)" + ("" if args.watch else f"; follow it: acnmp query watch {job_id}"),
+              file=sys.stderr if args.json else sys.stdout)
         if not args.watch:
             return 0
         return _follow(args, client, job_id)

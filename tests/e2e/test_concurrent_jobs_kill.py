@@ -6,6 +6,7 @@ gives back what the kill kept from the recording)."""
 from __future__ import annotations
 
 import numpy as np
+import psutil
 
 from acnmp_core.experiments.viapoint import make_setup
 from services.launcher import LocalDeployment
@@ -47,7 +48,11 @@ def test_concurrent_jobs_survive_a_learner_kill_with_their_alone_results(tmp_pat
             return all(x["state"] == "running" and x["rollouts"] >= 5 for x in st)
 
         wait_job(s, KEYS, jobs[SEEDS[0]], all_running, timeout=300)
+        job_processes = psutil.Process(dep.children["learner"].pid).children()
         dep.kill("learner")
+        # the killed learner's job processes end by themselves (their pipe to it closed)
+        _, alive = psutil.wait_procs(job_processes, timeout=60)
+        assert len(job_processes) == 3 and alive == [], alive
         dep.supervisor.wait_restarts("learner", 1, timeout=120)
         final = {seed: wait_job(s, KEYS, job, lambda st: st["state"] in ("done", "failed"), timeout=300)
                  for seed, job in jobs.items()}

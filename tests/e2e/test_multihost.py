@@ -228,7 +228,7 @@ def test_two_learners_on_hosts_of_their_own_each_serve_their_skills_and_list_eve
             adapted = dep.acnmp("query", "adapt", "--skill", skill, "--task", "viapoint", *obs, "--task-config",
                                 json.dumps(setup.task_config), "--budget", "4", "--watch", "--json")
             assert adapted.returncode == 0, adapted.stderr  # 0: the job is done
-            final = json.loads(adapted.stdout.splitlines()[-1])  # after the line saying it was queued
+            final = json.loads(adapted.stdout)  # the queued line went to stderr
             jobs[lid] = final["job"]
         for lid, skill in skills.items():  # trained by its owner only, on its own host's state directory
             assert [other for other in ids if (dep.learner_state_dir(other) / "skills" / skill).is_dir()] == [lid]

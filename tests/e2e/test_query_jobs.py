@@ -71,3 +71,9 @@ def test_a_skill_is_trained_adapted_listed_and_watched_from_the_shell(tmp_path, 
             assert code == exit_code and len(err.strip().splitlines()) == 1 and words in err, (argv, err)
         with ACNMPClient(NS, session=dep.session, timeout=10) as client:
             assert [r.job for r in client.jobs()] == [job]
+        # adapt --watch --json: stdout is the final status alone (the queued line goes to stderr)
+        code, out, err = run_cli("query", "adapt", "--skill", "e1", "--task", "viapoint", *obs,
+                                 "--task-config", json.dumps(setup.task_config), "--budget", "5", "--watch", "--json",
+                                 *conn)
+        assert code in (0, 1) and json.loads(out)["state"] == "done", err
+        assert "queued on skill e1" in err
