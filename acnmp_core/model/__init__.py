@@ -5,7 +5,7 @@
 - :mod:`.episodes`: the context/target episodes drawn from demonstrations for training.
 - :mod:`.training`: supervised training on the Gaussian negative log-likelihood, and its metrics.
 - :mod:`.normalization`: the affine normalisation fitted to the demonstrations.
-- :mod:`.optim_step`: one optimiser step, captured once and replayed.
+- :mod:`.optim_step`: Adam on torch's fused kernel (:class:`~.optim_step.FusedAdam`) and the step of any optimiser.
 - :mod:`.checkpoint`: saving and loading a model (torch files read with ``weights_only``).
 - :mod:`.device`: which torch device to run on.
 """

@@ -1,19 +1,94 @@
-"""The optimiser half of a gradient step, without torch.optim's per-step Python bookkeeping.
+"""The optimiser half of a gradient step: Adam on torch's fused kernel, without torch.optim's overhead.
 
-The CNMPs are small: a supervised step costs a few milliseconds, and ``torch.optim.Adam.step``
-spends about as long in Python (profiler scopes, hooks, rebuilding its lists of parameters, grads
-and states, grouping them by device) as its fused kernel takes to update every weight. Once a
-fused Adam has made one ordinary step (which creates its state), :class:`Stepper` calls the same
-two kernels ``Adam.step`` ends in (``torch._foreach_add_`` on the step counters, then
-``torch._fused_adam_``) with the same arguments on the same tensors, so the result is bit for bit
-that of ``opt.step()`` (tests/unit/model/test_optim_step.py compares them). Anything it does not
-recognise (another optimiser, a non-fused Adam, amsgrad, a tensor learning rate, hooks, a
-parameter whose grad appears or disappears) goes through ``opt.step()`` itself.
+:class:`FusedAdam` is Adam (Kingma & Ba, 2015, Algorithm 1) with the state and the numbers of
+``torch.optim.Adam(params, lr, fused=True)`` on CPU, bit for bit (tests/unit/model/test_optim_step.py),
+stepped by the two kernels that optimiser ends in (``torch._foreach_add_`` on the step counters,
+then ``torch._fused_adam_``). It exists for two costs of torch.optim: its constructor imports
+torch._dynamo (about 1.9 s of CPU in every process that trains), and its ``step`` spends about as
+long in Python (profiler scopes, hooks, lists rebuilt each step) as the kernel takes on these small
+networks.
+
+:class:`Stepper` drives any optimiser a caller hands in (``zero_grad`` and ``step``): a
+:class:`FusedAdam` directly, a fused ``torch.optim.Adam`` on the same short path once its first
+ordinary step has made its state, anything else (another optimiser, amsgrad, hooks, ...) through
+its own ``step()``.
 """
 from __future__ import annotations
 
 import torch
 from torch.optim.optimizer import _global_optimizer_post_hooks, _global_optimizer_pre_hooks
+
+
+class FusedAdam:
+    """Adam over CPU parameters, as ``torch.optim.Adam(params, lr=lr, betas=betas, eps=eps,
+    weight_decay=weight_decay, fused=True)``: same state (``state[p]`` holds ``step``, a float32
+    scalar tensor, ``exp_avg`` and ``exp_avg_sq``, shaped as ``p``), same updates bit for bit.
+
+    params : the parameters (an iterable of tensors), or parameter groups (dicts with ``"params"``
+        and any of the hyper-parameters below, which they override).
+    lr : step size (a float; :func:`~acnmp_core.model.training.set_lr` changes it between steps).
+    betas, eps, weight_decay : Adam's moment decays, denominator term and L2 penalty.
+    """
+
+    def __init__(self, params, lr: float = 1e-3, betas: tuple[float, float] = (0.9, 0.999), eps: float = 1e-8,
+                 weight_decay: float = 0.0) -> None:
+        defaults = {"lr": float(lr), "betas": (float(betas[0]), float(betas[1])), "eps": float(eps),
+                    "weight_decay": float(weight_decay)}
+        params = list(params)
+        groups = params if params and isinstance(params[0], dict) else [{"params": params}]
+        self.param_groups: list[dict] = [{**defaults, **g, "params": list(g["params"])} for g in groups]
+        for g in self.param_groups:
+            for p in g["params"]:
+                if p.device.type != "cpu" or not p.is_floating_point():
+                    raise ValueError(f"FusedAdam: CPU floating-point parameters only, got {p.dtype} on {p.device}")
+        self.state: dict[torch.Tensor, dict[str, torch.Tensor]] = {}
+        #: per group, its parameters with a gradient at the last step and their state tensors
+        self._cache: list[tuple[tuple[int, ...], list, list, list, list]] = [((), [], [], [], []) for _ in groups]
+
+    def zero_grad(self) -> None:
+        """Drop every parameter's gradient (``set_to_none``)."""
+        for g in self.param_groups:
+            for p in g["params"]:
+                p.grad = None
+
+    def _group_tensors(self, i: int, g: dict) -> tuple[list, list, list, list]:
+        """Group ``i``'s parameters that have a gradient, with their exp_avg, exp_avg_sq and step
+        tensors (created at a parameter's first gradient, as torch.optim.Adam does)."""
+        key = tuple(j for j, p in enumerate(g["params"]) if p.grad is not None)
+        if key != self._cache[i][0]:
+            params = [g["params"][j] for j in key]
+            for p in params:
+                if p not in self.state:
+                    self.state[p] = {"step": torch.zeros((), dtype=torch.float32),
+                                     "exp_avg": torch.zeros_like(p, memory_format=torch.preserve_format),
+                                     "exp_avg_sq": torch.zeros_like(p, memory_format=torch.preserve_format)}
+            states = [self.state[p] for p in params]
+            self._cache[i] = (key, params, [s["exp_avg"] for s in states], [s["exp_avg_sq"] for s in states],
+                              [s["step"] for s in states])
+        return self._cache[i][1:]
+
+    def step(self) -> None:
+        """Update every parameter that has a gradient (Adam's step, Algorithm 1)."""
+        with torch.no_grad():
+            for i, g in enumerate(self.param_groups):
+                params, exp_avgs, exp_avg_sqs, steps = self._group_tensors(i, g)
+                if not params:
+                    continue
+                beta1, beta2 = g["betas"]
+                torch._foreach_add_(steps, 1)
+                torch._fused_adam_(params, [p.grad for p in params], exp_avgs, exp_avg_sqs, [], steps,
+                                   amsgrad=False, lr=float(g["lr"]), beta1=beta1, beta2=beta2,
+                                   weight_decay=g["weight_decay"], eps=g["eps"], maximize=False,
+                                   grad_scale=None, found_inf=None)
+
+    def state_dict(self) -> dict:
+        """The state in torch.optim's layout: ``{"state": {index: {...}}, "param_groups": [...]}``,
+        parameters numbered in group order."""
+        index, groups = {}, []
+        for g in self.param_groups:
+            ids = [index.setdefault(p, len(index)) for p in g["params"]]
+            groups.append({**{k: v for k, v in g.items() if k != "params"}, "params": ids})
+        return {"state": {index[p]: dict(s) for p, s in self.state.items()}, "param_groups": groups}
 
 
 def _plain_fused_adam(opt: torch.optim.Optimizer) -> bool:
@@ -32,15 +107,16 @@ def _plain_fused_adam(opt: torch.optim.Optimizer) -> bool:
 class Stepper:
     """``zero_grad()`` and ``step()`` of one optimiser, for a training loop that calls them each step.
 
-    opt : any ``torch.optim.Optimizer``; a fused ``torch.optim.Adam`` takes the short path (see the
-    module docstring), every other optimiser is stepped by its own ``step()``. The optimiser's
+    opt : a :class:`FusedAdam` or any ``torch.optim.Optimizer``; a fused ``torch.optim.Adam`` takes
+    the short path (see the module docstring), every other optimiser is stepped by its own ``step()``. The optimiser's
     state stays its own, so it can be saved or handed on as usual.
     """
 
-    def __init__(self, opt: torch.optim.Optimizer) -> None:
+    def __init__(self, opt: torch.optim.Optimizer | FusedAdam) -> None:
         self.opt = opt
         self._params = [p for g in opt.param_groups for p in g["params"]]
-        self._short = _plain_fused_adam(opt)
+        self._own = isinstance(opt, FusedAdam)
+        self._short = self._own or _plain_fused_adam(opt)
         #: per param group: (group, params, exp_avgs, exp_avg_sqs, step counters), from the last
         #: ordinary step; None until then
         self._groups: list[tuple[dict, list, list, list, list]] | None = None
@@ -56,6 +132,9 @@ class Stepper:
 
     def step(self) -> None:
         """Update the parameters from their gradients, exactly as ``opt.step()``."""
+        if self._own:
+            self.opt.step()
+            return
         if not self._short or (self.opt._optimizer_step_pre_hooks or self.opt._optimizer_step_post_hooks
                                or _global_optimizer_pre_hooks or _global_optimizer_post_hooks):
             self.opt.step()

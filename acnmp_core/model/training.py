@@ -16,7 +16,7 @@ from ..threads import with_training_threads
 from ..validation import check_lr_final, check_positive_int
 from .cnmp import CNMP
 from .episodes import Episode, EpisodeSampler
-from .optim_step import Stepper
+from .optim_step import FusedAdam, Stepper
 
 
 @dataclass
@@ -81,7 +81,7 @@ def cosine_lr(lr: float, lr_final: float | None, step: int, steps: int) -> float
     return lr_final + 0.5 * (lr - lr_final) * (1.0 + math.cos(math.pi * frac))
 
 
-def set_lr(opt: torch.optim.Optimizer, lr: float) -> None:
+def set_lr(opt: torch.optim.Optimizer | FusedAdam, lr: float) -> None:
     """Set every parameter group's learning rate of ``opt`` (a float, as the fused Adam wants)."""
     for g in opt.param_groups:
         g["lr"] = float(lr)
@@ -145,7 +145,7 @@ def train(
     seed: int = 0,
     fit_normalization: bool = True,
     progress: bool = True,
-    optimizer: torch.optim.Optimizer | None = None,
+    optimizer: torch.optim.Optimizer | FusedAdam | None = None,
     stop: threading.Event | None = None,
     on_validation: Callable[[int, float, float], None] | None = None,
     device: str | torch.device | None = None,
@@ -160,7 +160,7 @@ def train(
     cfg : hyper-parameters; defaults to :class:`TrainConfig`.
     seed : makes the run deterministic (sampling and validation split).
     progress : show a tqdm progress bar (on a terminal only).
-    optimizer : continue with an existing optimizer (default: a new Adam).
+    optimizer : continue with an existing optimizer (default: a new :class:`~.optim_step.FusedAdam`).
     stop : when set (e.g. a service shutting down), InterruptedError at the next step; ``model``
         is then left part-trained, so the caller discards it.
     on_validation : called after each validation but the first as ``(step, mean training loss
@@ -186,7 +186,7 @@ def train(
         val_ep = val_sampler.sample(cfg.val_episodes, val_gen)
     else:
         val_ep = sampler.sample(cfg.val_episodes, val_gen)
-    opt = Stepper(optimizer or torch.optim.Adam(model.parameters(), lr=cfg.lr, fused=True))
+    opt = Stepper(optimizer or FusedAdam(model.parameters(), lr=cfg.lr))
     result = TrainResult()
     best_state = copy.deepcopy(model.state_dict())
     model.train()

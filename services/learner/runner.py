@@ -155,12 +155,11 @@ def _child_main(conn) -> None:
 
 
 def _context():
-    """Children not forked ahead come from a fork server that imported torch (and the optimiser's
-    torch._dynamo) once per learner: a child then starts in milliseconds instead of importing them
-    again. Not a plain fork of the running learner, whose zenoh runtime threads may hold locks a
-    forked child inherits."""
+    """Children not forked ahead come from a fork server that imported torch once per learner: a
+    child then starts in milliseconds instead of importing it again. Not a plain fork of the
+    running learner, whose zenoh runtime threads may hold locks a forked child inherits."""
     ctx = multiprocessing.get_context("forkserver")
-    ctx.set_forkserver_preload([__name__, "torch._dynamo"])
+    ctx.set_forkserver_preload([__name__])
     return ctx
 
 

@@ -447,36 +447,21 @@ def trained_from(state: SkillState, demos: DemoSet) -> bool:
     return len(head) == len(demos) and DemoSet(head).content_hash() == demos.content_hash()
 
 
-def import_training_modules() -> None:
-    """Import what a first training needs beyond torch: the optimiser's constructor imports
-    torch._dynamo, which imports sympy; a thread blocked in that import sees no stop."""
-    import torch
-
-    torch.optim.Adam([torch.zeros(1, requires_grad=True)])
-
-
 @dataclass
 class LearnerConfig(LearnerOptions):
     """The learner process: its options (:class:`~services.learner.config.LearnerOptions`) and
     :meth:`serve`, which runs it on an open session."""
 
     def prepare(self) -> None:
-        """With job processes: import what training needs, then fork them, before the session
-        exists (services/learner/runner.py), so every child starts its first job at once."""
+        """With job processes: fork them now, before the session exists (services/learner/runner.py),
+        so every child shares the learner's imported torch and starts its first job at once."""
         if self.job_runner == "process":
-            import_training_modules()
             fork_children(self.jobs)
 
     def serve(self, session: zenoh.Session, stop: threading.Event, ready: Ready) -> int:
         import torch
 
         torch.set_num_threads(1)
-        # the first optimiser imports torch._dynamo and sympy (seconds without bytecode caches):
-        # for --demos, on a thread, so the main one still sees a
-        # stop meanwhile (otherwise the first train request or job imports them)
-        imported = threading.Thread(target=import_training_modules, name="import-training", daemon=True)
-        if self.demos:
-            imported.start()
         state_dir = self.state_dir or default_state_dir(self.session.namespace, say=log.warning)
         state_limits = StateLimits(max_queued_jobs=self.max_queued_jobs, keep_finished_jobs=self.keep_jobs,
                                    keep_finished_days=self.keep_job_days, keep_versions=self.keep_versions)
@@ -490,9 +475,6 @@ class LearnerConfig(LearnerOptions):
             threading.Thread(target=lambda: (stop.wait(), learner.core.interrupt()), name="stop-watch",
                              daemon=True).start()
             try:
-                while imported.is_alive():  # training would wait for the import anyway
-                    if stop.wait(0.1):
-                        raise InterruptedError("stopped before training")
                 booted = bootstrap(learner.core, learner.demos, self.train_steps)
             except InterruptedError:
                 log.info("stopped while training the --demos skills; they are trained at the next start")

@@ -6,19 +6,20 @@ import pytest
 import torch
 
 from acnmp_core.model.cnmp import CNMP, CNMPConfig
+from acnmp_core.model.optim_step import FusedAdam
 from acnmp_core.model.training import TrainConfig, train
 from acnmp_core.threads import set_training_threads, training_threads
 
 
 def _threads_seen_by_training(monkeypatch, e1_demos) -> int:
     seen = []
-    real = torch.optim.Adam.step
+    real = FusedAdam.step
 
     def step(self, *args, **kwargs):
         seen.append(torch.get_num_threads())
         return real(self, *args, **kwargs)
 
-    monkeypatch.setattr(torch.optim.Adam, "step", step)
+    monkeypatch.setattr(FusedAdam, "step", step)
     train(CNMP(CNMPConfig(n_outputs=2, encoder_widths=(8,), decoder_widths=(8,))), e1_demos, TrainConfig(steps=3),
           progress=False)
     assert len(set(seen)) == 1

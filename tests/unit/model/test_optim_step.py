@@ -1,10 +1,15 @@
-"""Stepper (acnmp_core/model/optim_step.py) updates parameters exactly as ``opt.step()`` would."""
+"""FusedAdam and Stepper (acnmp_core/model/optim_step.py) update parameters exactly as torch.optim's
+fused Adam and ``opt.step()`` would."""
 from __future__ import annotations
 
+import subprocess
+import sys
+
+import pytest
 import torch
 
 from acnmp_core.model.cnmp import CNMP, CNMPConfig
-from acnmp_core.model.optim_step import Stepper
+from acnmp_core.model.optim_step import FusedAdam, Stepper
 from acnmp_core.model.training import TrainConfig, make_sampler, nll_loss
 
 
@@ -25,10 +30,7 @@ def _run(make_opt, e1_demos, *, stepper: bool, steps: int = 40, subset_from: int
     last = list(model.encoder[-1].parameters())
     for i in range(steps):
         loss = nll_loss(model, sampler.sample(16, gen), 0.5)
-        if step_fn is not None:
-            step_fn.zero_grad()
-        else:
-            opt.zero_grad(set_to_none=True)
+        (step_fn or opt).zero_grad()
         loss.backward()
         if subset_from is not None and i >= subset_from and i % 2:
             for p in last:
@@ -87,3 +89,36 @@ def test_stepper_runs_the_optimizers_hooks(e1_demos):
         nll_loss(model, ep).backward()
         stepper.step()
     assert len(calls) == 3
+
+
+def test_fused_adam_is_torch_fused_adam_bit_for_bit(e1_demos):
+    """Same weights and same state as torch.optim.Adam(fused=True), with two groups of their own
+    rates, weight decay, a rate changed mid-run and grads that come and go."""
+    def groups(model):
+        return [{"params": model.encoder.parameters()}, {"params": model.decoder.parameters(), "lr": 3e-4}]
+
+    ours = _run(lambda m: FusedAdam(groups(m), lr=1e-3, weight_decay=1e-4), e1_demos, stepper=True, subset_from=5)
+    torch_adam = _run(lambda m: torch.optim.Adam(groups(m), lr=1e-3, weight_decay=1e-4, fused=True), e1_demos,
+                      stepper=False, subset_from=5)
+    _same(ours, torch_adam)
+    assert ours[1]["param_groups"][1]["lr"] == torch_adam[1]["param_groups"][1]["lr"] == 1.5e-4
+    _same(_run(lambda m: FusedAdam(m.parameters()), e1_demos, stepper=False),
+          _run(lambda m: torch.optim.Adam(m.parameters(), fused=True), e1_demos, stepper=False))
+
+
+def test_fused_adam_refuses_what_its_kernel_cannot_step():
+    with pytest.raises(ValueError, match="floating-point"):
+        FusedAdam([torch.zeros(3, dtype=torch.int64)])
+
+
+def test_training_and_adaptation_leave_torch_dynamo_unimported():
+    """torch.optim's constructor imports torch._dynamo (~1.9 s of CPU, at every learner's start and
+    every experiment's first training); the library's own steps must not."""
+    code = (
+        "import sys\n"
+        "from acnmp_core.experiments.viapoint import run_viapoint\n"
+        "run_viapoint(seed=0, budget=3, train_steps=5, progress=False)\n"
+        "assert 'torch._dynamo' not in sys.modules, 'torch._dynamo was imported'\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr[-2000:]
