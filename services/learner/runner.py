@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import logging
 import multiprocessing
+import pickle
 import signal
 import threading
 from dataclasses import dataclass
@@ -107,10 +108,22 @@ class _ChildEvaluator:
         return _ask(self.conn, ("evaluate", (trajectories, times, task_params)))
 
 
+def _put(conn, message) -> None:
+    """Send ``message`` pickled by value. Not ``conn.send``: its pickler hands each torch tensor over
+    as shared memory, one socket connection and handshake per tensor, slower than copying the small
+    tensors of a job (its model, its weights)."""
+    conn.send_bytes(pickle.dumps(message, protocol=pickle.HIGHEST_PROTOCOL))
+
+
+def _get(conn):
+    """Receive what :func:`_put` sent."""
+    return pickle.loads(conn.recv_bytes())
+
+
 def _ask(conn, message):
     """Send ``message`` to the parent and return its answer, raising the exception it sends back."""
-    conn.send(message)
-    kind, value = conn.recv()
+    _put(conn, message)
+    kind, value = _get(conn)
     if kind == "raise":
         raise value
     return value
@@ -120,12 +133,12 @@ def _send(conn, message: tuple) -> None:
     """Send ``(kind, value)``; a value that does not pickle (an exception of an exotic type) is
     sent as a RuntimeError holding its line, of the same kind."""
     try:
-        conn.send(message)
+        _put(conn, message)
     except (EOFError, OSError):
         raise
     except Exception:  # pickling failed before anything was written
         kind, value = message
-        conn.send((kind, RuntimeError(f"{type(value).__name__}: {value}")))
+        _put(conn, (kind, RuntimeError(f"{type(value).__name__}: {value}")))
 
 
 def _child_main(conn) -> None:
@@ -135,7 +148,7 @@ def _child_main(conn) -> None:
     torch.set_num_threads(1)
     while True:
         try:
-            task: AdaptTask = conn.recv()
+            task: AdaptTask = _get(conn)
         except (EOFError, OSError):  # the parent closed the pipe or died
             return
         if task is None:
@@ -242,13 +255,13 @@ class ProcessRunner:
         conn = self._conn
         pending: BaseException | None = None  # what the parent's side raised into the child
         try:
-            conn.send(task)
+            _put(conn, task)
             while True:
                 while not conn.poll(STOP_POLL):
                     if stop.is_set():
                         self._discard()
                         raise InterruptedError("learner is shutting down")
-                kind, value = conn.recv()
+                kind, value = _get(conn)
                 if kind == "done":
                     result, weights = value
                     task.model.load_state_dict(weights)
