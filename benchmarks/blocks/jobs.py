@@ -60,7 +60,10 @@ def _deploy_table(r: dict, kinds) -> tuple[list[str], list[list]]:
 def _runs(config: dict) -> str:
     """How many times each K was measured (older results: once)."""
     reps = config.get("reps", 1)
-    return "One run." if reps == 1 else f"Each figure the run of median wall time of {reps}."
+    if reps == 1:
+        return "One run."
+    return (f"Each figure the run of median wall time of {reps}; each ratio to --jobs 1 the median of {reps} "
+            "rounds' ratios, a round running every setting in turn.")
 
 
 @renderer("jobs-deploy")

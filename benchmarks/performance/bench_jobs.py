@@ -8,10 +8,10 @@ Five parts, each one run writing one JSON:
     (``--jobs 1``, the baseline), on K threads, and in K child processes; ``--reps`` times, in the
     same run. Wall and CPU seconds (the learner's and its job processes'), ratio to the baseline,
     and whether each job's result is bit-equal to the baseline's.
-``deploy``: a local deployment (4 workers, no model service) with ``--jobs 1`` and with the
-    default; K = 1, 2, 4, 8 jobs submitted at once; time until all are done against K x one job
-    alone (measured in the same deployment just before), and against ``--jobs 1``'s time for the
-    same K. Then the same with roll-out-heavy jobs (each roll-out takes ``--rollout-delay`` s of
+``deploy``: a local deployment (4 workers, no model service) per learner setting (``--jobs 1``
+    and the default), all up at once; K = 1, 2, 4, 8 jobs submitted at once, ``--reps`` rounds of
+    every setting in turn; time until all are done against K x one job alone (measured in the same
+    deployment), and against ``--jobs 1``'s time for the same K in the same round. Then the same with roll-out-heavy jobs (each roll-out takes ``--rollout-delay`` s of
     the worker: a robot whose motion takes time). Learner and worker CPU seconds per round.
 ``ur10``: the same comparison (``--jobs 1`` against the default, K = 1, 2, 4) with jobs of a real
     roll-out-heavy kind: E5's UR10 pick and place on 4 UR10 workers, each roll-out a PyBullet
@@ -39,6 +39,7 @@ measured against baselines of the same run.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import shutil
 import statistics
@@ -288,52 +289,66 @@ class _Deployed:
                 "trajectories": [st[i]["result"]["trajectory"] for i in ids]}
 
 
-def _sweep(ns: str, jobs: int, runner: str, ks, budget: int, delay: float, workers: int, workload: Workload,
-           reps: int = 1) -> dict:
-    """One deployment with learner setting ``--jobs jobs --job-runner runner``: one job alone, then
-    K jobs at once for each K of ``ks``, each measured ``reps`` times (the median's run is kept:
-    its wall and CPU seconds; every run's wall seconds in ``wall_s_runs``)."""
-    from services.launcher import LocalDeployment
+def _runs_interleaved(deployed: dict, seeds, reps: int) -> dict:
+    """Run the jobs of ``seeds`` at once on every deployment of ``deployed`` (setting -> _Deployed),
+    ``reps`` rounds, each round every setting once in turn: so a ratio between settings compares
+    runs a few seconds apart, not minutes (the shared machine's speed drifts between minutes).
+    Per setting, every round's run in order."""
+    runs = {conf: [] for conf in deployed}
+    for _ in range(reps):
+        for conf, d in deployed.items():
+            runs[conf].append(d.run(seeds))
+    return runs
 
-    with LocalDeployment(ns, workers=workers, robot=workload.robot, model=False, worker_delay=delay,
-                         learner_args=["--jobs", str(jobs), "--job-runner", runner]) as dep:
-        d = _Deployed.local(dep, workload, budget)
-        d.run([1] * min(jobs, 2))  # warm-up: the job processes start, the first optimiser imports
-        alone = sorted((d.run([100]) for _ in range(reps)), key=lambda r: r["wall_s"])[reps // 2]
-        out = {"jobs": jobs, "runner": runner, "one_alone_s": alone["wall_s"], "k": {}}
-        for k in ks:
-            runs = sorted((d.run([100 + i for i in range(k)]) for _ in range(reps)), key=lambda r: r["wall_s"])
-            got = runs[reps // 2]
-            out["k"][str(k)] = {"wall_s": got["wall_s"], "wall_s_runs": [r["wall_s"] for r in runs],
-                                "ratio_to_k_alone": got["wall_s"] / (k * alone["wall_s"]),
-                                "learner_cpu_s": got["learner_cpu_s"], "worker_cpu_s": got["worker_cpu_s"],
-                                "trajectories": got["trajectories"]}
-            print(f"  --jobs {jobs} --job-runner {runner} K={k}: {got['wall_s']:.1f}s ({got['wall_s'] / (k * alone['wall_s']):.2f} x K alone)",
-                  flush=True)
-    return out
+
+def _median_run(runs: list[dict]) -> dict:
+    """The run of median wall time among ``runs``."""
+    return sorted(runs, key=lambda r: r["wall_s"])[len(runs) // 2]
 
 
 def _compare(kinds, args) -> dict:
     """For each (name, roll-out delay s, workload) of ``kinds``: a deployment per learner setting
-    of ``args.configs``, K jobs at once for each K of ``args.ks``, each setting against the first."""
+    of ``args.configs`` (``JOBS:RUNNER``; the first is the baseline), all up at once; one job alone,
+    then K jobs at once for each K of ``args.ks``, ``args.reps`` rounds of every setting in turn
+    (:func:`_runs_interleaved`). Each figure is the run of median wall time; a setting's ratio to the
+    baseline is the median of its rounds' ratios (each round's two runs seconds apart)."""
+    from services.launcher import LocalDeployment
+
     out = {}
     for kind, delay, workload in kinds:
-        rows = {}
-        for conf in args.configs:  # "--jobs:--job-runner"; the first one is the baseline
-            jobs, runner = conf.split(":")
-            print(f"{kind}: --jobs {jobs} --job-runner {runner}", flush=True)
-            rows[conf] = _sweep(f"bjobs-{os.getpid()}-{kind}-{jobs}-{runner}", int(jobs), runner, args.ks,
-                                args.budget, delay, args.workers, workload, args.reps)
-        seq = rows[args.configs[0]]
-        for conf in args.configs[1:]:
-            par = rows[conf]
-            for k in map(str, args.ks):
-                par["k"][k]["ratio_to_baseline"] = par["k"][k]["wall_s"] / seq["k"][k]["wall_s"]
-                par["k"][k]["bit_equal_to_baseline"] = all(
-                    np.array_equal(a, b) for a, b in zip(par["k"][k]["trajectories"], seq["k"][k]["trajectories"]))
-        for row in rows.values():
-            for k in row["k"].values():
-                k.pop("trajectories")
+        print(f"{kind}: " + ", ".join(args.configs), flush=True)
+        with contextlib.ExitStack() as stack:
+            deployed = {}
+            for conf in args.configs:
+                jobs, runner = conf.split(":")
+                dep = stack.enter_context(LocalDeployment(
+                    f"bjobs-{os.getpid()}-{kind}-{jobs}-{runner}", workers=args.workers, robot=workload.robot,
+                    model=False, worker_delay=delay, learner_args=["--jobs", jobs, "--job-runner", runner]))
+                deployed[conf] = _Deployed.local(dep, workload, args.budget)
+            for conf, d in deployed.items():  # warm-up: the job processes start their first job
+                d.run([1] * min(int(conf.split(":")[0]), 2))
+            alone = {conf: _median_run(runs)["wall_s"]
+                     for conf, runs in _runs_interleaved(deployed, [100], args.reps).items()}
+            rows = {conf: {"jobs": int(conf.split(":")[0]), "runner": conf.split(":")[1], "one_alone_s": alone[conf],
+                           "k": {}} for conf in args.configs}
+            base = args.configs[0]
+            for k in args.ks:
+                runs = _runs_interleaved(deployed, [100 + i for i in range(k)], args.reps)
+                for conf in args.configs:
+                    got = _median_run(runs[conf])
+                    row = {"wall_s": got["wall_s"], "wall_s_runs": [r["wall_s"] for r in runs[conf]],
+                           "ratio_to_k_alone": got["wall_s"] / (k * alone[conf]),
+                           "learner_cpu_s": got["learner_cpu_s"], "worker_cpu_s": got["worker_cpu_s"]}
+                    if conf != base:
+                        paired = [r["wall_s"] / b["wall_s"] for r, b in zip(runs[conf], runs[base])]
+                        row["ratio_to_baseline_runs"] = paired
+                        row["ratio_to_baseline"] = statistics.median(paired)
+                        row["bit_equal_to_baseline"] = all(
+                            np.array_equal(a, b) for r, b_run in zip(runs[conf], runs[base])
+                            for a, b in zip(r["trajectories"], b_run["trajectories"]))
+                    rows[conf]["k"][str(k)] = row
+                    print(f"  {conf} K={k}: {got['wall_s']:.1f}s ({row['ratio_to_k_alone']:.2f} x K alone"
+                          + (f", {row['ratio_to_baseline']:.2f} x {base})" if conf != base else ")"), flush=True)
         out[kind] = {"rollout_delay_s": delay, "robot": workload.robot, "task": workload.task,
                      "baseline": args.configs[0], "by_config": rows}
     return out
