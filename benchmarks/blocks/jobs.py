@@ -57,13 +57,21 @@ def _deploy_table(r: dict, kinds) -> tuple[list[str], list[list]]:
     return header, rows
 
 
-def _runs(config: dict) -> str:
-    """How many times each K was measured (older results: once)."""
+def _runs(config: dict, paired: bool = False) -> str:
+    """How many times each K was measured (older results: once); ``paired``: the ratios are
+    medians of rounds that ran every setting in turn (older results: settings one after another)."""
     reps = config.get("reps", 1)
     if reps == 1:
         return "One run."
+    if not paired:
+        return f"Each figure the run of median wall time of {reps}."
     return (f"Each figure the run of median wall time of {reps}; each ratio to --jobs 1 the median of {reps} "
             "rounds' ratios, a round running every setting in turn.")
+
+
+def _paired(by_config: dict) -> bool:
+    """Whether a result's ratios to the baseline are medians of paired rounds."""
+    return any("ratio_to_baseline_runs" in x for row in by_config.values() for x in row["k"].values())
 
 
 @renderer("jobs-deploy")
@@ -74,7 +82,7 @@ def jobs_deploy() -> str:
     c = r["config"]
     return block(r, "bench_jobs", *_deploy_table(r, (("e1", "E1"), ("rollout_heavy", "roll-out-heavy"))),
                  f"{c['workers']} workers; E1 jobs of {c['budget']} roll-outs ({c['train_steps']}-step 32x32 skill); "
-                 f"roll-out-heavy: the same jobs with {c['rollout_delay_s']} s of worker time per roll-out. {_runs(c)}")
+                 f"roll-out-heavy: the same jobs with {c['rollout_delay_s']} s of worker time per roll-out. {_runs(c, _paired(r['e1']['by_config']))}")
 
 
 @renderer("jobs-ur10")
@@ -90,7 +98,7 @@ def jobs_ur10() -> str:
     cores = r["provenance"]["machine"]["cpu_count"]
     return block(r, "bench_jobs_ur10", *_deploy_table(r, (("ur10", "UR10 pick and place"),)),
                  f"{c['workers']} UR10 workers (PyBullet); jobs of {c['budget']} roll-outs adapting a "
-                 f"{c['train_steps']}-step 32x32 skill of E5's 8 demonstrations to its (8, 10) cm case. {_runs(c)} "
+                 f"{c['train_steps']}-step 32x32 skill of E5's 8 demonstrations to its (8, 10) cm case. {_runs(c, _paired(by))} "
                  f"What the machine allows: {k} jobs at once took {cpu:.1f} CPU s with `--jobs "
                  f"{c['configs'][-1].split(':')[0]}` (learner {default['learner_cpu_s']:.1f}, workers "
                  f"{default['worker_cpu_s']:.1f}), so on its {cores} cores no setting could finish them in under "
