@@ -579,6 +579,12 @@ def main(argv: list[str] | None = None) -> int:
     args.configs = args.configs or (["1:process", "2:process"] if args.part == "ur10"
                                     else ["1:thread", "2:thread", "2:process"])
     args.reps = args.reps or {"hosts": 2, "deploy": 1, "ur10": 1}.get(args.part, 3)
+    from services.learner.config import RUNNERS
+
+    for conf in args.configs:
+        jobs, _, runner = conf.partition(":")
+        if not (jobs.isdigit() and int(jobs) >= 1 and runner in RUNNERS):
+            p.error(f"--configs: {conf!r} is not JOBS:RUNNER (JOBS >= 1, RUNNER one of {', '.join(RUNNERS)})")
     if args.part == "hosts-client":
         return part_hosts_client(args)
     started = time.perf_counter()
