@@ -28,7 +28,7 @@ import torch
 from ..data.demos import DemoSet, Demonstration
 from ..model.cnmp import CNMP
 from ..model.episodes import Episode
-from ..model.optim_step import FusedAdam, Stepper
+from ..model.optim_step import FusedAdam, Stepper, adam
 from ..model.training import TrainConfig, check_stop, cosine_lr, make_sampler, nll_loss, set_lr
 from ..threads import with_training_threads
 from ..validation import check_array
@@ -89,7 +89,7 @@ def assimilate(model: CNMP, demos: DemoSet, solution: Demonstration, cfg: Assimi
         anchor = Episode(q.obs_x, q.obs_mask, q.tgt_x, y)
     if optimizer is not None:
         set_lr(optimizer, cfg.lr)
-    opt = Stepper(optimizer or FusedAdam(model.parameters(), lr=cfg.lr))
+    opt = Stepper(optimizer or adam(model.parameters(), lr=cfg.lr))
     losses = []
     model.train()
     for step in range(1, cfg.steps + 1):

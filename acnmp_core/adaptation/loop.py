@@ -55,7 +55,7 @@ import torch
 
 from ..data.demos import DemoSet
 from ..model.cnmp import CNMP, Query
-from ..model.optim_step import FusedAdam, Stepper
+from ..model.optim_step import Stepper, adam
 from ..model.training import TrainConfig, make_sampler, nll_loss
 from ..rollout import RolloutBatch, RolloutEvaluator
 from ..threads import with_training_threads
@@ -85,8 +85,8 @@ class _Updater:
         params = list(model.parameters()) if params is None else params
         # Separate Adam moments for the RL and the SL steps: their gradients differ in scale by
         # orders of magnitude, and a shared second moment lets the larger one silence the other.
-        self.opt_rl = Stepper(FusedAdam(params, lr=cfg.lr))
-        self.opt_sl = Stepper(FusedAdam(params, lr=cfg.sl_lr))
+        self.opt_rl = Stepper(adam(params, lr=cfg.lr))
+        self.opt_sl = Stepper(adam(params, lr=cfg.sl_lr))
 
     def mean(self) -> torch.Tensor:
         """Current mean (T, D), normalised units, no gradient."""

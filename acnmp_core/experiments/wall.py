@@ -49,7 +49,7 @@ from ..baselines.promp_rl import AdaptiveProMP, PrompRLConfig, promp_rl
 from ..baselines.promp_selfimprove import GPWeights, SelfImproveConfig, fit_gp, initial_distribution, pro
 from ..data.demos import Demonstration, DemoSet
 from ..model.cnmp import CNMP, CNMPConfig
-from ..model.optim_step import FusedAdam
+from ..model.optim_step import adam
 from ..model.training import TrainConfig, train
 from ..rollout import RolloutBatch
 from ..rollout import RolloutEvaluator
@@ -205,7 +205,7 @@ class _AcnmpLearner:
         if keep_optimizer:
             # One Adam for the skill's whole life: a fresh one per assimilation moves every weight
             # by about the full rate in its first steps, and hundreds of assimilations shake the skill.
-            self.opt = FusedAdam(self.model.parameters(), lr=train_cfg.lr)
+            self.opt = adam(self.model.parameters(), lr=train_cfg.lr)
         train(self.model, self.demos, train_cfg, seed=seed, progress=progress, optimizer=self.opt)
 
     def generate(self, task_params: np.ndarray) -> np.ndarray:
@@ -231,7 +231,7 @@ class _AcnmpLearner:
             if self.assimilate_from == "adapted":
                 self.model = candidate
                 if self.opt is not None:
-                    self.opt = FusedAdam(self.model.parameters(), lr=self.assimilation.lr)
+                    self.opt = adam(self.model.parameters(), lr=self.assimilation.lr)
             self.demos, _ = assimilate(self.model, self.demos, solution, self.assimilation, conditions=target,
                                        seed=seed, optimizer=self.opt)
         return bool(res.success), used

@@ -8,6 +8,9 @@ torch._dynamo (about 1.9 s of CPU in every process that trains), and its ``step`
 long in Python (profiler scopes, hooks, lists rebuilt each step) as the kernel takes on these small
 networks.
 
+:func:`adam` is the library's default: a :class:`FusedAdam` over CPU parameters, torch's own
+fused Adam over parameters on another device.
+
 :class:`Stepper` drives any optimiser a caller hands in (``zero_grad`` and ``step``): a
 :class:`FusedAdam` directly, a fused ``torch.optim.Adam`` on the same short path once its first
 ordinary step has made its state, anything else (another optimiser, amsgrad, hooks, ...) through
@@ -89,6 +92,16 @@ class FusedAdam:
             ids = [index.setdefault(p, len(index)) for p in g["params"]]
             groups.append({**{k: v for k, v in g.items() if k != "params"}, "params": ids})
         return {"state": {index[p]: dict(s) for p, s in self.state.items()}, "param_groups": groups}
+
+
+def adam(params, lr: float) -> FusedAdam | torch.optim.Adam:
+    """A fused Adam at rate ``lr`` over ``params`` (an iterable of tensors): a :class:`FusedAdam`
+    when every parameter is a floating-point CPU tensor, else ``torch.optim.Adam(fused=True)``
+    (a model trained on another device), whose numbers are the same."""
+    params = list(params)
+    if all(p.device.type == "cpu" and p.is_floating_point() for p in params):
+        return FusedAdam(params, lr=lr)
+    return torch.optim.Adam(params, lr=lr, fused=True)
 
 
 def _plain_fused_adam(opt: torch.optim.Optimizer) -> bool:

@@ -16,7 +16,7 @@ from ..threads import with_training_threads
 from ..validation import check_lr_final, check_positive_int
 from .cnmp import CNMP
 from .episodes import Episode, EpisodeSampler
-from .optim_step import FusedAdam, Stepper
+from .optim_step import FusedAdam, Stepper, adam
 
 
 @dataclass
@@ -160,7 +160,7 @@ def train(
     cfg : hyper-parameters; defaults to :class:`TrainConfig`.
     seed : makes the run deterministic (sampling and validation split).
     progress : show a tqdm progress bar (on a terminal only).
-    optimizer : continue with an existing optimizer (default: a new :class:`~.optim_step.FusedAdam`).
+    optimizer : continue with an existing optimizer (default: a new one from :func:`~.optim_step.adam`).
     stop : when set (e.g. a service shutting down), InterruptedError at the next step; ``model``
         is then left part-trained, so the caller discards it.
     on_validation : called after each validation but the first as ``(step, mean training loss
@@ -186,7 +186,7 @@ def train(
         val_ep = val_sampler.sample(cfg.val_episodes, val_gen)
     else:
         val_ep = sampler.sample(cfg.val_episodes, val_gen)
-    opt = Stepper(optimizer or FusedAdam(model.parameters(), lr=cfg.lr))
+    opt = Stepper(optimizer or adam(model.parameters(), lr=cfg.lr))
     result = TrainResult()
     best_state = copy.deepcopy(model.state_dict())
     model.train()

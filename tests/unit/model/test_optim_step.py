@@ -9,7 +9,7 @@ import pytest
 import torch
 
 from acnmp_core.model.cnmp import CNMP, CNMPConfig
-from acnmp_core.model.optim_step import FusedAdam, Stepper
+from acnmp_core.model.optim_step import FusedAdam, Stepper, adam
 from acnmp_core.model.training import TrainConfig, make_sampler, nll_loss
 
 
@@ -122,3 +122,10 @@ def test_training_and_adaptation_leave_torch_dynamo_unimported():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr[-2000:]
+
+
+def test_the_default_adam_is_the_librarys_on_cpu_and_torchs_fused_elsewhere():
+    assert isinstance(adam([torch.zeros(3, requires_grad=True)], lr=1e-3), FusedAdam)
+    # parameters on another device (CUDA there; the meta device here) get torch's fused Adam
+    elsewhere = adam([torch.zeros(3, device="meta", requires_grad=True)], lr=1e-3)
+    assert type(elsewhere) is torch.optim.Adam and elsewhere.param_groups[0]["fused"]
