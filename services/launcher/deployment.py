@@ -5,10 +5,12 @@
 
 1. it opens its own peer session listening on the **anchor** ``tcp/127.0.0.1:<free port>``
    (multicast scouting off; services/transport/session.py explains the gossip mesh that follows);
-2. it starts each child as ``python -m services.<wing> --connect <anchor> --namespace NS``
-   (a fresh interpreter: zenoh sessions do not survive fork), each in its own session
-   (``start_new_session``) so a terminal's Ctrl-C reaches only the launcher, which then stops the
-   children in order, once each; the recorder is started and awaited first, so no event is lost;
+2. it starts each child as ``python -m services.<wing> --connect <anchor> --namespace NS``, each
+   in its own session so a terminal's Ctrl-C reaches only the launcher, which then stops the
+   children in order, once each; the recorder is started and awaited first, so no event is lost.
+   The learners, model processes and workers are forked by a spawner that imported their modules
+   (torch) once, before any zenoh session exists (services/launcher/spawner.py); the recorder, and
+   any child whose environment differs from the spawner's, is a fresh interpreter;
 3. it waits until every child's liveliness token is seen (a child that exits first is reported
    as :class:`ChildExited`, whose first line carries the child's last error line), then reports
    each problem a live process states (a learner's quarantined files) through ``report``;
@@ -64,6 +66,7 @@ from services.transport.state_dir import DirectoryLock
 
 from .announce import Announcement, check_namespace_free
 from .processes import entry_module
+from .spawner import SpawnedProcess, Spawner, SpawnerGone
 from .supervision import RestartPolicy, Supervisor
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -90,7 +93,7 @@ class Child:
 
     name: str
     argv: list[str]
-    proc: subprocess.Popen
+    proc: subprocess.Popen | SpawnedProcess
     token: str
     serves: list[str] = field(default_factory=list)
     log: Path | None = None
@@ -123,6 +126,8 @@ class LocalDeployment:
         ``<state_dir>/secrets`` (mode 0700, removed at stop) and writes no run file.
     supervise : restart children that die (``restart_policy``, default :class:`RestartPolicy`);
         ``report(line)`` gets a line per restart (default: the log).
+    fork_server : fork the learners, model processes and workers from a spawner that imported
+        torch once (services/launcher/spawner.py); False: every child is a fresh interpreter.
 
     Attributes once started: ``session`` (the launcher's open session, usable by clients),
     ``anchor`` (endpoint to ``--connect`` to), ``children`` ({name: Child}), ``supervisor``
@@ -138,7 +143,7 @@ class LocalDeployment:
                  learner_args: Sequence[str] = (), secure: bool = False, announce: bool | None = None,
                  supervise: bool = True, restart_policy: RestartPolicy | None = None,
                  report: Callable[[str], None] | None = None, viewer: bool = False, model_processes: int = 1,
-                 learners: int = 1):
+                 learners: int = 1, fork_server: bool = True):
         self.robot = robot_spec(robot).kind  # UnknownRobotError (a ValueError) for a kind not registered
         if workers < 0:
             raise ValueError(f"workers: expected >= 0, got {workers}")
@@ -179,6 +184,8 @@ class LocalDeployment:
         self.session: zenoh.Session | None = None
         self.anchor = ""
         self._stack = contextlib.ExitStack()
+        self.fork_server = bool(fork_server)
+        self._spawner: Spawner | None = None
         self.secure = bool(secure)
         announce = self.secure if announce is None else bool(announce)
         self.announcement = (Announcement(namespace, self.secure, None if announce else self.state_dir / "secrets")
@@ -191,11 +198,31 @@ class LocalDeployment:
         argv = [sys.executable, "-m", module, "--namespace", self.namespace, "--connect", self.anchor, *args]
         if self.announcement is not None:
             argv += self.announcement.child_args(name)
-        proc = _popen(argv, log)
+        proc = self._start_process(argv, log)
         child = Child(name, argv, proc, token, list(serves), log)
         with self._children_lock:
             self.children[name] = child
         return child
+
+    def _start_process(self, argv: list[str], log_file: Path) -> subprocess.Popen | SpawnedProcess:
+        """Start ``argv`` with its output appended to ``log_file``: forked by the spawner when it can
+        (services/launcher/spawner.py), else as a fresh interpreter (:func:`_popen`)."""
+        env = child_env()
+        if self._spawner is not None and self._spawner.usable_for(argv, env):
+            try:
+                return self._spawner.spawn(argv, log_file)
+            except SpawnerGone as exc:
+                log.warning("%s; starting %s as a new interpreter", exc, argv[2])
+        return _popen(argv, log_file, env)
+
+    def _start_spawner(self) -> None:
+        """Start the spawner for the learners, model processes and workers this deployment runs."""
+        modules = [entry_module(name) for name, wanted in (("learner", self.with_learner),
+                                                          ("model", self.with_model),
+                                                          ("worker", self.n_workers > 0)) if wanted]
+        if self.fork_server and modules:
+            self.log_dir.mkdir(parents=True, exist_ok=True)
+            self._spawner = Spawner(modules, child_env(), ROOT, self.log_dir / "spawner.log")
 
     def _wait_live(self, children: Sequence[Child]) -> None:
         deadline = time.monotonic() + self.start_timeout
@@ -239,6 +266,7 @@ class LocalDeployment:
             else:
                 self.session = self._stack.enter_context(open_session("peer", [self.anchor], multicast=False))
             keys = self.keys
+            self._start_spawner()  # it imports torch while the recorder starts
             if self.record is not None:
                 self.record.parent.mkdir(parents=True, exist_ok=True)
                 live = []
@@ -360,7 +388,7 @@ class LocalDeployment:
                 argv += ["--seen", argv[out]]
                 argv[out] = str(self.record.with_name(f"{self.record.stem}.{len(self.recordings)}{self.record.suffix}"))
                 self.recordings.append(Path(argv[out]))
-            child = Child(name, argv, _popen(argv, old.log), old.token, old.serves, old.log)
+            child = Child(name, argv, self._start_process(argv, old.log), old.token, old.serves, old.log)
             self.children[name] = child
             if self.announcement is not None and self.announcement.run is not None:
                 self._announce()  # the run file names each child's pid: `acnmp status` checks them
@@ -418,6 +446,9 @@ class LocalDeployment:
         self._terminate(recorder)
         self._reap(others, deadline)
         self._reap(recorder, time.monotonic() + self.stop_timeout)
+        if self._spawner is not None:
+            self._spawner.close()
+            self._spawner = None
         self._stack.close()
         self.session = None
         recordings = list(self.recordings)
@@ -490,10 +521,9 @@ def child_env() -> dict[str, str]:
     return env
 
 
-def _popen(argv: list[str], log: Path) -> subprocess.Popen:
+def _popen(argv: list[str], log: Path, env: dict[str, str]) -> subprocess.Popen:
     """Start a child in its own session (a terminal's Ctrl-C reaches only the launcher), output to ``log``;
     it watches the launcher's pid (services.transport.lifetime.watch_parent)."""
-    env = child_env()
     with open(log, "ab") as out:
         return subprocess.Popen(argv, cwd=ROOT, env=env, stdin=subprocess.DEVNULL, stdout=out,
                                 stderr=subprocess.STDOUT, start_new_session=True)
