@@ -16,11 +16,9 @@ import threading
 from pathlib import Path
 
 import pytest
-import torch
 from tests.selection import add_options, deselect
 
 os.environ.setdefault("RERUN_ANALYTICS", "0")
-torch.set_num_threads(1)
 
 E2E = Path(__file__).parent / "e2e"
 
@@ -34,6 +32,15 @@ def pytest_collection_modifyitems(config, items):
         if E2E in Path(str(item.fspath)).parents:
             item.add_marker(pytest.mark.e2e)
     deselect(config, items)
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _one_torch_thread():
+    """One torch thread in every process that runs tests (not at import: pytest-xdist's controller,
+    which runs none, then starts its workers without importing torch first)."""
+    import torch
+
+    torch.set_num_threads(1)
 
 
 @pytest.fixture(scope="session", autouse=True)

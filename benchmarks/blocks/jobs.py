@@ -243,3 +243,17 @@ def scaling_sizing() -> str:
         + f". The first to saturate: **{first}**, at {cap[first] / f['jobs_s']:.1f}x this hour's load.",
     ]
     return "\n".join(lines)
+
+
+@renderer("spawner")
+def spawner() -> str:
+    """A deployment's start with and without the spawner (bench_spawner.json)."""
+    r = load("bench_spawner")
+    rows = [[label, _median(r["summary"][key]["ready_s"]), _median(r["summary"][key]["cpu_s"])]
+            for key, label in (("spawner", "forked by the spawner (the default)"),
+                               ("fresh", "each a fresh interpreter (`fork_server=False`)"))]
+    ratio = r["ratio_spawner_to_fresh"]
+    rows.append(["spawner / fresh interpreters, paired by round", _median(ratio["ready_s"]), _median(ratio["cpu_s"])])
+    return block(r, "bench_spawner", ["learner, model, workers", "up after (s)", "CPU of all its processes by then (s)"],
+                 rows, f"Median (min-max) of {r['config']['reps']} starts each, alternately; a deployment of "
+                       f"{', '.join(r['config']['processes'])}; the spawner's own CPU counted.")

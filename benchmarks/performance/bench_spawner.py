@@ -58,7 +58,7 @@ def _spread(values) -> dict:
 def main() -> int:
     args = benchmark_args(__doc__, "bench_spawner", None, reps=(5, "deployments started per setting"),
                           workers=(2, "point2d workers per deployment"))
-    prov = provenance()
+    prov, t0 = provenance(), time.perf_counter()
     runs: dict[str, list[dict]] = {name: [] for name in SETTINGS}
     for _ in range(args.reps):
         for name, fork in SETTINGS.items():
@@ -70,6 +70,7 @@ def main() -> int:
     result = {"provenance": prov, "config": {"reps": args.reps, "workers": args.workers,
                                              "processes": ["recorder", "learner", "model", f"{args.workers} workers"]},
               "summary": summary, "ratio_spawner_to_fresh": ratios, "runs": runs,
+              "wall_time_s": round(time.perf_counter() - t0, 1),
               "headline": (f"a deployment's start: {summary['spawner']['cpu_s']['median']:.1f} CPU s with the spawner, "
                            f"{summary['fresh']['cpu_s']['median']:.1f} without (x{ratios['cpu_s']['median']:.2f}); "
                            f"up in {summary['spawner']['ready_s']['median']:.1f} s against "
