@@ -66,7 +66,7 @@ from services.transport.state_dir import DirectoryLock
 
 from .announce import Announcement, check_namespace_free
 from .processes import entry_module
-from .spawner import SpawnedProcess, Spawner, SpawnerGone
+from .spawner import FORK_SERVER_AVAILABLE, SpawnedProcess, Spawner, SpawnerGone
 from .supervision import RestartPolicy, Supervisor
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -220,7 +220,7 @@ class LocalDeployment:
         modules = [entry_module(name) for name, wanted in (("learner", self.with_learner),
                                                           ("model", self.with_model),
                                                           ("worker", self.n_workers > 0)) if wanted]
-        if self.fork_server and modules:
+        if self.fork_server and modules and FORK_SERVER_AVAILABLE:
             self.log_dir.mkdir(parents=True, exist_ok=True)
             self._spawner = Spawner(modules, child_env(), ROOT, self.log_dir / "spawner.log")
 

@@ -38,6 +38,8 @@ import threading
 from pathlib import Path
 from typing import Mapping, Sequence
 
+from services.transport.lifetime import PARENT_PID_ENV
+
 log = logging.getLogger(__name__)
 
 #: The processes the launcher starts through the spawner (``python -m`` module -> what the spawner
@@ -47,7 +49,9 @@ FORKABLE: dict[str, str] = {
     "services.model": "services.model.service",
     "services.worker": "services.worker.service",
 }
-PARENT_PID_ENV = "ACNMP_PARENT_PID"  # services.transport.lifetime's, not imported: that module is light but not this one's
+#: Whether this system has what the spawner needs: fork and pidfds (Linux 5.3 and later). Where it
+#: has not, the launcher starts every child as a fresh interpreter.
+FORK_SERVER_AVAILABLE = hasattr(os, "fork") and hasattr(os, "pidfd_open") and hasattr(signal, "pidfd_send_signal")
 
 
 # ----- the spawner process ------------------------------------------------------------------------
