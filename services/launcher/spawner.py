@@ -129,39 +129,47 @@ class SpawnedProcess:
         self.pid, self.args = pid, args
         self.returncode: int | None = None
         self._exited = threading.Event()
+        self._fd_lock = threading.Lock()  # a signal never goes through a pidfd closed (and its number reused) meanwhile
         try:
             self._pidfd: int | None = os.pidfd_open(pid)
         except ProcessLookupError:  # it exited and was reaped already: the exit report follows
             self._pidfd = None
 
     def _exit(self, code: int) -> None:
-        self.returncode = code
-        if self._pidfd is not None:
-            os.close(self._pidfd)
-            self._pidfd = None
+        with self._fd_lock:
+            self.returncode = code
+            if self._pidfd is not None:
+                os.close(self._pidfd)
+                self._pidfd = None
         self._exited.set()
 
     def poll(self) -> int | None:
+        """The exit code once the spawner reported the child's exit, else None."""
         return self.returncode
 
     def wait(self, timeout: float | None = None) -> int:
+        """Block until the child exited (at most ``timeout`` s: :class:`subprocess.TimeoutExpired`);
+        its exit code."""
         if not self._exited.wait(timeout):
             raise subprocess.TimeoutExpired(self.args, timeout)
         return self.returncode
 
     def send_signal(self, sig: int) -> None:
-        fd = self._pidfd
-        if self.returncode is not None or fd is None:
-            return
-        try:
-            signal.pidfd_send_signal(fd, sig)
-        except ProcessLookupError:
-            pass
+        """Send ``sig`` to the child through its pidfd; nothing once it exited."""
+        with self._fd_lock:
+            if self.returncode is not None or self._pidfd is None:
+                return
+            try:
+                signal.pidfd_send_signal(self._pidfd, sig)
+            except ProcessLookupError:  # exited, not yet reported
+                pass
 
     def terminate(self) -> None:
+        """SIGTERM."""
         self.send_signal(signal.SIGTERM)
 
     def kill(self) -> None:
+        """SIGKILL."""
         self.send_signal(signal.SIGKILL)
 
 
