@@ -121,7 +121,7 @@ def e1_model(e1_demos, tmp_path_factory):
 
 
 #: E1's size in the tests that run it across a deployment: (seed, budget, train steps).
-E1_SMALL = (2, 10, 300)
+E1_SMALL = (2, 10, 100)
 
 
 @pytest.fixture(scope="session")

@@ -19,8 +19,9 @@ from clients.cli import main
 from clients.distributed import DeployedSkill
 from services.recording.replay import summarize
 from services.recording.tables import read_recording
+from tests.conftest import E1_SMALL
 
-SEED, BUDGET, STEPS = 2, 10, 300  # E1_SMALL of tests/conftest.py: e1_small_run is its in-process run
+SEED, BUDGET, STEPS = E1_SMALL  # e1_small_run (tests/conftest.py) is its in-process run
 ARGS = ["--seeds", f"{SEED}-{SEED}", "--budget", str(BUDGET), "--train-steps", str(STEPS), "--quiet"]
 METHODS = ("lfd_only", "rl_only", "acnmp")
 
@@ -47,7 +48,7 @@ def test_distributed_e1_matches_in_process_and_its_recording_is_data(tmp_path, v
         return real_adapt(self, setup, method, cfg, seed, assimilation)
 
     monkeypatch.setattr(DeployedSkill, "adapt", adapt)
-    local = e1_small_run  # seed 2, budget 10, 300 steps: SEED, BUDGET, STEPS
+    local = e1_small_run  # SEED, BUDGET, STEPS
     assert main(["experiment", "viapoint", *ARGS, "--distributed", "--workers", "2",
                  "--record", str(rrd), "--json", str(dist)]) == 0
     assert len(killed) == 1

@@ -30,7 +30,7 @@ from services.recording.replay import summarize
 WHY_NOT = netns.unavailable_reason()
 pytestmark = pytest.mark.skipif(WHY_NOT is not None, reason=f"no network namespaces here: {WHY_NOT}")
 
-SEED, BUDGET, STEPS = 2, 10, 300  # E1_SMALL of tests/conftest.py: e1_small_run is its in-process run
+SEED, BUDGET, STEPS = E1_SMALL  # e1_small_run (tests/conftest.py) is its in-process run
 METHODS = ("lfd_only", "rl_only", "acnmp")
 CUT_SECONDS = 10.0
 #: An operator's process on the client host, one session for all it is asked (each request a JSON
@@ -42,6 +42,7 @@ import json, sys, numpy as np
 from clients.client import ACNMPClient
 from services.transport import wait_for_liveliness
 from services.worker.remote import RemoteEvaluator
+from tests.conftest import E1_SMALL
 with ACNMPClient(sys.argv[1], config_file=sys.argv[2], role="operator", timeout=30) as client:
     for line in sys.stdin:
         ask = json.loads(line)

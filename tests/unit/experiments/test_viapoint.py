@@ -8,7 +8,7 @@ from clients.cli import main
 
 def test_viapoint_cli_writes_json_and_plots(tmp_path, saved_figures):
     out, png = tmp_path / "e1.json", tmp_path / "e1.png"
-    code = main(["experiment", "viapoint", "--seeds", "1-1", "--budget", "10", "--train-steps", "300",
+    code = main(["experiment", "viapoint", "--seeds", "1-1", "--budget", "10", "--train-steps", "100",
                  "--json", str(out), "--plot", str(png), "--quiet"])
     assert code == 0
     s = json.loads(out.read_text())
