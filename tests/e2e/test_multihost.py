@@ -26,6 +26,7 @@ from services.launcher.multihost import MultiHostDeployment
 from services.learner.ownership import owner_of
 from services.learner.store import demo_set_to_arrays
 from services.recording.replay import summarize
+from tests.conftest import E1_SMALL
 
 WHY_NOT = netns.unavailable_reason()
 pytestmark = pytest.mark.skipif(WHY_NOT is not None, reason=f"no network namespaces here: {WHY_NOT}")
@@ -42,7 +43,6 @@ import json, sys, numpy as np
 from clients.client import ACNMPClient
 from services.transport import wait_for_liveliness
 from services.worker.remote import RemoteEvaluator
-from tests.conftest import E1_SMALL
 with ACNMPClient(sys.argv[1], config_file=sys.argv[2], role="operator", timeout=30) as client:
     for line in sys.stdin:
         ask = json.loads(line)
