@@ -44,8 +44,8 @@ def start_once(fork_server: bool, workers: int) -> dict:
         try:
             ready = time.perf_counter() - t0
             cpu = {name: _cpu(child.pid) for name, child in dep.children.items()}
-            if dep._spawner is not None:
-                cpu["spawner"] = _cpu(dep._spawner._proc.pid)
+            if dep.spawner_pid is not None:
+                cpu["spawner"] = _cpu(dep.spawner_pid)
         finally:
             dep.stop()
     return {"ready_s": ready, "cpu_s": sum(cpu.values()), "cpu_by_process": cpu}

@@ -344,6 +344,12 @@ class LocalDeployment:
             lines.append(f"  {'':<18} {'':>7}    log: {c.log}")
         return "\n".join(lines)
 
+    @property
+    def spawner_pid(self) -> int | None:
+        """The pid of the spawner that forks this deployment's learners, model processes and
+        workers (services/launcher/spawner.py); None without one."""
+        return None if self._spawner is None else self._spawner.pid
+
     def learner_state_dir(self, learner_id: str) -> Path:
         """Where learner ``learner_id`` keeps its state: the deployment's state directory for the
         first, ``<state_dir>/learners/<id>`` for the others."""

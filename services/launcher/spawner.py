@@ -197,6 +197,11 @@ class Spawner:
         self._reader = threading.Thread(target=self._read, name="spawner-reader", daemon=True)
         self._reader.start()
 
+    @property
+    def pid(self) -> int:
+        """The spawner process's pid (the parent of every child it forked)."""
+        return self._proc.pid
+
     def usable_for(self, argv: Sequence[str], env: Mapping[str, str]) -> bool:
         """Whether ``python -m`` ``argv`` can be forked here: its module is one this spawner
         imported for, its environment is the spawner's, and the spawner runs."""

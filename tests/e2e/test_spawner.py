@@ -41,7 +41,7 @@ def test_signals_reach_the_child_and_its_exit_code_is_popens(spawner, tmp_path):
         child.wait(timeout=0.2)
     assert child.poll() is None
     proc = psutil.Process(child.pid)
-    assert proc.ppid() == spawner._proc.pid
+    assert proc.ppid() == spawner.pid
     assert " ".join(proc.cmdline()).startswith(" ".join(argv))  # what `ps` shows: the command it replaces
     assert os.getsid(child.pid) == child.pid != os.getsid(0)  # a session of its own: no terminal's Ctrl-C
     child.kill()
@@ -77,7 +77,7 @@ def test_a_closed_spawner_refuses_and_only_matching_environments_are_forked(tmp_
 
 def test_a_deployments_learner_model_and_workers_are_forks_and_a_respawn_is_too(tmp_path):
     with LocalDeployment("forked", workers=1, state_dir=tmp_path / "state", supervise=False) as dep:
-        spawner = dep._spawner._proc.pid
+        spawner = dep.spawner_pid
         for name in ("learner", "model", "worker-point2d-0"):
             assert psutil.Process(dep.children[name].pid).ppid() == spawner, name
         dep.kill("worker-point2d-0")
@@ -87,4 +87,4 @@ def test_a_deployments_learner_model_and_workers_are_forks_and_a_respawn_is_too(
     assert not psutil.pid_exists(spawner) or psutil.Process(spawner).status() == psutil.STATUS_ZOMBIE
     with LocalDeployment("fresh", workers=1, model=False, learner=False, state_dir=tmp_path / "s2",
                          fork_server=False) as dep:
-        assert dep._spawner is None and psutil.Process(dep.children["worker-point2d-0"].pid).ppid() == os.getpid()
+        assert dep.spawner_pid is None and psutil.Process(dep.children["worker-point2d-0"].pid).ppid() == os.getpid()
