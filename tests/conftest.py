@@ -44,6 +44,18 @@ def _one_torch_thread():
 
 
 @pytest.fixture(scope="session", autouse=True)
+def _one_spawner_per_test_process(tmp_path_factory):
+    """The deployments a test process starts fork their learners, model processes and workers from
+    one spawner (services.launcher.deployment.share_spawner): torch is imported once per pytest
+    worker, not once per deployment."""
+    from services.launcher.deployment import share_spawner
+
+    share_spawner(tmp_path_factory.getbasetemp() / "spawner.log", per_child_env=["PYTEST_CURRENT_TEST"])
+    yield
+    share_spawner(None)
+
+
+@pytest.fixture(scope="session", autouse=True)
 def _user_state_home(tmp_path_factory):
     """Deployments started without --state-dir keep their state under this run's temporary
     directory, never in the user's own ~/.local/state/acnmp."""

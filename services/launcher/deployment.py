@@ -9,8 +9,9 @@
    in its own session so a terminal's Ctrl-C reaches only the launcher, which then stops the
    children in order, once each; the recorder is started and awaited first, so no event is lost.
    The learners, model processes and workers are forked by a spawner that imported their modules
-   (torch) once, before any zenoh session exists (services/launcher/spawner.py); the recorder, and
-   any child whose environment differs from the spawner's, is a fresh interpreter;
+   (torch) once, before any zenoh session exists (services/launcher/spawner.py; one for all the
+   deployments of a process with :func:`share_spawner`); the recorder, and any child whose
+   environment differs from the spawner's (but for ``PER_CHILD_ENV``), is a fresh interpreter;
 3. it waits until every child's liveliness token is seen (a child that exits first is reported
    as :class:`ChildExited`, whose first line carries the child's last error line), then reports
    each problem a live process states (a learner's quarantined files) through ``report``;
@@ -49,7 +50,7 @@ import time
 import uuid
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, Sequence
+from typing import Callable, Iterable, Sequence
 
 import zenoh
 
@@ -66,7 +67,7 @@ from services.transport.state_dir import DirectoryLock
 
 from .announce import Announcement, check_namespace_free
 from .processes import entry_module
-from .spawner import FORK_SERVER_AVAILABLE, SpawnedProcess, Spawner, SpawnerGone
+from .spawner import FORK_SERVER_AVAILABLE, FORKABLE, PER_CHILD_ENV, SpawnedProcess, Spawner, SpawnerGone
 from .supervision import RestartPolicy, Supervisor
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -127,7 +128,8 @@ class LocalDeployment:
     supervise : restart children that die (``restart_policy``, default :class:`RestartPolicy`);
         ``report(line)`` gets a line per restart (default: the log).
     fork_server : fork the learners, model processes and workers from a spawner that imported
-        torch once (services/launcher/spawner.py); False: every child is a fresh interpreter.
+        torch once (services/launcher/spawner.py; the process's kept one with
+        :func:`share_spawner`); False: every child is a fresh interpreter.
 
     Attributes once started: ``session`` (the launcher's open session, usable by clients),
     ``anchor`` (endpoint to ``--connect`` to), ``children`` ({name: Child}), ``supervisor``
@@ -186,6 +188,7 @@ class LocalDeployment:
         self._stack = contextlib.ExitStack()
         self.fork_server = bool(fork_server)
         self._spawner: Spawner | None = None
+        self._owns_spawner = False  # a kept spawner (share_spawner) outlives the deployment
         self.secure = bool(secure)
         announce = self.secure if announce is None else bool(announce)
         self.announcement = (Announcement(namespace, self.secure, None if announce else self.state_dir / "secrets")
@@ -210,7 +213,7 @@ class LocalDeployment:
         env = child_env()
         if self._spawner is not None and self._spawner.usable_for(argv, env):
             try:
-                return self._spawner.spawn(argv, log_file)
+                return self._spawner.spawn(argv, log_file, env)
             except SpawnerGone as exc:
                 log.warning("%s; starting %s as a new interpreter", exc, argv[2])
         return _popen(argv, log_file, env)
@@ -221,8 +224,12 @@ class LocalDeployment:
                                                           ("model", self.with_model),
                                                           ("worker", self.n_workers > 0)) if wanted]
         if self.fork_server and modules and FORK_SERVER_AVAILABLE:
-            self.log_dir.mkdir(parents=True, exist_ok=True)
-            self._spawner = Spawner(modules, child_env(), ROOT, self.log_dir / "spawner.log")
+            env = child_env()
+            self._spawner = _kept_spawner(env)
+            self._owns_spawner = self._spawner is None
+            if self._spawner is None:
+                self.log_dir.mkdir(parents=True, exist_ok=True)
+                self._spawner = Spawner(modules, env, ROOT, self.log_dir / "spawner.log")
 
     def _wait_live(self, children: Sequence[Child]) -> None:
         deadline = time.monotonic() + self.start_timeout
@@ -452,9 +459,9 @@ class LocalDeployment:
         self._terminate(recorder)
         self._reap(others, deadline)
         self._reap(recorder, time.monotonic() + self.stop_timeout)
-        if self._spawner is not None:
+        if self._spawner is not None and self._owns_spawner:
             self._spawner.close()
-            self._spawner = None
+        self._spawner = None
         self._stack.close()
         self.session = None
         recordings = list(self.recordings)
@@ -510,6 +517,49 @@ class LocalDeployment:
 
     def __exit__(self, *exc) -> None:
         self.stop()
+
+
+class _Kept:
+    """The spawner this process keeps for its deployments (:func:`share_spawner`)."""
+
+    lock = threading.Lock()
+    log_file: Path | None = None  # None: not sharing
+    per_child: frozenset[str] = PER_CHILD_ENV
+    spawner: Spawner | None = None
+
+
+def share_spawner(log_file: str | os.PathLike | None, per_child_env: Iterable[str] = ()) -> None:
+    """Keep one spawner for every :class:`LocalDeployment` this process starts, its output appended
+    to ``log_file``; ``None``: close it and give each deployment its own again (close it when no
+    deployment runs: a child still running stops once its spawner has exited, as it watches it).
+
+    For a process that starts many deployments (a test session, a benchmark): torch is then imported
+    once per process instead of once per deployment. The first deployment that forks starts it, with
+    every module of :data:`~services.launcher.spawner.FORKABLE`; a later one forks from it when its
+    children's environment is the spawner's but for
+    :data:`~services.launcher.spawner.PER_CHILD_ENV` and ``per_child_env`` (variables of the
+    caller's that change between its deployments and that no service reads at import), else it
+    starts its own as without sharing. The kept spawner exits with this process, and so do the
+    children it forked."""
+    with _Kept.lock:
+        spawner, _Kept.spawner = _Kept.spawner, None
+        _Kept.log_file = None if log_file is None else Path(log_file)
+        _Kept.per_child = PER_CHILD_ENV | frozenset(per_child_env)
+    if spawner is not None:
+        spawner.close()
+
+
+def _kept_spawner(env: dict[str, str]) -> Spawner | None:
+    """The kept spawner (started now if there is none running) when sharing and it can fork children
+    of environment ``env``; else None."""
+    with _Kept.lock:
+        if _Kept.log_file is None:
+            return None
+        if _Kept.spawner is None or not _Kept.spawner.running:
+            _Kept.log_file.parent.mkdir(parents=True, exist_ok=True)
+            _Kept.spawner = Spawner(list(FORKABLE), env, ROOT, _Kept.log_file, per_child_env=_Kept.per_child)
+        probe = [sys.executable, "-m", next(iter(FORKABLE))]
+        return _Kept.spawner if _Kept.spawner.usable_for(probe, env) else None
 
 
 def child_env() -> dict[str, str]:

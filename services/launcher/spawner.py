@@ -12,11 +12,17 @@ runtime; :data:`FORKABLE` lists what the launcher sends here), and every child o
 session after the fork.
 
 Protocol, one JSON object per line: the launcher writes ``{"argv": [python, "-m", module, ...],
-"log": path}`` on the spawner's stdin; the spawner answers ``{"pid": N}`` on its stdout once the
-child exists, and ``{"exit": N, "code": C}`` when it has reaped it (``C`` as
+"log": path, "env": {...}}`` on the spawner's stdin; the spawner answers ``{"pid": N}`` on its
+stdout once the child exists, and ``{"exit": N, "code": C}`` when it has reaped it (``C`` as
 :attr:`subprocess.Popen.returncode`: minus the signal that killed it). The spawner exits when its
 stdin closes (the launcher stopped, or died: its children then see their parent change and stop,
 services/transport/lifetime.py). Each child's ``ACNMP_PARENT_PID`` names the spawner.
+
+A child's environment is the request's: it may differ from the spawner's only in the variables of
+:data:`PER_CHILD_ENV` (and those its launcher adds: :attr:`Spawner.per_child_env`), which the
+services read when they run and never when their modules are imported (the spawner imported them
+with its own environment). So one spawner can serve several
+deployments of one process (a test session, a benchmark: :func:`services.launcher.deployment.share_spawner`).
 
 :class:`Spawner` is the launcher's side; :class:`SpawnedProcess` behaves as the
 :class:`subprocess.Popen` of a child (``pid``, ``poll``, ``wait``, ``send_signal``, ``kill``,
@@ -52,6 +58,16 @@ FORKABLE: dict[str, str] = {
 #: Whether this system has what the spawner needs: fork and pidfds (Linux 5.3 and later). Where it
 #: has not, the launcher starts every child as a fresh interpreter.
 FORK_SERVER_AVAILABLE = hasattr(os, "fork") and hasattr(os, "pidfd_open") and hasattr(signal, "pidfd_send_signal")
+#: Environment variables a forked child may have values of its own for (see :meth:`Spawner.usable_for`):
+#: where a deployment keeps its run files, state, caches and host name, and whom it watches; read when
+#: a service runs, never at import.
+PER_CHILD_ENV = frozenset({"ACNMP_RUNTIME_DIR", "ACNMP_PARENT_PID", "ACNMP_CACHE", "ACNMP_HOST",
+                           "XDG_STATE_HOME", "XDG_RUNTIME_DIR"})
+
+
+def _import_env(env: Mapping[str, str], per_child: frozenset[str]) -> dict[str, str]:
+    """``env`` without the variables ``per_child``: what the spawner's imports may have depended on."""
+    return {k: v for k, v in env.items() if k not in per_child}
 
 
 # ----- the spawner process ------------------------------------------------------------------------
@@ -100,6 +116,10 @@ def serve(preload: Sequence[str]) -> dict | None:
 def run_child(request: dict) -> None:
     """In a forked child: a session of its own, stdin from /dev/null, output appended to the
     request's log, the spawner as the parent to watch; then ``python -m`` the request's module."""
+    argv = request["argv"]
+    import setproctitle  # here, not at the top: the title is the child's business
+
+    setproctitle.setproctitle(" ".join(argv))  # what `ps` shows: the command it replaces, not the spawner's
     os.setsid()
     null = os.open(os.devnull, os.O_RDONLY)
     out = os.open(request["log"], os.O_WRONLY | os.O_CREAT | os.O_APPEND, 0o644)
@@ -108,11 +128,10 @@ def run_child(request: dict) -> None:
     os.dup2(out, 2)
     os.close(null)
     os.close(out)
+    if "env" in request:
+        os.environ.clear()
+        os.environ.update(request["env"])
     os.environ[PARENT_PID_ENV] = str(os.getppid())
-    argv = request["argv"]
-    import setproctitle  # here, not at the top: the title is the child's business
-
-    setproctitle.setproctitle(" ".join(argv))  # what `ps` shows: the command it replaces, not the spawner's
     sys.argv = [argv[0], *argv[3:]]
     runpy.run_module(argv[2], run_name="__main__", alter_sys=True)
 
@@ -178,11 +197,15 @@ class Spawner:
 
     ``modules``: the ``python -m`` modules it will start (keys of :data:`FORKABLE`); ``env`` and
     ``cwd``: its environment and directory, which every child it starts shares (:meth:`usable_for`);
-    ``log``: its own output. :meth:`spawn` starts a child and returns its :class:`SpawnedProcess`."""
+    ``log``: its own output; ``per_child_env``: the variables a child's environment may have values
+    of its own for (:data:`PER_CHILD_ENV` and any others no service reads at import). :meth:`spawn`
+    starts a child and returns its :class:`SpawnedProcess`."""
 
-    def __init__(self, modules: Sequence[str], env: Mapping[str, str], cwd: str | os.PathLike, log_file: Path):
+    def __init__(self, modules: Sequence[str], env: Mapping[str, str], cwd: str | os.PathLike, log_file: Path,
+                 per_child_env: frozenset[str] = PER_CHILD_ENV):
         self.modules = frozenset(m for m in modules if m in FORKABLE)
         self.env = dict(env)
+        self.per_child_env = frozenset(per_child_env) | PER_CHILD_ENV
         preload = sorted({FORKABLE[m] for m in self.modules} | {"services.transport.service"})
         with open(log_file, "ab") as err:
             self._proc = subprocess.Popen([sys.executable, "-m", __name__, *preload], cwd=cwd, env=self.env,
@@ -202,18 +225,27 @@ class Spawner:
         """The spawner process's pid (the parent of every child it forked)."""
         return self._proc.pid
 
+    @property
+    def running(self) -> bool:
+        """Whether the spawner is there to start children (it has not exited nor been closed)."""
+        return not self._gone
+
     def usable_for(self, argv: Sequence[str], env: Mapping[str, str]) -> bool:
         """Whether ``python -m`` ``argv`` can be forked here: its module is one this spawner
-        imported for, its environment is the spawner's, and the spawner runs."""
+        imported for, its environment is the spawner's but for :attr:`per_child_env`, and the
+        spawner runs."""
         return (not self._gone and len(argv) > 2 and argv[1] == "-m" and argv[2] in self.modules
-                and dict(env) == self.env)
+                and _import_env(env, self.per_child_env) == _import_env(self.env, self.per_child_env))
 
-    def spawn(self, argv: Sequence[str], log_file: Path, timeout: float = 60.0) -> SpawnedProcess:
-        """Fork ``argv`` (``[python, "-m", module, *args]``) with its output appended to ``log_file``;
+    def spawn(self, argv: Sequence[str], log_file: Path, env: Mapping[str, str] | None = None,
+              timeout: float = 60.0) -> SpawnedProcess:
+        """Fork ``argv`` (``[python, "-m", module, *args]``) with its output appended to ``log_file``
+        and ``env`` as its environment (default: the spawner's; see :meth:`usable_for`);
         :class:`SpawnerGone` if the spawner cannot."""
+        request = {"argv": list(argv), "log": str(log_file), "env": dict(self.env if env is None else env)}
         with self._lock:
             try:
-                self._proc.stdin.write((json.dumps({"argv": list(argv), "log": str(log_file)}) + "\n").encode())
+                self._proc.stdin.write((json.dumps(request) + "\n").encode())
                 self._proc.stdin.flush()
             except (BrokenPipeError, OSError, ValueError) as exc:
                 self._gone = True
@@ -252,7 +284,9 @@ class Spawner:
             threading.Thread(target=_await_exit, args=(child,), daemon=True).start()
 
     def close(self, timeout: float = 10.0) -> None:
-        """Close the spawner's stdin (it exits; children still running go on) and reap it."""
+        """Close the spawner's stdin (it exits; children still running then stop, as they watch
+        it: close it once they have exited) and reap it."""
+        self._gone = True
         try:
             self._proc.stdin.close()
         except OSError:

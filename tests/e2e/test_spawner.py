@@ -14,7 +14,7 @@ import psutil
 import pytest
 
 from services.launcher import LocalDeployment
-from services.launcher.deployment import ROOT, child_env
+from services.launcher.deployment import ROOT, child_env, share_spawner
 from services.launcher.spawner import Spawner, SpawnerGone
 
 
@@ -40,6 +40,7 @@ def test_signals_reach_the_child_and_its_exit_code_is_popens(spawner, tmp_path):
     with pytest.raises(subprocess.TimeoutExpired):
         child.wait(timeout=0.2)
     assert child.poll() is None
+    _wait_for_line(tmp_path / "w0.log", "worker live as", child)  # its title is set once it runs its module
     proc = psutil.Process(child.pid)
     assert proc.ppid() == spawner.pid
     assert " ".join(proc.cmdline()).startswith(" ".join(argv))  # what `ps` shows: the command it replaces
@@ -68,6 +69,8 @@ def test_a_closed_spawner_refuses_and_only_matching_environments_are_forked(tmp_
     argv = [sys.executable, "-m", "services.worker", "--help"]
     assert sp.usable_for(argv, child_env())
     assert not sp.usable_for(argv, {**child_env(), "EXTRA": "1"})  # another environment: a fresh interpreter
+    assert not sp.usable_for(argv, {**child_env(), "OMP_NUM_THREADS": "2"})  # read when torch is imported
+    assert sp.usable_for(argv, {**child_env(), "ACNMP_RUNTIME_DIR": str(tmp_path)})  # read at run time only
     assert not sp.usable_for([sys.executable, "-m", "services.recording"], child_env())  # rerun starts threads
     sp.close()
     with pytest.raises(SpawnerGone):
@@ -75,7 +78,16 @@ def test_a_closed_spawner_refuses_and_only_matching_environments_are_forked(tmp_
     assert not sp.usable_for(argv, child_env())
 
 
-def test_a_deployments_learner_model_and_workers_are_forks_and_a_respawn_is_too(tmp_path):
+@pytest.fixture
+def own_spawners(tmp_path):
+    """Each deployment starts (and stops) a spawner of its own during the test (the suite's
+    processes otherwise keep one: tests/conftest.py), as without share_spawner."""
+    share_spawner(None)
+    yield
+    share_spawner(tmp_path.parent / "spawner.log", per_child_env=["PYTEST_CURRENT_TEST"])
+
+
+def test_a_deployments_learner_model_and_workers_are_forks_and_a_respawn_is_too(tmp_path, own_spawners):
     with LocalDeployment("forked", workers=1, state_dir=tmp_path / "state", supervise=False) as dep:
         spawner = dep.spawner_pid
         for name in ("learner", "model", "worker-point2d-0"):
@@ -88,3 +100,32 @@ def test_a_deployments_learner_model_and_workers_are_forks_and_a_respawn_is_too(
     with LocalDeployment("fresh", workers=1, model=False, learner=False, state_dir=tmp_path / "s2",
                          fork_server=False) as dep:
         assert dep.spawner_pid is None and psutil.Process(dep.children["worker-point2d-0"].pid).ppid() == os.getpid()
+
+
+def test_a_child_gets_the_environment_it_was_spawned_with(spawner, tmp_path):
+    env = {**child_env(), "ACNMP_RUNTIME_DIR": str(tmp_path / "mine")}
+    log = tmp_path / "env.log"
+    child = spawner.spawn([sys.executable, "-m", "tests.e2e.spawned_env", "ACNMP_RUNTIME_DIR", "ACNMP_PARENT_PID"],
+                          log, env)
+    assert child.wait(timeout=60) == 0
+    # its own runtime directory; it watches the spawner, not the launcher
+    assert log.read_text().split() == [f"ACNMP_RUNTIME_DIR={tmp_path / 'mine'}", f"ACNMP_PARENT_PID={spawner.pid}"]
+
+
+def test_a_kept_spawner_serves_the_deployments_of_a_process_until_it_is_closed(tmp_path, own_spawners,
+                                                                               monkeypatch):
+    share_spawner(tmp_path / "kept.log", per_child_env=["PYTEST_CURRENT_TEST"])
+    pids = []
+    for run in ("a", "b"):  # each test's deployments have their own runtime directory
+        monkeypatch.setenv("ACNMP_RUNTIME_DIR", str(tmp_path / f"run-{run}"))
+        with LocalDeployment(f"kept-{run}", workers=1, model=False, state_dir=tmp_path / run, supervise=False) as dep:
+            pids.append(dep.spawner_pid)
+            assert psutil.Process(dep.children["worker-point2d-0"].pid).ppid() == dep.spawner_pid
+    kept = psutil.Process(pids[0])
+    assert pids[0] == pids[1] and kept.is_running()  # it outlived the first deployment
+    monkeypatch.setenv("PYTHONWARNINGS", "ignore")  # read as an interpreter starts: not the kept spawner's
+    with LocalDeployment("kept-c", workers=1, model=False, learner=False, state_dir=tmp_path / "c",
+                         supervise=False) as dep:
+        assert dep.spawner_pid not in (None, pids[0])
+    share_spawner(None)
+    assert not kept.is_running()  # closed: it exited
