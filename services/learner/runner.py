@@ -151,8 +151,6 @@ def _child_main(conn) -> None:
             task: AdaptTask = _get(conn)
         except (EOFError, OSError):  # the parent closed the pipe or died
             return
-        if task is None:
-            return
         try:
             result = adapt(task.model, task.demos, task.target, _ChildEvaluator(conn, task.credit), task.config,
                            seed=task.seed, on_iteration=lambda *args: _ask(conn, ("iteration", args)))
@@ -227,7 +225,6 @@ class ProcessRunner:
 
     def __init__(self, name: str = "job"):
         self.name = name
-        self._ctx = _context()
         self._proc, self._conn = _forked.pop(0) if _forked else (None, None)
         self._lock = threading.Lock()  # start() from two threads makes one child
 
@@ -240,8 +237,9 @@ class ProcessRunner:
     def _start(self) -> None:
         if self._proc is None or not self._proc.is_alive():
             self._discard()
-            parent, child = self._ctx.Pipe()
-            proc = self._ctx.Process(target=_child_main, args=(child,), name=f"acnmp-{self.name}", daemon=True)
+            ctx = _context()  # only when a child is started here: an adopted one came from fork_children
+            parent, child = ctx.Pipe()
+            proc = ctx.Process(target=_child_main, args=(child,), name=f"acnmp-{self.name}", daemon=True)
             proc.start()
             child.close()
             self._proc, self._conn = proc, parent
