@@ -43,14 +43,21 @@ def _one_torch_thread():
     torch.set_num_threads(1)
 
 
-@pytest.fixture(scope="session", autouse=True)
-def _one_spawner_per_test_process(tmp_path_factory):
-    """The deployments a test process starts fork their learners, model processes and workers from
-    one spawner (services.launcher.deployment.share_spawner): torch is imported once per pytest
-    worker, not once per deployment."""
+def share_one_spawner(tmp_path_factory) -> None:
+    """The deployments this test process starts fork their learners, model processes and workers
+    from one spawner (services.launcher.deployment.share_spawner): torch is imported once per
+    pytest worker, not once per deployment. Its log: ``<basetemp>/spawner.log``."""
     from services.launcher.deployment import share_spawner
 
     share_spawner(tmp_path_factory.getbasetemp() / "spawner.log", per_child_env=["PYTEST_CURRENT_TEST"])
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _one_spawner_per_test_process(tmp_path_factory):
+    """See :func:`share_one_spawner`; closed at the session's end."""
+    from services.launcher.deployment import share_spawner
+
+    share_one_spawner(tmp_path_factory)
     yield
     share_spawner(None)
 

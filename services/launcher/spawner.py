@@ -128,9 +128,8 @@ def run_child(request: dict) -> None:
     os.dup2(out, 2)
     os.close(null)
     os.close(out)
-    if "env" in request:
-        os.environ.clear()
-        os.environ.update(request["env"])
+    os.environ.clear()
+    os.environ.update(request["env"])
     os.environ[PARENT_PID_ENV] = str(os.getppid())
     sys.argv = [argv[0], *argv[3:]]
     runpy.run_module(argv[2], run_name="__main__", alter_sys=True)

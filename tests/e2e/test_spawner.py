@@ -16,6 +16,7 @@ import pytest
 from services.launcher import LocalDeployment
 from services.launcher.deployment import ROOT, child_env, share_spawner
 from services.launcher.spawner import Spawner, SpawnerGone
+from tests.conftest import share_one_spawner
 
 
 @pytest.fixture
@@ -40,7 +41,7 @@ def test_signals_reach_the_child_and_its_exit_code_is_popens(spawner, tmp_path):
     with pytest.raises(subprocess.TimeoutExpired):
         child.wait(timeout=0.2)
     assert child.poll() is None
-    _wait_for_line(tmp_path / "w0.log", "worker live as", child)  # its title is set once it runs its module
+    _wait_for_line(tmp_path / "w0.log", "worker live as", child)  # running: its title was set after the fork
     proc = psutil.Process(child.pid)
     assert proc.ppid() == spawner.pid
     assert " ".join(proc.cmdline()).startswith(" ".join(argv))  # what `ps` shows: the command it replaces
@@ -79,12 +80,12 @@ def test_a_closed_spawner_refuses_and_only_matching_environments_are_forked(tmp_
 
 
 @pytest.fixture
-def own_spawners(tmp_path):
+def own_spawners(tmp_path_factory):
     """Each deployment starts (and stops) a spawner of its own during the test (the suite's
     processes otherwise keep one: tests/conftest.py), as without share_spawner."""
     share_spawner(None)
     yield
-    share_spawner(tmp_path.parent / "spawner.log", per_child_env=["PYTEST_CURRENT_TEST"])
+    share_one_spawner(tmp_path_factory)
 
 
 def test_a_deployments_learner_model_and_workers_are_forks_and_a_respawn_is_too(tmp_path, own_spawners):
