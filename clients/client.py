@@ -319,16 +319,19 @@ class ACNMPClient:
     def jobs(self, limit: int = 100, timeout: float | None = None) -> list[JobSummary]:
         """The deployment's newest ``limit`` (1..1000) jobs, newest first (by ``created``). With
         several learners each answers for the jobs of its own skills; the answers of all that are
-        live are merged (asked again, until ``timeout``, while fewer answer than there are live
-        learner tokens: a fresh session may not know every learner yet)."""
+        live are merged: asked again, until ``timeout``, while a learner that a reply names live has
+        not answered, or fewer answered than there are live learner tokens (a fresh session may not
+        know every learner's queryable, nor every token, yet)."""
         timeout = self.timeout if timeout is None else float(timeout)
         deadline = time.monotonic() + timeout
         while True:
             replies = call_when_available(self.session, self.keys.jobs(), {"v": 1, "limit": int(limit)},
                                           max(deadline - time.monotonic(), 0.05), caller=call_all)
             remaining = deadline - time.monotonic()
-            if remaining <= 0 or len(replies) >= len(alive_tokens(self.session, self.keys.learner_token("*"),
-                                                                  min(remaining, 2.0))):
+            answered = {reply.get("learner") for reply in replies}
+            named = {lid for reply in replies for lid in reply.get("live", ())}
+            if remaining <= 0 or (named <= answered and len(replies) >= len(
+                    alive_tokens(self.session, self.keys.learner_token("*"), min(remaining, 2.0)))):
                 break
             time.sleep(0.1)
         rows = [JobSummary.from_reply(row) for reply in replies for row in reply["jobs"]]

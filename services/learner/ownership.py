@@ -121,6 +121,11 @@ class Ownership:
             elif learner != self.me:
                 self._live.discard(learner)
 
+    def live(self) -> list[str]:
+        """The ids of the learners whose tokens this learner sees live (itself among them), sorted."""
+        with self._lock:
+            return sorted(self._live)
+
     def decide(self, skill: str) -> str:
         """``"serve"``, ``"drop"``, or the id of the owner that is not live (see the class)."""
         owner = self.owner(skill)

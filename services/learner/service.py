@@ -296,7 +296,9 @@ class LearnerService:
         limit = (msg or {}).get("limit", DEFAULT_JOB_LIST)
         if isinstance(limit, bool) or not isinstance(limit, int) or not 1 <= limit <= MAX_JOB_LIST:
             raise WireError("bad_request", f"field 'limit': expected an integer in 1..{MAX_JOB_LIST}, got {limit!r}")
-        return {"v": 1, "jobs": self.core.list_jobs(limit), "total": len(self.core.jobs)}
+        # who answers, and whom it sees live: a client merges replies until every live learner's is in
+        return {"v": 1, "jobs": self.core.list_jobs(limit), "total": len(self.core.jobs),
+                "learner": self.learner_id, "live": self.ownership.live()}
 
     def _handle_cancel(self, _msg, query: zenoh.Query) -> dict:
         with _storage_errors("the job was not cancelled"):

@@ -29,10 +29,11 @@ def test_a_learner_serves_its_skills_leaves_a_live_owners_and_names_a_dead_one()
     me = Ownership("learner", LEARNERS)
     assert me.decide(mine) == "serve"
     assert me.decide(skill) == "learner-2"  # not seen live yet: answered unavailable, naming it
+    assert me.live() == ["learner"]  # what its job list names live: itself
     me.token_changed("learner-2", True)
-    assert me.decide(skill) == "drop"
+    assert me.decide(skill) == "drop" and me.live() == ["learner", "learner-2"]
     me.token_changed("learner-2", False)
-    assert me.decide(skill) == "learner-2"
+    assert me.decide(skill) == "learner-2" and me.live() == ["learner"]
     assert Ownership("solo").decide(skill) == "serve"  # a lone learner serves every skill
 
 
