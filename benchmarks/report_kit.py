@@ -32,22 +32,28 @@ def renderer(name: str):
     return deco
 
 
+def _find_result(name: str) -> Path | None:
+    """``benchmarks/results/<name>.json`` if it exists, else the first study's
+    ``benchmarks/studies/<study>/results/<name>.json``, else None."""
+    published = RESULTS / f"{name}.json"
+    if published.exists():
+        return published
+    return next(iter(sorted(STUDIES.glob(f"*/results/{name}.json"))), None)
+
+
 def result_path(name: str) -> Path:
     """Where the result file ``<name>.json`` lives: ``benchmarks/results/`` (what README and docs/
     publish) or the one study that keeps it (``benchmarks/studies/<study>/results/``);
     FileNotFoundError naming both places when neither has it."""
-    published = RESULTS / f"{name}.json"
-    if published.exists():
-        return published
-    found = sorted(STUDIES.glob(f"*/results/{name}.json"))
-    if not found:
+    found = _find_result(name)
+    if found is None:
         raise FileNotFoundError(f"no {name}.json in benchmarks/results/ nor in benchmarks/studies/*/results/")
-    return found[0]
+    return found
 
 
 def has_result(name: str) -> bool:
     """Whether the result file ``<name>.json`` exists in one of the places :func:`result_path` looks."""
-    return (RESULTS / f"{name}.json").exists() or any(STUDIES.glob(f"*/results/{name}.json"))
+    return _find_result(name) is not None
 
 
 def load(name: str) -> dict:
