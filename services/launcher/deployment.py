@@ -67,7 +67,7 @@ from services.transport.state_dir import DirectoryLock
 
 from .announce import Announcement, check_namespace_free
 from .processes import entry_module
-from .spawner import FORK_SERVER_AVAILABLE, FORKABLE, PER_CHILD_ENV, SpawnedProcess, Spawner, SpawnerGone
+from .spawner import FORK_SERVER_AVAILABLE, FORKABLE, SpawnedProcess, Spawner, SpawnerGone
 from .supervision import RestartPolicy, Supervisor
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -524,7 +524,7 @@ class _Kept:
 
     lock = threading.Lock()
     log_file: Path | None = None  # None: not sharing
-    per_child: frozenset[str] = PER_CHILD_ENV
+    per_child: frozenset[str] = frozenset()  # besides PER_CHILD_ENV (the Spawner adds it)
     spawner: Spawner | None = None
 
 
@@ -544,7 +544,7 @@ def share_spawner(log_file: str | os.PathLike | None, per_child_env: Iterable[st
     with _Kept.lock:
         spawner, _Kept.spawner = _Kept.spawner, None
         _Kept.log_file = None if log_file is None else Path(log_file)
-        _Kept.per_child = PER_CHILD_ENV | frozenset(per_child_env)
+        _Kept.per_child = frozenset(per_child_env)
     if spawner is not None:
         spawner.close()
 
@@ -558,8 +558,7 @@ def _kept_spawner(env: dict[str, str]) -> Spawner | None:
         if _Kept.spawner is None or not _Kept.spawner.running:
             _Kept.log_file.parent.mkdir(parents=True, exist_ok=True)
             _Kept.spawner = Spawner(list(FORKABLE), env, ROOT, _Kept.log_file, per_child_env=_Kept.per_child)
-        probe = [sys.executable, "-m", next(iter(FORKABLE))]
-        return _Kept.spawner if _Kept.spawner.usable_for(probe, env) else None
+        return _Kept.spawner if _Kept.spawner.accepts_env(env) else None
 
 
 def child_env() -> dict[str, str]:

@@ -205,6 +205,7 @@ class Spawner:
         self.modules = frozenset(m for m in modules if m in FORKABLE)
         self.env = dict(env)
         self.per_child_env = frozenset(per_child_env) | PER_CHILD_ENV
+        self._import_env = _import_env(self.env, self.per_child_env)
         preload = sorted({FORKABLE[m] for m in self.modules} | {"services.transport.service"})
         with open(log_file, "ab") as err:
             self._proc = subprocess.Popen([sys.executable, "-m", __name__, *preload], cwd=cwd, env=self.env,
@@ -229,12 +230,15 @@ class Spawner:
         """Whether the spawner is there to start children (it has not exited nor been closed)."""
         return not self._gone
 
+    def accepts_env(self, env: Mapping[str, str]) -> bool:
+        """Whether the spawner runs and a child of environment ``env`` may be forked here: ``env``
+        is the spawner's but for :attr:`per_child_env`."""
+        return not self._gone and _import_env(env, self.per_child_env) == self._import_env
+
     def usable_for(self, argv: Sequence[str], env: Mapping[str, str]) -> bool:
         """Whether ``python -m`` ``argv`` can be forked here: its module is one this spawner
-        imported for, its environment is the spawner's but for :attr:`per_child_env`, and the
-        spawner runs."""
-        return (not self._gone and len(argv) > 2 and argv[1] == "-m" and argv[2] in self.modules
-                and _import_env(env, self.per_child_env) == _import_env(self.env, self.per_child_env))
+        imported for and :meth:`accepts_env` its environment."""
+        return len(argv) > 2 and argv[1] == "-m" and argv[2] in self.modules and self.accepts_env(env)
 
     def spawn(self, argv: Sequence[str], log_file: Path, env: Mapping[str, str] | None = None,
               timeout: float = 60.0) -> SpawnedProcess:
