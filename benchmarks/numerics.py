@@ -107,7 +107,7 @@ def canary_runs() -> dict[str, Any]:
     from acnmp_core.experiments.viapoint import run_viapoint
 
     e1 = run_viapoint(0, train_steps=60, budget=10, assimilation_steps=0, progress=False)
-    e2 = run_push([0], train_steps=60, cases=("extrapolation",), adapt_config=AdaptConfig(max_rollouts=10),
+    e2 = run_push([0], train_steps=60, cases=("extrapolation",), adapt_config=AdaptConfig.paper(max_rollouts=10),
                   promp_config=PrompRLConfig(method="reps", n_samples=10, max_rollouts=20))
     return _exact({"e1": {"summary": e1.summary, "trajectories": e1.trajectories},
                    "e2": e2["runs"]})

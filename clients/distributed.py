@@ -263,8 +263,10 @@ class DeployedSkill:
 
     def train(self, demos, steps: int, seed: int) -> None:
         arrays = np.stack([d.values for d in demos])
+        # E1 reports the paper's method: its CNMP has no linear path (the deployment's default skill has one)
         reply = patiently(lambda: self.client.train(SKILL, demos[0].times, arrays, train={"steps": steps},
-                                                    seed=seed, reuse=True, timeout=600), "train", progress=self.progress)
+                                                    model={"prior": "none"}, seed=seed, reuse=True, timeout=600),
+                          "train", progress=self.progress)
         self.skill = {"name": SKILL, "version": int(reply["version"]), "trained": bool(reply.get("trained", True))}
         self._wait_version(reply["version"])
 

@@ -123,8 +123,10 @@ def _once(path: Path):
 
 @pytest.fixture(scope="session")
 def e1_model(e1_demos, tmp_path_factory):
-    """A CNMP trained on the E1 demonstrations (3000 steps, seed 0). Tests must deep-copy before
-    changing it. Trained once per run (the first xdist worker saves it, the others load it)."""
+    """The paper's CNMP (no linear path) trained on the E1 demonstrations (3000 steps, seed 0): its
+    mean misses the extrapolated via-point, what the adaptation tests start from. Tests must
+    deep-copy before changing it. Trained once per run (the first xdist worker saves it, the others
+    load it)."""
     from acnmp_core.model.checkpoint import load_checkpoint, save_checkpoint
     from acnmp_core.model.cnmp import CNMP, CNMPConfig
     from acnmp_core.model.training import TrainConfig, train
@@ -133,7 +135,7 @@ def e1_model(e1_demos, tmp_path_factory):
     with _once(path) as todo:
         if not todo:
             return load_checkpoint(path)[0]
-        model = CNMP(CNMPConfig(n_outputs=2), seed=0)
+        model = CNMP(CNMPConfig(n_outputs=2, prior="none"), seed=0)
         train(model, e1_demos, TrainConfig(steps=3000), seed=0, progress=False)
         save_checkpoint(model, path)
         return model

@@ -24,7 +24,8 @@ NOISES = ("rbf", "cubic", "demos")
 
 @dataclass
 class AdaptConfig:
-    """Hyper-parameters of adaptation; the defaults are the same for every experiment.
+    """Hyper-parameters of adaptation. The defaults are the product's, the same for every task;
+    :meth:`paper` gives the paper's method as the six experiments report it (:data:`PAPER`).
 
     mode : "acnmp" (RL + SL), "rl_only" (no SL) or "lfd_only" (no adaptation).
     max_rollouts : budget; every executed trajectory counts, the mean roll-outs included.
@@ -59,6 +60,10 @@ class AdaptConfig:
     fit_tolerance : "awr": stop once the mean is within this many stds of the target at every step.
     reuse_threshold : "reinforce": stop once the mean has moved more than this many stds.
     stop_on_success : stop when the solution is found (see ``solution``).
+    mean_first : True (the default): every iteration executes its mean alone first and its noisy
+        roll-outs only if the mean failed, so a mean that succeeds costs one roll-out; False (the
+        paper's method): only the first iteration does, the others execute the mean and the noisy
+        roll-outs as one batch (one round trip to the workers), and all of them count.
     solution : which executed roll-out can be the solution: "mean" (the default; adapt() stops when
         the mean roll-out succeeds and returns the final mean) or "any" (the first roll-out to
         succeed, the mean or a noisy one, ends the adaptation and is returned: for an evaluator
@@ -88,6 +93,7 @@ class AdaptConfig:
     reuse_threshold: float = 1.0
     stop_on_success: bool = True
     solution: str = "mean"
+    mean_first: bool = True
 
     def __post_init__(self) -> None:
         if self.mode not in MODES:
@@ -113,8 +119,9 @@ class AdaptConfig:
             if value is not None and (isinstance(value, bool) or not isinstance(value, (int, float))
                                       or not value > 0):
                 raise ValueError(f"{name}: expected a number > 0 or None, got {value!r}")
-        if not isinstance(self.stop_on_success, bool):
-            raise ValueError(f"stop_on_success: expected true or false, got {self.stop_on_success!r}")
+        for name in ("stop_on_success", "mean_first"):
+            if not isinstance(getattr(self, name), bool):
+                raise ValueError(f"{name}: expected true or false, got {getattr(self, name)!r}")
         if self.noise not in NOISES:
             raise ValueError(f"noise: expected one of {NOISES}, got {self.noise!r}")
         if self.noise == "cubic" and self.n_knots < 4:
@@ -127,6 +134,12 @@ class AdaptConfig:
         return asdict(self)
 
     @classmethod
+    def paper(cls, **overrides) -> "AdaptConfig":
+        """The paper's method as this project reproduces it (the six experiments report it):
+        :data:`PAPER` over the defaults, then ``overrides``."""
+        return cls(**{**PAPER, **overrides})
+
+    @classmethod
     def from_dict(cls, d: dict) -> "AdaptConfig":
         """Build from a dict of field values (unknown keys are an error naming them)."""
         known = {f.name for f in fields(cls)}
@@ -134,6 +147,11 @@ class AdaptConfig:
         if unknown:
             raise ValueError(f"config: unknown AdaptConfig field(s) {', '.join(unknown)}")
         return cls(**d)
+
+
+#: The fields in which the paper's method (:meth:`AdaptConfig.paper`) differs from the defaults: its
+#: iterations execute the mean and the noisy roll-outs as one batch.
+PAPER: dict = {"mean_first": False}
 
 
 @dataclass

@@ -235,9 +235,9 @@ def adapt(
         eps = noise.sample(k, d, rng, std) if k else np.zeros((0, len(times), d))
         trajs_n = np.concatenate([mu[None], mu[None] + eps])
         trajs = denorm(trajs_n)
-        if it == 0 and k and cfg.stop_on_success:
-            # The first mean is the LfD trajectory: run it alone, so a target the demonstrations
-            # already solve costs one roll-out and no exploration.
+        if k and cfg.stop_on_success and (it == 0 or cfg.mean_first):
+            # The mean runs alone first (the first mean is the LfD trajectory): a mean that
+            # succeeds costs one roll-out, and no exploration is executed after it.
             batch = _evaluate(evaluator, trajs[:1], times, tp)
             if batch.success[0]:
                 trajs, k = trajs[:1], 0

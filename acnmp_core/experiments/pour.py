@@ -98,8 +98,8 @@ def e6_adapt_config(max_rollouts: int = BUDGET) -> AdaptConfig:
         :func:`e6_assimilation_config`, which assimilates into the model before the adaptation
         (``benchmarks/studies/e6_pour/e6_assimilation.py``, benchmarks/studies/e6_pour/README.md).
     """
-    return AdaptConfig(max_rollouts=max_rollouts, explore_error_gain=1.5e-3, explore_cap=0.5, lr=3e-3,
-                       max_reuse=100, temperature=0.05, solution="any", noise="demos")
+    return AdaptConfig.paper(max_rollouts=max_rollouts, explore_error_gain=1.5e-3, explore_cap=0.5, lr=3e-3,
+                             max_reuse=100, temperature=0.05, solution="any", noise="demos")
 
 
 #: E6's assimilation starts from the LfD model before the adaptation (see :func:`e6_assimilation_config`).
@@ -171,7 +171,7 @@ def make_target(setup: PourSetup, task_params) -> AdaptTarget:
 def train_pour_cnmp(demos: DemoSet, seed: int, steps: int = TRAIN_STEPS, progress: bool = False) -> CNMP:
     """The LfD model of E6: a default-size CNMP over the wrist angle with 2 task parameters."""
     model = CNMP(CNMPConfig(n_outputs=1, n_task_params=2, output_names=["wrist"],
-                            task_param_names=["initial_weight_g", "target_g"]), seed=seed)
+                            task_param_names=["initial_weight_g", "target_g"], prior="none"), seed=seed)
     train(model, demos, TrainConfig(steps=steps), seed=seed, progress=progress)
     return model
 

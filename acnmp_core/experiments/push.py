@@ -124,7 +124,7 @@ def train_push_cnmp(demos: DemoSet, seed: int, steps: int = 3000, progress: bool
     """The LfD model of E2: a default-size CNMP over joint angles with 2 task parameters."""
     model = CNMP(CNMPConfig(n_outputs=demos.n_outputs, n_task_params=demos.n_task_params,
                             output_names=[f"joint{i + 1}" for i in range(demos.n_outputs)],
-                            task_param_names=["target_x", "target_y"]), seed=seed)
+                            task_param_names=["target_x", "target_y"], prior="none"), seed=seed)
     train(model, demos, TrainConfig(steps=steps), seed=seed, progress=progress)
     return model
 
@@ -144,9 +144,15 @@ def run_acnmp_case(model: CNMP, setup: PushSetup, case: str, evaluator: RolloutE
     adapt()'s first roll-out is the mean, i.e. the LfD trajectory: when it succeeds the case costs
     one roll-out and no adaptation. Roll-outs count every executed trajectory.
     """
-    target = make_target(setup, case)
-    res = adapt(model, setup.demos, target, evaluator, replace(cfg, mode="acnmp"), seed=seed,
-                on_iteration=on_iteration)
+    return run_acnmp_target(model, setup.demos, make_target(setup, case), evaluator, cfg, seed, on_iteration)
+
+
+def run_acnmp_target(model: CNMP, demos: DemoSet, target: AdaptTarget, evaluator: RolloutEvaluator,
+                     cfg: AdaptConfig, seed: int, on_iteration: Callable | None = None) -> dict:
+    """ACNMP (``cfg`` with mode "acnmp") on one conditioning ``target``: the model's first mean
+    roll-out, then adaptation if it missed; the keys of :func:`run_acnmp_case`. ``model`` is adapted
+    in place (pass a copy)."""
+    res = adapt(model, demos, target, evaluator, replace(cfg, mode="acnmp"), seed=seed, on_iteration=on_iteration)
     out = {"lfd_error": res.history[0].mean_error, "lfd_success": bool(res.history[0].mean_success),
            "adapted": res.rollouts > 1,
            # the error of the mean roll-out against roll-outs used, as in the paper's Fig. 5(b)
@@ -157,7 +163,7 @@ def run_acnmp_case(model: CNMP, setup: PushSetup, case: str, evaluator: RolloutE
     if not res.success and res.rollouts > 1:
         # adapt() ends after an update it had no budget left to execute: that mean is measured once
         # here, not counted and not a success (it was never part of the run), and reported apart
-        out["after_budget_error"] = _final_error(evaluator, res.trajectory, res.times, setup.targets[case])
+        out["after_budget_error"] = _final_error(evaluator, res.trajectory, res.times, target.task_params)
     return out
 
 
@@ -254,7 +260,8 @@ def run_push(
     seeds : a count N (seeds 0..N-1) or an explicit list; each seeds CNMP init/training,
         exploration and ProMP sampling.
     train_steps : supervised CNMP training steps (batch 32).
-    adapt_config : ACNMP settings (default: AdaptConfig(max_rollouts=ACNMP_BUDGET)); ``mode`` is set here.
+    adapt_config : ACNMP settings (default: the paper's, ``AdaptConfig.paper(max_rollouts=ACNMP_BUDGET)``);
+        ``mode`` is set here.
     promp_config : ProMP + RL settings (default: PrompRLConfig(**PROMP_DEFAULTS)); its seed is
         replaced by each run's seed.
     cases, methods : subsets of CASES and METHODS to run.
@@ -283,7 +290,7 @@ def run_push(
     for m in methods:
         if m not in METHODS:
             raise ValueError(f"methods: expected a subset of {METHODS}, got {m!r}")
-    acfg = adapt_config or AdaptConfig(max_rollouts=ACNMP_BUDGET)
+    acfg = adapt_config or AdaptConfig.paper(max_rollouts=ACNMP_BUDGET)
     pcfg = promp_config or PrompRLConfig(**PROMP_DEFAULTS)
     t0 = time.perf_counter()
     setup = make_setup(demo_path, setting=setting)

@@ -83,7 +83,7 @@ def run_push_baselines(
     t0 = time.perf_counter()
     setup = make_setup(demo_path, setting=setting)
     effects = demo_effects(setup)
-    acfg = AdaptConfig(max_rollouts=budget)
+    acfg = AdaptConfig.paper(max_rollouts=budget)
     tasks = {}
     runs: list[dict] = []
 

@@ -66,7 +66,7 @@ def train_pusher_cnmp(setup: PushSetup, seed: int, steps: int = TRAIN_STEPS, pro
     names = setup.demo_arrays.value_names
     model = CNMP(CNMPConfig(n_outputs=setup.demos.n_outputs, n_task_params=setup.demos.n_task_params,
                             output_names=None if names is None else [str(n) for n in names],
-                            task_param_names=["object_x", "object_y", "goal_x", "goal_y"]), seed=seed)
+                            task_param_names=["object_x", "object_y", "goal_x", "goal_y"], prior="none"), seed=seed)
     train(model, setup.demos, TrainConfig(steps=steps), seed=seed, progress=progress)
     return model
 
@@ -97,7 +97,7 @@ def run_pusher(seeds: int | list[int] = 10, *, train_steps: int = TRAIN_STEPS, a
     t0 = time.perf_counter()
     demos = pusher_demos()
     shared = None if evaluator_factory is not None else robot("pusher").make_evaluator("pusher_push")
-    acfg = AdaptConfig(max_rollouts=acnmp_budget)
+    acfg = AdaptConfig.paper(max_rollouts=acnmp_budget)
     pcfg = PrompRLConfig(**{**PROMP_DEFAULTS, "max_rollouts": promp_budget})
     runs: list[dict] = []
     try:

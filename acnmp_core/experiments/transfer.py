@@ -79,8 +79,8 @@ def e4_adapt_config() -> AdaptConfig:
     untouched cube (chosen on fresh RL seeds 30..59 in the sweep; widening the std after such an
     iteration did no better there).
     """
-    return AdaptConfig(noisy_per_iter=1, max_rollouts=40, n_knots=20, noise="cubic", sl_steps=1, sl_steps_reuse=0,
-                       explore_scale=0.35, signal_tolerance=BLIND_TOLERANCE)
+    return AdaptConfig.paper(noisy_per_iter=1, max_rollouts=40, n_knots=20, noise="cubic", sl_steps=1,
+                             sl_steps_reuse=0, explore_scale=0.35, signal_tolerance=BLIND_TOLERANCE)
 
 
 @dataclass

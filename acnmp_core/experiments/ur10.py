@@ -108,7 +108,7 @@ def train_ur10_cnmp(demos: DemoSet, seed: int, steps: int = TRAIN_STEPS, progres
     episodes blending two demonstrations with probability ``mixup`` (see
     :class:`~acnmp_core.model.training.TrainConfig`)."""
     model = CNMP(CNMPConfig(n_outputs=demos.n_outputs, n_task_params=demos.n_task_params,
-                            task_param_names=["h_obj", "h_obs"]), seed=seed)
+                            task_param_names=["h_obj", "h_obs"], prior="none"), seed=seed)
     train(model, demos, TrainConfig(steps=steps, lr_final=lr_final, task_param_jitter=task_param_jitter,
                                     mixup=mixup), seed=seed, progress=progress)
     return model
@@ -214,7 +214,7 @@ def run_ur10(
     for c in cases:
         if c not in CASES:
             raise ValueError(f"cases: expected a subset of {tuple(CASES)}, got {c!r}")
-    cfg = adapt_config or AdaptConfig(max_rollouts=BUDGET)
+    cfg = adapt_config or AdaptConfig.paper(max_rollouts=BUDGET)
     t0 = time.perf_counter()
     setup = make_setup(demo_path)
     shared = None

@@ -79,14 +79,14 @@ class ViaPointRun:
 
 
 def adapt_config(method: str, budget: int, **overrides) -> AdaptConfig:
-    """The adaptation settings of E1 for ``method``: the defaults with E1's budget;
+    """The adaptation settings of E1 for ``method``: the paper's method with E1's budget;
     ``overrides`` replace AdaptConfig fields (for ablations and tuning)."""
-    return AdaptConfig(**{"mode": method, "max_rollouts": budget, **overrides})
+    return AdaptConfig.paper(**{"mode": method, "max_rollouts": budget, **overrides})
 
 
 def train_lfd(demos: DemoSet, seed: int, steps: int, progress: bool = False) -> CNMP:
-    """The LfD model of E1: a default-size CNMP trained ``steps`` steps on ``demos``."""
-    model = CNMP(CNMPConfig(n_outputs=demos.n_outputs), seed=seed)
+    """The LfD model of E1: a default-size CNMP (the paper's: no linear path) trained ``steps`` steps on ``demos``."""
+    model = CNMP(CNMPConfig(n_outputs=demos.n_outputs, prior="none"), seed=seed)
     train(model, demos, TrainConfig(steps=steps), seed=seed, progress=progress)
     return model
 

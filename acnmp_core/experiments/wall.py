@@ -176,7 +176,7 @@ def make_wall_cnmp(seed: int) -> CNMP:
     """E3's CNMP (outputs x, y; task parameters x_c, y_c, x_g, y_g), initialised from ``seed``:
     the one the self-improvement loop trains, for scripts that train it outside the loop."""
     return CNMP(CNMPConfig(n_outputs=2, n_task_params=4, output_names=["x", "y"],
-                           task_param_names=["x_c", "y_c", "x_g", "y_g"]), seed=seed)
+                           task_param_names=["x_c", "y_c", "x_g", "y_g"], prior="none"), seed=seed)
 
 
 def _promp_lib(demos: DemoSet, n_basis: int) -> AdaptiveProMP:
@@ -513,7 +513,7 @@ def run_wall(
         against 98.9 % snapped, its mean test error 0.18 against 0.0014; e3_snap_outputs.json).
         snap_rollouts : every executed path, the adaptations' roll-outs included, is moved the same
         way, as by a controller that holds the ends (2.7x the time at seed 0; not the default).
-    adapt_config : ACNMP adaptation (default ``AdaptConfig(max_rollouts=ACNMP_BUDGET)``).
+    adapt_config : ACNMP adaptation (default the paper's, ``AdaptConfig.paper(max_rollouts=ACNMP_BUDGET)``).
     promp_config : ProMP + RL (default ``PrompRLConfig(**PROMP_DEFAULTS)``); its seed is set per env.
     ewerton_config : the baseline after Ewerton et al. (default ``SelfImproveConfig(max_rollouts=
         ACNMP_BUDGET)``, the same budget per environment); its seed is set per env.
@@ -539,7 +539,7 @@ def run_wall(
     check_positive_int("eval_every", eval_every)
     check_positive_int("consolidate_steps", consolidate_steps, minimum=0)
     check_assimilate_from(assimilate_from)
-    acfg = adapt_config or AdaptConfig(max_rollouts=ACNMP_BUDGET)
+    acfg = adapt_config or AdaptConfig.paper(max_rollouts=ACNMP_BUDGET)
     pcfg = promp_config or PrompRLConfig(**PROMP_DEFAULTS)
     ecfg = ewerton_config or SelfImproveConfig(max_rollouts=ACNMP_BUDGET)
     t0 = time.perf_counter()

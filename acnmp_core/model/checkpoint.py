@@ -74,7 +74,7 @@ def load_checkpoint(path: str | os.PathLike) -> tuple[CNMP, dict]:
                   if found is not None else f"not an acnmp checkpoint of format {FORMAT_VERSION}")
         raise UnreadableFileError(path, reason, f"path: {path} is {reason}")
     try:
-        model = CNMP(CNMPConfig(**payload["config"]))
+        model = CNMP(CNMPConfig.from_dict(payload["config"]))
         model.load_state_dict(payload["state_dict"])
         info = {"data_hash": str(payload["data_hash"]), "meta": dict(payload["meta"])}
     except Exception as exc:  # a checkpoint of format 1 whose parts do not fit together
@@ -93,7 +93,7 @@ def model_to_arrays(model: CNMP) -> tuple[dict, dict[str, "np.ndarray"]]:
 def model_from_arrays(config: dict, arrays: dict) -> CNMP:
     """Rebuild a model from :func:`model_to_arrays` output; raises ValueError on a mismatch
     (:class:`~acnmp_core.errors.ShapeError` for an array of the wrong shape)."""
-    model = CNMP(CNMPConfig(**config))
+    model = CNMP(CNMPConfig.from_dict(config))
     expected = model.state_dict()
     if set(arrays) != set(expected):
         missing, extra = set(expected) - set(arrays), set(arrays) - set(expected)

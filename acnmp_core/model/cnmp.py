@@ -4,6 +4,14 @@ Encoder: a shared MLP over each observation ``[t, task_params, values * dim_mask
 mean-aggregated over the observations into one latent ``r``. Decoder: an MLP over
 ``[r, t, task_params]`` giving a mean and a softplus std (with a floor) per output dimension.
 All normalisation lives inside the model: every public method takes and returns raw units.
+
+With ``CNMPConfig.prior = "linear"`` (the default) the mean has a linear path beside the network:
+the demonstrations' ProMP jointly Gaussian with their task parameters
+(:class:`~acnmp_core.model.prior.LinearPrior`), conditioned on the query's task parameters (in a
+skill without task parameters: on its observed points), and the network's mean is added to it, so
+the network learns what the linear path misses. The linear path extrapolates demonstrations that vary linearly with their conditions; the
+network, which sees the conditions clipped to the demonstrations' ranges (``prior_clip``), carries
+what is not linear. ``prior = "none"`` is the paper's CNMP.
 """
 from __future__ import annotations
 
@@ -19,6 +27,11 @@ from ..data.demos import DemoSet
 from ..validation import check_array, check_positive_int
 from .episodes import PackedDemos
 from .normalization import AffineNormalizer
+from .prior import LinearPrior, choose_n_basis
+
+#: What the mean is made of (``CNMPConfig.prior``): the network alone ("none", the paper's CNMP) or
+#: the demonstrations' linear-Gaussian path plus the network's residual ("linear").
+PRIORS = ("none", "linear")
 
 #: Times may exceed the trained range by this fraction of it before a query is rejected.
 TIME_RANGE_TOLERANCE = 0.05
@@ -34,6 +47,14 @@ class CNMPConfig:
       Defaults follow the paper's appendix table (3 layers of 128 in each).
     std_floor : the smallest std the decoder can output, in normalised units (avoids NLL blow-up).
     output_names, task_param_names : optional labels, carried in checkpoints and service info.
+    prior : "linear" (the default): the mean is the demonstrations' linear-Gaussian path plus the
+      network's residual (module docstring); "none": the network alone (the paper's CNMP).
+    prior_basis : basis functions per output of the linear path; 0 (the default) chooses it by
+      leave-one-out error on the demonstrations when the model is fitted to them
+      (:func:`~acnmp_core.model.prior.choose_n_basis`), and the config then records the choice.
+    prior_clip : with the linear path, the network sees task parameters and observed values
+      clipped to the demonstrations' ranges: beyond them the linear path carries the change and the
+      network adds what it learnt at the nearest edge, instead of extrapolating itself.
     """
 
     n_outputs: int
@@ -43,6 +64,9 @@ class CNMPConfig:
     std_floor: float = 1e-2
     output_names: Sequence[str] = field(default_factory=tuple)
     task_param_names: Sequence[str] = field(default_factory=tuple)
+    prior: str = "linear"
+    prior_basis: int = 0
+    prior_clip: bool = True
 
     def __post_init__(self) -> None:
         self.n_outputs = check_positive_int("n_outputs", self.n_outputs)
@@ -59,6 +83,11 @@ class CNMPConfig:
         self.task_param_names = tuple(str(s) for s in self.task_param_names) or tuple(
             f"p{i}" for i in range(self.n_task_params)
         )
+        if self.prior not in PRIORS:
+            raise ValueError(f"prior: expected one of {', '.join(PRIORS)}, got {self.prior!r}")
+        self.prior_basis = check_positive_int("prior_basis", self.prior_basis, minimum=0)
+        if self.prior_basis == 1:
+            raise ValueError("prior_basis: expected 0 (chosen from the demonstrations) or at least 2, got 1")
         if len(self.output_names) != self.n_outputs:
             raise ValueError(f"output_names: expected {self.n_outputs} names, got {len(self.output_names)}")
         if len(self.task_param_names) != self.n_task_params:
@@ -87,6 +116,12 @@ class CNMPConfig:
         """Plain types only, so a checkpoint loads with ``weights_only=True``."""
         d = asdict(self)
         return {k: list(v) if isinstance(v, tuple) else v for k, v in d.items()}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "CNMPConfig":
+        """The config of :meth:`to_dict`'s map. A map written before the linear path existed (no
+        ``prior`` key) is the paper's CNMP it described: ``prior = "none"``."""
+        return cls(**{"prior": "none", **d})
 
 
 def _mlp(widths: Sequence[int], in_dim: int, out_dim: int | None) -> nn.Sequential:
@@ -152,6 +187,9 @@ class CNMP(nn.Module):
         self.task_norm = AffineNormalizer(p)
         self.value_norm = AffineNormalizer(d)
         self.register_buffer("fitted", torch.zeros((), dtype=torch.bool))
+        # the linear path; with prior_basis 0 it is made when the model is fitted to demonstrations
+        self.prior: LinearPrior | None = (LinearPrior(d, p, config.prior_basis)
+                                          if config.prior == "linear" and config.prior_basis else None)
 
     # ----- normalisation -------------------------------------------------------------------------
     def fit_normalization(self, demos: DemoSet) -> None:
@@ -161,6 +199,24 @@ class CNMP(nn.Module):
         self.task_norm.fit(demos.all_task_params(), mode="range")
         self.value_norm.fit(demos.all_values(), mode="standard")
         self.fitted.fill_(True)
+        if self.config.prior == "linear":
+            self.fit_prior(demos)
+
+    def fit_prior(self, demos: DemoSet) -> None:
+        """Fit the linear path (``config.prior == "linear"``) on ``demos`` in this model's
+        normalisation, choosing its basis count first when ``config.prior_basis`` is 0 (the config
+        then records it). Called by :meth:`fit_normalization`."""
+        packed = self.pack(demos)
+        if not self.config.prior_basis:
+            grid = torch.linspace(0.0, 1.0, 100, dtype=torch.float64)
+            values = np.stack([np.stack([np.interp(grid.numpy(), packed.times[i, :n, 0].numpy(),
+                                                   packed.values[i, :n, j].numpy())
+                                         for j in range(self.config.n_outputs)], axis=1)
+                               for i, n in enumerate(packed.lengths.tolist())])
+            self.config.prior_basis, _ = choose_n_basis(np.tile(grid.numpy(), (len(values), 1)), values,
+                                                        packed.task_params.numpy())
+        self.prior = LinearPrior(self.config.n_outputs, self.config.n_task_params, self.config.prior_basis).fit(
+            packed.times[..., 0].numpy(), packed.values.numpy(), packed.task_params.numpy(), packed.lengths.numpy())
 
     def pack(self, demos: DemoSet) -> PackedDemos:
         """Pad ``demos`` into normalised tensors for :class:`acnmp_core.model.episodes.EpisodeSampler`."""
@@ -227,10 +283,59 @@ class CNMP(nn.Module):
         return mean, self.config.std_floor + F.softplus(raw)
 
     def forward(self, obs_x, obs_mask, tgt_x):
-        """(B,N,1+P+2D), (B,N), (B,M,1+P) -> mean (B,M,D), std (B,M,D), latent (B,L); normalised units."""
-        latent = self.encode(obs_x, obs_mask)
-        mean, std = self.decode(latent, tgt_x)
-        return mean, std, latent
+        """(B,N,1+P+2D), (B,N), (B,M,1+P) -> mean (B,M,D), std (B,M,D), latent (B,L); normalised units.
+        With a linear path the mean is that path plus the network's residual (module docstring)."""
+        weights = self.prior_weights(obs_x, obs_mask)
+        latent = self.encode(self._net_obs(obs_x), obs_mask)
+        mean, std = self.decode(latent, self._net_targets(tgt_x))
+        return self._with_prior(mean, tgt_x, weights), std, latent
+
+    # ----- the linear path ---------------------------------------------------------------------
+    def prior_weights(self, obs_x: torch.Tensor, obs_mask: torch.Tensor) -> np.ndarray | None:
+        """The linear path's weights (B, D, K) for queries with observations (B, N, 1+P+2D) and mask
+        (B, N), normalised units; None without a linear path. The path is conditioned on the task
+        parameters, and on the observed points only in a skill without task parameters: the
+        network then learns one residual per task parameters (what the path misses there), not one
+        per set of observed points, which it could not tell apart from the points alone."""
+        if self.prior is None:
+            if self.config.prior == "linear" and bool(self.fitted):
+                raise ValueError("model: its linear path is not fitted; fit the model to demonstrations first")
+            return None
+        d, p = self.config.n_outputs, self.config.n_task_params
+        x = obs_x.detach().cpu().numpy()
+        if p:
+            x = x[:, :0]  # no observations: the path of the task parameters alone
+            return self.prior.condition(x[..., 0], x[..., 1 + p:1 + p + d], x[..., 1 + p + d:],
+                                        np.zeros(x.shape[:2], dtype=bool), obs_x[:, 0, 1:1 + p].detach().cpu().numpy())[0]
+        return self.prior.condition(x[..., 0], x[..., 1 + p:1 + p + d], x[..., 1 + p + d:], obs_mask.cpu().numpy(),
+                                    x[:, 0, 1:1 + p])[0]
+
+    def _net_obs(self, obs_x: torch.Tensor) -> torch.Tensor:
+        """The encoder's observations: with a clipping linear path (``prior_clip``), their task
+        parameters and values clipped to the demonstrations' ranges, so the network never sees a
+        condition beyond what it was trained on (the path carries what lies beyond); else ``obs_x``."""
+        if self.prior is None or not self.config.prior_clip:
+            return obs_x
+        d, p = self.config.n_outputs, self.config.n_task_params
+        dims = obs_x[..., 1 + p + d:]
+        lo, hi = (self.value_norm.normalize(b.to(torch.float64)).to(obs_x.dtype).to(obs_x.device)
+                  for b in (self.value_norm.low, self.value_norm.high))
+        values = torch.maximum(torch.minimum(obs_x[..., 1 + p:1 + p + d], hi), lo) * dims
+        return torch.cat([obs_x[..., :1], obs_x[..., 1:1 + p].clamp(0.0, 1.0), values, dims], dim=-1)
+
+    def _net_targets(self, tgt_x: torch.Tensor) -> torch.Tensor:
+        """The decoder's targets: with a clipping linear path, their task parameters clipped to the
+        demonstrations' range (normalised [0, 1]); else ``tgt_x`` itself."""
+        if self.prior is None or not self.config.prior_clip or not self.config.n_task_params:
+            return tgt_x
+        return torch.cat([tgt_x[..., :1], tgt_x[..., 1:].clamp(0.0, 1.0)], dim=-1)
+
+    def _with_prior(self, mean: torch.Tensor, tgt_x: torch.Tensor, weights: np.ndarray | None) -> torch.Tensor:
+        """The network's mean (B, M, D) plus the linear path at the targets' times (unchanged without one)."""
+        if weights is None:
+            return mean
+        path = self.prior.path(tgt_x[..., 0].detach().cpu().numpy(), weights)
+        return mean + torch.from_numpy(path).to(mean.dtype).to(mean.device)
 
     # ----- conditioning API (raw units) ----------------------------------------------------------
     def make_query(
@@ -391,11 +496,17 @@ class CNMP(nn.Module):
         n_tgt = [q.tgt_x.shape[1] for q in queries]
         device = self.device
         with torch.no_grad():
-            h = self.encoder(torch.cat([q.obs_x[0] for q in queries]).to(device))
+            weights = [self.prior_weights(q.obs_x, q.obs_mask) for q in queries]
+            obs = [self._net_obs(q.obs_x)[0] for q in queries]
+            h = self.encoder(torch.cat(obs).to(device))
             # the same masked mean as encode() on each query (its mask is all ones)
             latents = [part.sum(0) / float(n) for part, n in zip(h.split(n_obs), n_obs)]
             r = torch.stack(latents).repeat_interleave(torch.tensor(n_tgt, device=device), dim=0)  # (sum T, L)
-            mean, std = self._head(torch.cat([r, torch.cat([q.tgt_x[0] for q in queries]).to(device)], dim=-1))
+            mean, std = self._head(torch.cat([r, torch.cat([self._net_targets(q.tgt_x)[0] for q in queries]).to(device)],
+                                             dim=-1))
+            if self.prior is not None:
+                mean = torch.cat([self._with_prior(m[None], q.tgt_x, w)[0]
+                                  for m, q, w in zip(mean.split(n_tgt), queries, weights)])
             mean = self.value_norm.denormalize(mean.cpu().double())
             std = self.value_norm.denormalize_std(std.cpu().double())
         return [Prediction(q.times.copy(), m.numpy(), s.numpy(), lat.cpu().double().numpy())
@@ -447,4 +558,4 @@ class CNMP(nn.Module):
         """Latent (L,) of a whole trajectory: times (T,), values (T, D) used as observations."""
         q = self.make_query(times, values, task_params, np.asarray(times, dtype=np.float64)[:1])
         with torch.no_grad():
-            return self.encode(q.obs_x, q.obs_mask)[0].cpu().double().numpy()
+            return self.encode(self._net_obs(q.obs_x), q.obs_mask)[0].cpu().double().numpy()

@@ -40,8 +40,8 @@ class TransferPair:
 
     def __init__(self, n_a: int, n_b: int, cfg: TransferConfig | None = None, seed: int = 0) -> None:
         cfg = cfg or TransferConfig()
-        self.model_a = CNMP(CNMPConfig(n_a, 0, cfg.widths, cfg.widths), seed=seed)
-        self.model_b = CNMP(CNMPConfig(n_b, 0, cfg.widths, cfg.widths), seed=seed + 1)
+        self.model_a = CNMP(CNMPConfig(n_a, 0, cfg.widths, cfg.widths, prior="none"), seed=seed)
+        self.model_b = CNMP(CNMPConfig(n_b, 0, cfg.widths, cfg.widths, prior="none"), seed=seed + 1)
 
     @classmethod
     def from_models(cls, model_a: CNMP, model_b: CNMP) -> "TransferPair":

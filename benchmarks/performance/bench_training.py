@@ -137,7 +137,7 @@ def bench_adaptation(model, setup, max_rollouts: int) -> dict:
     try:
         m = copy.deepcopy(model)
         with _Clock() as clock:
-            res = adapt(m, setup.initial, target, ev, AdaptConfig(max_rollouts=max_rollouts), seed=7)
+            res = adapt(m, setup.initial, target, ev, AdaptConfig.paper(max_rollouts=max_rollouts), seed=7)
     finally:
         adaptation._Updater.sl = real_sl
     n = max(sl_clock["steps"], 1)

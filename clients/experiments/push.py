@@ -46,7 +46,7 @@ def run(args) -> int:
     promp_budget = args.promp_budget or q.get("promp_budget") or PROMP_DEFAULTS["max_rollouts"]
     kwargs = dict(
         train_steps=train_steps,
-        adapt_config=AdaptConfig(max_rollouts=acnmp_budget),
+        adapt_config=AdaptConfig.paper(max_rollouts=acnmp_budget),
         promp_config=PrompRLConfig(**{**PROMP_DEFAULTS, "max_rollouts": promp_budget}),
         log=None if args.quiet else print,
         setting=push_setting(args.setting),

@@ -30,7 +30,7 @@ def run(args) -> int:
     train_steps, budget = sizes(args, TRAIN_STEPS, BUDGET)
     check_deployment_arguments(args)
     torch.set_num_threads(1)  # the CNMP is small; threads only contend with the simulator
-    kwargs = dict(train_steps=train_steps, adapt_config=AdaptConfig(max_rollouts=budget), cases=cases,
+    kwargs = dict(train_steps=train_steps, adapt_config=AdaptConfig.paper(max_rollouts=budget), cases=cases,
                   log=None if args.quiet else print)
     if args.distributed:
         from clients.distributed import remote_rollouts

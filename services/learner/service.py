@@ -71,7 +71,7 @@ MAX_DEMO_VALUES = 10_000_000
 DEFAULT_JOB_LIST = 100
 MAX_JOB_LIST = 1000
 #: Model-architecture fields a train request may set (the rest come from the data).
-MODEL_FIELDS = ("encoder_widths", "decoder_widths", "std_floor")
+MODEL_FIELDS = ("encoder_widths", "decoder_widths", "std_floor", "prior", "prior_basis", "prior_clip")
 TRAIN_FIELDS = tuple(f.name for f in dataclasses.fields(TrainConfig))
 
 

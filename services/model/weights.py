@@ -80,7 +80,7 @@ def check_model_size(config: dict, *, what: str = "field 'config'") -> CNMPConfi
     refuses). The learner applies the same bound to a train request's model.
     """
     try:
-        cfg = CNMPConfig(**config)
+        cfg = CNMPConfig.from_dict(config)
     except TypeError as exc:  # unknown or missing CNMPConfig keys
         raise WireError("bad_request", f"{what}: config: {exc}") from None
     except ValueError as exc:

@@ -68,7 +68,7 @@ def _e1(fields: dict, seeds: list[int]) -> dict:
     for seed in seeds:
         model = train_lfd(setup.demos, seed, 3000)
         res = adapt(model, setup.demos, setup.target, setup.task,
-                    AdaptConfig(**{"max_rollouts": 100, **fields}), seed=seed)
+                    AdaptConfig.paper(**{"max_rollouts": 100, **fields}), seed=seed)
         runs.append({"rollouts": res.rollouts, **trajectory_metrics(setup, res.trajectory)})
     ok = [r["success"] for r in runs]
     return {"success_rate": float(np.mean(ok)), "rollouts_median": float(np.median([r["rollouts"] for r in runs])),
@@ -86,7 +86,7 @@ def _e2(fields: dict, seeds: list[int]) -> dict:
 
     torch.set_num_threads(1)
     r = run_push(seeds, methods=("acnmp",), cases=("extrapolation",),
-                 adapt_config=AdaptConfig(**{"max_rollouts": ACNMP_BUDGET, **fields}))
+                 adapt_config=AdaptConfig.paper(**{"max_rollouts": ACNMP_BUDGET, **fields}))
     s = r["methods"]["acnmp"]["extrapolation"]
     return {k: s[k] for k in ("success_rate", "rollouts_median", "final_error_median", "rollouts")}
 
@@ -99,7 +99,7 @@ def _e3(fields: dict, envs: int) -> dict:
 
     torch.set_num_threads(1)
     r = run_wall(envs, 0, n_test=200, eval_every=envs, methods=("acnmp",),
-                 adapt_config=AdaptConfig(**{"max_rollouts": ACNMP_BUDGET, **fields}))
+                 adapt_config=AdaptConfig.paper(**{"max_rollouts": ACNMP_BUDGET, **fields}))
     s = r["methods"]["acnmp"]
     return {k: s[k] for k in ("test_success_rate", "test_error_mean", "trajectories_total",
                               "trajectories_per_env_max", "adaptations", "adaptations_failed", "time_s")}
@@ -136,7 +136,7 @@ def main(argv: list[str] | None = None) -> int:
     def result(done: int) -> dict:
         return {"experiment": "adapt_sweep", "provenance": meta,
                 "config": {"seeds": args.seeds, "e3_envs": args.e3_envs, "e3_test": 200,
-                           "default": AdaptConfig().to_dict()},
+                           "default": AdaptConfig.paper().to_dict()},
                 "settings": results, "complete": done == len(tasks),
                 "wall_time_s": round(time.perf_counter() - t0, 1)}
 

@@ -61,7 +61,7 @@ def run_one(name: str, seed: int) -> dict:
     set_training_threads(1)
     jitter, mixup, noise = VARIANTS[name]
     return run_ur10([seed], train_task_param_jitter=jitter, train_mixup=mixup,
-                    adapt_config=AdaptConfig(max_rollouts=BUDGET, noise=noise))
+                    adapt_config=AdaptConfig.paper(max_rollouts=BUDGET, noise=noise))
 
 
 def counts(runs: list[dict], case: str) -> dict:

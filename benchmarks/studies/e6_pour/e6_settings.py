@@ -85,7 +85,7 @@ CANDIDATES = {
 
 def candidate_config(name: str, budget: int = BUDGET) -> AdaptConfig:
     """The AdaptConfig of candidate ``name`` (a key of :data:`CANDIDATES`) with ``budget`` roll-outs."""
-    return AdaptConfig(max_rollouts=budget, solution="any", **CANDIDATES[name])
+    return AdaptConfig.paper(max_rollouts=budget, solution="any", **CANDIDATES[name])
 
 
 def parse_seeds(text: str) -> list[int]:

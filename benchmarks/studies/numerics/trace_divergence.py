@@ -52,7 +52,7 @@ def trace(steps: int) -> list[dict]:
             ops.append({"i": len(ops), "step": step[0], "op": str(func), "shapes": shapes, "sha": h.hexdigest()[:16]})
             return out
 
-    model = CNMP(CNMPConfig(n_outputs=2), seed=0)
+    model = CNMP(CNMPConfig(n_outputs=2, prior="none"), seed=0)
     demos = obstacle_demos()
 
     with Hash():

@@ -1,5 +1,6 @@
 """Adaptation: reaching an extrapolated via-point, credit assignment, the authors' mode, assimilation,
-determinism, the budget and bad input."""
+determinism, the budget and bad input; the paper's method on the paper's CNMP (``e1_model``), and what
+the default changes (the mean executed first)."""
 import copy
 
 import numpy as np
@@ -23,13 +24,13 @@ def setup():
 
 @pytest.fixture(scope="module")
 def solved(e1_model, setup):
-    """E1 seed 0 adapted with the defaults: (model, result)."""
+    """E1 seed 0 adapted with the paper's method: (model, result)."""
     model = copy.deepcopy(e1_model)
-    return model, adapt(model, setup.demos, setup.target, setup.task, AdaptConfig(max_rollouts=60), seed=0)
+    return model, adapt(model, setup.demos, setup.target, setup.task, AdaptConfig.paper(max_rollouts=60), seed=0)
 
 
 def test_lfd_alone_misses_the_extrapolated_viapoint(e1_model, setup):
-    res = adapt(copy.deepcopy(e1_model), setup.demos, setup.target, setup.task, AdaptConfig(mode="lfd_only"))
+    res = adapt(copy.deepcopy(e1_model), setup.demos, setup.target, setup.task, AdaptConfig.paper(mode="lfd_only"))
     assert res.rollouts == 1 and not res.success
     assert trajectory_metrics(setup, res.trajectory)["viapoint_error"] > 5 * setup.task.tolerance[1]
 
@@ -64,7 +65,7 @@ def test_assimilation_keeps_the_solution_and_the_old_demonstrations(e1_model, so
 
 
 def test_same_seed_same_adaptation(e1_model, setup):
-    cfg = AdaptConfig(mode="rl_only", max_rollouts=15)
+    cfg = AdaptConfig.paper(mode="rl_only", max_rollouts=15)
     a = adapt(copy.deepcopy(e1_model), setup.demos, setup.target, setup.task, cfg, seed=5)
     b = adapt(copy.deepcopy(e1_model), setup.demos, setup.target, setup.task, cfg, seed=5)
     np.testing.assert_array_equal(a.trajectory, b.trajectory)
@@ -72,7 +73,7 @@ def test_same_seed_same_adaptation(e1_model, setup):
 
 
 def test_the_authors_reinforce_update_lowers_the_error(e1_model, setup):
-    cfg = AdaptConfig(advantage="reinforce", noisy_per_iter=1, sl_steps=20, sl_steps_reuse=5, max_reuse=10,
+    cfg = AdaptConfig.paper(advantage="reinforce", noisy_per_iter=1, sl_steps=20, sl_steps_reuse=5, max_reuse=10,
                       max_rollouts=30)
     res = adapt(copy.deepcopy(e1_model), setup.demos, setup.target, setup.task, cfg, seed=0)
     assert res.rollouts == 30 and all(h.rollouts == 2 * (i + 1) for i, h in enumerate(res.history))
@@ -140,7 +141,7 @@ def test_demo_noise_option_perturbs_only_in_the_demonstrations_span(e1_model, se
     demonstrations' deviations from their mean (in raw units too: the normalisation is affine)."""
     seen = []
     adapt(copy.deepcopy(e1_model), setup.demos, setup.target, setup.task,
-          AdaptConfig(max_rollouts=10, noise="demos", stop_on_success=False), seed=0,
+          AdaptConfig.paper(max_rollouts=10, noise="demos", stop_on_success=False), seed=0,
           on_iteration=lambda log, trajs, batch: seen.append(trajs[1:] - trajs[:1]))
     q = setup.target.query_times
     demos = np.stack([np.stack([np.interp(q, (d.times - d.times[0]) / (d.times[-1] - d.times[0]) * (q[-1] - q[0]) + q[0],
@@ -167,7 +168,7 @@ def test_a_task_with_dynamics_is_solved_through_future_credit(e1_model, setup):
             rewards[:, -1] = -err
             return RolloutBatch(rewards, err <= 0.03, errors=err)
 
-    cfg = AdaptConfig(max_rollouts=60)  # "future" succeeds within about 35; "step" stays far off
+    cfg = AdaptConfig.paper(max_rollouts=60)  # "future" succeeds within about 35; "step" stays far off
     good = adapt(copy.deepcopy(e1_model), setup.demos, setup.target, Delayed("future"), cfg, seed=0)
     bad = adapt(copy.deepcopy(e1_model), setup.demos, setup.target, Delayed("step"), cfg, seed=0)
     assert good.success and not bad.success
@@ -182,7 +183,7 @@ def test_budget_is_respected_and_every_rollout_goes_through_the_evaluator(e1_mod
             out = setup.task.evaluate(trajectories, times, task_params)
             return RolloutBatch(out.rewards, np.zeros(len(trajectories), bool))  # never succeeds
 
-    res = adapt(copy.deepcopy(e1_model), setup.demos, setup.target, Counting(), AdaptConfig(max_rollouts=12))
+    res = adapt(copy.deepcopy(e1_model), setup.demos, setup.target, Counting(), AdaptConfig.paper(max_rollouts=12))
     # the LfD mean runs alone first (a solved target costs one roll-out), then mean + 4 noisy per iteration
     assert sum(seen) == res.rollouts == 12 and not res.success and seen == [1, 4, 5, 2]
 
@@ -193,7 +194,7 @@ def test_evaluator_returning_the_wrong_count_is_an_error(e1_model, setup):
             return RolloutBatch(np.zeros((1, len(times))), [False])
 
     with pytest.raises(ValueError, match="evaluator"):
-        adapt(copy.deepcopy(e1_model), setup.demos, setup.target, Broken(), AdaptConfig(max_rollouts=6))
+        adapt(copy.deepcopy(e1_model), setup.demos, setup.target, Broken(), AdaptConfig.paper(max_rollouts=6))
 
 
 @pytest.mark.parametrize("field, value", [("mode", "magic"), ("advantage", "nope"), ("max_rollouts", 0),
@@ -206,7 +207,7 @@ def test_config_validation_names_the_field(field, value):
 
 
 def test_config_round_trips_and_refuses_unknown_fields():
-    cfg = AdaptConfig(max_rollouts=7, n_knots=5)
+    cfg = AdaptConfig.paper(max_rollouts=7, n_knots=5)
     assert AdaptConfig.from_dict(cfg.to_dict()) == cfg
     with pytest.raises(ValueError, match="explore_from_return"):
         AdaptConfig.from_dict({"explore_from_return": 1.0})
@@ -214,7 +215,7 @@ def test_config_round_trips_and_refuses_unknown_fields():
 
 def test_error_tied_exploration_is_min_of_gain_times_error_and_cap(e1_model, setup):
     """The authors' E4 rule: every output's std (raw units) is min(gain x last mean error, cap)."""
-    cfg = AdaptConfig(max_rollouts=12, noisy_per_iter=1, explore_error_gain=1.0, explore_cap=0.1)
+    cfg = AdaptConfig.paper(max_rollouts=12, noisy_per_iter=1, explore_error_gain=1.0, explore_cap=0.1)
     res = adapt(copy.deepcopy(e1_model), setup.demos, setup.target, setup.task, cfg, seed=0)
     assert len(res.history) >= 3
     assert res.history[0].explore_std == pytest.approx([0.1] * len(res.history[0].explore_std))
@@ -260,7 +261,7 @@ def test_cubic_noise_option_changes_only_the_noise_and_defaults_off(e1_model, se
     def deviations(**kw) -> list[np.ndarray]:
         seen = []
         adapt(copy.deepcopy(e1_model), setup.demos, setup.target, setup.task,
-              AdaptConfig(max_rollouts=6, noisy_per_iter=1, n_knots=20, stop_on_success=False, **kw), seed=0,
+              AdaptConfig.paper(max_rollouts=6, noisy_per_iter=1, n_knots=20, stop_on_success=False, **kw), seed=0,
               on_iteration=lambda log, trajs, batch: seen.append(trajs[1:] - trajs[:1]))
         return [d for d in seen if len(d)]
 
@@ -304,7 +305,7 @@ def test_signal_tolerance_treats_jittered_equal_rewards_as_no_signal(e1_model, s
         """The mean roll-out of every iteration."""
         seen = []
         adapt(copy.deepcopy(e1_model), setup.demos, setup.target, Jittered(),
-              AdaptConfig(max_rollouts=12, noisy_per_iter=1, **kw), seed=0,
+              AdaptConfig.paper(max_rollouts=12, noisy_per_iter=1, **kw), seed=0,
               on_iteration=lambda log, trajs, batch: seen.append(trajs[0].copy()))
         return seen
 
@@ -336,12 +337,40 @@ def test_solution_any_stops_at_the_first_noisy_roll_out_that_succeeds_and_return
 
     cfg = dict(max_rollouts=30)
     ev = SecondNoisyOfThirdBatchSucceeds()
-    res = adapt(copy.deepcopy(e1_model), setup.demos, setup.target, ev, AdaptConfig(**cfg, solution="any"), seed=0)
+    res = adapt(copy.deepcopy(e1_model), setup.demos, setup.target, ev, AdaptConfig.paper(**cfg, solution="any"), seed=0)
     assert res.success and res.solved_by == "noisy" and ev.calls == 3 and res.solution_error is not None
     assert res.rollouts == 10 and not res.history[-1].mean_success
     np.testing.assert_array_equal(res.trajectory, ev.seen[2][2])
     mean_only = SecondNoisyOfThirdBatchSucceeds()
-    res = adapt(copy.deepcopy(e1_model), setup.demos, setup.target, mean_only, AdaptConfig(**cfg), seed=0)
+    res = adapt(copy.deepcopy(e1_model), setup.demos, setup.target, mean_only, AdaptConfig.paper(**cfg), seed=0)
     assert not res.success and res.solved_by is None and res.rollouts == 30
     with pytest.raises(ValueError, match="solution"):
         AdaptConfig(solution="best")
+
+
+def test_the_default_executes_each_mean_first_and_a_succeeding_mean_costs_one_episode(e1_model, setup):
+    """The same adaptation with the default (each iteration's mean alone first) and the paper's
+    accounting (the mean and the noisy roll-outs as one batch): the same trajectories until the
+    mean succeeds, then the default stops after that mean alone, the paper's after the whole batch."""
+
+    class MeanSucceedsAtThirdCall:
+        def __init__(self):
+            self.calls = []
+
+        def evaluate(self, trajectories, times, task_params=None):
+            n, t, _ = np.shape(trajectories)
+            self.calls.append(np.array(trajectories))
+            success = np.zeros(n, dtype=bool)
+            success[0] = len(self.calls) == 3  # the first trajectory of the third call
+            rewards = -np.abs(np.asarray(trajectories)).mean(axis=2)
+            return RolloutBatch(rewards=rewards, success=success, errors=np.ones(n))
+
+    default, paper = MeanSucceedsAtThirdCall(), MeanSucceedsAtThirdCall()
+    a = adapt(copy.deepcopy(e1_model), setup.demos, setup.target, default, AdaptConfig(max_rollouts=50), seed=0)
+    b = adapt(copy.deepcopy(e1_model), setup.demos, setup.target, paper, AdaptConfig.paper(max_rollouts=50), seed=0)
+    assert [len(c) for c in default.calls] == [1, 4, 1] and [len(c) for c in paper.calls] == [1, 4, 5]
+    assert (a.rollouts, b.rollouts) == (6, 10) and a.success and b.success
+    for x, y in zip(default.calls[:2], paper.calls[:2]):
+        np.testing.assert_array_equal(x, y)
+    np.testing.assert_array_equal(default.calls[2][0], paper.calls[2][0])  # the same mean succeeded
+    assert AdaptConfig().mean_first and not AdaptConfig.paper().mean_first
