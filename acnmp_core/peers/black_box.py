@@ -23,10 +23,34 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..model.prior import BASIS_CANDIDATES, leave_one_out
 from . import require
 
 #: fancy_gym's basis functions per output for Meta-World
 N_BASIS = 5
+
+
+def choose_n_basis(times: np.ndarray, values: np.ndarray, task_params: np.ndarray,
+                   candidates: tuple[int, ...] = BASIS_CANDIDATES) -> tuple[int, dict[int, float]]:
+    """The basis count of :class:`DemoProMP` with the lowest leave-one-out error on the
+    demonstrations alone (times (T,), values (N, T, D), task parameters (N, P)): each held out in
+    turn, the ProMP of the others conditioned on its task parameters and start (and, without task
+    parameters, its middle and end), as :func:`~acnmp_core.model.prior.leave_one_out` measures it;
+    and every candidate's error. Ties go to the fewer basis functions."""
+    values = np.asarray(values, dtype=np.float64)
+    task_params = np.asarray(task_params, dtype=np.float64).reshape(len(values), -1)
+    times = np.asarray(times, dtype=np.float64).reshape(-1)
+
+    def error(n_basis: int) -> float:
+        def predict(rest: list[int], k: int, marks: list[int]) -> np.ndarray:
+            promp = DemoProMP(times, values[rest], task_params[rest], n_basis)
+            w = promp.conditioned_mean(task_params[k], times[marks], values[k][marks])
+            return promp.trajectories(w[None])[0]
+
+        return leave_one_out(values, task_params, predict)
+
+    errors = {int(c): error(int(c)) for c in sorted(candidates)}
+    return min(errors, key=lambda c: (round(errors[c], 12), c)), errors
 
 
 @dataclass(frozen=True)
@@ -42,13 +66,16 @@ class BlackBoxConfig:
 @dataclass(frozen=True)
 class BlackBoxResult:
     """episodes : executed (means and populations). success : the mean succeeded within the budget.
-    curve : (episodes so far, mean's error) after each mean's episode. sigma0 : the initial step size."""
+    curve : (episodes so far, mean's error) after each mean's episode. sigma0 : the initial step size.
+    dimension : the weights searched. start : (T, D) the trajectory the search started from (the
+    conditioned ProMP's mean)."""
 
     episodes: int
     success: bool
     curve: list
     sigma0: float
     dimension: int
+    start: np.ndarray
 
 
 class DemoProMP:
@@ -72,17 +99,45 @@ class DemoProMP:
         t_all = torch.as_tensor(np.tile(self.times, (n, 1)))
         self.weights = self.mp.learn_mp_params_from_trajs(t_all, torch.as_tensor(values))["params"].numpy()
         self.task_params = np.asarray(task_params, dtype=np.float64).reshape(n, -1)
+        # the fit's residual variance per output: how closely a conditioned mean can pass a point
+        fit = self.trajectories(self.weights)
+        self.noise = np.maximum(((fit - values) ** 2).mean(axis=(0, 1)), 1e-10)
 
-    def conditioned_mean(self, task_params: np.ndarray) -> np.ndarray:
-        """(D * n_basis,) the mean weights given ``task_params`` (P,): the joint Gaussian of weights and
-        task parameters conditioned on them, ``mu_w + S_wc S_cc^-1 (c - mu_c)``."""
-        c = np.asarray(task_params, dtype=np.float64).reshape(-1)
-        if c.size == 0:
-            return self.weights.mean(axis=0)
-        wc = np.cov(np.c_[self.weights, self.task_params].T)
-        k = self.weights.shape[1]
-        s_wc, s_cc = wc[:k, k:], wc[k:, k:]
-        return self.weights.mean(axis=0) + s_wc @ np.linalg.solve(s_cc, c - self.task_params.mean(axis=0))
+    def conditioned_mean(self, task_params: np.ndarray | None = None, obs_times: np.ndarray | None = None,
+                         obs_values: np.ndarray | None = None) -> np.ndarray:
+        """(D * n_basis,) the mean weights given ``task_params`` (P,) and observed points ``obs_values``
+        (M, D) at ``obs_times`` (M,): the joint Gaussian of the demonstrations' weights and task
+        parameters conditioned on them (Paraschos et al. 2018), ``mu + S H^T (H S H^T + R)^-1 (y - H mu)``
+        with ``H`` the basis at the observed times and the identity on the task parameters, ``R``
+        the demonstrations' fit residual for the points and zero for the parameters (a
+        pseudo-inverse: parameters the demonstrations vary together, such as a goal set by an
+        object and a direction, are not independent). Without task parameters or points: the
+        demonstrations' mean weights."""
+        n, k = self.weights.shape
+        c = np.zeros(0) if task_params is None else np.asarray(task_params, dtype=np.float64).reshape(-1)
+        z = np.c_[self.weights, self.task_params] if c.size else self.weights
+        mu, cov = z.mean(axis=0), np.atleast_2d(np.cov(z.T))
+        rows, ys, noise = [], [], []
+        if c.size:
+            rows.append(np.c_[np.zeros((c.size, k)), np.eye(c.size)])
+            ys.append(c)
+            noise.append(np.zeros(c.size))
+        if obs_times is not None and len(obs_times):
+            design = self.design(np.asarray(obs_times, dtype=np.float64))  # (M*D, k)
+            rows.append(np.c_[design, np.zeros((len(design), z.shape[1] - k))])
+            ys.append(np.asarray(obs_values, dtype=np.float64).reshape(-1))
+            noise.append(np.tile(self.noise, len(obs_times)))
+        if not rows:
+            return mu[:k]
+        h, y = np.vstack(rows), np.concatenate(ys)
+        gram = h @ cov @ h.T + np.diag(np.concatenate(noise))
+        return (mu + cov @ h.T @ np.linalg.pinv(gram, rcond=1e-10, hermitian=True) @ (y - h @ mu))[:k]
+
+    def design(self, times: np.ndarray) -> np.ndarray:
+        """(M * D, D * n_basis) the linear map from weights to the trajectory's values at ``times``
+        (M,), rows time-major: ``mp_pytorch``'s own basis, read off by evaluating unit weights."""
+        unit = self.trajectories_at(np.eye(self.weights.shape[1]), times)  # (D*K, M, D)
+        return unit.reshape(len(unit), -1).T
 
     def spread(self) -> float:
         """The demonstrations' weight spread: the mean over weights of their standard deviation."""
@@ -90,31 +145,38 @@ class DemoProMP:
 
     def trajectories(self, weights: np.ndarray) -> np.ndarray:
         """(B, T, D) the trajectories of weight vectors (B, D * n_basis) on the demonstrations' times."""
+        return self.trajectories_at(weights, self.times)
+
+    def trajectories_at(self, weights: np.ndarray, times: np.ndarray) -> np.ndarray:
+        """(B, M, D) the trajectories of weight vectors (B, D * n_basis) at ``times`` (M,)."""
         import torch
 
         w = torch.as_tensor(np.atleast_2d(weights), dtype=torch.float64)
         self.mp.reset()
-        self.mp.update_inputs(times=torch.as_tensor(np.tile(self.times, (len(w), 1))), params=w)
+        self.mp.update_inputs(times=torch.as_tensor(np.tile(np.asarray(times, dtype=np.float64), (len(w), 1))),
+                              params=w)
         return self.mp.get_traj_pos().numpy()
 
 
-def run_black_box(promp: DemoProMP, evaluator, task_params: np.ndarray, config: BlackBoxConfig, seed: int,
-                  stop_after: float | None = None) -> BlackBoxResult:
-    """CMA-ES over ``promp``'s weights at ``task_params`` (P,) until the distribution's mean succeeds
-    on ``evaluator`` or ``config.budget`` episodes were executed (a population that would pass the
-    budget is cut to what is left)."""
+def run_black_box(promp: DemoProMP, evaluator, target, config: BlackBoxConfig, seed: int) -> BlackBoxResult:
+    """CMA-ES over ``promp``'s weights at ``target`` (an :class:`~acnmp_core.adaptation.config.AdaptTarget`:
+    the task parameters and observed points the ProMP is conditioned on, and the times the
+    trajectories are executed at) until the distribution's mean succeeds on ``evaluator`` or
+    ``config.budget`` episodes were executed (a population that would pass the budget is cut to
+    what is left)."""
     cma = require("cma", "black-box ProMP + CMA-ES")
 
-    x0 = promp.conditioned_mean(task_params)
+    params = None if target.task_params is None else np.asarray(target.task_params, dtype=np.float64)
+    x0 = promp.conditioned_mean(params, target.obs_times, target.obs_values)
+    times = np.asarray(target.query_times, dtype=np.float64)
     sigma0 = promp.spread()
     opts = {"seed": int(seed) + 1, "verbose": -9}  # cma's seed 0 means "from the clock"
     if config.popsize is not None:
         opts["popsize"] = int(config.popsize)
     es = cma.CMAEvolutionStrategy(x0, sigma0, opts)
-    params = np.asarray(task_params, dtype=np.float64)
     used, curve, success = 0, [], False
     while used < config.budget:
-        mean = evaluator.evaluate(promp.trajectories(es.mean), promp.times, params)
+        mean = evaluator.evaluate(promp.trajectories_at(es.mean, times), times, params)
         used += 1
         curve.append([used, None if mean.errors is None else float(mean.errors[0])])
         if bool(mean.success[0]):
@@ -124,8 +186,8 @@ def run_black_box(promp: DemoProMP, evaluator, task_params: np.ndarray, config: 
         if left <= 0:
             break
         xs = es.ask()[:left]
-        batch = evaluator.evaluate(promp.trajectories(np.array(xs)), promp.times, params)
+        batch = evaluator.evaluate(promp.trajectories_at(np.array(xs), times), times, params)
         used += len(xs)
         if len(xs) == es.popsize:
             es.tell(xs, [-float(r) for r in batch.returns])
-    return BlackBoxResult(used, success, curve, sigma0, len(x0))
+    return BlackBoxResult(used, success, curve, sigma0, len(x0), promp.trajectories_at(x0, times)[0])

@@ -1,15 +1,16 @@
-"""Step-based deep RL peers: stable-baselines3's PPO and SAC on a Meta-World task at one position.
+"""Step-based deep RL peers: stable-baselines3's PPO and SAC on a task's step-based environment at one position.
 
 Each runs at its documented defaults (``PPO("MlpPolicy", env)``, ``SAC("MlpPolicy", env)``,
-stable-baselines3 2.9) on the environment the trajectory methods execute in
-(:func:`~acnmp_core.tasks.metaworld.scene.make_env`): the task's observation (39) and actions
-(4), Meta-World's dense reward per step, episodes of :data:`~acnmp_core.tasks.metaworld.scene.N_STEPS`
-steps at the test position.
+stable-baselines3 2.9) on the task's step-based environment (the peers comparison's
+:meth:`~acnmp_core.experiments.peers.tasks.PeerTask.step_env`: Meta-World's own environment, Gymnasium's
+``Pusher-v5``, E2's push stepped in PyBullet), every episode at the test position, its reward per step.
 
 The metric is every method's: episodes executed until the method's deterministic output first
 succeeds. The policy's deterministic action (``predict(deterministic=True)``) runs one evaluation
 episode before training and then after every ``eval_every`` training episodes; evaluation episodes
-count. The run stops at the first evaluation that succeeds or once ``budget`` episodes ran.
+count. An episode's success and error are what its environment reports at its last step
+(``info["success_ever"]``, ``info["min_error"]``). The run stops at the first evaluation that
+succeeds or once ``budget`` episodes ran.
 
 ``warm_start="bc"``: before RL the policy's mean action is fitted to the demonstrations'
 (observation, action) pairs by behaviour cloning (mean squared error, Adam, ``bc_steps`` batches of
@@ -19,6 +20,7 @@ from that policy with every other setting at its default.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any, Callable
 
 import numpy as np
 
@@ -62,20 +64,10 @@ class StepBasedResult:
     bc_loss: float | None
 
 
-def _fixed_task_env(kind: str, params: np.ndarray):
-    """The task's environment reset at ``params`` every episode, cut at N_STEPS steps."""
-    import gymnasium as gym
-
-    from ..tasks.metaworld.scene import N_STEPS, make_env, set_task
-
-    setter = set_task(kind)
-
-    class FixedTask(gym.Wrapper):
-        def reset(self, *, seed=None, options=None):
-            self.env.reset(seed=seed)
-            return setter(self.env, params), {}
-
-    return gym.wrappers.TimeLimit(FixedTask(make_env(kind)), N_STEPS)
+def _episode_steps(env) -> int:
+    """The environment's episode length (its TimeLimit), for the training's step count."""
+    steps = getattr(env.spec, "max_episode_steps", None) if getattr(env, "spec", None) else None
+    return int(steps or getattr(env.unwrapped, "max_episode_steps", 0) or 1000)
 
 
 def behaviour_clone(model, observations: np.ndarray, actions: np.ndarray, config: StepBasedConfig, seed: int) -> float:
@@ -103,20 +95,20 @@ def behaviour_clone(model, observations: np.ndarray, actions: np.ndarray, config
     return float(loss.detach())
 
 
-def run_step_based(kind: str, params: np.ndarray, config: StepBasedConfig, seed: int,
+def run_step_based(make_env: Callable[[], Any], config: StepBasedConfig, seed: int,
                    demonstrations: tuple[np.ndarray, np.ndarray] | None = None) -> StepBasedResult:
-    """Train ``config.algorithm`` at ``params`` (P,) until its deterministic policy succeeds or the
-    budget is spent. ``demonstrations`` (observations, actions): needed by ``warm_start="bc"``."""
+    """Train ``config.algorithm`` on environments from ``make_env`` (each episode at the test
+    position, time-limited, reporting ``success_ever`` and ``min_error``; module docstring) until its
+    deterministic policy succeeds or the budget is spent. ``demonstrations`` (observations,
+    actions): needed by ``warm_start="bc"``."""
     import torch
 
     sb3 = require("stable_baselines3", f"stable-baselines3 {config.algorithm.upper()}")
     PPO, SAC = sb3.PPO, sb3.SAC
     BaseCallback = require("stable_baselines3.common.callbacks", "stable-baselines3").BaseCallback
 
-    from ..tasks.metaworld.scene import N_STEPS
-
     torch.manual_seed(int(seed))
-    env, eval_env = _fixed_task_env(kind, params), _fixed_task_env(kind, params)
+    env, eval_env = make_env(), make_env()
     model = (PPO if config.algorithm == "ppo" else SAC)("MlpPolicy", env, seed=int(seed), verbose=0, device="cpu")
     bc_loss = None
     if config.warm_start == "bc":
@@ -130,11 +122,11 @@ def run_step_based(kind: str, params: np.ndarray, config: StepBasedConfig, seed:
     def evaluate() -> bool:
         obs, _ = eval_env.reset(seed=int(seed))
         info: dict = {}
-        for _ in range(N_STEPS):
+        done = False
+        while not done:
             action, _ = model.predict(obs, deterministic=True)
             obs, _r, terminated, truncated, info = eval_env.step(action)
-            if terminated or truncated:
-                break
+            done = terminated or truncated
         counts["eval"] += 1
         curve.append([counts["train"] + counts["eval"], float(info.get("min_error", np.nan))])
         return bool(info.get("success_ever", False))
@@ -161,7 +153,8 @@ def run_step_based(kind: str, params: np.ndarray, config: StepBasedConfig, seed:
     if evaluate():
         state["success"] = True
     elif not spent():
-        model.learn(total_timesteps=config.budget * N_STEPS, callback=Episodes())
+        # more steps than the budget's episodes can take: the callback stops at the budget
+        model.learn(total_timesteps=config.budget * _episode_steps(env), callback=Episodes())
     env.close()
     eval_env.close()
     return StepBasedResult(counts["train"] + counts["eval"], state["success"], curve, counts["train"],

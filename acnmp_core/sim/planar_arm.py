@@ -182,7 +182,6 @@ class PlanarArmSim(PhysicsClient):
             ``ee_yaw`` (T,) rad, ``object_xy`` (T, 2) m, ``object_start`` (2,) m.
         """
         traj = self.check_trajectory(trajectory)
-        cid = self.client_id
         t_len, n = traj.shape
         start = self.reset(traj[0])
         # Velocity feed-forward from finite differences reduces the position controller's lag.
@@ -192,18 +191,8 @@ class PlanarArmSim(PhysicsClient):
         ee_xy = np.empty((t_len, 2))
         ee_yaw = np.empty(t_len)
         obj_xy = np.empty((t_len, 2))
-        kp = [self.position_gain] * n
-        kd = [self.velocity_gain] * n
-        forces = [self.max_force] * n
         for k in range(t_len):
-            p.setJointMotorControlArray(self.arm, self.joints, p.POSITION_CONTROL, targetPositions=traj[k].tolist(),
-                                        targetVelocities=vel[k].tolist(), positionGains=kp, velocityGains=kd,
-                                        forces=forces, physicsClientId=cid)
-            for _ in range(self.substeps):
-                p.stepSimulation(physicsClientId=cid)
-            states = p.getJointStates(self.arm, self.joints, physicsClientId=cid)
-            q_out[k] = [s[0] for s in states]
-            obj_xy[k] = p.getBasePositionAndOrientation(self.object, physicsClientId=cid)[0][:2]
+            q_out[k], obj_xy[k] = self.control_step(traj[k], vel[k])
         # The tip pose follows from the measured joint angles exactly (the arm is rigid and planar):
         # computing it here is cheaper than a getLinkState call per step.
         cum = np.cumsum(q_out, axis=1)
@@ -212,6 +201,21 @@ class PlanarArmSim(PhysicsClient):
         ee_xy[:, 1] = np.sin(cum) @ lengths
         ee_yaw[:] = cum[:, -1]
         return {"joint_angles": q_out, "ee_xy": ee_xy, "ee_yaw": ee_yaw, "object_xy": obj_xy, "object_start": start}
+
+    def control_step(self, target: np.ndarray, target_velocity: np.ndarray) -> tuple[list[float], tuple[float, float]]:
+        """One control step from the current state: joint targets (N,) rad and their velocities (N,)
+        rad/s to the position controller, ``substeps`` physics steps; returns the joint angles (N,)
+        and the cylinder's (x, y) m after it. :meth:`reset` first; targets are used as given (clip
+        them with :meth:`check_trajectory`)."""
+        cid, n = self.client_id, self.n_joints
+        p.setJointMotorControlArray(self.arm, self.joints, p.POSITION_CONTROL, targetPositions=list(map(float, target)),
+                                    targetVelocities=list(map(float, target_velocity)),
+                                    positionGains=[self.position_gain] * n, velocityGains=[self.velocity_gain] * n,
+                                    forces=[self.max_force] * n, physicsClientId=cid)
+        for _ in range(self.substeps):
+            p.stepSimulation(physicsClientId=cid)
+        states = p.getJointStates(self.arm, self.joints, physicsClientId=cid)
+        return [s[0] for s in states], p.getBasePositionAndOrientation(self.object, physicsClientId=cid)[0][:2]
 
     def ee_pose_from_sim(self) -> np.ndarray:
         """(3,) the paddle link's current ``[x, y, yaw]`` read from PyBullet (for checks against the FK)."""

@@ -1,18 +1,19 @@
-"""ACNMP beside its peers on Meta-World (reach, push, pick-place): LfD only, ACNMP, ProMP + RL,
-black-box ProMP + CMA-ES, stable-baselines3 PPO / SAC with and without behaviour cloning.
+"""The comparison of record: ACNMP (the product's default and the paper's method) beside LfD only,
+ProMP + RL, black-box ProMP + CMA-ES (basis count chosen on the demonstrations, and fancy_gym's 5)
+and stable-baselines3 PPO + BC on Meta-World's reach, push, pick-place, window-open and
+button-press, the paper's E1 and E2, and Gymnasium's Pusher-v5; PPO and SAC + BC on reach.
 
 Writes benchmarks/results/peers.json (provenance, the result of ``run_peers``) and peers.png.
 
 Usage:
-  python benchmarks/experiments/peers.py [--methods M,..] [--tasks T,..] [--seeds 0,1,..] [--cases C,..]
-         [--out FILE] [--resume] [--budgets-from FILE]
-  python benchmarks/experiments/peers.py --merge A.json B.json [--planned PLANS.json] [--out FILE]
+  python benchmarks/experiments/peers.py                       # the whole plan, one process
+  python benchmarks/experiments/peers.py --part 1/2 --out A.json   # every other task, for two processes
+  python benchmarks/experiments/peers.py --merge A.json B.json     # the parts into benchmarks/results/peers.json
 
-The sizes are the library's defaults (the same as ``acnmp experiment peers``). The result is
-written after every run, so a stopped run is usable (its ``not_run`` lists what is missing) and
-``--resume`` continues it. The published result was made by two processes side by side, the
-trajectory methods in one and the stable-baselines3 ones (their budgets read from the first's
-ACNMP runs with ``--budgets-from``) in the other, merged with ``--merge``; its ``parts`` record both.
+The sizes are the library's defaults (the same as ``acnmp experiment peers``). The result is written
+after every run, so a stopped run is usable (its ``not_run`` lists what is missing) and ``--resume``
+continues it. Parts made by processes side by side (``--part K/N``: the plan's tasks dealt out in
+turn) are merged only when they were made at one commit.
 """
 from __future__ import annotations
 
@@ -27,12 +28,15 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 from acnmp_core.errors import InputError  # noqa: E402
-from acnmp_core.experiments.peers import METHODS, PeersConfig, merge_results, plot_peers, run_line, run_peers  # noqa: E402
-from benchmarks._results import provenance, save_result  # noqa: E402
+from acnmp_core.experiments.peers import (CASES, STEP_BASED_METHODS, TASK_NAMES, TRAJECTORY_METHODS,  # noqa: E402
+                                          PeersConfig, merge_results, plot_peers, run_line, run_peers)
+from benchmarks._results import RESULTS, provenance, save_result  # noqa: E402
 
-OUT = ROOT / "benchmarks" / "results" / "peers.json"
-TASKS = ("metaworld-reach", "metaworld-push", "metaworld-pick-place")
-CASES = ("extrapolation", "interpolation")
+OUT = RESULTS / "peers.json"
+#: the methods of record: every trajectory method and PPO + BC everywhere it applies ...
+METHODS = TRAJECTORY_METHODS + ("ppo_bc",)
+#: ... and SB3 from scratch and SAC + BC where they were measured before (reach; module docstring)
+EXTRA = {"metaworld-reach": ("ppo", "sac_bc")}
 
 
 def _names(text: str) -> tuple[str, ...]:
@@ -46,46 +50,73 @@ def _seeds(text: str) -> tuple[int, ...]:
         raise argparse.ArgumentTypeError(f"expected comma-separated integers, got {text!r}") from None
 
 
+def _part(text: str) -> tuple[int, int]:
+    try:
+        k, n = (int(x) for x in text.split("/"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected K/N, e.g. 1/2, got {text!r}") from None
+    if not 1 <= k <= n:
+        raise argparse.ArgumentTypeError(f"expected 1 <= K <= N, got {text!r}")
+    return k, n
+
+
+def configs(tasks: tuple[str, ...], methods: tuple[str, ...], seeds: tuple[int, ...],
+            cases: tuple[str, ...]) -> list[PeersConfig]:
+    """The plan as configs: ``methods`` on every task, and the extra SB3 methods on their task."""
+    out = [PeersConfig(tasks=tasks, methods=methods, seeds=seeds, cases=cases)]
+    for task, extra in EXTRA.items():
+        if task in tasks and (more := tuple(m for m in extra if m in STEP_BASED_METHODS and m not in methods)):
+            out.append(PeersConfig(tasks=(task,), methods=more, seeds=seeds, cases=("extrapolation",)))
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run (or merge) the comparison; print one line per run and the summary."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--tasks", type=_names, default=TASKS, metavar="T,..",
-                    help=f"comma-separated Meta-World tasks (default: all: {','.join(TASKS)})")
+    ap.add_argument("--tasks", type=_names, default=TASK_NAMES, metavar="T,..",
+                    help=f"comma-separated tasks (default: all: {','.join(TASK_NAMES)})")
     ap.add_argument("--methods", type=_names, default=METHODS, metavar="M,..",
-                    help=f"comma-separated methods (default: all: {','.join(METHODS)})")
+                    help=f"comma-separated methods (default: {','.join(METHODS)}, and {EXTRA} there)")
     ap.add_argument("--seeds", type=_seeds, default=(0, 1, 2, 3, 4), metavar="S,..",
-                    help="comma-separated seeds, each a CNMP and one test position per case (default 0,1,2,3,4)")
+                    help="comma-separated seeds (default 0,1,2,3,4)")
     ap.add_argument("--cases", type=_names, default=CASES, metavar="C,..",
                     help=f"comma-separated cases (default: both: {','.join(CASES)})")
+    ap.add_argument("--part", type=_part, default=None, metavar="K/N",
+                    help="only the K-th of N shares of the tasks (dealt out in turn), for N processes side by side")
     ap.add_argument("--out", default=str(OUT), metavar="FILE",
-                    help="write the result here after every run, peers.png beside it at the end "
+                    help="write the result here after every run, its figure beside it at the end "
                          "(default benchmarks/results/peers.json)")
     ap.add_argument("--resume", action="store_true", help="keep the runs already in --out, run the rest")
-    ap.add_argument("--budgets-from", default=None, metavar="FILE",
-                    help="set the SB3 budgets from the ACNMP runs of this earlier result (default: this run's)")
     ap.add_argument("--merge", nargs="+", default=None, metavar="JSON",
-                    help="run nothing; merge these partial results (e.g. of processes run side by side) into --out")
-    ap.add_argument("--planned", default=None, metavar="JSON",
-                    help="with --merge: a list of plans {tasks, methods, seeds, cases}; their runs that no part made "
-                         "are listed under not_run")
+                    help="run nothing; merge these parts (made at one commit) into --out")
     args = ap.parse_args(argv)
     if args.merge:
         try:
             parts = [json.loads(Path(p).read_text()) for p in args.merge]
-            planned = json.loads(Path(args.planned).read_text()) if args.planned else None
         except (OSError, ValueError) as exc:
-            ap.error(f"--merge/--planned: {exc}")
-        result = merge_results(parts, {"provenance": provenance()}, planned)
-    else:
-        torch.set_num_threads(1)
-        try:
-            config = PeersConfig(tasks=args.tasks, methods=args.methods, seeds=args.seeds, cases=args.cases)
-        except InputError as exc:
-            ap.error(str(exc))
-        result = run_peers(config, out=args.out, resume=args.resume, header={"provenance": provenance()},
-                           on_run=lambda r: print(run_line(r), flush=True), budgets_from=args.budgets_from)
-    save_result(result, args.out, plot_peers, ("summary", "wall_time_s"))
-    return 0
+            ap.error(f"--merge: {exc}")
+        commits = {(p.get("provenance") or {}).get("commit") for p in parts}
+        if len(commits) != 1:
+            ap.error(f"--merge: the parts were made at different commits ({sorted(map(str, commits))}); "
+                     "a result of record is made at one")
+        result = merge_results(parts, {"provenance": provenance()})
+        return save_result(result, args.out, plot_peers, ("wall_time_s",))
+    torch.set_num_threads(1)
+    tasks = args.tasks if args.part is None else args.tasks[args.part[0] - 1::args.part[1]]
+    try:
+        plans = configs(tasks, args.methods, args.seeds, args.cases)
+    except InputError as exc:
+        ap.error(str(exc))
+    meta = provenance()
+    results = []
+    for i, config in enumerate(plans):
+        out = args.out if i == 0 else f"{args.out}.part{i}"
+        results.append(run_peers(config, out=out, resume=args.resume, header={"provenance": meta},
+                                 on_run=lambda r: print(run_line(r), flush=True)))
+    result = results[0] if len(results) == 1 else merge_results(results, {"provenance": meta})
+    for i in range(1, len(plans)):
+        Path(f"{args.out}.part{i}").unlink(missing_ok=True)
+    return save_result(result, args.out, plot_peers, ("wall_time_s",))
 
 
 if __name__ == "__main__":

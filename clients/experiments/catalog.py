@@ -151,16 +151,18 @@ CATALOG: tuple[Experiment, ...] = (
     ),
     Experiment(
         'peers',
-        help="ACNMP beside SB3 PPO/SAC (+BC), black-box ProMP + CMA-ES and ProMP + RL on Meta-World",
-        description=("On Meta-World's reach, push and pick-place (demonstrations by Meta-World's scripted "
-                     "policies in its own training region), per seed at one position beyond the region and one "
-                     "inside: LfD only, ACNMP, the project's ProMP + RL, black-box ProMP + CMA-ES (fancy_gym's "
-                     "recipe), and stable-baselines3 PPO and SAC from scratch or warm-started by behaviour "
-                     "cloning. One metric: episodes until the method's deterministic output first succeeds "
-                     "(\"> budget\" when it does not). Needs the peers extra. docs/experiments/peers.md "
-                     "explains it."),
+        help="ACNMP beside SB3 PPO (+BC), black-box ProMP + CMA-ES and ProMP + RL on 8 tasks (Meta-World, E1, E2, Pusher)",
+        description=("On Meta-World's reach, push, pick-place, window-open and button-press (demonstrations by "
+                     "Meta-World's scripted policies in its own training region), the paper's E1 and E2, and "
+                     "Gymnasium's Pusher-v5, per seed at one condition beyond the demonstrations and one inside: "
+                     "LfD only and ACNMP (the product's default and the paper's method), the project's ProMP + RL, "
+                     "black-box ProMP + CMA-ES (fancy_gym's recipe; basis count chosen on the demonstrations, and "
+                     "fancy_gym's 5), and stable-baselines3 PPO and SAC from scratch or warm-started by behaviour "
+                     "cloning where the task has a step-based environment. One metric: episodes until the "
+                     "method's deterministic output first succeeds (\"> budget\" when it does not). Needs the "
+                     "peers extra. docs/experiments/peers.md explains it."),
         ident="peers",
-        title="ACNMP beside SB3, black-box ProMP + CMA-ES and ProMP + RL on Meta-World",
+        title="ACNMP beside SB3, black-box ProMP + CMA-ES and ProMP + RL on eight tasks",
         paper="not in the paper: the peers a robot-learning user would pick instead",
         page="peers.md",
         benchmark="benchmarks/experiments/peers.py",

@@ -1,6 +1,7 @@
 """``acnmp experiment peers``: ACNMP beside the peers a robot-learning user would pick instead
 (stable-baselines3 PPO and SAC, with and without behaviour cloning; fancy_gym's black-box ProMP +
-CMA-ES; the project's ProMP + RL) on Meta-World's reach, push and pick-place."""
+CMA-ES; the project's ProMP + RL) on Meta-World's reach, push, pick-place, window-open and
+button-press, the paper's E1 and E2, and Gymnasium's Pusher-v5."""
 from __future__ import annotations
 
 import argparse
@@ -10,10 +11,9 @@ from services.transport.argtypes import check_output_path, int_at_least, non_emp
 
 from .common import add_seeds_argument, seed_list
 
-#: --quick: every method on one task and one seed with tiny budgets (the accounting, not the outcome)
-QUICK = dict(tasks="metaworld-reach", seeds=1, cases="extrapolation", train_steps=200, budget=10, promp_budget=10,
-             sb3_budget=3, eval_every=1, bc_steps=50)
-TASKS_HELP = "metaworld-reach, metaworld-push, metaworld-pick-place"
+#: --quick: every method once on one task and one seed with tiny budgets (the accounting, not the outcome)
+QUICK = dict(tasks="metaworld-reach", seeds=1, cases="extrapolation", train_steps=200, budget=10, eval_every=1,
+             bc_steps=50)
 
 
 def _names(text: str) -> tuple[str, ...]:
@@ -26,21 +26,18 @@ def _names(text: str) -> tuple[str, ...]:
 
 def add_arguments(p) -> None:
     """Add the ``peers`` experiment's options to its parser ``p`` (made from its catalog entry)."""
-    p.add_argument("--tasks", type=_names, default=None, help=f"comma-separated tasks (default: all: {TASKS_HELP})")
+    from acnmp_core.experiments.peers import METHODS, TASK_NAMES
+
+    p.add_argument("--tasks", type=_names, default=None, help=f"comma-separated tasks (default: all: {', '.join(TASK_NAMES)})")
     p.add_argument("--methods", type=_names, default=None,
-                   help="comma-separated methods among lfd, acnmp, promp_rl, promp_cma, ppo, ppo_bc, sac_bc, sac "
-                        "(default: all; the SB3 ones need ACNMP's runs at the same task and case, in this run or "
-                        "in --out with --resume, unless --sb3-budget is given)")
-    add_seeds_argument(p, 5, "seeds (a CNMP and one test position per case each)")
-    p.add_argument("--cases", type=_names, default=None, help="extrapolation, interpolation (default: both)")
+                   help=f"comma-separated methods among {', '.join(METHODS)} (default: all; a method that does "
+                        "not apply to a task, e.g. PPO on E1, is left out there and named in the result)")
+    add_seeds_argument(p, 5, "seeds (a CNMP of each kind and one test position per case each)")
+    p.add_argument("--cases", type=_names, default=None, help="extrapolation, interpolation (default: both, where "
+                                                              "the task has them)")
     p.add_argument("--train-steps", type=int_at_least(1), default=None, help="CNMP training steps (default 3000)")
-    p.add_argument("--budget", type=int_at_least(1), default=None, help="ACNMP's episode budget (default 400)")
-    p.add_argument("--promp-budget", type=int_at_least(1), default=None,
-                   help="ProMP + RL's and ProMP + CMA-ES's episode budget (default 1500)")
-    p.add_argument("--sb3-factor", type=float, default=20.0,
-                   help="the SB3 budget is this times ACNMP's median at the task and case (default 20)")
-    p.add_argument("--sb3-min-budget", type=int_at_least(1), default=200, help="the SB3 budget's floor (default 200)")
-    p.add_argument("--sb3-budget", type=int_at_least(1), default=None, help="a fixed SB3 episode budget instead")
+    p.add_argument("--budget", type=int_at_least(1), default=None,
+                   help="every adaptive method's episode budget per test position (default 1000)")
     p.add_argument("--eval-every", type=int_at_least(1), default=None,
                    help="SB3 training episodes between evaluations of the deterministic policy (default 10)")
     p.add_argument("--quick", action="store_true",
@@ -49,9 +46,6 @@ def add_arguments(p) -> None:
     p.add_argument("--out", "--json", dest="json", type=non_empty, metavar="FILE",
                    help="write the result here, after every run (a partial run is usable)")
     p.add_argument("--resume", action="store_true", help="with --out: keep the runs already there, run the rest")
-    p.add_argument("--budgets-from", type=non_empty, default=None, metavar="FILE",
-                   help="also set the SB3 budgets from the ACNMP runs of this result (e.g. written by another "
-                        "`acnmp experiment peers` running the trajectory methods)")
     p.add_argument("--plot", type=non_empty, metavar="FILE", help="write success against episodes (PNG)")
     p.add_argument("--quiet", action="store_true", help="no per-run lines, no progress bar")
 
@@ -60,7 +54,7 @@ def run(args) -> int:
     """Run the comparison as asked by ``args``, print the table; returns the exit code."""
     import torch
 
-    from acnmp_core.experiments.peers import PeersConfig, plot_peers, run_line, run_peers
+    from acnmp_core.experiments.peers import BUDGET, METHODS, TASK_NAMES, PeersConfig, plot_peers, run_line, run_peers
 
     if args.resume and not args.json:
         raise ValueError("--resume: only with --out FILE (the runs to keep are read from it)")
@@ -68,20 +62,16 @@ def run(args) -> int:
     q = QUICK if args.quick else {}
     pick = lambda value, key, default: value if value is not None else q.get(key, default)  # noqa: E731
     config = PeersConfig(
-        tasks=args.tasks or (_names(q["tasks"]) if q else _all_tasks()),
-        methods=args.methods or _all_methods(), seeds=tuple(seed_list(args, q.get("seeds", 5))),
+        tasks=args.tasks or (_names(q["tasks"]) if q else TASK_NAMES), methods=args.methods or METHODS,
+        seeds=tuple(seed_list(args, q.get("seeds", 5))),
         cases=args.cases or (_names(q["cases"]) if q else ("extrapolation", "interpolation")),
-        train_steps=pick(args.train_steps, "train_steps", 3000), acnmp_budget=pick(args.budget, "budget", 400),
-        promp_budget=pick(args.promp_budget, "promp_budget", 1500), cma_budget=pick(args.promp_budget, "promp_budget", 1500),
-        sb3_factor=args.sb3_factor, sb3_min_budget=args.sb3_min_budget,
-        sb3_budget=pick(args.sb3_budget, "sb3_budget", None), eval_every=pick(args.eval_every, "eval_every", 10),
-        bc_steps=q.get("bc_steps", 3000))
+        train_steps=pick(args.train_steps, "train_steps", 3000), budget=pick(args.budget, "budget", BUDGET),
+        eval_every=pick(args.eval_every, "eval_every", 10), bc_steps=q.get("bc_steps", 3000))
     torch.set_num_threads(1)  # small networks; threads only contend with the simulator
     from clients.provenance import provenance
 
     header = {"provenance": provenance(), "quick": bool(args.quick)}
     result = run_peers(config, out=args.json, resume=args.resume, header=header, progress=not args.quiet,
-                       budgets_from=args.budgets_from,
                        on_run=None if args.quiet else (lambda r: print(run_line(r), flush=True)))
     print_table(result)
     if args.json:
@@ -91,26 +81,14 @@ def run(args) -> int:
     return 0
 
 
-def _all_tasks() -> tuple[str, ...]:
-    from acnmp_core.tasks.metaworld.scene import TASKS
-
-    return tuple(TASKS)
-
-
-def _all_methods() -> tuple[str, ...]:
-    from acnmp_core.experiments.peers import METHODS
-
-    return METHODS
-
-
 def print_table(result: dict) -> None:
     """The summary: per task and case, each method's successes, median episodes ("> budget" when
     censored) and median wall time."""
-    print(f"{'task':<21} {'case':<13} {'method':<9} {'success':>8} {'episodes (median)':>18} {'time (median)':>14}")
+    print(f"{'task':<22} {'case':<13} {'method':<11} {'success':>8} {'episodes (median)':>18} {'time (median)':>14}")
     for task, cases in result["summary"].items():
         for case, methods in cases.items():
             for method, s in methods.items():
-                print(f"{task:<21} {case:<13} {method:<9} {s['successes']:>4}/{s['runs']:<3} {s['median_shown']:>18} "
+                print(f"{task:<22} {case:<13} {method:<11} {s['successes']:>4}/{s['runs']:<3} {s['median_shown']:>18} "
                       f"{s['median_time_s']:>12.1f} s")
     if result["not_run"]:
         print(f"not run: {len(result['not_run'])} planned run(s)", file=sys.stderr)

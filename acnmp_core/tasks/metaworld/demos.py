@@ -20,7 +20,8 @@ from .scene import N_STEPS, make_env, set_task, task
 
 #: the scripted policy of each task (class names in metaworld.policies)
 EXPERTS = {"reach-v3": "SawyerReachV3Policy", "push-v3": "SawyerPushV3Policy",
-           "pick-place-v3": "SawyerPickPlaceV3Policy"}
+           "pick-place-v3": "SawyerPickPlaceV3Policy", "window-open-v3": "SawyerWindowOpenV3Policy",
+           "button-press-v3": "SawyerButtonPressV3Policy"}
 #: demonstrations drawn per task (those that fail are dropped) and the seed of their positions
 N_DEMOS = 12
 DEMO_SEED = 1000

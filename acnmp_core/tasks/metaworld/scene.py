@@ -1,5 +1,9 @@
 """Meta-World's Sawyer tasks as ACNMP tasks: the scene, the task parameters, the regions.
 
+Five tasks of two kinds: moving an object to a goal (``reach-v3``, ``push-v3``, ``pick-place-v3``) and
+working an articulated object where it stands (``window-open-v3``: slide a window open;
+``button-press-v3``: press a button in).
+
 Meta-World (Yu et al., CoRL 2019; ``metaworld`` 3.1.1, its v3 environments) drives a Sawyer arm
 by end-effector deltas: an action is (dx, dy, dz) in [-1, 1] scaled by ``action_scale`` (0.01 m)
 and a gripper command g in [-1, 1] (-1 open, 1 closed). A trajectory here is what the hand should
@@ -9,7 +13,8 @@ do at each of :data:`N_STEPS` environment steps (12.5 ms each): (T, 4), the hand
 (:data:`CONTROL`, :data:`KP`), fancy_gym's Meta-World controller.
 
 Task parameters, world m: ``reach``: the goal (x, y, z); ``push``: the puck (x, y) and the goal
-(x, y); ``pick-place``: the puck (x, y) and the goal (x, y, z). They are set on the environment
+(x, y); ``pick-place``: the puck (x, y) and the goal (x, y, z); ``window-open``, ``button-press``:
+where the window or the button stands (x, y) (the goal follows from it in Meta-World). They are set on the environment
 after each ``reset`` (:func:`set_task`) through the environment's own random vector (``_last_rand_vec``,
 frozen). The observation's goal is clipped to the task's goal range in Meta-World; the scene widens
 that range (:data:`VISIBLE_GOALS`) so that a policy reading the observation sees the goal it is
@@ -22,9 +27,9 @@ for push and pick-place); an episode succeeds once it falls below the task's rad
 0.05 m, 0.07 m).
 
 Regions: the demonstrations come from :attr:`MetaWorldTask.training`, Meta-World's own ranges of
-puck and goal positions. A test position is *interpolation* inside it and *extrapolation* with the
-goal's x moved 0.10-0.15 m beyond it (|x| in [0.20, 0.25] m, the side drawn at random), the other
-parameters inside; every test position is one where Meta-World's scripted expert succeeds
+puck, goal and object positions. A test position is *interpolation* inside it and *extrapolation*
+with the goal's (or the articulated object's) x moved 0.10-0.15 m beyond it (|x| in [0.20, 0.25] m,
+the side drawn at random), the other parameters inside; every test position is one where Meta-World's scripted expert succeeds
 (:func:`~.demos.expert_succeeds`), and puck and goal are at least :data:`MIN_SEPARATION` apart
 (closer, Meta-World's ``reset`` draws again forever).
 """
@@ -59,10 +64,12 @@ class MetaWorldTask:
 
     env_name : Meta-World's name (``"push-v3"``). kind : the robot kind (``"metaworld-push"``).
     param_names : the task parameters' names. training : (low, high) of the training region, one
-    entry per parameter (m). goal_x : the index of the goal's x in the parameters. radius :
-    Meta-World's success radius (m). credit : how the rewards depend on the actions, for
-    :func:`~acnmp_core.adaptation.loop.adapt` ("step": the hand's reward at step k is set by row
-    k; "future": the puck's depends on everything before).
+    entry per parameter (m). goal_x : the index of the goal's (or the object's) x in the
+    parameters, the one extrapolated. radius : Meta-World's success radius (m). credit : how the
+    rewards depend on the actions, for :func:`~acnmp_core.adaptation.loop.adapt` ("step": the
+    hand's reward at step k is set by row k; "future": the object's depends on everything before).
+    object_z : for an articulated object (window, button), its height (m): the parameters are its
+    x, y and Meta-World's random vector is that position; None for the tasks with a puck and a goal.
     """
 
     env_name: str
@@ -72,17 +79,21 @@ class MetaWorldTask:
     goal_x: int
     radius: float
     credit: str
+    object_z: float | None = None
 
     @property
     def n_params(self) -> int:
         return len(self.param_names)
 
     def rand_vec(self, params: np.ndarray) -> np.ndarray:
-        """(6,) Meta-World's random vector (puck x, y, z, goal x, y, z) for ``params``."""
+        """Meta-World's random vector for ``params``: (6,) puck x, y, z and goal x, y, z, or (3,) the
+        articulated object's x, y, z."""
         p = np.asarray(params, dtype=np.float64).reshape(-1)
         if p.shape != (self.n_params,) or not np.all(np.isfinite(p)):
             raise InputError(f"task_params: expected {self.n_params} finite values {list(self.param_names)}, "
                              f"got {np.asarray(params).tolist()}")
+        if self.object_z is not None:
+            return np.r_[p, self.object_z]
         if self.env_name == "reach-v3":
             return np.r_[DEFAULT_PUCK, p]
         if self.env_name == "push-v3":
@@ -93,6 +104,8 @@ class MetaWorldTask:
         """``params`` as a (P,) array; InputError (one line) when puck and goal are closer than
         :data:`MIN_SEPARATION` in x, y (Meta-World's reset would never return)."""
         vec = self.rand_vec(params)
+        if self.object_z is not None:  # no puck: nothing for Meta-World's reset to separate
+            return np.asarray(params, dtype=np.float64).reshape(-1)
         gap = float(np.hypot(*(vec[:2] - vec[3:5])))
         if gap < MIN_SEPARATION:
             raise InputError(f"task_params: the puck and the goal are {gap:.3f} m apart in x, y; Meta-World "
@@ -129,6 +142,10 @@ TASKS: dict[str, MetaWorldTask] = {t.kind: t for t in (
                   ((-0.1, 0.6, -0.1, 0.8), (0.1, 0.7, 0.1, 0.9)), 2, 0.05, "future"),
     MetaWorldTask("pick-place-v3", "metaworld-pick-place", ("puck_x", "puck_y", "goal_x", "goal_y", "goal_z"),
                   ((-0.1, 0.6, -0.1, 0.8, 0.05), (0.1, 0.7, 0.1, 0.9, 0.3)), 2, 0.07, "future"),
+    MetaWorldTask("window-open-v3", "metaworld-window-open", ("window_x", "window_y"),
+                  ((-0.1, 0.7), (0.1, 0.9)), 0, 0.05, "future", object_z=0.16),
+    MetaWorldTask("button-press-v3", "metaworld-button-press", ("button_x", "button_y"),
+                  ((-0.1, 0.85), (0.1, 0.9)), 0, 0.02, "future", object_z=0.115),
 )}
 
 
@@ -211,3 +228,18 @@ def set_task(kind: str):
         return np.asarray(obs, dtype=np.float64)
 
     return setter
+
+
+def fixed_task_env(kind: str, params: np.ndarray):
+    """``kind``'s environment (:func:`make_env`) reset at ``params`` (P,) every episode and cut at
+    :data:`N_STEPS` steps: the step-based environment of the peers that learn a policy."""
+    import gymnasium as gym
+
+    setter = set_task(kind)
+
+    class FixedTask(gym.Wrapper):
+        def reset(self, *, seed=None, options=None):
+            self.env.reset(seed=seed)
+            return setter(self.env, params), {}
+
+    return gym.wrappers.TimeLimit(FixedTask(make_env(kind)), N_STEPS)

@@ -1,0 +1,125 @@
+"""What the peers comparison runs (:class:`PeersConfig`) and what one run gives (:class:`PeerRun`)."""
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from ...errors import InputError
+
+#: the methods that execute whole trajectories: LfD only (the product's model and the paper's
+#: CNMP), ACNMP (the product's default and the paper's method), ProMP + RL, ProMP + CMA-ES (the
+#: basis count chosen on the demonstrations, and fancy_gym's 5)
+TRAJECTORY_METHODS = ("lfd", "lfd_paper", "acnmp", "acnmp_paper", "promp_rl", "promp_cma", "promp_cma5")
+#: the step-based methods (stable-baselines3), warm-started by behaviour cloning or from scratch
+STEP_BASED_METHODS = ("ppo_bc", "ppo", "sac_bc", "sac")
+METHODS = TRAJECTORY_METHODS + STEP_BASED_METHODS
+CASES = ("extrapolation", "interpolation")
+#: the episode budget of every adaptive method per test position (LfD only executes one)
+BUDGET = 1000
+#: CNMP training steps (the project's default)
+TRAIN_STEPS = 3000
+#: the libraries whose versions the result records
+LIBRARIES = ("metaworld", "mujoco", "gymnasium", "pybullet", "stable-baselines3", "mp-pytorch", "cma", "torch",
+             "numpy")
+
+
+@dataclass(frozen=True)
+class PeersConfig:
+    """What :func:`~acnmp_core.experiments.peers.run.run_peers` runs.
+
+    tasks : among :data:`~acnmp_core.experiments.peers.tasks.TASK_NAMES`. methods : among
+    :data:`METHODS`. seeds : one CNMP (per model kind) and one test position per case each. cases :
+    among :data:`CASES` (a task runs those that apply to it). train_steps : CNMP training. budget :
+    episodes per test position of every adaptive method. eval_every : SB3 training episodes between
+    two evaluations of the deterministic policy. bc_steps : behaviour cloning's Adam steps.
+    """
+
+    tasks: tuple[str, ...]
+    methods: tuple[str, ...] = TRAJECTORY_METHODS
+    seeds: tuple[int, ...] = (0, 1, 2, 3, 4)
+    cases: tuple[str, ...] = CASES
+    train_steps: int = TRAIN_STEPS
+    budget: int = BUDGET
+    eval_every: int = 10
+    bc_steps: int = 3000
+
+    def __post_init__(self) -> None:
+        from .tasks import TASK_NAMES
+
+        for name, given, known in (("tasks", self.tasks, TASK_NAMES), ("methods", self.methods, METHODS),
+                                   ("cases", self.cases, CASES)):
+            bad = [g for g in given if g not in known]
+            if not given or bad:
+                raise InputError(f"{name}: expected some of {', '.join(known)}, got {', '.join(map(str, bad)) or 'none'}")
+        if not self.seeds or any(int(s) < 0 for s in self.seeds):
+            raise InputError(f"seeds: expected at least one seed >= 0, got {list(self.seeds)}")
+        for name in ("train_steps", "budget", "eval_every", "bc_steps"):
+            if int(getattr(self, name)) < 1:
+                raise InputError(f"{name}: expected at least 1, got {getattr(self, name)}")
+
+    def budget_of(self, method: str) -> int:
+        """The episode budget of ``method``: one for LfD only, :attr:`budget` for the others."""
+        return 1 if method in ("lfd", "lfd_paper") else int(self.budget)
+
+
+@dataclass
+class PeerRun:
+    """One method at one test position.
+
+    episodes : executed until its deterministic output first succeeded, or all it executed
+    (censored). budget : its episode budget. censored : it did not succeed within the budget.
+    time_s : wall time of the run (s; the CNMP methods' without the CNMP's training, ``train_s``).
+    details : method-specific numbers (errors in the task's units, curves [[episodes, error], ...]).
+    """
+
+    task: str
+    method: str
+    seed: int
+    case: str
+    params: list[float]
+    episodes: int
+    success: bool
+    budget: int
+    time_s: float
+    details: dict = field(default_factory=dict)
+
+    @property
+    def censored(self) -> bool:
+        return not self.success
+
+    @property
+    def shown(self) -> str:
+        """The episodes as the page shows them: a number, or "> budget" when censored."""
+        return str(self.episodes) if self.success else f"> {self.budget}"
+
+    def to_json(self) -> dict:
+        return {**asdict(self), "censored": self.censored, "shown": self.shown}
+
+    @classmethod
+    def from_json(cls, d: dict) -> "PeerRun":
+        return cls(**{k: d[k] for k in ("task", "method", "seed", "case", "params", "episodes", "success",
+                                        "budget", "time_s")}, details=d.get("details", {}))
+
+    @property
+    def key(self) -> tuple:
+        return (self.task, self.method, self.seed, self.case)
+
+
+def median_episodes(runs: list[PeerRun]) -> float:
+    """The median episodes of ``runs``, a censored run counting as beyond every number (inf when
+    half of them or more are censored)."""
+    return float(np.median([r.episodes if r.success else np.inf for r in runs]))
+
+
+def library_versions() -> dict[str, str | None]:
+    """The installed version of every library of :data:`LIBRARIES` (None when missing)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    out: dict[str, str | None] = {}
+    for name in LIBRARIES:
+        try:
+            out[name] = version(name)
+        except PackageNotFoundError:
+            out[name] = None
+    return out
