@@ -79,6 +79,11 @@ def register_import(sub) -> None:
                         "episode's start (LeRobot: s, Minari: steps)")
     p.add_argument("--time", default=None, metavar="FEATURE",
                    help="the per-frame feature holding the time (default: LeRobot's timestamp, Minari's step index)")
+    p.add_argument("--align", choices=("before", "after"), default=None,
+                   help="a trajectory feature with one row more than the episode's steps (Minari's observations: "
+                        "the reset state first): before: rows 0..T-1, the state each step starts from; after: rows "
+                        "1..T, the state each step reaches (what a robot that tracks one row per step is commanded); "
+                        "default: every row (features of different lengths cut to the shortest)")
     p.add_argument("--resample", type=int_at_least(2), default=None, metavar="T",
                    help="T rows per demonstration, linearly interpolated over the phase (default: each episode's own "
                         "frames; different lengths are kept, padded, with their lengths)")
@@ -115,7 +120,7 @@ def run_import(args) -> int:
         selection = Selection(tuple(parse_feature(t) for t in args.trajectory),
                               tuple(parse_feature(t, task_param=True) for t in args.task_params),
                               episodes=args.episodes, successful=args.successful, phase=args.phase, time=args.time,
-                              resample=args.resample)
+                              resample=args.resample, align=args.align)
     except ValueError as exc:
         raise ValueError(f"--trajectory/--task-params: {exc}") from None
     data = read_dataset(args.format, args.source)
