@@ -191,7 +191,8 @@ def select_demos(data: DatasetEpisodes, sel: Selection) -> DemoArrays:
     if sel.successful:
         if any(ep.success is None for ep in episodes):
             raise DatasetError(data.path, "does not mark episodes successful (expected a success feature: "
-                                          "LeRobot's next.success, Minari's infos/success); drop --successful")
+                                          "LeRobot's next.success, Minari's infos/success, a bag's custom_data "
+                                          "acnmp.success); drop --successful")
         episodes = [ep for ep in episodes if ep.success]
     if not episodes:
         raise DatasetError(data.path, "no episode left to make demonstrations of"
