@@ -182,7 +182,8 @@ class _Bag:
             raise DatasetError(path, f"not a readable bag ({_line(exc)})") from None
         # a bag that defines some of its types is read with those alone: add the standard ones it lacks
         known = self.reader.typestore.fielddefs
-        self.reader.typestore.register({k: v for k, v in store.fielddefs.items() if k not in known})
+        lacking = _closure(store, {c.msgtype for c in self.reader.connections} - set(known))
+        self.reader.typestore.register({k: v for k, v in lacking.items() if k not in known})
         self.types = {c.topic: c.msgtype for c in self.reader.connections}
 
     def close(self) -> None:
@@ -222,6 +223,23 @@ class _Bag:
                                               f"({_line(exc)}; expected a type of ROS 2 Jazzy or one the bag defines)"
                                    ) from None
             yield conn.topic, (_stamp(msg, clock, stamp, self.path, conn.topic) - start) * 1e-9, msg
+
+
+def _closure(store, names: set[str]) -> dict:
+    """The definitions (``store.fielddefs``) of the types ``names`` and of every type in them."""
+    out, todo = {}, list(names)
+    while todo:
+        name = todo.pop()
+        if name in out or name not in store.fielddefs:
+            continue
+        out[name] = store.fielddefs[name]
+        for _, (node, spec) in out[name][1]:
+            inner = spec if getattr(node, "name", "") == "NAME" else spec[0] if isinstance(spec, tuple) else None
+            if isinstance(inner, str):
+                todo.append(inner)
+            elif isinstance(inner, tuple) and getattr(inner[0], "name", "") == "NAME":
+                todo.append(inner[1])
+    return out
 
 
 def _line(exc: BaseException) -> str:
