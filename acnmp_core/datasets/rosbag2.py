@@ -48,21 +48,20 @@ TIME = "time"
 
 
 def _rosbags():
-    """rosbags' modules (rosbag2, highlevel, typesys); DatasetError when it is not installed."""
+    """rosbags' modules (rosbag2, typesys); DatasetError when it is not installed."""
     try:
-        import rosbags.highlevel as highlevel
         import rosbags.rosbag2 as rosbag2
         import rosbags.typesys as typesys
     except ImportError:
         raise DatasetError("rosbags", "not installed (expected it for ROS 2 bags: pip install 'acnmp[rosbag]'; "
                                       "bash scripts/setup.sh installs it)") from None
-    return rosbag2, highlevel, typesys
+    return rosbag2, typesys
 
 
 def typestore():
     """The message types bags are read and written with: ROS 2 Jazzy's (every standard message);
     a bag's own definitions are added as it is read."""
-    _, _, typesys = _rosbags()
+    _, typesys = _rosbags()
     return typesys.get_typestore(typesys.Stores.ROS2_JAZZY)
 
 
@@ -170,34 +169,43 @@ def bag_dir(path: str | os.PathLike) -> Path:
 
 
 class _Bag:
-    """One open bag: its topics and types, its metadata, and its messages deserialised."""
+    """One open bag: its topics and types, its metadata, and its messages deserialised.
+
+    Messages are read with ``store`` (ROS 2 Jazzy's types, shared by the bags of one import, so a
+    type's generated code serves them all) plus the definitions a bag holds of types Jazzy lacks;
+    a bag whose definition of a standard type differs from Jazzy's (its RIHS01 digest) is read
+    with its own definitions alone (:meth:`_own_store`), as ``rosbags.highlevel.AnyReader`` does."""
 
     def __init__(self, path: Path, store) -> None:
-        _, highlevel, _ = _rosbags()
+        rosbag2, typesys = _rosbags()
         self.path = path
-        self.reader = highlevel.AnyReader([path], default_typestore=store)
+        self.reader = rosbag2.Reader(path)
         try:
             self.reader.open()
         except Exception as exc:  # noqa: BLE001 - rosbags' own errors for a damaged bag, one line each
             raise DatasetError(path, f"not a readable bag ({_line(exc)})") from None
-        # a bag that defines some of its types is read with those alone: add the standard ones it lacks
-        known = self.reader.typestore.fielddefs
-        lacking = _closure(store, {c.msgtype for c in self.reader.connections} - set(known))
-        self.reader.typestore.register({k: v for k, v in lacking.items() if k not in known})
-        self.types = {c.topic: c.msgtype for c in self.reader.connections}
+        conns = self.reader.connections
+        self.types = {c.topic: c.msgtype for c in conns}
+        self.store = store
+        try:
+            if any(c.digest and c.msgtype in store.fielddefs and _digest(store, c.msgtype) != c.digest
+                   for c in conns if c.digest.startswith("RIHS01_")):
+                self.store = _own_store(conns, store, typesys)
+            else:
+                for c in conns:
+                    if c.msgtype not in self.store.fielddefs and c.msgdef.data:
+                        self.store.register(_definitions(c, typesys))
+        except Exception as exc:  # noqa: BLE001 - a definition rosbags cannot parse
+            self.close()
+            raise DatasetError(path, f"message definitions not readable ({_line(exc)})") from None
 
     def close(self) -> None:
         self.reader.close()
 
     def custom_data(self) -> dict[str, str]:
-        """The bag's ``custom_data`` (empty when it has none)."""
-        from ruamel.yaml import YAML  # rosbags' own YAML reader
-
-        try:
-            meta = YAML(typ="safe").load((self.path / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
-        except Exception:  # noqa: BLE001 - rosbags read it already; a bag without custom data is fine
-            return {}
-        return {str(k): str(v) for k, v in (meta.get("custom_data") or {}).items()}
+        """The bag's ``custom_data`` (empty when it has none), as rosbags read it from metadata.yaml."""
+        custom = getattr(getattr(self.reader.storage, "metadata", None), "custom", None)
+        return {str(k): str(v) for k, v in (custom or {}).items()}
 
     def check_topic(self, topic: str, what: str) -> str:
         """The type of ``topic``; DatasetError listing the bag's topics when it has none such."""
@@ -210,19 +218,53 @@ class _Bag:
         """``(topic, time in s from the bag's start, message)`` of ``topics``, in the bag's order."""
         conns = [c for c in self.reader.connections if c.topic in topics]
         for conn in conns:
-            if conn.msgtype not in self.reader.typestore.fielddefs:
+            if conn.msgtype not in self.store.fielddefs:
                 raise DatasetError(self.path, f"topic {conn.topic!r}: message type {conn.msgtype} is unknown (expected "
                                               "a ROS 2 Jazzy type or one whose definition the bag holds, as bags "
                                               "recorded since ROS 2 Iron do)")
         start = self.reader.start_time
         for conn, stamp, raw in self.reader.messages(connections=conns):
             try:
-                msg = self.reader.deserialize(raw, conn.msgtype)
-            except Exception as exc:  # noqa: BLE001 - an unknown type or a damaged message
+                msg = self.store.deserialize_cdr(raw, conn.msgtype)
+            except Exception as exc:  # noqa: BLE001 - a damaged message
                 raise DatasetError(self.path, f"topic {conn.topic!r}: cannot read its {conn.msgtype} messages "
-                                              f"({_line(exc)}; expected a type of ROS 2 Jazzy or one the bag defines)"
-                                   ) from None
+                                              f"({_line(exc)})") from None
             yield conn.topic, (_stamp(msg, clock, stamp, self.path, conn.topic) - start) * 1e-9, msg
+
+
+def _definitions(conn, typesys) -> dict:
+    """The types a connection's message definition (MSG or IDL text) holds."""
+    data = conn.msgdef.data
+    if getattr(conn.msgdef.format, "name", "") == "IDL":
+        sep = "=" * 80 + "\n"
+        out: dict = {}
+        for part in (data.split(sep)[1:] if data.startswith(f"{sep}IDL: ") else [data]):
+            out.update(typesys.get_types_from_idl(part.split("\n", 1)[1] if part.startswith("IDL: ") else part))
+        return out
+    return typesys.get_types_from_msg(data, conn.msgtype)
+
+
+def _own_store(conns, store, typesys):
+    """A typestore of the bag's own definitions, with Jazzy's for the types it does not define."""
+    own = typesys.get_typestore(typesys.Stores.EMPTY)
+    types: dict = {}
+    for c in conns:
+        if c.msgdef.data:
+            types.update(_definitions(c, typesys))
+    types.update({k: v for k, v in _closure(store, {c.msgtype for c in conns} - set(types)).items() if k not in types})
+    own.register(types)
+    return own
+
+
+_DIGESTS: dict[tuple[int, str], str] = {}
+
+
+def _digest(store, name: str) -> str:
+    """The RIHS01 digest of type ``name`` in ``store`` (computed once per store and type)."""
+    key = (id(store), name)
+    if key not in _DIGESTS:
+        _DIGESTS[key] = store.hash_rihs01(name)
+    return _DIGESTS[key]
 
 
 def _closure(store, names: set[str]) -> dict:
@@ -449,7 +491,7 @@ def describe_bags(bags: Sequence[str | os.PathLike]) -> str:
             lines.append(f"{bag.path}: ROS 2 bag, {len(bag.types)} topics, {r.message_count} messages over "
                          f"{seconds:.3f} s")
             for topic, info in sorted(r.topics.items()):
-                fields = _field_kinds(r.typestore, info.msgtype)
+                fields = _field_kinds(bag.store, info.msgtype)
                 lines.append(f"  {topic:<28} {info.msgtype:<38} {info.msgcount:>7} messages  {fields}")
             custom = bag.custom_data()
             if custom:
@@ -486,7 +528,7 @@ def write_rosbag2(root: str | os.PathLike, rollouts: list[RolloutEpisode], *, st
     Written in a temporary directory beside ``root`` and renamed into place: a failure leaves
     nothing. DatasetError for roll-outs that do not fit together, a ``root`` that is not new or
     an unknown storage."""
-    rosbag2, _, _ = _rosbags()
+    rosbag2, _ = _rosbags()
     root = Path(root)
     if storage not in STORAGES:
         raise DatasetError(root, f"storage {storage!r} (expected one of {', '.join(STORAGES)})")
