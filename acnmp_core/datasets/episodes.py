@@ -1,8 +1,14 @@
 """The episodes of a dataset as the importers read them, the roll-outs as the exporters write
-them, and the one error every bad input raises."""
+them (and the directory they write them in), and the one error every bad input raises."""
 from __future__ import annotations
 
+import os
+import shutil
+import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -125,3 +131,20 @@ def rollout_names(rollouts: list[RolloutEpisode], d: int, p: int) -> tuple[list[
 
     return (agreed("value_names", d) or [f"q{i}" for i in range(d)],
             agreed("task_param_names", p) or [f"task_params.{i}" for i in range(p)])
+
+
+@contextmanager
+def new_directory(root: Path) -> Iterator[Path]:
+    """``with new_directory(root) as tmp:`` write into ``tmp``, a temporary directory beside
+    ``root``, renamed to ``root`` when the block ends (``root`` must be absent or an empty
+    directory then), removed when it raises: a failed export leaves nothing."""
+    root.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{root.name}.", dir=root.parent))
+    try:
+        yield tmp
+        if root.exists():
+            root.rmdir()
+        os.replace(tmp, root)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise

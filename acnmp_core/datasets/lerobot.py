@@ -21,15 +21,14 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
-import tempfile
 from pathlib import Path
 
 import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from .episodes import DatasetEpisodes, DatasetError, Episode, RolloutEpisode, check_rollouts, rollout_names
+from .episodes import (DatasetEpisodes, DatasetError, Episode, RolloutEpisode, check_rollouts, new_directory,
+                       rollout_names)
 
 CODEBASE_VERSION = "v3.0"
 DATA_PATH = "data/chunk-{chunk_index:03d}/file-{file_index:03d}.parquet"
@@ -269,9 +268,7 @@ def write_lerobot(root: str | os.PathLike, rollouts: list[RolloutEpisode], *, fp
             "video_files_size_in_mb": 200, "fps": int(fps), "splits": {"train": f"0:{len(rollouts)}"},
             "data_path": DATA_PATH, "video_path": None, "features": features}
     stats = {name: _stats(np.asarray(arr, dtype=np.float64).reshape(total, -1)) for name, arr in columns.items()}
-    root.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{root.name}.", dir=root.parent))
-    try:
+    with new_directory(root) as tmp:
         (tmp / "meta" / "episodes" / "chunk-000").mkdir(parents=True)
         (tmp / "data" / "chunk-000").mkdir(parents=True)
         pq.write_table(data, tmp / DATA_PATH.format(chunk_index=0, file_index=0), compression="snappy")
@@ -279,12 +276,6 @@ def write_lerobot(root: str | os.PathLike, rollouts: list[RolloutEpisode], *, fp
         pq.write_table(task_table, tmp / "meta" / "tasks.parquet")
         (tmp / "meta" / "info.json").write_text(json.dumps(info, indent=4))
         (tmp / "meta" / "stats.json").write_text(json.dumps(stats, indent=4))
-        if root.exists():
-            root.rmdir()
-        os.replace(tmp, root)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
     return root
 
 

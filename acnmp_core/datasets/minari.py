@@ -23,13 +23,12 @@ from __future__ import annotations
 import json
 import os
 import re
-import shutil
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
-from .episodes import DatasetEpisodes, DatasetError, Episode, RolloutEpisode, check_rollouts, rollout_names
+from .episodes import (DatasetEpisodes, DatasetError, Episode, RolloutEpisode, check_rollouts, new_directory,
+                       rollout_names)
 
 #: the minari release whose dataset layout this writes (minari checks it against those it reads)
 MINARI_VERSION = "0.5.4"
@@ -175,9 +174,7 @@ def write_minari(dataset_id: str, rollouts: list[RolloutEpisode], *, root: str |
     obs_space = {"type": "Dict", "subspaces": {"state": _box(d), "phase": _box(1), **({"task_params": _box(p)} if p else {})}}
     total = sum(r.steps for r in rollouts)
     h5py = _h5py()
-    target.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=target.parent))
-    try:
+    with new_directory(target) as tmp:
         data = tmp / "data"
         data.mkdir()
         with h5py.File(data / "main_data.hdf5", "w", track_order=True) as f:
@@ -210,10 +207,6 @@ def write_minari(dataset_id: str, rollouts: list[RolloutEpisode], *, root: str |
                 "author": ["acnmp"], "description": description or "roll-outs recorded by an ACNMP deployment",
                 "dataset_size": round((data / "main_data.hdf5").stat().st_size / 1e6, 1)}
         (data / "metadata.json").write_text(json.dumps(meta))
-        os.replace(tmp, target)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
     parts = dataset_id.split("/")[:-1]
     for k in range(1, len(parts) + 1):  # minari lists a namespace by this file
         marker = base.joinpath(*parts[:k]) / "namespace_metadata.json"

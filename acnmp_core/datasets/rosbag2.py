@@ -24,15 +24,14 @@ from __future__ import annotations
 import json
 import math
 import os
-import shutil
-import tempfile
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from .episodes import DatasetEpisodes, DatasetError, Episode, RolloutEpisode, check_rollouts, rollout_names
+from .episodes import (DatasetEpisodes, DatasetError, Episode, RolloutEpisode, check_rollouts, new_directory,
+                       rollout_names)
 from .message_paths import MessageRef, PathError, extract, msgtype, path_of
 
 #: storage plugins a bag is written with (``mcap`` the default, ``sqlite3`` the older one)
@@ -538,9 +537,7 @@ def write_rosbag2(root: str | os.PathLike, rollouts: list[RolloutEpisode], *, st
     names, param_names = rollout_names(rollouts, d, p)
     store = typestore()
     plugin = rosbag2.StoragePlugin.MCAP if storage == "mcap" else rosbag2.StoragePlugin.SQLITE3
-    root.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{root.name}.", dir=root.parent))
-    try:
+    with new_directory(root) as tmp:
         start = 0
         for i, r in enumerate(rollouts):
             if r.wall_time is not None:
@@ -548,12 +545,6 @@ def write_rosbag2(root: str | os.PathLike, rollouts: list[RolloutEpisode], *, st
             with rosbag2.Writer(tmp / f"rollout_{i:04d}", version=9, storage_plugin=plugin) as writer:
                 _write_rollout(writer, store, r, start, names, param_names)
             start += int(math.ceil(float(r.times[-1] - r.times[0]) + 1.0) * 1e9)  # the next one after it
-        if root.exists():
-            root.rmdir()
-        os.replace(tmp, root)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
     return root
 
 
