@@ -228,3 +228,24 @@ def test_recorded_rollouts_export_as_bags_rosbags_reads_and_come_back_bit_for_bi
     # an existing directory is refused, nothing written into it
     code, _, err = run_cli("replay", str(path), "--export-rosbag2", str(out))
     assert code == 2 and "already exists" in err and sorted(out.iterdir()) == bags
+
+
+def test_the_plugin_examples_bag_becomes_its_demonstrations(tmp_path, run_cli, monkeypatch):
+    """examples/my_robot/my_robot/make_bag.py records the example's five reaches as the arm would;
+    imported, they are the example's demonstrations exactly (the path of docs/DATA.md's example)."""
+    import sys
+
+    monkeypatch.syspath_prepend(str(Path(__file__).resolve().parents[3] / "examples" / "my_robot"))
+    from my_robot.make_bag import write_bag
+    from my_robot.make_demos import demos
+
+    for name in [m for m in sys.modules if m == "my_robot" or m.startswith("my_robot.")]:
+        monkeypatch.delitem(sys.modules, name)  # forgotten after the test, as sys.path is
+    bag = write_bag(tmp_path / "reach_bag")
+    got = _import(run_cli, [bag], tmp_path / "reach.npz", "--split", "topic:/goal", "--trajectory",
+                  "/joint_states:position[shoulder,elbow]", "--task-params", "/goal:point[0:2]@first")
+    want = demos()
+    np.testing.assert_array_equal(got.values, want.values)
+    np.testing.assert_array_equal(got.task_params, want.task_params)
+    np.testing.assert_allclose(got.times, want.times, atol=1e-12)
+    assert got.value_names.tolist() == ["shoulder", "elbow"] and got.task_param_names.tolist() == ["point.x", "point.y"]
