@@ -74,15 +74,18 @@ def test_up_with_demos_is_up_once_the_skill_is_served_and_ctrl_c_says_what_it_st
 def test_a_learner_given_up_on_is_named_with_its_reason(tmp_path, capsys):
     """Issue 65, friction 1: `acnmp up` said only "learner exited before serving 'via'; logs in ...";
     the reason (here: a file it cannot read) was in the learner's log alone. No restart here
-    (the policy allows none), so the child is given up on at its first exit."""
+    (the policy allows none), so the child is given up on at its first exit. The learner trains
+    another skill first, so that it is surely live (it serves while it trains) when it fails."""
     import threading
 
     from clients.commands.up import wait_for_skill
     from services.launcher import LocalDeployment
     from services.launcher.supervision import RestartPolicy
 
+    save_demos(tmp_path / "first.npz", demo_set_to_arrays(obstacle_demos(n_steps=30)))
     dep = LocalDeployment(f"gone-{uuid.uuid4().hex[:8]}", 0, model=False, state_dir=tmp_path / "state",
-                          learner_args=["--demos", f"via={tmp_path / 'moved-away.npz'}"],
+                          learner_args=["--demos", f"first={tmp_path / 'first.npz'}", "--demos",
+                                        f"via={tmp_path / 'moved-away.npz'}", "--train-steps", "300"],
                           restart_policy=RestartPolicy(max_restarts=0))
     try:
         dep.start()
