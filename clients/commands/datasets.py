@@ -88,10 +88,11 @@ def register_import(sub) -> None:
                         "(acnmp.task_params)")
     p.add_argument("--episodes", type=_episodes, default=None, metavar="IDS", help="only these episodes (e.g. 0,3,5-9)")
     p.add_argument("--successful", action="store_true",
-                   help="only the episodes the dataset marks successful (LeRobot next.success, Minari infos/success)")
+                   help="only the episodes the dataset marks successful (LeRobot next.success, Minari infos/success, "
+                        "a bag's custom_data acnmp.success)")
     p.add_argument("--phase", choices=("normalized", "time"), default="normalized",
                    help="times: each episode's time mapped to [0, 1] (default), or the dataset's time from the "
-                        "episode's start (LeRobot: s, Minari: steps)")
+                        "episode's start (LeRobot and bags: s, Minari: steps)")
     p.add_argument("--time", default=None, metavar="FEATURE",
                    help="the per-frame feature holding the time (default: LeRobot's timestamp, Minari's step index); "
                         "rosbag2: header (each message's header stamp) or receive (when the bag received it); default: "
