@@ -112,9 +112,12 @@ def round_trip(rrd: str | Path, fmt: str, work: Path, *, skill_steps: int = 5000
     demos_path = work / f"{fmt}.npz"
     t0 = time.perf_counter()
     # LeRobot's own clock is float32 timestamps; the export's observation.phase holds the recorded times
-    how = {"lerobot": [where, "--trajectory", "action", "--time", "observation.phase"],
-           "minari": [where, "--trajectory", "actions"],
-           "rosbag2": [*(str(b) for b in sorted(Path(where).iterdir())), "--trajectory", "/acnmp/trajectory"]}[fmt]
+    if fmt == "lerobot":
+        how = [where, "--trajectory", "action", "--time", "observation.phase"]
+    elif fmt == "minari":
+        how = [where, "--trajectory", "actions"]
+    else:  # a bag per roll-out
+        how = [*(str(b) for b in sorted(Path(where).iterdir())), "--trajectory", "/acnmp/trajectory"]
     _cli("demos", "import", "--format", fmt, *how, "-o", str(demos_path), "--successful")
     read = time.perf_counter() - t0
     demos = load_demos(demos_path)
