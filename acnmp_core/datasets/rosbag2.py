@@ -316,7 +316,7 @@ def _meta_value(text: str) -> np.ndarray | None:
 
 @dataclass
 class _Rows:
-    """A topic's rows as read: times (R,) s, values (R, k), the message each came from."""
+    """A topic's rows as read: times (R,) s, values (R, k), the components' names."""
 
     times: list[float] = field(default_factory=list)
     values: list[np.ndarray] = field(default_factory=list)
