@@ -16,6 +16,10 @@ from __future__ import annotations
 import importlib
 from typing import TYPE_CHECKING
 
+from . import moved
+
+moved.install()  # the modules' old names (before 2026-12-05) still import, with a warning
+
 if TYPE_CHECKING:  # what a type checker sees; at run time the same names come from __getattr__
     from .adaptation.loop import adapt
     from .adaptation.config import AdaptConfig, AdaptResult, AdaptTarget

@@ -13,8 +13,8 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 PY=${PYTHON:-python3}
 STAMP=.venv/.setup-stamp
-# ACNMP_EXTRAS: the extras to install (default test,gym,peers; `scripts/test.sh --slow` adds datasets)
-EXTRAS=".[${ACNMP_EXTRAS:-test,gym,peers}]"
+# ACNMP_EXTRAS: the extras to install (default test,gym,peers,rosbag; `scripts/test.sh --slow` adds datasets)
+EXTRAS=".[${ACNMP_EXTRAS:-test,gym,peers,rosbag}]"
 stamp() { { cat pyproject.toml scripts/setup.sh; echo "$EXTRAS"; } | sha256sum | cut -d' ' -f1; }
 if [ "${ACNMP_SETUP:-}" != force ] && [ -x .venv/bin/python ] && [ -f "$STAMP" ] && [ "$(cat "$STAMP")" = "$(stamp)" ]; then
   exit 0

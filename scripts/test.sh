@@ -17,7 +17,7 @@ args=()
 for arg in "$@"; do
   case "$arg" in
     --fast) args+=(tests/unit --fast) ;;
-    --slow) args+=(-m slow); export ACNMP_EXTRAS=${ACNMP_EXTRAS:-test,gym,peers,datasets} ;;
+    --slow) args+=(-m slow); export ACNMP_EXTRAS=${ACNMP_EXTRAS:-test,gym,peers,rosbag,datasets} ;;
     *) args+=("$arg") ;;
   esac
 done

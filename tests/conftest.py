@@ -313,12 +313,14 @@ def _training_threads_as_configured():
 def acnmp_up():
     """``start(*args)``: run ``acnmp up ARGS`` as a child process (stdout piped, text) and read its
     output until "deployment is up"; returns (Popen, lines read). The caller stops it (in a finally).
-    ``path``: directories put before the project's on PYTHONPATH (e.g. an installed plugin's)."""
+    ``path``: directories put before the project's on PYTHONPATH (e.g. an installed plugin's);
+    ``cwd``: where it runs (default: the project's root)."""
     root = Path(__file__).resolve().parents[1]
 
-    def start(*args: str, path: tuple[str, ...] = ()) -> tuple[subprocess.Popen, list[str]]:
+    def start(*args: str, path: tuple[str, ...] = (), cwd: str | os.PathLike | None = None
+              ) -> tuple[subprocess.Popen, list[str]]:
         env = dict(os.environ, PYTHONPATH=os.pathsep.join([*path, str(root)]), RERUN_ANALYTICS="0")
-        proc = subprocess.Popen([sys.executable, "-m", "clients.cli", "up", *args], cwd=root, env=env,
+        proc = subprocess.Popen([sys.executable, "-m", "clients.cli", "up", *args], cwd=cwd or root, env=env,
                                 stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
         lines = []
         for line in proc.stdout:

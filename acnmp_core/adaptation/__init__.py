@@ -8,3 +8,7 @@
 - :mod:`.exploration`: the exploration noise (its shape over time) and its std (how it shrinks).
 - :mod:`.assimilation`: adding a solution to the demonstrations and training on it.
 """
+
+from ..moved import forward
+
+__getattr__ = forward(__name__)  # this package was a module: its old names, with a warning

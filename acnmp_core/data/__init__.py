@@ -6,3 +6,7 @@
 
 No torch here: the tasks' scripted experts build demonstrations without the model.
 """
+
+from ..moved import forward
+
+__getattr__ = forward(__name__)  # this package was a module: its old names, with a warning

@@ -1,8 +1,14 @@
 """The episodes of a dataset as the importers read them, the roll-outs as the exporters write
-them, and the one error every bad input raises."""
+them (and the directory they write them in), and the one error every bad input raises."""
 from __future__ import annotations
 
+import os
+import shutil
+import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -68,6 +74,9 @@ class RolloutEpisode:
     units (e.g. m, rad). reward : (T,) the per-step rewards. success, ret : the roll-out's
     success and return. task_params : (P,). job, method, skill, robot, task : what produced it
     (empty strings where the recording does not say). rollout_index : its index in its job.
+    value_names (D,), task_param_names (P,) : the skill's names of the trajectory's columns and of
+    the task parameters (empty where the recording does not say). wall_time : when it was
+    recorded (s since the epoch; None where unknown).
     """
 
     times: np.ndarray
@@ -82,6 +91,9 @@ class RolloutEpisode:
     robot: str = ""
     task: str = ""
     rollout_index: int = 0
+    value_names: tuple[str, ...] = ()
+    task_param_names: tuple[str, ...] = ()
+    wall_time: float | None = None
 
     @property
     def steps(self) -> int:
@@ -106,3 +118,33 @@ def check_rollouts(rollouts: list[RolloutEpisode], where: str) -> tuple[int, int
             raise DatasetError(where, f"roll-out {r.job}/{r.rollout_index}: a NaN or inf in its trajectory or times "
                                       "(expected finite numbers)")
     return dims.pop(), params.pop()
+
+
+def rollout_names(rollouts: list[RolloutEpisode], d: int, p: int) -> tuple[list[str], list[str]]:
+    """The names of the D trajectory columns and the P task parameters of ``rollouts`` (checked
+    with :func:`check_rollouts`): the skill's, where every roll-out that carries names carries the
+    same ones, else ``q0..`` and ``task_params.0..``."""
+
+    def agreed(kind: str, count: int) -> list[str] | None:
+        named = {getattr(r, kind) for r in rollouts if len(getattr(r, kind)) == count and count}
+        return list(named.pop()) if len(named) == 1 else None
+
+    return (agreed("value_names", d) or [f"q{i}" for i in range(d)],
+            agreed("task_param_names", p) or [f"task_params.{i}" for i in range(p)])
+
+
+@contextmanager
+def new_directory(root: Path) -> Iterator[Path]:
+    """``with new_directory(root) as tmp:`` write into ``tmp``, a temporary directory beside
+    ``root``, renamed to ``root`` when the block ends (``root`` must be absent or an empty
+    directory then), removed when it raises: a failed export leaves nothing."""
+    root.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{root.name}.", dir=root.parent))
+    try:
+        yield tmp
+        if root.exists():
+            root.rmdir()
+        os.replace(tmp, root)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise

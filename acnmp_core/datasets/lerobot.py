@@ -21,15 +21,14 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
-import tempfile
 from pathlib import Path
 
 import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from .episodes import DatasetEpisodes, DatasetError, Episode, RolloutEpisode, check_rollouts
+from .episodes import (DatasetEpisodes, DatasetError, Episode, RolloutEpisode, check_rollouts, new_directory,
+                       rollout_names)
 
 CODEBASE_VERSION = "v3.0"
 DATA_PATH = "data/chunk-{chunk_index:03d}/file-{file_index:03d}.parquet"
@@ -118,6 +117,8 @@ def read_lerobot(root: str | os.PathLike) -> DatasetEpisodes:
         fields, labels = meta.get(index, ({}, {}))
         success = bool(frames["next.success"].any()) if "next.success" in frames else None
         episodes.append(Episode(index, frames, fields, labels, success))
+    if "observation.task_params" in names:  # the exports' per-episode copy of the task parameters
+        names[f"{FIELD_PREFIX}task_params"] = names["observation.task_params"]
     data = DatasetEpisodes(str(root), "lerobot", episodes, "timestamp", names, ranks, catalog=str(info_path))
     data.files.update({name: data_where for name in features})
     if meta:
@@ -173,6 +174,9 @@ def write_lerobot(root: str | os.PathLike, rollouts: list[RolloutEpisode], *, fp
       first row repeated), what a position-controlled robot that tracks its commands reports;
     - ``observation.phase`` (1,) float64: the row's phase (the recorded ``times``);
     - ``observation.task_params`` (P,) float64 (when P > 0): the task parameters, every frame;
+    - the components named (``names`` in ``meta/info.json``) by the skill's output and
+      task-parameter names the roll-outs carry (``value_names`` overrides the first), else
+      ``q0..`` and ``task_params.0..``;
     - ``next.reward`` (1,) float64 per step, ``next.success`` and ``next.done`` (bool, true on
       the last frame, success only when the roll-out succeeded);
     - ``timestamp`` frame_index / ``fps`` s, and LeRobot's indices.
@@ -189,7 +193,9 @@ def write_lerobot(root: str | os.PathLike, rollouts: list[RolloutEpisode], *, fp
     if fps < 1:
         raise DatasetError(root, f"fps {fps} (expected a positive integer)")
     d, p = check_rollouts(rollouts, str(root))
-    names = list(value_names) if value_names and len(value_names) == d else [f"q{i}" for i in range(d)]
+    names, param_names = rollout_names(rollouts, d, p)
+    if value_names and len(value_names) == d:
+        names = list(value_names)
     tasks = sorted({r.task or r.skill or "acnmp" for r in rollouts})
     task_index = {t: i for i, t in enumerate(tasks)}
     lengths = np.array([r.steps for r in rollouts])
@@ -218,7 +224,7 @@ def write_lerobot(root: str | os.PathLike, rollouts: list[RolloutEpisode], *, fp
         dtype = "bool" if arr.dtype == bool else str(arr.dtype)
         width = 1 if arr.ndim == 1 else arr.shape[1]
         col_names = {"action": names, "observation.state": names,
-                     "observation.task_params": [f"task_params.{i}" for i in range(p)]}.get(name)
+                     "observation.task_params": param_names}.get(name)
         features[name] = {"dtype": dtype, "shape": [width], "names": col_names}
         if arr.ndim == 1 or width == 1:
             arrays[name] = pa.array(arr.reshape(-1))
@@ -262,9 +268,7 @@ def write_lerobot(root: str | os.PathLike, rollouts: list[RolloutEpisode], *, fp
             "video_files_size_in_mb": 200, "fps": int(fps), "splits": {"train": f"0:{len(rollouts)}"},
             "data_path": DATA_PATH, "video_path": None, "features": features}
     stats = {name: _stats(np.asarray(arr, dtype=np.float64).reshape(total, -1)) for name, arr in columns.items()}
-    root.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{root.name}.", dir=root.parent))
-    try:
+    with new_directory(root) as tmp:
         (tmp / "meta" / "episodes" / "chunk-000").mkdir(parents=True)
         (tmp / "data" / "chunk-000").mkdir(parents=True)
         pq.write_table(data, tmp / DATA_PATH.format(chunk_index=0, file_index=0), compression="snappy")
@@ -272,12 +276,6 @@ def write_lerobot(root: str | os.PathLike, rollouts: list[RolloutEpisode], *, fp
         pq.write_table(task_table, tmp / "meta" / "tasks.parquet")
         (tmp / "meta" / "info.json").write_text(json.dumps(info, indent=4))
         (tmp / "meta" / "stats.json").write_text(json.dumps(stats, indent=4))
-        if root.exists():
-            root.rmdir()
-        os.replace(tmp, root)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
     return root
 
 

@@ -23,18 +23,20 @@ from __future__ import annotations
 import json
 import os
 import re
-import shutil
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
-from .episodes import DatasetEpisodes, DatasetError, Episode, RolloutEpisode, check_rollouts
+from .episodes import (DatasetEpisodes, DatasetError, Episode, RolloutEpisode, check_rollouts, new_directory,
+                       rollout_names)
 
 #: the minari release whose dataset layout this writes (minari checks it against those it reads)
 MINARI_VERSION = "0.5.4"
 _ID = re.compile(r"^(?:[-_\w][-_\w/]*[-_\w]+/)?[-_\w]+?(?:-v\d+)?$")
 FIELD_PREFIX = "acnmp/"
+#: the attribute of an HDF5 dataset that names its components (the exports write it on actions,
+#: observations/state and observations/task_params; minari itself ignores it)
+NAMES = "names"
 #: the per-step infos that mark an episode successful (any step true), the first found
 SUCCESS_INFOS = ("infos/success", "infos/is_success")
 
@@ -80,7 +82,7 @@ def read_minari(dataset: str | os.PathLike) -> DatasetEpisodes:
         raise DatasetError(meta_path, f"data_format {meta.get('data_format')!r} (expected 'hdf5')")
     main = data / "main_data.hdf5"
     h5py = _h5py()
-    episodes, ranks = [], {}
+    episodes, ranks, names = [], {}, {}
     try:
         f = h5py.File(main, "r")
     except OSError as exc:
@@ -101,6 +103,7 @@ def read_minari(dataset: str | os.PathLike) -> DatasetEpisodes:
                 else:
                     arr = obj[()].astype(np.float64)
                     frames[name] = arr.reshape(len(arr), -1)
+                    _name(names, name, obj.attrs.get(NAMES), frames[name].shape[1])
 
             group.visititems(visit)
             fields, labels = {}, {}
@@ -112,13 +115,26 @@ def read_minari(dataset: str | os.PathLike) -> DatasetEpisodes:
                     arr = np.asarray(value)
                     if arr.dtype.kind in "fiub":
                         fields[name] = arr.astype(np.float64).reshape(-1)
+            if f"{FIELD_PREFIX}task_params" in fields:
+                _name(names, f"{FIELD_PREFIX}task_params", group.attrs.get(f"{FIELD_PREFIX}task_param_names"),
+                      len(fields[f"{FIELD_PREFIX}task_params"]))
             marks = [frames[k] for k in SUCCESS_INFOS if k in frames]
             success = bool(marks[0].any()) if marks else None
             episodes.append(Episode(int(key.split("_", 1)[1]), frames, fields, labels, success))
-    out = DatasetEpisodes(str(data), "minari", episodes, None, {}, ranks, catalog=str(main))
+    out = DatasetEpisodes(str(data), "minari", episodes, None, names, ranks, catalog=str(main))
     out.files.update({name: str(main) for ep in episodes[:1] for name in (*ep.frames, *ep.fields, *ep.labels)})
     out.files.update({name: str(main) for name in ranks})
     return out
+
+
+def _name(names: dict[str, tuple[str, ...]], feature: str, attr, width: int) -> None:
+    """Keep the component names an HDF5 attribute gives ``feature`` (a list of ``width`` strings;
+    anything else is ignored, as minari does)."""
+    if feature in names or attr is None:
+        return
+    items = [v.decode() if isinstance(v, bytes) else v for v in np.asarray(attr).reshape(-1).tolist()]
+    if len(items) == width and all(isinstance(v, str) for v in items):
+        names[feature] = tuple(items)
 
 
 def _box(shape: int) -> dict:
@@ -138,7 +154,11 @@ def write_minari(dataset_id: str, rollouts: list[RolloutEpisode], *, root: str |
     - ``rewards`` (T,), ``terminations`` (true on the last step of a successful roll-out),
       ``truncations`` (true on the last step of one that did not succeed), ``infos/success``;
     - attributes ``acnmp/job``, ``acnmp/method``, ``acnmp/skill``, ``acnmp/robot``, ``acnmp/task``,
-      ``acnmp/rollout_index``, ``acnmp/success``, ``acnmp/return``, ``acnmp/task_params``.
+      ``acnmp/rollout_index``, ``acnmp/success``, ``acnmp/return``, ``acnmp/task_params`` and
+      ``acnmp/task_param_names``;
+    - the attribute ``names`` of ``actions`` and ``observations/state`` (the skill's output
+      names the roll-outs carry, else ``q0..``) and of ``observations/task_params`` (its
+      task-parameter names, else ``task_params.0..``), which :func:`read_minari` reads back.
 
     Written in a temporary directory and renamed into place, so a failure leaves nothing but
     namespace files. DatasetError for a malformed id, a dataset that exists, or roll-outs that do
@@ -150,12 +170,11 @@ def write_minari(dataset_id: str, rollouts: list[RolloutEpisode], *, root: str |
     if target.exists():
         raise DatasetError(target, "already exists (expected a new dataset id)")
     d, p = check_rollouts(rollouts, str(target))
+    names, param_names = rollout_names(rollouts, d, p)
     obs_space = {"type": "Dict", "subspaces": {"state": _box(d), "phase": _box(1), **({"task_params": _box(p)} if p else {})}}
     total = sum(r.steps for r in rollouts)
     h5py = _h5py()
-    target.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=target.parent))
-    try:
+    with new_directory(target) as tmp:
         data = tmp / "data"
         data.mkdir()
         with h5py.File(data / "main_data.hdf5", "w", track_order=True) as f:
@@ -163,11 +182,12 @@ def write_minari(dataset_id: str, rollouts: list[RolloutEpisode], *, root: str |
                 g = f.create_group(f"episode_{i}")
                 traj = np.asarray(r.trajectory, dtype=np.float64)
                 obs = g.create_group("observations")
-                obs.create_dataset("state", data=np.vstack([traj[:1], traj]))
+                obs.create_dataset("state", data=np.vstack([traj[:1], traj])).attrs[NAMES] = names
                 obs.create_dataset("phase", data=np.r_[r.times[:1], r.times].reshape(-1, 1).astype(np.float64))
                 if p:
-                    obs.create_dataset("task_params", data=np.tile(np.asarray(r.task_params, np.float64), (r.steps + 1, 1)))
-                g.create_dataset("actions", data=traj)
+                    obs.create_dataset("task_params", data=np.tile(np.asarray(r.task_params, np.float64),
+                                                                   (r.steps + 1, 1))).attrs[NAMES] = param_names
+                g.create_dataset("actions", data=traj).attrs[NAMES] = names
                 g.create_dataset("rewards", data=np.asarray(r.reward, dtype=np.float64))
                 end = np.zeros(r.steps, dtype=bool)
                 end[-1] = True
@@ -179,16 +199,14 @@ def write_minari(dataset_id: str, rollouts: list[RolloutEpisode], *, root: str |
                                 f"{FIELD_PREFIX}rollout_index": int(r.rollout_index),
                                 f"{FIELD_PREFIX}success": bool(r.success), f"{FIELD_PREFIX}return": float(r.ret),
                                 f"{FIELD_PREFIX}task_params": np.asarray(r.task_params, dtype=np.float64)})
+                if p:
+                    g.attrs[f"{FIELD_PREFIX}task_param_names"] = param_names
         meta = {"total_episodes": len(rollouts), "total_steps": total, "data_format": "hdf5", "jpeg_encoding": False,
                 "observation_space": json.dumps(obs_space), "action_space": json.dumps(_box(d)),
                 "dataset_id": dataset_id, "minari_version": MINARI_VERSION, "algorithm_name": "acnmp",
                 "author": ["acnmp"], "description": description or "roll-outs recorded by an ACNMP deployment",
                 "dataset_size": round((data / "main_data.hdf5").stat().st_size / 1e6, 1)}
         (data / "metadata.json").write_text(json.dumps(meta))
-        os.replace(tmp, target)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
     parts = dataset_id.split("/")[:-1]
     for k in range(1, len(parts) + 1):  # minari lists a namespace by this file
         marker = base.joinpath(*parts[:k]) / "namespace_metadata.json"

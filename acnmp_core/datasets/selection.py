@@ -21,6 +21,8 @@ _REF = re.compile(r"^(?P<name>[^\[\]@]+?)(?:\[(?P<a>-?\d*)(?P<colon>:)?(?P<b>-?\
 
 #: How an episode's time becomes the demonstrations' ``times``.
 PHASES = ("normalized", "time")
+#: Which rows of a feature with one row more than its episode's steps (Minari's observations) are kept.
+ALIGNS = ("before", "after")
 
 
 @dataclass(frozen=True)
@@ -87,7 +89,11 @@ class Selection:
     feature that holds the time (None: the format's own: ``timestamp`` for LeRobot, the step
     index for Minari). resample : rows per demonstration after linear interpolation over the
     phase (None: every episode keeps its own frames; different lengths are padded and marked
-    with ``lengths``).
+    with ``lengths``). align : for a trajectory feature with one row more than the episode has
+    steps (its shortest per-frame feature: Minari's observations, T+1 rows against T actions, the
+    reset state first): "before" keeps rows 0..T-1 (the state each step starts from), "after"
+    rows 1..T (the state each step reaches: what a robot that tracks one row per step is
+    commanded to); None keeps every row (the trajectory's features are cut to the shortest of them).
     """
 
     trajectory: tuple[FeatureRef, ...]
@@ -97,12 +103,15 @@ class Selection:
     phase: str = "normalized"
     time: str | None = None
     resample: int | None = None
+    align: str | None = None
 
     def __post_init__(self) -> None:
         if not self.trajectory:
             raise ValueError("trajectory: expected at least one feature")
         if self.phase not in PHASES:
             raise ValueError(f"phase: expected one of {PHASES}, got {self.phase!r}")
+        if self.align is not None and self.align not in ALIGNS:
+            raise ValueError(f"align: expected one of {ALIGNS}, got {self.align!r}")
         if self.resample is not None and self.resample < 2:
             raise ValueError(f"resample: expected at least 2 rows, got {self.resample}")
 
@@ -135,6 +144,15 @@ def _frame(data: DatasetEpisodes, ep: Episode, ref: FeatureRef) -> np.ndarray:
         k = int(np.argwhere(bad)[0][0])
         raise DatasetError(where, f"episode {ep.index} frame {k} holds NaN or inf (expected finite numbers)", ref.name)
     return arr
+
+
+def _aligned(rows: np.ndarray, ep: Episode, align: str | None) -> np.ndarray:
+    """``rows`` (T', k) of a feature of ``ep`` with the row before its first step or after its last
+    dropped (``align`` "after" or "before") when it has one row more than the episode's steps."""
+    steps = min(len(v) for v in ep.frames.values())
+    if align is None or len(rows) != steps + 1:
+        return rows
+    return rows[1:] if align == "after" else rows[:-1]
 
 
 def _param(data: DatasetEpisodes, ep: Episode, p: TaskParamRef) -> np.ndarray:
@@ -173,14 +191,15 @@ def select_demos(data: DatasetEpisodes, sel: Selection) -> DemoArrays:
     if sel.successful:
         if any(ep.success is None for ep in episodes):
             raise DatasetError(data.path, "does not mark episodes successful (expected a success feature: "
-                                          "LeRobot's next.success, Minari's infos/success); drop --successful")
+                                          "LeRobot's next.success, Minari's infos/success, a bag's custom_data "
+                                          "acnmp.success); drop --successful")
         episodes = [ep for ep in episodes if ep.success]
     if not episodes:
         raise DatasetError(data.path, "no episode left to make demonstrations of"
                            + (" (none is successful)" if sel.successful else "") + " (expected at least one)")
     rows, params = [], []
     for ep in episodes:
-        parts = [_frame(data, ep, ref) for ref in sel.trajectory]
+        parts = [_aligned(_frame(data, ep, ref), ep, sel.align) for ref in sel.trajectory]
         t = min(len(p) for p in parts)
         values = np.concatenate([p[:t] for p in parts], axis=1)
         clock = sel.time or data.time

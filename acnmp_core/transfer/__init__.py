@@ -6,3 +6,7 @@
   (:class:`~acnmp_core.transfer.pair.TransferPair`, :func:`~acnmp_core.transfer.pair.train_pair`),
   and a skill shown on one robot decoded for the other.
 """
+
+from ..moved import forward
+
+__getattr__ = forward(__name__)  # this package was a module: its old names, with a warning

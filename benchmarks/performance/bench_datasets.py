@@ -1,10 +1,11 @@
-"""Roll-outs out as datasets and back as demonstrations: the round trip through LeRobot v3 and
-Minari, and how fast each direction goes.
+"""Roll-outs out as datasets and back as demonstrations: the round trip through LeRobot v3,
+Minari and ROS 2 bags, and how fast each direction goes.
 
 1. A distributed E1 (``acnmp experiment viapoint --distributed --record``; ``--budget`` roll-outs
    per method, ``--train-steps``) is recorded, or a given recording (``--rrd``) is used.
-2. Per format: the recording's roll-outs exported (``acnmp replay --export-lerobot/--export-minari``),
-   loaded by the format's own library when it is installed (LeRobotDataset; minari.load_dataset),
+2. Per format: the recording's roll-outs exported (``acnmp replay --export-lerobot/--export-minari/
+   --export-rosbag2``), loaded by the format's own library when it is installed (LeRobotDataset;
+   minari.load_dataset; rosbags' AnyReader, every message deserialised),
    imported back as demonstrations of the successful roll-outs (``acnmp demos import
    --successful``), a CNMP trained on them (``--skill-steps``, the rate decayed to 1e-5), and each
    roll-out reproduced by the skill conditioned where E1's query conditions, on the roll-out's own
@@ -35,7 +36,7 @@ sys.path.insert(0, str(ROOT))
 from benchmarks._results import provenance, save_result  # noqa: E402
 from clients.experiments.common import add_run_arguments  # noqa: E402
 
-FORMATS = ("lerobot", "minari")
+FORMATS = ("lerobot", "minari", "rosbag2")
 
 
 def _cli(*argv: str) -> str:
@@ -60,6 +61,17 @@ def library_load(fmt: str, where: str) -> int | None:
             return None
         ds = minari.load_dataset(where)
         return sum(1 for _ in ds.iterate_episodes())
+    if fmt == "rosbag2":
+        try:
+            from rosbags.highlevel import AnyReader
+        except ImportError:
+            return None
+        bags = sorted(Path(where).iterdir())
+        for bag in bags:
+            with AnyReader([bag]) as reader:
+                for conn, _, raw in reader.messages():
+                    reader.deserialize(raw, conn.msgtype)
+        return len(bags)
     try:
         from acnmp_core.datasets.lerobot import import_lerobot
 
@@ -89,7 +101,7 @@ def round_trip(rrd: str | Path, fmt: str, work: Path, *, skill_steps: int = 5000
         os.environ["MINARI_DATASETS_PATH"] = str(work / "minari")
         where = "acnmp/e1-round-trip-v0"
     else:
-        where = str(work / "lerobot")
+        where = str(work / fmt)
     rows = read_recording(rrd).rollout_rows()
     t0 = time.perf_counter()
     _cli("replay", str(rrd), f"--export-{fmt}", where)
@@ -100,8 +112,13 @@ def round_trip(rrd: str | Path, fmt: str, work: Path, *, skill_steps: int = 5000
     demos_path = work / f"{fmt}.npz"
     t0 = time.perf_counter()
     # LeRobot's own clock is float32 timestamps; the export's observation.phase holds the recorded times
-    clock = ["--trajectory", "action", "--time", "observation.phase"] if fmt == "lerobot" else ["--trajectory", "actions"]
-    _cli("demos", "import", "--format", fmt, where, "-o", str(demos_path), *clock, "--successful")
+    if fmt == "lerobot":
+        how = [where, "--trajectory", "action", "--time", "observation.phase"]
+    elif fmt == "minari":
+        how = [where, "--trajectory", "actions"]
+    else:  # a bag per roll-out
+        how = [*(str(b) for b in sorted(Path(where).iterdir())), "--trajectory", "/acnmp/trajectory"]
+    _cli("demos", "import", "--format", fmt, *how, "-o", str(demos_path), "--successful")
     read = time.perf_counter() - t0
     demos = load_demos(demos_path)
     good = [r for r in rows if r["success"]]
@@ -133,7 +150,9 @@ def throughput(n: int, work: Path, steps: int = 101, dims: int = 2) -> dict:
     ``steps`` x ``dims`` (E1's shape)."""
     from acnmp_core.datasets.episodes import RolloutEpisode
     from acnmp_core.datasets.lerobot import read_lerobot, write_lerobot
+    from acnmp_core.datasets.message_paths import parse_ref
     from acnmp_core.datasets.minari import read_minari, write_minari
+    from acnmp_core.datasets.rosbag2 import BagSelection, read_rosbag2, write_rosbag2
 
     rng = np.random.default_rng(0)
     times = np.linspace(0, 1, steps)
@@ -144,7 +163,10 @@ def throughput(n: int, work: Path, steps: int = 101, dims: int = 2) -> dict:
     for fmt, write, read, where in (("lerobot", lambda: write_lerobot(work / "t-lerobot", rollouts),
                                      lambda: read_lerobot(work / "t-lerobot"), None),
                                     ("minari", lambda: write_minari("bench/throughput-v0", rollouts, root=work / "t-minari"),
-                                     lambda: read_minari(work / "t-minari" / "bench" / "throughput-v0"), None)):
+                                     lambda: read_minari(work / "t-minari" / "bench" / "throughput-v0"), None),
+                                    ("rosbag2", lambda: write_rosbag2(work / "t-bags", rollouts),
+                                     lambda: read_rosbag2(sorted((work / "t-bags").iterdir()),
+                                                          BagSelection((parse_ref("/acnmp/trajectory"),))), None)):
         t0 = time.perf_counter()
         write()
         w = time.perf_counter() - t0
@@ -185,7 +207,7 @@ def main(argv: list[str] | None = None) -> int:
             print(fmt, {k: v for k, v in result[fmt].items() if k != "reproduction_rmse"}, flush=True)
         result["throughput"] = throughput(args.episodes, work)
     result["wall_time_s"] = round(time.perf_counter() - start, 1)
-    save_result(result, args.out, headline=("lerobot", "minari", "throughput"))
+    save_result(result, args.out, headline=(*FORMATS, "throughput"))
     return 0
 
 

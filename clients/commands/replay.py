@@ -17,6 +17,7 @@ examples:
   acnmp replay old.rrd new.rrd --export t/      # a restarted recorder's files, each roll-out once
   acnmp replay run.rrd --export-lerobot e1-lerobot/     # each roll-out an episode of a LeRobot v3 dataset
   acnmp replay run.rrd --export-minari acnmp/e1-v0      # ... of a Minari dataset ($MINARI_DATASETS_PATH)
+  acnmp replay run.rrd --export-rosbag2 e1-bags/        # each roll-out a ROS 2 bag (MCAP): e1-bags/rollout_0000, ...
 
 In Python: services.recording.tables.read_recording("run.rrd") gives the same tables (pyarrow),
 .trajectories(job) a (N, T, D) numpy array; `acnmp demos from-recording` writes demonstrations.
@@ -41,6 +42,12 @@ def register(subparsers) -> None:
     parser.add_argument("--export-minari", metavar="DATASET_ID", type=non_empty, default=None,
                         help="write every roll-out as an episode of the new Minari dataset DATASET_ID, e.g. acnmp/e1-v0, "
                              "under $MINARI_DATASETS_PATH or ~/.minari/datasets (docs/DATA.md)")
+    parser.add_argument("--export-rosbag2", metavar="DIR", type=non_empty, default=None,
+                        help="write every roll-out as a ROS 2 bag of its own in the new directory DIR: its trajectory "
+                             "a trajectory_msgs/JointTrajectory, its reward and success on their own topics, its job, "
+                             "skill and task parameters in the bag's metadata (docs/DATA.md)")
+    parser.add_argument("--storage", choices=("mcap", "sqlite3"), default="mcap",
+                        help="with --export-rosbag2: the bags' storage (default: %(default)s)")
     parser.add_argument("--fps", type=int_at_least(1), default=10, metavar="N",
                         help="with --export-lerobot: the dataset's frames per second (timestamps = frame / N; default 10)")
     parser.add_argument("--execute", action="store_true",
@@ -49,7 +56,7 @@ def register(subparsers) -> None:
     parser.add_argument("--namespace", "-n", default=None, metavar="NS",
                         help="with --execute: on the workers of the running deployment NS (default: in this process)")
     parser.add_argument("--job", default=None, metavar="JOB",
-                        help="with --execute, --export-lerobot or --export-minari: only this job's roll-outs")
+                        help="with --execute or an export to a dataset or bags: only this job's roll-outs")
     parser.add_argument("--limit", type=int_at_least(1), default=None, metavar="N",
                         help="with --execute: at most N roll-outs per job")
     parser.set_defaults(func=run)
@@ -60,11 +67,11 @@ def run(args) -> int:
     re-executed return differs."""
     from services.recording.replay import format_summary, summarize
 
-    datasets = bool(args.export_lerobot or args.export_minari)
+    datasets = bool(args.export_lerobot or args.export_minari or args.export_rosbag2)
     if (args.namespace or args.limit) and not args.execute:
         raise ValueError("--namespace, --limit: only with --execute")
     if args.job and not (args.execute or datasets):
-        raise ValueError("--job: only with --execute, --export-lerobot or --export-minari")
+        raise ValueError("--job: only with --execute, --export-lerobot, --export-minari or --export-rosbag2")
     try:
         if args.export or args.execute or datasets:
             from services.recording.tables import read_recording
@@ -78,8 +85,8 @@ def run(args) -> int:
     if datasets:
         from .datasets import export_rollouts
 
-        for line in export_rollouts(tables, lerobot=args.export_lerobot, minari=args.export_minari, job=args.job,
-                                    fps=args.fps):
+        for line in export_rollouts(tables, lerobot=args.export_lerobot, minari=args.export_minari,
+                                    rosbag2=args.export_rosbag2, job=args.job, fps=args.fps, storage=args.storage):
             print(line)
         if not (args.export or args.execute):
             return 0

@@ -73,7 +73,7 @@ def run(args) -> int:
     from clients.default_skill import SKILL, default_demos
     from services.launcher import ChildExited, LocalDeployment
     from services.launcher.announce import NamespaceInUse, check_namespace_free
-    from services.learner.config import LearnerOptions, load_demos_spec, parse_demos_spec
+    from services.learner.config import LearnerOptions, absolute_demos_spec, load_demos_spec, parse_demos_spec
     from services.transport.service import handed_on
     from services.transport.state_dir import StateDirInUse
     from services.transport import install_shutdown_handlers
@@ -82,6 +82,8 @@ def run(args) -> int:
 
     for spec in args.demos:  # the learner would exit at its start, be restarted, and exit again
         load_demos_spec(spec)
+    # resolved where the user typed them: the learner runs in the project's root
+    given = {absolute_demos_spec(spec): spec for spec in args.demos}
     check_output_path(args.record, "--record")  # the recorder would exit before going live
     if args.viewer and not args.record:
         raise ValueError("--viewer: only with --record FILE.rrd (the viewer shows what the recorder records)")
@@ -92,7 +94,7 @@ def run(args) -> int:
         return 1
     stop = install_shutdown_handlers()
     state_dir = args.state_dir or str(default_state_dir(args.namespace))
-    demos = list(args.demos)
+    demos = list(given)
     default_skill = not demos and not args.no_default_skill and not args.no_model
     if default_skill:
         demos.append(default_demos(state_dir))
@@ -100,7 +102,7 @@ def run(args) -> int:
     # "up" once the model service serves every skill asked for (it serves what the learner trains)
     waited = [] if args.no_model else [
         (SKILL, "E1's demonstrations at the first start; --no-default-skill skips it") if default_skill else
-        (parse_demos_spec(spec), f"{spec.partition('=')[2]} at the first start or when it changed")
+        (parse_demos_spec(spec), f"{given[spec].partition('=')[2]} at the first start or when it changed")
         for spec in demos]
     if args.train_steps is not None:
         learner_args += ["--train-steps", str(args.train_steps)]
@@ -178,10 +180,22 @@ def wait_for_skill(dep, skill: str, stop, source: str, poll: float = 1.0) -> boo
                 {n for n, c in dep.children.items() if c.proc.poll() is not None}
             dead = [n for n in ("learner", "model") if n in gone]
             if dead:
-                print(f"acnmp up: {', '.join(dead)} exited before serving {skill!r}; logs in {dep.log_dir}",
-                      file=sys.stderr, flush=True)
+                print(f"acnmp up: {gone_line(dep, dead, skill)}", file=sys.stderr, flush=True)
                 return False
     return False
+
+
+def gone_line(dep, dead: list[str], skill: str) -> str:
+    """The line saying that the children ``dead`` (given up on) exited before serving ``skill``,
+    with each one's reason: the last error line of its log, as for a child that never went live."""
+    from services.launcher.deployment import last_error_line
+
+    reasons = []
+    for name in dead:
+        child = dep.children.get(name)
+        log = child.log if child is not None else dep.log_dir / f"{name}.log"
+        reasons.append(f"{name}: {last_error_line(log) or 'its log says nothing'} (log {log})")
+    return f"{' and '.join(dead)} exited before serving {skill!r}; " + "; ".join(reasons)
 
 
 def stopping_line(dep) -> str:

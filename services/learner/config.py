@@ -3,6 +3,7 @@ learner arguments): torch-free, so a command line is built and checked without i
 learner runs; :class:`~services.learner.service.LearnerConfig` adds what runs it (services/learner/service.py)."""
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -40,6 +41,14 @@ def parse_demos_spec(spec: str) -> str:
         return check_name("skill", name)
     except ValueError as exc:
         raise ValueError(f"--demos {spec}: {exc}") from None
+
+
+def absolute_demos_spec(spec: str) -> str:
+    """A ``--demos`` value ``SKILL=FILE.npz`` with FILE made absolute from this process's working
+    directory (where the user typed it), for a child that runs elsewhere (a launcher's children run
+    in the project's root)."""
+    name, sep, path = spec.partition("=")
+    return f"{name}{sep}{os.path.abspath(path)}" if sep and path else spec
 
 
 def load_demos_spec(spec: str) -> DemoArrays:

@@ -622,7 +622,8 @@ class LearnerCore:
         if job.result is None:
             self.publish(job_event(job.job, method=req.config.mode, robot=req.robot, task=req.task, skill=job.skill,
                                    seed=req.seed, attempt=job.attempt, config=req.config.to_dict(),
-                                   task_config=req.task_config))
+                                   task_config=req.task_config, output_names=model.config.output_names,
+                                   task_param_names=model.config.task_param_names))
             on_iteration = self._recording(job, start_version)
             evaluator = self.evaluator_for(req)
             task = AdaptTask(model, demos, req.target, req.config, req.seed,

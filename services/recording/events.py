@@ -17,7 +17,9 @@ job_progress  job str, iteration int, rollouts int, best_return float|None,
               success_rate? float, state? "running"|"done"|"failed"|"cancelled"|"interrupted", skill? str
 job           job str, method str (e.g. "acnmp", "rl_only", "promp_rl"), robot str, task str,
               skill? str, seed? int, attempt? int, config? str (JSON of the method's settings),
-              task_config? str (JSON of the task's parameters): what a job ran, once per attempt
+              task_config? str (JSON of the task's parameters), output_names? str (JSON list of
+              the skill's D output names), task_param_names? str (JSON list of its P task-parameter
+              names): what a job ran, once per attempt
 metrics       source str (the skill being trained or the job), phase "train"|"adapt"|"train_pair",
               step int>=0 (training step or adaptation iteration), and one float field per
               metric (e.g. nll, val_nll; mean_return, best_return, explore_std): the learner's
@@ -36,6 +38,7 @@ from __future__ import annotations
 
 import json
 import time
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -182,9 +185,12 @@ def job_progress_event(job: str, iteration: int, rollouts: int, best_return: flo
 
 def job_event(job: str, *, method: str, robot: str, task: str, skill: str | None = None, seed: int | None = None,
               attempt: int | None = None, config: dict | None = None, task_config: dict | None = None,
+              output_names: Sequence[str] | None = None, task_param_names: Sequence[str] | None = None,
               t: float | None = None) -> dict:
     """Build and validate a ``job`` event: what job ``job`` runs (published before its roll-outs).
-    ``config`` and ``task_config`` travel as JSON text (events carry no nested maps)."""
+    ``config`` and ``task_config`` travel as JSON text (events carry no nested maps), and so do
+    ``output_names`` (D,) and ``task_param_names`` (P,), the skill's names of its trajectory's
+    columns and of its task parameters, which exports of the roll-outs carry (docs/DATA.md)."""
     msg = _base("job", t)
     msg.update(job=job, method=method, robot=robot, task=task)
     for key, value in (("skill", skill), ("seed", seed), ("attempt", attempt)):
@@ -193,7 +199,26 @@ def job_event(job: str, *, method: str, robot: str, task: str, skill: str | None
     for key, value in (("config", config), ("task_config", task_config)):
         if value is not None:
             msg[key] = json.dumps(jsonable(dict(value)), sort_keys=True)
+    for key, names in (("output_names", output_names), ("task_param_names", task_param_names)):
+        if names is not None:
+            msg[key] = json.dumps([str(n) for n in names])
     return validate_event(msg)
+
+
+def job_names(msg: dict, key: str) -> list[str] | None:
+    """The list of names in field ``key`` (``output_names`` or ``task_param_names``) of a job
+    event or of a jobs-table row, None when absent; WireError ``bad_request`` when it is not a
+    JSON list of strings."""
+    text = msg.get(key)
+    if text is None:
+        return None
+    try:
+        names = json.loads(text)
+    except (TypeError, ValueError):
+        names = None
+    if not isinstance(names, list) or not all(isinstance(n, str) for n in names):
+        raise WireError("bad_request", f"field '{key}': expected a JSON list of strings, got {text!r}")
+    return names
 
 
 def metrics_event(source: str, phase: str, step: int, values: dict[str, float], *, t: float | None = None) -> dict:
@@ -260,8 +285,10 @@ def validate_event(msg: dict) -> dict:
     elif kind == "job":
         for key in ("method", "robot", "task"):
             field(msg, key, str)
-        for key in ("skill", "config", "task_config"):
+        for key in ("skill", "config", "task_config", "output_names", "task_param_names"):
             field(msg, key, str, default=None)
+        for key in ("output_names", "task_param_names"):
+            job_names(msg, key)
         for key in ("seed", "attempt"):
             if msg.get(key) is not None:
                 _nonneg(msg, key)

@@ -24,7 +24,7 @@ entity                             archetype                       from event
                                    event_id, rollout_key; times,
                                    values, reward, task_params at float64)
 /jobs/<job>                        AnyValues (method, robot, task, job (once per attempt)
-                                   skill, seed, config, ...)
+                                   skill, seed, config, names...)
 /best_return/<job>                 Scalars                         job_progress
 /progress/<job>                    AnyValues                       job_progress
 /latent/<skill>/<label>            BarChart                        latent
@@ -309,8 +309,8 @@ class RrdWriter:
             f"{msg['job']} it={msg['iteration']} rollouts={rollouts} best={best_txt} {state}", level=level))
 
     def _job(self, msg: dict) -> None:
-        values = {k: msg[k] for k in ("method", "robot", "task", "skill", "config", "task_config")
-                  if msg.get(k) is not None}
+        values = {k: msg[k] for k in ("method", "robot", "task", "skill", "config", "task_config", "output_names",
+                                      "task_param_names") if msg.get(k) is not None}
         values.update(seed=int(msg.get("seed", -1)), attempt=int(msg.get("attempt", -1)))
         self.rec.log(f"jobs/{_part(msg['job'])}", rr.AnyValues(**values))
         self.rec.log("log/jobs", rr.TextLog(

@@ -26,7 +26,9 @@ import pyarrow.parquet as pq
 
 from acnmp_core.data.demo_io import DemoArrays
 from acnmp_core.datasets.episodes import RolloutEpisode
+from services.transport.wire import WireError
 
+from .events import job_names
 from .replay import _column, _open
 
 __all__ = ["RecordingTables", "SCHEMAS", "read_recording"]
@@ -43,7 +45,8 @@ SCHEMAS: dict[str, pa.Schema] = {
     "jobs": pa.schema([
         ("job", pa.string()), ("attempt", pa.int64()), ("method", pa.string()), ("robot", pa.string()),
         ("task", pa.string()), ("skill", pa.string()), ("seed", pa.int64()), ("config", pa.string()),
-        ("task_config", pa.string()), ("wall_time", pa.float64()),
+        ("task_config", pa.string()), ("output_names", pa.list_(pa.string())),
+        ("task_param_names", pa.list_(pa.string())), ("wall_time", pa.float64()),
     ]),
     "latents": pa.schema([
         ("skill", pa.string()), ("label", pa.string()), ("version", pa.int64()), ("latent", _F64),
@@ -150,12 +153,16 @@ class RecordingTables:
         as :class:`~acnmp_core.datasets.episodes.RolloutEpisode` (what the dataset exporters
         write). ValueError for a ``job`` the recording does not hold."""
         rows = self._rows_with_data(job)
+        names = {j["job"]: j for j in self.jobs.select(["job", "output_names", "task_param_names"]).to_pylist()}
         return [RolloutEpisode(r["times"], r["trajectory"],
                                np.zeros(len(r["times"])) if r["reward"] is None else r["reward"],
                                bool(r["success"]), float(r["return"] or 0.0),
                                np.zeros(0) if r["task_params"] is None else r["task_params"],
                                job=r["job"] or "", method=r["method"] or "", skill=r["skill"] or "",
-                               robot=r["robot"] or "", task=r["task"] or "", rollout_index=int(r["rollout_index"] or 0))
+                               robot=r["robot"] or "", task=r["task"] or "", rollout_index=int(r["rollout_index"] or 0),
+                               value_names=tuple(names.get(r["job"], {}).get("output_names") or ()),
+                               task_param_names=tuple(names.get(r["job"], {}).get("task_param_names") or ()),
+                               wall_time=r["wall_time"])
                 for r in rows]
 
     def write_parquet(self, out_dir: str | os.PathLike) -> dict[str, Path]:
@@ -275,12 +282,17 @@ def _rollouts(parts, batch, rows, seen) -> None:
 
 def _jobs(parts, batch, rows, seen) -> None:
     cols = {c: _column(batch, c) for c in ("method", "robot", "task", "skill", "seed", "attempt", "config",
-                                            "task_config")}
+                                            "task_config", "output_names", "task_param_names")}
     wall = _seconds(batch)
     for i in range(batch.num_rows):
         row = {c: cols[c][i] for c in cols}
         for key in ("seed", "attempt"):
             row[key] = None if row[key] in (None, -1) else row[key]
+        for key in ("output_names", "task_param_names"):  # JSON text in the recording
+            try:
+                row[key] = job_names(row, key)
+            except WireError:  # a hand-made recording's: unnamed, as an older one's
+                row[key] = None
         rows["jobs"].append({"job": parts[1], **row, "wall_time": wall[i]})
 
 

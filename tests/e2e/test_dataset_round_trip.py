@@ -1,9 +1,10 @@
 """Datasets both ways on a deployment.
 
-1. E1 run across a local deployment and recorded; its roll-outs exported as a LeRobot and as a
-   Minari dataset, each loaded by its own library, the successful roll-outs imported back as
-   demonstrations (bit for bit), and a skill trained on them reproduces every one within E1's
-   tolerance (0.03 m). benchmarks/performance/bench_datasets.py is the same at full size.
+1. E1 run across a local deployment and recorded; its roll-outs exported as a LeRobot and a
+   Minari dataset and as ROS 2 bags, each loaded by its own library (rosbags for the bags), the
+   successful roll-outs imported back as demonstrations (bit for bit), and a skill trained on them
+   reproduces every one within E1's tolerance (0.03 m). benchmarks/performance/bench_datasets.py
+   is the same at full size.
 2. A dataset from outside the project: episodes of examples/my_robot's Gymnasium environment
    (ReachEnv) driven by an expert, written by minari's own API, imported with `acnmp demos import`,
    trained on a deployment of that robot (`acnmp up --demos`), and adapted there to a goal beyond

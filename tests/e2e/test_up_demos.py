@@ -39,12 +39,14 @@ def ctrl_c_at_the_end(proc: subprocess.Popen):
 
 def test_up_with_demos_is_up_once_the_skill_is_served_and_ctrl_c_says_what_it_stops(tmp_path, acnmp_up,
                                                                                     monkeypatch):
-    demos = tmp_path / "mine.npz"
-    save_demos(demos, demo_set_to_arrays(obstacle_demos(n_steps=30)))
+    (tmp_path / "out").mkdir()
+    save_demos(tmp_path / "out" / "mine.npz", demo_set_to_arrays(obstacle_demos(n_steps=30)))
     ns = f"demos-{uuid.uuid4().hex[:8]}"
-    # enough steps that training outlasts the start of the other processes
-    proc, lines = acnmp_up("--namespace", ns, "--workers", "0", "--demos", f"mine={demos}",
-                           "--train-steps", "100", "--state-dir", str(tmp_path / "state"), "--model-processes", "2")
+    # enough steps that training outlasts the start of the other processes; the file named relative
+    # to where the command runs (issue 65: the learner, which runs in the project's root, could not
+    # read it, and `acnmp up` gave up after 5 restarts)
+    proc, lines = acnmp_up("--namespace", ns, "--workers", "0", "--demos", "mine=out/mine.npz",
+                           "--train-steps", "100", "--state-dir", "state", "--model-processes", "2", cwd=tmp_path)
     with ctrl_c_at_the_end(proc) as out:
         assert any("waiting for the model service to serve skill 'mine'" in ln for ln in lines), lines
         with ACNMPClient(namespace=ns, role="client", timeout=10) as client:
@@ -67,6 +69,33 @@ def test_up_with_demos_is_up_once_the_skill_is_served_and_ctrl_c_says_what_it_st
     stopping = [ln for ln in out.splitlines() if ln.startswith("acnmp up: stopping")]
     assert len(stopping) == 1 and "learner" in stopping[0] and "model service (2 processes)" in stopping[0], out
     assert "deployment stopped" in out.splitlines()[-1]
+
+
+def test_a_learner_given_up_on_is_named_with_its_reason(tmp_path, capsys):
+    """Issue 65, friction 1: `acnmp up` said only "learner exited before serving 'via'; logs in ...";
+    the reason (here: a file it cannot read) was in the learner's log alone. No restart here
+    (the policy allows none), so the child is given up on at its first exit. The learner trains
+    another skill first, so that it is surely live (it serves while it trains) when it fails."""
+    import threading
+
+    from clients.commands.up import wait_for_skill
+    from services.launcher import LocalDeployment
+    from services.launcher.supervision import RestartPolicy
+
+    save_demos(tmp_path / "first.npz", demo_set_to_arrays(obstacle_demos(n_steps=30)))
+    dep = LocalDeployment(f"gone-{uuid.uuid4().hex[:8]}", 0, model=False, state_dir=tmp_path / "state",
+                          learner_args=["--demos", f"first={tmp_path / 'first.npz'}", "--demos",
+                                        f"via={tmp_path / 'moved-away.npz'}", "--train-steps", "300"],
+                          restart_policy=RestartPolicy(max_restarts=0))
+    try:
+        dep.start()
+        assert not wait_for_skill(dep, "via", threading.Event(), "moved-away.npz", poll=0.2)
+    finally:
+        dep.stop()
+    line = capsys.readouterr().err.strip().splitlines()[-1]
+    assert line.startswith("acnmp up: learner exited before serving 'via'; learner: "), line
+    assert "cannot read a demonstration file at" in line and "moved-away.npz" in line, line
+    assert f"(log {tmp_path / 'state' / 'logs' / 'learner.log'})" in line
 
 
 def test_ctrl_c_while_the_learner_trains_stops_it_without_a_kill(tmp_path, acnmp_up):

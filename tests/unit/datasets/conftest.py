@@ -4,6 +4,9 @@ from __future__ import annotations
 
 import pytest
 
+#: the names of the recorded skill's outputs and task parameters (a learner's job event carries them)
+SKILL_NAMES, SKILL_PARAM_NAMES = ("x", "y"), ("via_x", "via_y")
+
 
 @pytest.fixture
 def minari_root(tmp_path, monkeypatch):
@@ -16,7 +19,8 @@ def minari_root(tmp_path, monkeypatch):
 @pytest.fixture(scope="session")
 def recording(tmp_path_factory):
     """(path, rows): a recording of 6 E1 roll-outs (every other one marked successful), written as the learner
-    records them, and its roll-out rows as services.recording.tables reads them back."""
+    records them (its job named with the skill's names :data:`SKILL_NAMES` and :data:`SKILL_PARAM_NAMES`), and
+    its roll-out rows as services.recording.tables reads them back."""
     import numpy as np
 
     from acnmp_core.experiments.viapoint import make_setup
@@ -33,7 +37,8 @@ def recording(tmp_path_factory):
     path = tmp_path_factory.mktemp("recording") / "e1.rrd"
     writer = RrdWriter(path)
     writer.log_event(job_event("e1-acnmp-0", method="acnmp", robot="point2d", task="viapoint", skill="e1", seed=0,
-                               attempt=0, config={}, task_config=setup.task_config))
+                               attempt=0, config={}, task_config=setup.task_config, output_names=SKILL_NAMES,
+                               task_param_names=SKILL_PARAM_NAMES))
     for ev in batch_rollout_events("e1-acnmp-0", 0, paths, times, batch, skill="e1", iteration=0,
                                    task_params=rng.normal(size=(len(paths), 2))):
         ev["attempt"] = 0

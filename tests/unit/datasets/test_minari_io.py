@@ -58,6 +58,22 @@ def test_a_dataset_minari_wrote_becomes_demonstrations(minari_root, tmp_path, ru
     assert demos.task_param_names.tolist() == ["observations[2]", "options/goal[0]", "options/goal[1]"]
 
 
+def test_observations_align_with_the_steps_they_start_or_reach(minari_root, tmp_path, run_cli):
+    """Issue 65, friction 5: Minari's observations hold T+1 rows (the reset state first); a skill
+    imported from them alone was shifted one step, and nothing could align them."""
+    written = _pendulum_dataset("test/pendulum-v0", episodes=2)
+    episodes = list(written.iterate_episodes())
+    for align, rows in ((None, slice(0, 21)), ("after", slice(1, 21)), ("before", slice(0, 20))):
+        out = tmp_path / f"{align}.npz"
+        code, _, err = run_cli("demos", "import", "--format", "minari", "test/pendulum-v0", "-o", str(out),
+                               "--trajectory", "observations[0:2]", *(["--align", align] if align else []))
+        assert code == 0, err
+        demos = load_demos(out)
+        for i, ep in enumerate(episodes):
+            np.testing.assert_allclose(demos.values[i], ep.observations[rows, :2])
+        np.testing.assert_allclose(demos.times[0], np.linspace(0, 1, rows.stop - rows.start))
+
+
 @pytest.mark.parametrize("args, expected", [
     (["--trajectory", "observation"], "main_data.hdf5: feature 'observation': no such per-frame feature"),
     (["--trajectory", "actions", "--task-params", "options/gaol"], "feature 'options/gaol': no such per-episode field"),

@@ -33,21 +33,28 @@ ROBOT = RobotSpec("{kind}", "holds still", tasks={{"{task}": {{}}}}, new_tasks={
 '''
 
 
-@pytest.fixture
-def fresh_registry(monkeypatch, tmp_path):
+def reset_registry(monkeypatch, tmp_path) -> None:
     """The registry as built in (plugins not loaded yet), restored after the test; ``tmp_path`` on
-    sys.path for plugin modules."""
-    monkeypatch.setattr(registry, "_ROBOTS", {k: v for k, v in registry._ROBOTS.items()
-                                              if registry._SOURCES[k] == "built in"})
+    sys.path for plugin modules. The tasks that plugins loaded earlier in this process brought are
+    left out too (an installed plugin's task would otherwise clash when it is loaded again)."""
+    built_in = {k for k in registry._ROBOTS if registry._SOURCES[k] == "built in"}
+    brought = {t for k, spec in registry._ROBOTS.items() if k not in built_in for t in spec.new_tasks}
+    monkeypatch.setattr(registry, "_ROBOTS", {k: v for k, v in registry._ROBOTS.items() if k in built_in})
     monkeypatch.setattr(registry, "_SOURCES", {k: "built in" for k in registry._ROBOTS})
     monkeypatch.setattr(registry, "_PROBLEMS", [])
     monkeypatch.setattr(registry, "_REFERENCES", [])
     monkeypatch.setattr(registry, "_PLUGINS_LOADED", False)
-    monkeypatch.setattr(tasks, "_FACTORIES", dict(tasks._FACTORIES))
-    monkeypatch.setattr(tasks, "_CREDITS", dict(tasks._CREDITS))
+    monkeypatch.setattr(tasks, "_FACTORIES", {k: v for k, v in tasks._FACTORIES.items() if k not in brought})
+    monkeypatch.setattr(tasks, "_CREDITS", {k: v for k, v in tasks._CREDITS.items() if k not in brought})
     registry._reference.cache_clear()
     monkeypatch.syspath_prepend(str(tmp_path))
     monkeypatch.delenv(registry.PLUGINS_ENV, raising=False)
+
+
+@pytest.fixture
+def fresh_registry(monkeypatch, tmp_path):
+    """:func:`reset_registry` for one test; yields ``tmp_path``."""
+    reset_registry(monkeypatch, tmp_path)
     yield tmp_path
     registry._reference.cache_clear()
 
@@ -104,6 +111,18 @@ def test_installed_entry_points_are_found_and_broken_ones_are_one_line_each(fres
     assert robot("ur10").summary.startswith("UR10") and "hold2" not in tasks.task_names()
     with pytest.raises(UnknownRobotError, match="typo"):  # asking for a missing kind names the broken plugins
         robot("juggler")
+
+
+def test_a_reset_registry_loads_an_installed_plugin_with_its_task_again(fresh_registry, monkeypatch):
+    """Issue 65, friction 3: with a plugin that brings a task installed (``pip install -e`` of a
+    user's robot package), the registry reset of these tests kept the task the plugin had brought
+    when an earlier test loaded it, so loading it again clashed and three tests here failed."""
+    write_module(fresh_registry, "lab_bot", GOOD.format(kind="lab", task="stack"))
+    write_dist(fresh_registry, "robots_of_a_lab", {"lab": "lab_bot:ROBOT"})
+    assert "lab" in robot_kinds() and "stack" in tasks.task_names()  # loaded, as by an earlier test
+    reset_registry(monkeypatch, fresh_registry)  # what the next test's fixture does
+    assert "stack" not in tasks.task_names()
+    assert "lab" in robot_kinds() and plugin_problems() == ()
 
 
 def test_a_plugin_task_cannot_replace_a_built_in_task(fresh_registry):

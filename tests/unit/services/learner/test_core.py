@@ -14,7 +14,7 @@ from acnmp_core.model.cnmp import CNMPConfig
 from acnmp_core.model.training import TrainConfig
 from services.learner.core import LearnerCore, TrainSpec, UnknownJobError, UnknownSkillError
 from services.learner.store import JobStore
-from services.recording.events import validate_event
+from services.recording.events import job_names, validate_event
 from services.worker.core import ExecutedBatch
 
 SMALL = dict(encoder_widths=(32, 32), decoder_widths=(32, 32))
@@ -51,7 +51,8 @@ def test_a_job_runs_records_every_rollout_and_assimilates(tmp_path, setup):
     events, versions = [], []
     core = _core(tmp_path, setup, events, versions).start()
     try:
-        spec = TrainSpec(setup.demos, CNMPConfig(n_outputs=2, **SMALL), TrainConfig(steps=200), seed=3)
+        spec = TrainSpec(setup.demos, CNMPConfig(n_outputs=2, output_names=("x", "y"), **SMALL),
+                         TrainConfig(steps=200), seed=3)
         assert core.train_skill("e1", spec).version == 0 and versions == [0]
         with pytest.raises(UnknownSkillError):
             core.submit("nope", _job(setup))
@@ -69,6 +70,9 @@ def test_a_job_runs_records_every_rollout_and_assimilates(tmp_path, setup):
     assert {e["worker"] for e in rollouts} == {"w0"} and {e["attempt"] for e in rollouts} == {0}
     assert all(validate_event(e) is e for e in events)
     assert events[-1]["kind"] == "job_progress" and events[-1]["state"] == "done"
+    # what the job ran, with the skill's names, which exports of its roll-outs carry (issue 65)
+    (about,) = [e for e in events if e["kind"] == "job"]
+    assert job_names(about, "output_names") == ["x", "y"] and job_names(about, "task_param_names") == []
     # commit: a successful solution becomes version 1, else the skill stays at 0
     if status["result"]["success"]:
         assert status["committed_version"] == 1 and versions == [0, 1]

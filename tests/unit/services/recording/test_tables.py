@@ -149,7 +149,7 @@ def test_wrong_uses_are_one_line(tmp_path, capsys):
     assert main(["replay", str(tmp_path / "none.rrd"), "--export", str(tmp_path / "o")]) == 1
     assert len(capsys.readouterr().err.strip().splitlines()) == 1
     assert main(["replay", str(tmp_path / "none.rrd"), "--job", "x"]) == 2
-    assert "--job: only with --execute, --export-lerobot or --export-minari" in capsys.readouterr().err
+    assert "--job: only with --execute, --export-lerobot, --export-minari or --export-rosbag2" in capsys.readouterr().err
     assert main(["replay", str(tmp_path / "none.rrd"), "--limit", "2"]) == 2
     assert "--namespace, --limit: only with --execute" in capsys.readouterr().err
     for bad in ({"method": 3}, {"seed": -1}, {"config": {"nested": 1}}):
