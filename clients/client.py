@@ -69,7 +69,9 @@ class JobSummary:
 
     job : id. kind : ``adapt`` or ``train_pair``. skill, task, robot : what it adapts and where.
     state : ``queued``, ``running``, ``interrupted``, ``done``, ``failed`` or ``cancelled``.
-    rollouts : roll-outs used (training steps for ``train_pair``), of ``budget``. best_return :
+    rollouts : roll-outs used by the current (final) attempt (training steps for ``train_pair``),
+    of ``budget``. rollouts_executed : roll-outs executed by all its attempts (what the recording
+    holds of it; None from a learner that does not say). attempt : 0, +1 per restart. best_return :
     best return seen (None before the first). success : the result's (None until it finished).
     committed_version : the skill version holding its solution, if assimilated. created, updated :
     wall time (s since the epoch).
@@ -88,6 +90,8 @@ class JobSummary:
     committed_version: int | None
     created: float
     updated: float
+    rollouts_executed: int | None = None
+    attempt: int | None = None
 
     @classmethod
     def from_reply(cls, row: dict) -> "JobSummary":
