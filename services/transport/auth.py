@@ -34,6 +34,7 @@ from typing import Mapping, Sequence
 import zenoh
 
 from .acl import ROLES, acl_config
+from .payload_limits import low_pass_filters
 from .session import MAX_MESSAGE_BYTES, make_config
 
 
@@ -75,7 +76,8 @@ def client_config(anchor: str, cred: Credentials) -> dict:
     return {"mode": "client", "connect": {"endpoints": [anchor]},
             "scouting": {"multicast": {"enabled": False}},
             "transport": {"auth": {"usrpwd": {"user": cred.user, "password": cred.password}},
-                          "link": {"rx": {"max_message_size": MAX_MESSAGE_BYTES}}}}
+                          "link": {"rx": {"max_message_size": MAX_MESSAGE_BYTES}}},
+            "low_pass_filter": low_pass_filters()}
 
 
 def router_settings(listen: Sequence[str], dictionary_file: str | Path, own: Credentials) -> dict:
@@ -85,7 +87,7 @@ def router_settings(listen: Sequence[str], dictionary_file: str | Path, own: Cre
             "transport": {"auth": {"usrpwd": {"user": own.user, "password": own.password,
                                               "dictionary_file": str(dictionary_file)}},
                           "link": {"rx": {"max_message_size": MAX_MESSAGE_BYTES}}},
-            "access_control": acl_config()}
+            "low_pass_filter": low_pass_filters(), "access_control": acl_config()}
 
 
 def router_config(listen: Sequence[str], dictionary_file: str | Path, own: Credentials) -> zenoh.Config:

@@ -21,6 +21,7 @@ import zenoh
 
 from .errors import wire_error
 from .keys import is_concrete
+from .payload_limits import request_limit, too_large_message
 from .wire import DEFAULT_MAX_BYTES, SCHEMA_VERSION, WireError, decode, encode, error_from_payload, error_payload
 
 log = logging.getLogger(__name__)
@@ -75,6 +76,9 @@ def _query(session: zenoh.Session, key: str, payload: dict | bytes | None, timeo
     """The successful replies of one query on ``key`` (the first one only unless ``gather``); see
     :func:`call` and :func:`call_all`."""
     body = encode(payload) if isinstance(payload, dict) else payload
+    limit = request_limit(key)
+    if body is not None and len(body) > limit:  # zenoh would drop it unanswered: say so now
+        raise WireError("too_large", too_large_message(key, len(body), limit))
     start = time.monotonic()
     first_err: WireError | None = None
     selector = zenoh.Selector(key, {TIMEOUT_PARAMETER: f"{timeout:g}"})
@@ -155,10 +159,29 @@ class RpcQueryable:
 
     def decode_request(self, query: zenoh.Query) -> dict | None:
         """The query's payload decoded as this queryable decodes it (None when it has none);
-        WireError on a bad one. For handlers declared with ``decode_payload=False`` that decode
-        later, on another thread."""
+        WireError on a bad one (``too_large`` over its key's bound, from the length alone). For
+        handlers declared with ``decode_payload=False`` that decode later, on another thread."""
+        self._check_size(query)
         raw = query.payload.to_bytes() if query.payload is not None else b""
         return decode(raw, expect_version=self._expect_version, max_bytes=self._max_bytes) if raw else None
+
+    def _check_size(self, query: zenoh.Query) -> None:
+        """WireError ``too_large`` when the payload is over its key's bound
+        (services/transport/payload_limits.py) or this queryable's ``max_bytes``; nothing is copied."""
+        size = len(query.payload) if query.payload is not None else 0
+        limit = min(self._max_bytes, request_limit(str(query.key_expr)))
+        if size > limit:
+            raise WireError("too_large", too_large_message(str(query.key_expr), size, limit))
+
+    def _oversized(self, query: zenoh.Query) -> bool:
+        # answered at once on zenoh's thread, never queued: the refusal costs no handler and no copy
+        try:
+            self._check_size(query)
+            return False
+        except WireError as exc:
+            with query:
+                self._fail(query, exc.code, exc.message)
+            return True
 
     def _refused(self, query: zenoh.Query) -> bool:
         # a query on a wildcard (acnmp/NS/skill/e1/*, acnmp/**) is answered by nobody: a service
@@ -171,12 +194,12 @@ class RpcQueryable:
         return True
 
     def _serve_inline(self, query: zenoh.Query) -> None:
-        if not self._refused(query):
+        if not self._refused(query) and not self._oversized(query):
             self._serve(query, self._deadline(query))
 
     def _dispatch(self, query: zenoh.Query) -> None:
         # hand the query to the pool so a slow handler never holds a zenoh runtime thread
-        if self._refused(query):
+        if self._refused(query) or self._oversized(query):
             return
         deadline = self._deadline(query)
         with self._lock:
