@@ -130,7 +130,8 @@ class RpcQueryable:
     def __init__(self, session: zenoh.Session, key_expr: str | Sequence[str], handler: Handler, *, workers: int = 0,
                  decode_payload: bool = True, expect_version: int | None = SCHEMA_VERSION,
                  max_bytes: int = DEFAULT_MAX_BYTES, complete: bool = True, max_queue: int | None = None,
-                 default_timeout: float | None = None, pass_deadline: bool = False):
+                 default_timeout: float | None = None, pass_deadline: bool = False,
+                 on_payload: Callable[[int], None] | None = None):
         keys = [key_expr] if isinstance(key_expr, str) else list(key_expr)
         if not keys:
             raise ValueError("key_expr: expected at least one key expression")
@@ -143,6 +144,7 @@ class RpcQueryable:
         self.max_queue = max_queue
         self.default_timeout = default_timeout
         self._pass_deadline = pass_deadline
+        self._on_payload = on_payload
         self.served = 0
         self.failed = 0
         self.overloaded = 0  # refused at once: the queue was full
@@ -169,6 +171,8 @@ class RpcQueryable:
         """WireError ``too_large`` when the payload is over its key's bound
         (services/transport/payload_limits.py) or this queryable's ``max_bytes``; nothing is copied."""
         size = len(query.payload) if query.payload is not None else 0
+        if self._on_payload is not None:
+            self._on_payload(size)
         limit = min(self._max_bytes, request_limit(str(query.key_expr)))
         if size > limit:
             raise WireError("too_large", too_large_message(str(query.key_expr), size, limit))
@@ -324,7 +328,8 @@ def declare_rpc(session: zenoh.Session, key_expr: str | Sequence[str], handler: 
     ``pass_deadline=True`` calls ``handler(request, query, deadline)`` with that deadline
     (``time.monotonic()`` seconds, or None). A handler may return a :class:`concurrent.futures.Future`
     instead of a reply: the query is answered when it completes (its result or exception, as
-    above; :class:`Expired` drops the query unanswered), on the thread that completes it. With
+    above; :class:`Expired` drops the query unanswered), on the thread that completes it.
+    ``on_payload(size)`` is told each query's payload size (bytes) as it arrives. With
     ``workers=0`` the handler runs on zenoh's callback thread, so it must only hand the query on
     (return a future at once); with ``decode_payload=False`` it gets None as the request and may
     decode later with :meth:`RpcQueryable.decode_request`.
