@@ -53,6 +53,7 @@ assimilations (which change a skill) still run one at a time.
 """
 from __future__ import annotations
 
+import contextlib
 import copy
 import dataclasses
 import hashlib
@@ -596,9 +597,19 @@ class LearnerCore:
 
     @staticmethod
     def _progress_event(job: JobRecord, state: str) -> dict:
-        ev = job_progress_event(job.job, job.iteration, job.rollouts, job.best_return, state=state, skill=job.skill)
+        # events carry no lists: the excluded workers as one text, "<worker>: <why>; ..."
+        excluded = {"excluded_workers": "; ".join(e.line() for e in job.excluded_workers)} if job.excluded_workers else {}
+        ev = job_progress_event(job.job, job.iteration, job.rollouts, job.best_return, state=state, skill=job.skill,
+                                **excluded)
         ev["attempt"] = int(job.attempt)
         return ev
+
+    def _note_exclusions(self, job: JobRecord, evaluator: RolloutEvaluator) -> dict:
+        """The record changes that add the workers ``evaluator`` excluded (its ``excluded``, if it
+        has one) to ``job``'s ``excluded_workers``: ``{}`` when there is none new."""
+        known = {e.worker for e in job.excluded_workers}
+        new = tuple(e for e in getattr(evaluator, "excluded", ()) if e.worker not in known)
+        return {"excluded_workers": job.excluded_workers + new} if new else {}
 
     def _run_job(self, job_id: str, runner: AdaptRunner) -> None:
         with self._lock:
@@ -623,11 +634,17 @@ class LearnerCore:
             self.publish(job_event(job.job, method=req.config.mode, robot=req.robot, task=req.task, skill=job.skill,
                                    seed=req.seed, attempt=job.attempt, config=req.config.to_dict(),
                                    task_config=req.task_config))
-            on_iteration = self._recording(job, start_version)
             evaluator = self.evaluator_for(req)
+            on_iteration = self._recording(job, start_version, evaluator)
             task = AdaptTask(model, demos, req.target, req.config, req.seed,
                              credit=getattr(evaluator, "credit", "step"))
-            job_result = runner.run(task, evaluator, on_iteration, self._stop)
+            try:
+                job_result = runner.run(task, evaluator, on_iteration, self._stop)
+            finally:  # the workers excluded in a batch that failed: named in the failed record too
+                changes = self._note_exclusions(job, evaluator)
+                if changes:
+                    with contextlib.suppress(StateWriteError):  # the job's end writes its record again
+                        self._persist(job, **changes)
             # adaptation done: a crash from here on only re-assimilates
             self._persist(job, rollouts=job_result.rollouts, result=job_result)
         if job.cancel_requested:  # asked for while the last iteration ran: do not assimilate
@@ -690,10 +707,11 @@ class LearnerCore:
 
         return on_step
 
-    def _recording(self, job: JobRecord, model_version: int) -> Callable[[IterationLog, np.ndarray, RolloutBatch], None]:
-        """The ``on_iteration`` callback of ``job``'s adaptation of the skill's ``model_version``:
-        bookkeeping, then one rollout event per executed trajectory and a progress event; raises
-        InterruptedError once closing."""
+    def _recording(self, job: JobRecord, model_version: int,
+                   evaluator: RolloutEvaluator) -> Callable[[IterationLog, np.ndarray, RolloutBatch], None]:
+        """The ``on_iteration`` callback of ``job``'s adaptation of the skill's ``model_version`` with
+        ``evaluator``: bookkeeping (the workers it excluded too), then one rollout event per executed
+        trajectory and a progress event; raises InterruptedError once closing."""
         target: AdaptTarget = job.request.target
         drawing = robot_drawing(job.request.robot)
         # a drawn robot shows its own states; a point robot shows the conditioning points instead
@@ -716,7 +734,8 @@ class LearnerCore:
             # anywhere in between publishes them at its next start (a failed write fails the job)
             self.job_store.save_journal(job.job, previous + events)
             self._persist(job, next_index=first + len(batch), iteration=it_log.iteration, rollouts=it_log.rollouts,
-                          best_return=best if job.best_return is None else max(job.best_return, best))
+                          best_return=best if job.best_return is None else max(job.best_return, best),
+                          **self._note_exclusions(job, evaluator))
             for ev in events:
                 self.publish(ev)
             previous[:] = events

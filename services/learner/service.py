@@ -50,6 +50,7 @@ from services.transport.keys import check_name, is_concrete, job_from_key, skill
 from services.transport.rpc import NotServed
 from services.transport.state_dir import default_state_dir
 from services.transport.wire import array_field, error_payload, field, require_payload
+from services.worker.exclusion import WorkerExclusions
 from services.worker.remote import RemoteEvaluator
 
 from .core import LearnerBusy, LearnerCore, TrainSpec, UnknownJobError, UnknownSkillError
@@ -173,6 +174,8 @@ class LearnerService:
         self.events = EventPublisher(session, keys)
         self.wait_recorder = float(wait_recorder)
         self.chunk_timeout = float(chunk_timeout)
+        #: workers a job excluded lately: the other jobs avoid them for a while (services/worker/exclusion.py)
+        self.exclusions = WorkerExclusions()
         self._recorder_checked = wait_recorder <= 0
         self.core = LearnerCore(state_dir, evaluator_for=self._evaluator, publish=self._publish,
                                 on_version=self._put_weights, device=device, state_limits=state_limits,
@@ -210,7 +213,7 @@ class LearnerService:
     # ----- what the core calls ---------------------------------------------------------------
     def _evaluator(self, job: AdaptJob) -> RemoteEvaluator:
         return RemoteEvaluator(self.session, self.keys, job.robot, job.task, dict(job.task_config),
-                               timeout=self.chunk_timeout, stop=self.core.stopping)
+                               timeout=self.chunk_timeout, stop=self.core.stopping, exclusions=self.exclusions)
 
     def _publish(self, event: dict) -> None:
         if not self._recorder_checked:

@@ -185,7 +185,7 @@ def summarize(path: str | Path) -> dict:
             for i in range(batch.num_rows):
                 rollouts[parts[1]].append({c: cols[c][i] for c in cols})
         elif head == "progress":
-            cols = {c: _column(batch, c) for c in ("iteration", "rollouts", "best_return", "state")}
+            cols = {c: _column(batch, c) for c in ("iteration", "rollouts", "best_return", "state", "excluded_workers")}
             for i in range(batch.num_rows):
                 progress[parts[1]].append({c: cols[c][i] for c in cols})
         elif head == "models":
@@ -311,6 +311,8 @@ def format_summary(summary: dict) -> str:
             p = j["last_progress"]
             lines.append(f"    last progress: iteration {p['iteration']}, {p['rollouts']} roll-outs, "
                          f"best {num(p['best_return'])}, {p['state']}")
+            if p.get("excluded_workers"):
+                lines.append(f"    excluded workers: {p['excluded_workers']}")
     if summary["jobs"]:
         lines.append("  (a roll-out succeeded when it met the task, exploring roll-outs included; whether a job "
                      "succeeded, the `success` of an experiment's JSON, is its result: `acnmp query jobs`)")

@@ -54,7 +54,8 @@ def call(session: zenoh.Session, key: str, payload: dict | bytes | None = None, 
     (model processes each serving some skills), a successful reply wins over error replies: a
     catch-all ``unknown_skill`` from one process must not hide another's answer. With only error
     replies, the first is raised as the :class:`WireError` it carries; with none, WireError
-    ``unavailable`` (the query ended early: nothing matched) or ``timeout``. The query carries
+    ``unavailable`` (the query ended early: nothing matched) or ``timeout``; a successful reply that
+    cannot be decoded raises :class:`UnreadableReply` (a WireError). The query carries
     ``timeout`` as its selector parameter, so a server does not compute it after it has expired.
     """
     return _query(session, key, payload, timeout, gather=False, expect_version=expect_version,
@@ -91,7 +92,7 @@ def _query(session: zenoh.Session, key: str, payload: dict | bytes | None, timeo
             try:
                 ok.append(decode(reply.ok.payload.to_bytes(), expect_version=expect_version, max_bytes=max_bytes))
             except WireError as exc:
-                raise WireError(exc.code, f"reply on {key}: {exc.message}") from None
+                raise UnreadableReply(exc.code, f"reply on {key}: {exc.message}") from None
             if not gather:
                 return ok
         elif first_err is None:
@@ -103,6 +104,11 @@ def _query(session: zenoh.Session, key: str, payload: dict | bytes | None, timeo
     if time.monotonic() - start < UNAVAILABLE_FRACTION * timeout:
         raise WireError("unavailable", f"no service answered on {key}")
     raise WireError("timeout", f"no reply on {key} within {timeout}s")
+
+
+class UnreadableReply(WireError):
+    """A query was answered, but its reply could not be read (not msgpack, NaN in an array, a bad
+    array map, ...): the answering service's fault, not the request's. The code is the decoding's."""
 
 
 Handler = Callable[..., Any]
