@@ -66,6 +66,9 @@ log = logging.getLogger(__name__)
 #: launcher's stop timeout, after which it is SIGKILLed).
 RECORDED_WAIT = 4.0
 
+#: Seconds between looks at the finished jobs' journals (doubling up to SETTLE_MAX while some stay).
+SETTLE_FIRST, SETTLE_MAX = 1.0, 30.0
+
 #: Bound on the demonstrations of one train request (N * T * D values).
 MAX_DEMO_VALUES = 10_000_000
 #: Jobs a ``jobs`` query lists when it does not say (``limit``), and at most.
@@ -202,6 +205,8 @@ class LearnerService:
         self.refused_keys = 0  # weights/latest queries on other wildcards, dropped
         self._latest = session.declare_queryable(keys.weights_latest("*"), self._handle_latest)
         self.core.start()
+        self._settler = threading.Thread(target=self._settle_loop, name="journals-settle", daemon=True)
+        self._settler.start()
         self.token_key = keys.learner_token(self.learner_id)
         self._token = session.liveliness().declare_token(self.token_key)
 
@@ -209,6 +214,25 @@ class LearnerService:
     def skills(self) -> dict[str, SkillState]:
         """The core's skills by name."""
         return self.core.skills
+
+    # ----- finished jobs' journals -----------------------------------------------------------
+    def _recorded(self, jobs: list[str]) -> set[str]:
+        """Those of ``jobs`` whose roll-outs the recorder holds (every one this learner published);
+        all of them when the learner does not record (no recorder to wait for)."""
+        return set(jobs) if self.wait_recorder <= 0 else self.events.recorded(jobs)
+
+    def _settle_loop(self) -> None:
+        """Remove the journals of finished jobs once the recorder holds their roll-outs (looked at
+        every second, backing off to :data:`SETTLE_MAX` s while the recorder does not confirm
+        some), so a later session publishes no fragment of them into its recording."""
+        delay = SETTLE_FIRST
+        while not self.core.stopping.wait(delay):
+            try:
+                _removed, kept = self.core.settle_journals(self._recorded)
+            except Exception:  # a session closing under us: tried again
+                log.debug("settling the finished jobs' journals failed", exc_info=True)
+                kept = ["?"]
+            delay = min(2 * delay, SETTLE_MAX) if kept else SETTLE_FIRST
 
     # ----- what the core calls ---------------------------------------------------------------
     def _evaluator(self, job: AdaptJob) -> RemoteEvaluator:
@@ -356,7 +380,17 @@ class LearnerService:
                 undeclare()
             except Exception:  # the session may be closing under us
                 log.debug("undeclare failed", exc_info=True)
-        self.core.close()
+        self.core.close(before_unlock=self._wait_recorded)
+        self._settler.join(timeout=5.0)
+        try:
+            self._token.undeclare()
+        except Exception:
+            log.debug("undeclare failed", exc_info=True)
+
+    def _wait_recorded(self) -> None:
+        """With a recorder (``wait_recorder`` > 0): wait up to :data:`RECORDED_WAIT` s until it holds
+        every roll-out this learner published; then (or without a recorder) remove the journals of
+        the finished jobs, whose roll-outs are all recorded (or never will be)."""
         started = time.monotonic()
         if self.wait_recorder > 0 and not self.events.wait_recorded(RECORDED_WAIT):
             waited = time.monotonic() - started
@@ -366,10 +400,9 @@ class LearnerService:
                             "hold the jobs' states", waited)
             else:
                 log.warning("the recorder did not confirm every roll-out of this learner within %.0f s", RECORDED_WAIT)
-        try:
-            self._token.undeclare()
-        except Exception:
-            log.debug("undeclare failed", exc_info=True)
+            self.core.settle_journals(self._recorded)  # those of the jobs it did confirm
+            return
+        self.core.settle_journals(lambda jobs: set(jobs))
 
     def __enter__(self) -> "LearnerService":
         return self

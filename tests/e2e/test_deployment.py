@@ -50,7 +50,9 @@ def test_e1_job_end_to_end_is_recorded_exactly(tmp_path, verify_rrd):
         while (info := call(s, keys.info("e1"), None, timeout=10))["version"] != want:
             assert time.monotonic() < deadline, info
             time.sleep(0.2)
-    # the deployment is down: the recorder finalised the file
+    # the deployment is down: the recorder finalised the file, and the learner, the recorder having
+    # confirmed the job's roll-outs, removed its journal (a next session publishes nothing of it)
+    assert not list((tmp_path / "state" / "jobs").glob("*.rollouts"))
     used = st["result"]["rollouts"]
     summary = summarize(rrd)
     rec = summary["jobs"][job]
