@@ -71,8 +71,8 @@ import rerun.blueprint as rrb
 
 from .drawings import drawer_for
 from .events import metric_values, rollout_key
+from .segments import APPLICATION_ID
 
-APPLICATION_ID = "acnmp"
 
 #: How many past roll-outs the trajectory views show next to the current one.
 TRAIL = 20
