@@ -151,8 +151,10 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--out", default=str(RESULTS / "bench_model_memory.json"))
     args = p.parse_args(argv)
     prov = main_provenance(__file__, argv)
-    result = {"benchmark": "model_memory", "provenance": prov,
-              **measure(args.senders, args.predicts, args.settle)}
+    t0 = time.perf_counter()
+    measured = measure(args.senders, args.predicts, args.settle)
+    result = {"benchmark": "model_memory", "provenance": prov, "wall_time_s": round(time.perf_counter() - t0, 1),
+              "targets": {"after_over_idle": 1.5, "refusal_s": 1.0}, **measured}
     return save_result(result, args.out, headline=("idle_mib", "peak_mib", "after_mib", "after_over_idle", "refusals"))
 
 

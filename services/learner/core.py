@@ -125,6 +125,7 @@ class LearnerHealth:
     write_error : the last state write's failure, None once a write succeeded again.
     quarantined : every file under the state directory's quarantine.
     pending_journals : journalled roll-outs whose publishing failed (tried again until it works).
+    notes : one line per skill not served at its newest version since the start (why, and which is).
     """
 
     loop_running: bool
@@ -132,6 +133,7 @@ class LearnerHealth:
     write_error: str | None
     quarantined: tuple[Quarantined, ...]
     pending_journals: tuple[PendingJournal, ...] = ()
+    notes: tuple[str, ...] = ()
 
     def problems(self) -> list[str]:
         """One line per problem (empty when healthy)."""
@@ -140,7 +142,7 @@ class LearnerHealth:
             out.append(f"the job loop has stopped: {self.loop_error}")
         if self.write_error is not None:
             out.append(f"cannot write its state: {self.write_error}")
-        out += [p.line() for p in self.pending_journals]
+        out += list(self.notes) + [p.line() for p in self.pending_journals]
         out += [q.line() for q in self.quarantined[:HEALTH_FILES]]
         if len(self.quarantined) > HEALTH_FILES:
             out.append(f"... and {len(self.quarantined) - HEALTH_FILES} more quarantined files")
@@ -325,7 +327,7 @@ class LearnerCore:
     def health(self) -> LearnerHealth:
         """The learner's health now: its job loop, its last write, the quarantined files."""
         return LearnerHealth(all(t.is_alive() for t in self._threads), self.loop_error, self.state.write_error,
-                             tuple(self.state.quarantined()), self.journals.pending())
+                             tuple(self.state.quarantined()), self.journals.pending(), tuple(self.skill_store.notes))
 
     # ----- skills ----------------------------------------------------------------------------
     def skill(self, name: str) -> SkillState:

@@ -139,6 +139,37 @@ class DeploymentSecrets:
         shutil.rmtree(self.directory, ignore_errors=True)
 
 
+def forget_secrets_when_launcher_dies(config_file: str | os.PathLike | None) -> bool:
+    """When ``config_file`` (this process's ``--config``) is a role's config in a deployment's
+    secrets directory (:class:`DeploymentSecrets`: ``users.txt`` beside it), remove that directory
+    once this process's launcher is found dead (services/transport/lifetime.py): a launcher killed
+    with -9 removes nothing, and the passwords must not outlive the deployment. Only while the file
+    is still the one this process read (same inode: a deployment started since has written its own).
+    Returns whether it will (a process not launched so, or with no such file, leaves everything)."""
+    from .lifetime import PARENT_PID_ENV, on_launcher_gone
+
+    if config_file is None or not os.environ.get(PARENT_PID_ENV):
+        return False
+    path = Path(config_file)
+    try:
+        inode = path.stat().st_ino
+    except OSError:
+        return False
+    if not (path.parent / "users.txt").is_file():
+        return False
+
+    def forget() -> None:
+        try:
+            if path.stat().st_ino != inode:
+                return
+        except OSError:
+            return
+        DeploymentSecrets(path.parent).remove()
+
+    on_launcher_gone(forget)
+    return True
+
+
 def authenticated_user(config_file: str | os.PathLike | None) -> str | None:
     """The zenoh username a process's config file authenticates with (``transport/auth/usrpwd/user``),
     or None without a file or without user/password authentication."""

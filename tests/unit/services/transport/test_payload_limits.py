@@ -40,8 +40,8 @@ def test_zenohs_filter_drops_queries_over_each_bound_in_every_session_the_deploy
     assert [{k: v for k, v in f.items() if v is not None} for f in in_config] == filters
 
 
-def test_the_protocol_page_states_every_bound():
-    text = (Path(__file__).parents[4] / "docs" / "PROTOCOL.md").read_text()
+def test_the_faults_page_states_every_bound():
+    text = (Path(__file__).parents[4] / "docs" / "FAULTS.md").read_text()
     for lim in REQUEST_LIMITS:
         size = f"{lim.max_bytes // 2**20} MiB" if lim.max_bytes >= 2**20 else f"{lim.max_bytes // 1024} KiB"
         assert f"| `{lim.key}` | {size} |" in text, lim
