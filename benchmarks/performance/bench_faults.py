@@ -261,7 +261,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--modes", nargs="+", default=list(MODES), help="evil worker modes (default: all)")
     p.add_argument("--jobs-per-mode", type=int, default=2, help="jobs beside each evil worker (default: %(default)s)")
     p.add_argument("--skip", choices=("kills", "workers"), default=None, help="leave a part out")
-    p.add_argument("--out", default=str(RESULTS / "bench_faults.json"))
+    p.add_argument("--out", default=str(RESULTS / "bench_faults.json"), help="the JSON written (default: %(default)s)")
     args = p.parse_args(argv)
     prov = main_provenance(__file__, argv)
     t0 = time.perf_counter()

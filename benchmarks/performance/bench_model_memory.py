@@ -148,7 +148,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--predicts", type=int, default=100, help="predicts at the bound in all (default: %(default)s)")
     p.add_argument("--settle", type=float, default=10.0,
                    help="seconds of samples once idle again; the lowest is reported (default: %(default)s)")
-    p.add_argument("--out", default=str(RESULTS / "bench_model_memory.json"))
+    p.add_argument("--out", default=str(RESULTS / "bench_model_memory.json"), help="the JSON written (default: %(default)s)")
     args = p.parse_args(argv)
     prov = main_provenance(__file__, argv)
     t0 = time.perf_counter()

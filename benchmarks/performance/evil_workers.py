@@ -90,10 +90,10 @@ def main(argv: list[str] | None = None) -> int:
     from services.transport import install_shutdown_handlers, open_session, wait_until_stopped
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--mode", choices=MODES, required=True)
+    p.add_argument("--mode", choices=MODES, required=True, help="how it answers badly (the module docstring)")
     p.add_argument("--id", default="evil", help="worker id (default: %(default)s)")
-    p.add_argument("--robot", default="point2d")
-    p.add_argument("--namespace", "-n", default="default")
+    p.add_argument("--robot", default="point2d", help="its robot kind (default: %(default)s)")
+    p.add_argument("--namespace", "-n", default="default", help="the deployment's namespace (default: %(default)s)")
     p.add_argument("--connect", action="append", default=None, help="an endpoint of the deployment")
     p.add_argument("--config", default=None, help="a zenoh config file (a role's credentials)")
     p.add_argument("--slow-s", type=float, default=30.0, help="seconds a slow worker takes (default: %(default)s)")

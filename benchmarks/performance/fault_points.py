@@ -78,7 +78,8 @@ def install(point: str, batch: int) -> None:
 def main(argv: list[str] | None = None) -> int:
     ours, _, learner = _split(sys.argv[1:] if argv is None else argv)
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--kill-at", choices=(*POINTS, "none"), required=True)
+    p.add_argument("--kill-at", choices=(*POINTS, "none"), required=True,
+                   help="where the learner kills itself (the module docstring); none: never")
     p.add_argument("--batch", type=int, default=1, help="the batch (1-based, of this process) to kill at")
     args = p.parse_args(ours)
     if args.kill_at != "none":
