@@ -21,15 +21,14 @@ import argparse
 import os
 import subprocess
 import sys
-import tempfile
 import time
-import uuid
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 from benchmarks._results import RESULTS, main_provenance, save_result  # noqa: E402
 from benchmarks.performance.bench_hostile import RssSampler  # noqa: E402
+from benchmarks.performance.up_process import rss, up_process  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -54,19 +53,13 @@ with open_session(None, config_file=cfg) as s:
 """
 
 
-def _rss(pid: int) -> int:
-    import psutil
-
-    return psutil.Process(pid).memory_info().rss
-
-
 def _idle_rss(pid: int, seconds: float, period: float = 0.1) -> tuple[float, list[float]]:
     """The lowest resident set (MiB) of ``pid`` over ``seconds`` (sampled every ``period``), and
     the samples: memory freed is given back within a moment, not at once."""
     samples = []
     end = time.monotonic() + seconds
     while time.monotonic() < end:
-        samples.append(_rss(pid) / 2**20)
+        samples.append(rss(pid) / 2**20)
         time.sleep(period)
     return min(samples), samples
 
@@ -76,70 +69,58 @@ def measure(senders: int, predicts: int, settle: float) -> dict:
     from clients.client import ACNMPClient, ClientError
     from services.transport.keys import Keyspace
     from services.transport.payload_limits import request_limit
-    from services.transport.runfile import find
 
-    ns = f"benchmem-{uuid.uuid4().hex[:6]}"
-    with tempfile.TemporaryDirectory(prefix="bench-model-memory-") as tmp:
-        env = dict(os.environ, PYTHONPATH=str(ROOT), RERUN_ANALYTICS="0")
-        up = subprocess.Popen([sys.executable, "-m", "clients.cli", "up", "-n", ns, "--workers", "0", "--train-steps",
-                               "20", "--state-dir", f"{tmp}/state"], cwd=ROOT, env=env, stdout=subprocess.PIPE,
-                              stderr=subprocess.STDOUT, text=True)
-        try:
-            for line in up.stdout:
-                if "deployment is up" in line:
-                    break
-            run = find(ns)
-            keys = Keyspace(ns)
-            key = keys.predict("e1")
-            bound = request_limit(key)
-            model = next(p.pid for p in run.processes if p.name == "model")
-            out: dict = {"senders": senders, "predicts": predicts, "payload_bytes": bound, "settle_s": settle}
-            with ACNMPClient(ns, role="client", timeout=30) as client:
-                for _ in range(20):  # warm: the first predicts build what every later one reuses
-                    client.predict("e1", [0.0, 1.0], [[0.0, 0.0], [1.0, 0.0]], n_steps=20)
-                out["idle_mib"], _ = _idle_rss(model, 2.0)
-                sampler = RssSampler(model)
-                t0 = time.perf_counter()
-                each = [predicts // senders + (i < predicts % senders) for i in range(senders)]
-                procs = [subprocess.Popen([sys.executable, "-c", _SENDER, run.credentials, key, str(n), str(bound)],
-                                          cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-                         for n in each]
-                answers: dict[str, int] = {}
-                for p in procs:
-                    stdout, stderr = p.communicate(timeout=900)
-                    for word in stdout.split():
-                        answers[word] = answers.get(word, 0) + 1
-                    if p.returncode:
-                        answers[f"sender exit {p.returncode}: {stderr.strip().splitlines()[-1:]}"] = 1
-                out["flood_s"] = round(time.perf_counter() - t0, 2)
-                out["peak_mib"] = sampler.stop() / 2**20
-                out["answers"] = answers
-                out["after_mib"], samples = _idle_rss(model, settle)
-                out["after_samples_mib"] = [round(s, 1) for s in samples[:: max(1, len(samples) // 20)]]
-                out["after_over_idle"] = out["after_mib"] / out["idle_mib"]
-                client.info("e1")  # still answering
+    env = dict(os.environ, PYTHONPATH=str(ROOT), RERUN_ANALYTICS="0")
+    with up_process("benchmem") as run:
+        ns = run.namespace
+        keys = Keyspace(ns)
+        key = keys.predict("e1")
+        bound = request_limit(key)
+        model = next(p.pid for p in run.processes if p.name == "model")
+        out: dict = {"senders": senders, "predicts": predicts, "payload_bytes": bound, "settle_s": settle}
+        with ACNMPClient(ns, role="client", timeout=30) as client:
+            for _ in range(20):  # warm: the first predicts build what every later one reuses
+                client.predict("e1", [0.0, 1.0], [[0.0, 0.0], [1.0, 0.0]], n_steps=20)
+            out["idle_mib"], _ = _idle_rss(model, 2.0)
+            sampler = RssSampler(model)
+            t0 = time.perf_counter()
+            each = [predicts // senders + (i < predicts % senders) for i in range(senders)]
+            procs = [subprocess.Popen([sys.executable, "-c", _SENDER, run.credentials, key, str(n), str(bound)],
+                                      cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                     for n in each]
+            answers: dict[str, int] = {}
+            for p in procs:
+                stdout, stderr = p.communicate(timeout=900)
+                for word in stdout.split():
+                    answers[word] = answers.get(word, 0) + 1
+                if p.returncode:
+                    answers[f"sender exit {p.returncode}: {stderr.strip().splitlines()[-1:]}"] = 1
+            out["flood_s"] = round(time.perf_counter() - t0, 2)
+            out["peak_mib"] = sampler.stop() / 2**20
+            out["answers"] = answers
+            out["after_mib"], samples = _idle_rss(model, settle)
+            out["after_samples_mib"] = [round(s, 1) for s in samples[:: max(1, len(samples) // 20)]]
+            out["after_over_idle"] = out["after_mib"] / out["idle_mib"]
+            client.info("e1")  # still answering
 
-                over = bytes(bound + 1)
-                refusals = {}
-                for name, body in (("over_bound_client", over), ("500mb_client", None)):
-                    body = body if body is not None else bytes(500 * 2**20)
-                    t = time.perf_counter()
-                    try:
-                        client.request(key, body)
-                        code = "ok"
-                    except ClientError as exc:
-                        code = exc.code
-                    refusals[name] = {"bytes": len(body), "answer": code, "seconds": round(time.perf_counter() - t, 4)}
-                    del body
+            over = bytes(bound + 1)
+            refusals = {}
+            for name, body in (("over_bound_client", over), ("500mb_client", None)):
+                body = body if body is not None else bytes(500 * 2**20)
                 t = time.perf_counter()
-                replies = list(client.session.get(key, payload=over, timeout=60))
-                refusals["over_bound_raw_get"] = {"bytes": len(over), "answer": f"{len(replies)} replies",
-                                                  "seconds": round(time.perf_counter() - t, 4)}
-                out["refusals"] = refusals
-            return out
-        finally:
-            up.terminate()
-            up.wait(timeout=60)
+                try:
+                    client.request(key, body)
+                    code = "ok"
+                except ClientError as exc:
+                    code = exc.code
+                refusals[name] = {"bytes": len(body), "answer": code, "seconds": round(time.perf_counter() - t, 4)}
+                del body
+            t = time.perf_counter()
+            replies = list(client.session.get(key, payload=over, timeout=60))
+            refusals["over_bound_raw_get"] = {"bytes": len(over), "answer": f"{len(replies)} replies",
+                                              "seconds": round(time.perf_counter() - t, 4)}
+            out["refusals"] = refusals
+        return out
 
 
 def main(argv: list[str] | None = None) -> int:
