@@ -16,7 +16,9 @@ published     after every roll-out event of the batch was published, before its 
 
     python -m benchmarks.performance.fault_points --kill-at reserved --batch 3 -- <learner options>
 
-kills itself at the 3rd batch this process reserves, at that point; ``--kill-at none`` runs the
+kills itself at the 3rd batch this process reserves, at that point (``journalled``: the first journal
+written once 2 batches are reserved: the steps of jobs running side by side interleave);
+``--kill-at none`` runs the
 learner unchanged. Everything else is the real learner (``python -m services.learner``).
 """
 from __future__ import annotations
@@ -51,7 +53,8 @@ def install(point: str, batch: int) -> None:
 
     def journal_save(self, job_id, events):
         save(self, job_id, events)
-        if point == "journalled" and state["reserved"] + 1 == batch:
+        # the first journal written once batch - 1 batches are reserved (two jobs' steps interleave)
+        if point == "journalled" and state["reserved"] + 1 >= batch:
             die()
 
     def reserve(self, job, **changes):
