@@ -256,7 +256,7 @@ class LearnerCore:
                     self._persist(job, attempt=job.attempt + 1, state="queued")
             except StateWriteError as exc:
                 log.warning("job %s: %s; it is resumed all the same", job.job, exc)
-        self.journals = Journals(self.job_store, self.publish, self._stop)
+        self.journals = Journals(self.job_store, lambda event: self.publish(event), self._stop)
         self._read_journals()
         self._prune_jobs()
         self._replayed = threading.Event()  # the journals' events are published again: jobs may run

@@ -102,7 +102,9 @@ class Journals:
         for job_id in list(self._unpublished):
             if self.stop.is_set():
                 return
-            self._publish(job_id, self._unpublished.pop(job_id), first=True)
+            self._publish(job_id, self._unpublished[job_id], first=True)
+            with self._lock:
+                del self._unpublished[job_id]
 
     def retry(self) -> bool:
         """Try once more to publish every held journal; True when none is held any more."""
@@ -158,10 +160,11 @@ class Journals:
 
     def settle(self, finished: Iterable[str], recorded: Callable[[list[str]], set[str]]) -> tuple[list[str], list[str]]:
         """Remove the journals of the ``finished`` jobs that ``recorded`` (given the job ids that
-        have a journal, held ones left out) says the recorder holds every published roll-out of;
+        have a journal, held ones and those not yet published again left out) says the recorder
+        holds every published roll-out of;
         returns ``(removed, kept)``: the ids removed and those left for a later look."""
-        with self._lock:
-            held = set(self._held)
+        with self._lock:  # a journal read at the start and not published yet is not the recorder's to confirm
+            held = set(self._held) | set(self._unpublished)
         candidates = sorted(set(finished) & set(self.store.journals()) - held)
         if not candidates:
             return [], []
