@@ -36,15 +36,16 @@ def faults() -> str:
     k = r["kills"]
     rows = [["kill -9 of the learner between reserving and publishing a batch",
              f"{k['kills']} kills ({', '.join(f'{n} {w}' for w, n in sorted(k['where'].items()))}), "
-             f"{k['restarts_same_record']} restarts of `acnmp up` on the same --record",
+             f"{k['restarts_same_record']} of them with the launcher killed too and started again on the same --record",
              f"{k['jobs']} jobs done: {k['lost']} roll-outs lost, {k['duplicated']} duplicated of "
              f"{k['reserved']} reserved; {k['segments']} recording files",
              "0 lost, 0 duplicated", "yes" if k["lost"] == 0 and k["duplicated"] == 0 else "**no**"]]
     for mode, m in r["workers"].items():
-        rows.append([f"a worker answering {m['what']} beside 2 healthy ones", f"{m['jobs']} jobs",
-                     f"{m['done']} done, bad worker named in {m['named']}; "
-                     f"{m['rollouts_by_bad']} roll-outs from it; {m['seconds']:.1f} s",
-                     "every job done, the worker named",
-                     "yes" if m["done"] == m["jobs"] and m["named"] == m["jobs"] and m["rollouts_by_bad"] == 0
-                     else "**no**"])
+        avoided = m["jobs"] - m["named"]
+        rows.append([f"a worker answering {m['what']} beside 2 healthy ones", f"{m['jobs']} jobs at once",
+                     f"{m['done']}/{m['jobs']} done in {m['seconds']:.1f} s; named by {m['named']}"
+                     + (f" (the other {avoided} avoided it)" if avoided else "")
+                     + f"; {m['rollouts_by_bad']} of its roll-outs used",
+                     "every job done, the worker named, none of its roll-outs used",
+                     "yes" if m["done"] == m["jobs"] and m["named"] >= 1 and m["rollouts_by_bad"] == 0 else "**no**"])
     return block(r, "bench_faults", ["fault", "runs", "measured", "target", "met"], rows, r.get("note", ""))
