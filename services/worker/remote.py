@@ -115,6 +115,7 @@ class RemoteEvaluator:
         InterruptedError instead of waiting for its replies.
     exclusions : the learner's registry of workers its jobs excluded lately (shared by its
         evaluators; None: this evaluator's own).
+    slow_min_s : the least seconds a chunk runs before it counts as slow (:data:`SLOW_MIN_S`).
 
     ``excluded`` lists the workers this evaluator excluded (its job's), in order.
     """
@@ -122,7 +123,7 @@ class RemoteEvaluator:
     def __init__(self, session: zenoh.Session, keys: Keyspace | str, robot: str, task: str,
                  task_config: dict | None = None, *, timeout: float = 60.0, discover_timeout: float = 10.0,
                  max_attempts: int = 20, stop: threading.Event | None = None,
-                 exclusions: WorkerExclusions | None = None):
+                 exclusions: WorkerExclusions | None = None, slow_min_s: float = SLOW_MIN_S):
         self.session = session
         self.keys = keys if isinstance(keys, Keyspace) else Keyspace(keys)
         self.robot = check_name("robot", robot)
@@ -135,6 +136,7 @@ class RemoteEvaluator:
         self.max_attempts = int(max_attempts)
         self.stop = stop
         self.exclusions = exclusions if exclusions is not None else WorkerExclusions()
+        self.slow_min_s = float(slow_min_s)
         self._pattern = self.keys.worker_token(self.robot)
         self.ignored_tokens = 0  # liveliness tokens that named no worker (wildcards, bad ids)
         self._turn = random.randrange(1 << 30)  # which worker a batch starts on (round robin)
@@ -187,7 +189,7 @@ class RemoteEvaluator:
         """Seconds after which a chunk of ``n`` roll-outs counts as slow (None: no chunk finished yet)."""
         if not self._per_rollout:
             return None
-        return max(SLOW_MIN_S, SLOW_FACTOR * statistics.median(self._per_rollout) * n)
+        return max(self.slow_min_s, SLOW_FACTOR * statistics.median(self._per_rollout) * n)
 
     # ----- one reply -------------------------------------------------------------------------
     @staticmethod

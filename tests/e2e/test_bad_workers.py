@@ -21,7 +21,7 @@ NS = "badworkers"
 KEYS = Keyspace(NS)
 #: What a refusal's reason names, per mode (the rest: the mode's own words).
 NAMED = {"nan": "non_finite", "inf": "non_finite", "huge": "rewards: a value of magnitude 1e+308",
-         "shape": "rewards of shape", "stale": "a reply for another chunk", "slow": "too slow",
+         "shape": "rewards of shape", "stale": "a reply for another chunk", "slow": "too slow: roll-outs",
          "failing": "failed 2 times", "refusing": "refused roll-outs"}
 
 
@@ -47,8 +47,9 @@ def pool():
 
 
 def _evaluator(session, setup, exclusions=None, **kwargs) -> RemoteEvaluator:
+    # slow: 0.5 s at the least (the default 2 s), still far beyond the healthy workers' milliseconds
     return RemoteEvaluator(session, KEYS, "point2d", "viapoint", setup.task_config, timeout=20.0,
-                           discover_timeout=3.0, exclusions=exclusions, **kwargs)
+                           discover_timeout=3.0, exclusions=exclusions, slow_min_s=0.5, **kwargs)
 
 
 def _trajectories(setup, b: int = 6) -> np.ndarray:
