@@ -10,7 +10,26 @@ from typing import Protocol, Self, runtime_checkable
 
 import numpy as np
 
+from .errors import TooLargeError
 from .validation import check_array
+
+#: The largest magnitude a roll-out may report in any number (rewards, returns, errors, states):
+#: beyond every task's scale, and small enough that what the adaptation computes from them
+#: (returns, differences, squares and their sums over a batch: advantages and their std) stays
+#: finite. A worker answering rewards of -1e308 (finite) made a job's summed return -inf
+#: (issue 66): such a batch is refused where it enters, naming the field.
+MAX_MAGNITUDE = 1e150
+
+
+def check_magnitude(name: str, arr: np.ndarray) -> np.ndarray:
+    """``arr`` (finite) if every element is at most :data:`MAX_MAGNITUDE` in magnitude, else
+    :class:`~acnmp_core.errors.TooLargeError` naming ``name`` and the largest element."""
+    if arr.size and arr.dtype.kind == "f":
+        largest = float(np.max(np.abs(arr)))
+        if largest > MAX_MAGNITUDE:
+            raise TooLargeError(f"{name}: a value of magnitude {largest:.3g} is beyond {MAX_MAGNITUDE:g}, "
+                                "no task's number")
+    return arr
 
 
 @dataclass
@@ -20,7 +39,9 @@ class RolloutBatch:
     Attributes
     ----------
     rewards : (B, T) float64
-        Per-step reward; the return of a roll-out is ``rewards.sum(axis=1)``.
+        Per-step reward; the return of a roll-out is ``rewards.sum(axis=1)``. Every reward, return,
+        error and state is finite and at most :data:`MAX_MAGNITUDE` in magnitude (else ValueError:
+        :class:`~acnmp_core.errors.NonFiniteError` or :class:`~acnmp_core.errors.TooLargeError`).
     success : (B,) bool
         Whether each roll-out satisfies the task's success criterion.
     states : dict of str -> (B, T, ...) arrays
@@ -36,13 +57,20 @@ class RolloutBatch:
     errors: np.ndarray | None = None
 
     def __post_init__(self) -> None:
-        self.rewards = check_array("rewards", self.rewards, ndim=2)
+        self.rewards = check_magnitude("rewards", check_array("rewards", self.rewards, ndim=2))
+        check_magnitude("returns", self.rewards.sum(axis=1))
         b = self.rewards.shape[0]
         self.success = np.asarray(self.success, dtype=bool).reshape(-1)
         if self.success.shape != (b,):
             raise ValueError(f"success: expected shape ({b},), got {self.success.shape}")
         if self.errors is not None:
-            self.errors = check_array("errors", self.errors, shape=(b,))
+            self.errors = check_magnitude("errors", check_array("errors", self.errors, shape=(b,)))
+        for name, value in self.states.items():
+            arr = np.asarray(value)
+            if arr.dtype.kind == "f":
+                check_magnitude(f"states[{name!r}]", check_array(f"states[{name!r}]", arr, dtype=arr.dtype))
+            if arr.ndim < 1 or arr.shape[0] != b:
+                raise ValueError(f"states[{name!r}]: expected {b} roll-outs along its first axis, got shape {arr.shape}")
 
     @property
     def returns(self) -> np.ndarray:

@@ -28,6 +28,7 @@ from acnmp_core.jobs.transfer import PairTrainJob
 from services.transport import DEFAULT_NAMESPACE, Keyspace, WireError, alive_tokens, open_session
 from services.transport.keys import is_concrete, last_chunk
 from services.transport.rpc import call, call_all
+from services.worker.exclusion import Exclusion
 
 from .discovery import call_when_available, resolve
 
@@ -69,7 +70,10 @@ class JobSummary:
 
     job : id. kind : ``adapt`` or ``train_pair``. skill, task, robot : what it adapts and where.
     state : ``queued``, ``running``, ``interrupted``, ``done``, ``failed`` or ``cancelled``.
-    rollouts : roll-outs used (training steps for ``train_pair``), of ``budget``. best_return :
+    rollouts : roll-outs used by the current (final) attempt (training steps for ``train_pair``),
+    of ``budget``. rollouts_executed : roll-outs executed by all its attempts (what the recording
+    holds of it; None from a learner that does not say). attempt : 0, +1 per restart.
+    excluded_workers : the workers excluded from the job and why (docs/PROTOCOL.md). best_return :
     best return seen (None before the first). success : the result's (None until it finished).
     committed_version : the skill version holding its solution, if assimilated. created, updated :
     wall time (s since the epoch).
@@ -88,11 +92,16 @@ class JobSummary:
     committed_version: int | None
     created: float
     updated: float
+    rollouts_executed: int | None = None
+    attempt: int | None = None
+    excluded_workers: tuple[Exclusion, ...] = ()
 
     @classmethod
     def from_reply(cls, row: dict) -> "JobSummary":
         """Build from one row of a ``jobs`` reply (extra fields of a newer learner are ignored)."""
-        return cls(**{name: row.get(name) for name in cls.__dataclass_fields__})
+        values = {name: row.get(name) for name in cls.__dataclass_fields__}
+        values["excluded_workers"] = tuple(Exclusion.from_dict(e) for e in row.get("excluded_workers") or ())
+        return cls(**values)
 
 
 def predict_request(obs_times, obs_values, task_params=None, query_times=None, *, n_steps: int | None = None,

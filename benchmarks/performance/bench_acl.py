@@ -23,7 +23,6 @@ import sys
 import tempfile
 import threading
 import time
-import uuid
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
@@ -31,6 +30,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 from benchmarks._results import main_provenance, save_result  # noqa: E402
 from clients.experiments.common import add_run_arguments  # noqa: E402
 from benchmarks.performance.bench_hostile import RssSampler  # noqa: E402
+from benchmarks.performance.up_process import rss, up_process  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -71,80 +71,61 @@ def generated(cases: int) -> dict:
     return result
 
 
-def _rss(pid: int) -> int:
-    import psutil
-
-    return psutil.Process(pid).memory_info().rss
-
-
 def flood_and_list_predict(flood_mb: int, repeats: int = 3, env_extra: dict | None = None) -> dict:
     """Parts 2 and 3 (see the module docstring), on one ``acnmp up`` deployment."""
     from clients.client import ACNMPClient
     from services.transport.keys import Keyspace
-    from services.transport.runfile import find
 
-    ns = f"benchacl-{uuid.uuid4().hex[:6]}"
-    with tempfile.TemporaryDirectory(prefix="bench-acl-up-") as tmp:
-        env = dict(os.environ, PYTHONPATH=str(ROOT), RERUN_ANALYTICS="0", **(env_extra or {}))
-        up = subprocess.Popen([sys.executable, "-m", "clients.cli", "up", "-n", ns, "--workers", "0", "--train-steps",
-                               "20", "--state-dir", f"{tmp}/state"], cwd=ROOT, env=env, stdout=subprocess.PIPE,
-                              stderr=subprocess.STDOUT, text=True)
-        try:
-            for line in up.stdout:
-                if "deployment is up" in line:
-                    break
-            run = find(ns)
-            keys = Keyspace(ns)
-            pids = {"router": run.pid, "model": next(p.pid for p in run.processes if p.name == "model")}
-            out: dict = {"flood_mb": flood_mb, "repeats": repeats}
-            with ACNMPClient(ns, role="client", timeout=30) as client:
-                client.info("e1")
-                start = {n: _rss(p) for n, p in pids.items()}
-                out["start_mib"] = {n: v / 2**20 for n, v in start.items()}
-                for i, what in enumerate(("put", "query") * repeats):
-                    before = {n: _rss(p) for n, p in pids.items()}
-                    samplers = {n: RssSampler(p) for n, p in pids.items()}
-                    attack = _attack(run.credentials, keys.predict("e1"), what, flood_mb)
-                    client.info("e1")  # still answering
-                    peak = {n: s.stop() for n, s in samplers.items()}
-                    after = {n: _rss(p) for n, p in pids.items()}
-                    out.setdefault("floods", []).append({
-                        "what": what, "attacker_exit": attack.returncode, "attacker_stderr": attack.stderr[-300:],
-                        **{f"{n}_mib": {"before": before[n] / 2**20, "peak": peak[n] / 2**20,
-                                        "after": after[n] / 2**20} for n in pids}})
-                end = {n: _rss(p) for n, p in pids.items()}
-                out["peak_mib"] = {n: max(f[f"{n}_mib"]["peak"] for f in out["floods"]) for n in pids}
-                out["end_over_start"] = {n: end[n] / start[n] for n in pids}
-                # part 3: a 57 MB list-encoded predict while light predicts run back to back
-                latencies: list[float] = []
-                stop = threading.Event()
+    with up_process("benchacl", env_extra) as run:
+        ns = run.namespace
+        keys = Keyspace(ns)
+        pids = {"router": run.pid, "model": next(p.pid for p in run.processes if p.name == "model")}
+        out: dict = {"flood_mb": flood_mb, "repeats": repeats}
+        with ACNMPClient(ns, role="client", timeout=30) as client:
+            client.info("e1")
+            start = {n: rss(p) for n, p in pids.items()}
+            out["start_mib"] = {n: v / 2**20 for n, v in start.items()}
+            for i, what in enumerate(("put", "query") * repeats):
+                before = {n: rss(p) for n, p in pids.items()}
+                samplers = {n: RssSampler(p) for n, p in pids.items()}
+                attack = _attack(run.credentials, keys.predict("e1"), what, flood_mb)
+                client.info("e1")  # still answering
+                peak = {n: s.stop() for n, s in samplers.items()}
+                after = {n: rss(p) for n, p in pids.items()}
+                out.setdefault("floods", []).append({
+                    "what": what, "attacker_exit": attack.returncode, "attacker_stderr": attack.stderr[-300:],
+                    **{f"{n}_mib": {"before": before[n] / 2**20, "peak": peak[n] / 2**20,
+                                    "after": after[n] / 2**20} for n in pids}})
+            end = {n: rss(p) for n, p in pids.items()}
+            out["peak_mib"] = {n: max(f[f"{n}_mib"]["peak"] for f in out["floods"]) for n in pids}
+            out["end_over_start"] = {n: end[n] / start[n] for n in pids}
+            # part 3: a 57 MB list-encoded predict while light predicts run back to back
+            latencies: list[float] = []
+            stop = threading.Event()
 
-                def light() -> None:
-                    with ACNMPClient(ns, role="client", timeout=30) as c2:
-                        while not stop.is_set():
-                            t = time.perf_counter()
-                            c2.predict("e1", [0.0, 1.0], [[0.0, 0.0], [1.0, 0.0]], n_steps=20)
-                            latencies.append(time.perf_counter() - t)
+            def light() -> None:
+                with ACNMPClient(ns, role="client", timeout=30) as c2:
+                    while not stop.is_set():
+                        t = time.perf_counter()
+                        c2.predict("e1", [0.0, 1.0], [[0.0, 0.0], [1.0, 0.0]], n_steps=20)
+                        latencies.append(time.perf_counter() - t)
 
-                th = threading.Thread(target=light, daemon=True)
-                th.start()
-                while not latencies:
-                    time.sleep(0.01)
-                n_before = len(latencies)
-                attack = _attack(run.credentials, keys.predict("e1"), "list", 57)
-                n_during = len(latencies)
-                stop.set()
-                th.join(timeout=30)
-                during = latencies[n_before:n_during + 1]
-                out["list_predict_57mb"] = {"hostile_bytes": attack.stdout.splitlines()[:1],
-                                            "hostile_answer": attack.stdout.splitlines()[1:2],
-                                            "light_predicts_during": len(during),
-                                            "light_max_s": max(during) if during else None,
-                                            "light_p50_s": sorted(during)[len(during) // 2] if during else None}
-            return out
-        finally:
-            up.terminate()
-            up.wait(timeout=60)
+            th = threading.Thread(target=light, daemon=True)
+            th.start()
+            while not latencies:
+                time.sleep(0.01)
+            n_before = len(latencies)
+            attack = _attack(run.credentials, keys.predict("e1"), "list", 57)
+            n_during = len(latencies)
+            stop.set()
+            th.join(timeout=30)
+            during = latencies[n_before:n_during + 1]
+            out["list_predict_57mb"] = {"hostile_bytes": attack.stdout.splitlines()[:1],
+                                        "hostile_answer": attack.stdout.splitlines()[1:2],
+                                        "light_predicts_during": len(during),
+                                        "light_max_s": max(during) if during else None,
+                                        "light_p50_s": sorted(during)[len(during) // 2] if during else None}
+        return out
 
 
 def main(argv: list[str] | None = None) -> int:

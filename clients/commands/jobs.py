@@ -177,7 +177,7 @@ def _run_jobs(args) -> int:
         return code
     from clients.client import JobSummary  # torch comes with it: not for --help
 
-    rows = [JobSummary(**r) for r in rows]
+    rows = [JobSummary.from_reply(r) for r in rows]
     if not rows:
         print("no jobs yet (start one with `acnmp query adapt`)")
         return 0

@@ -14,7 +14,8 @@ examples:
   acnmp replay run.rrd --export tables/         # rollouts/jobs/latents/models/metrics.parquet
   acnmp replay run.rrd --execute                # every roll-out again here: recorded vs now
   acnmp replay run.rrd --execute --namespace lab --job e1-0123456789   # on a deployment's workers
-  acnmp replay old.rrd new.rrd --export t/      # a restarted recorder's files, each roll-out once
+  acnmp replay run.rrd                          # also run.1.rrd, run.2.rrd, ...: the recording's segments
+  acnmp replay old.rrd new.rrd --export t/      # files of one deployment, each roll-out once
   acnmp replay run.rrd --export-lerobot e1-lerobot/     # each roll-out an episode of a LeRobot v3 dataset
   acnmp replay run.rrd --export-minari acnmp/e1-v0      # ... of a Minari dataset ($MINARI_DATASETS_PATH)
   acnmp replay run.rrd --export-rosbag2 e1-bags/        # each roll-out a ROS 2 bag (MCAP): e1-bags/rollout_0000, ...
@@ -77,8 +78,16 @@ def run(args) -> int:
             from services.recording.tables import read_recording
 
             tables = read_recording(args.files)
-        else:
-            summaries = [summarize(f) for f in args.files]
+        else:  # a file given beside its first one is read with it (one recording, its segments)
+            from pathlib import Path
+
+            covered: set[Path] = set()
+            summaries = []
+            for f in args.files:
+                if Path(f) in covered:
+                    continue
+                summaries.append(summarize(f))
+                covered.update(Path(s["path"]) for s in summaries[-1]["segments"])
     except (OSError, ValueError) as exc:  # missing, a directory, unreadable, not a recording
         print(f"acnmp replay: {exc}", file=sys.stderr)
         return 1

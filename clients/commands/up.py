@@ -27,7 +27,8 @@ def register(subparsers) -> None:
     p.add_argument("--workers", type=int_at_least(0), default=2, help="number of workers (default: %(default)s)")
     p.add_argument("--robot", default="point2d", type=robot_kind,
                    help=robot_help("robot kind of the workers") + " (default: %(default)s)")
-    p.add_argument("--record", type=non_empty, default=None, metavar="FILE.rrd", help="start a recorder writing this file")
+    p.add_argument("--record", type=non_empty, default=None, metavar="FILE.rrd", help="start a recorder writing this file; a recording already there is continued in its next segment, "
+                        "FILE.<n>.rrd, never overwritten (`acnmp replay FILE.rrd` reads them together)")
     p.add_argument("--viewer", action="store_true",
                    help="with --record: also stream the recording live (Rerun gRPC server and web viewer, "
                         "both listening on 127.0.0.1 only; the addresses are printed) to watch the deployment "
@@ -69,7 +70,8 @@ def run(args) -> int:
     Exit 0; 1 if it could not start (a child that exited first: one line with its last error
     line) or a skill waited for was never served; 2 (ValueError naming
     the option) for a --demos file the learner could not train or a --record file that cannot be
-    written, before anything starts."""
+    written or holds something else than an ACNMP recording, before anything starts (an ACNMP
+    recording there is continued in its next segment, services/recording/segments.py)."""
     from clients.default_skill import SKILL, default_demos
     from services.launcher import ChildExited, LocalDeployment
     from services.launcher.announce import NamespaceInUse, check_namespace_free
@@ -85,6 +87,15 @@ def run(args) -> int:
     # resolved where the user typed them: the learner runs in the project's root
     given = {absolute_demos_spec(spec): spec for spec in args.demos}
     check_output_path(args.record, "--record")  # the recorder would exit before going live
+    if args.record:  # an existing recording is continued in a next segment; anything else is refused
+        from services.recording.segments import recording_identity, recording_segments
+
+        earlier = recording_segments(args.record)
+        if earlier:
+            try:
+                recording_identity(earlier)
+            except ValueError as exc:
+                raise ValueError(f"--record {exc}") from None
     if args.viewer and not args.record:
         raise ValueError("--viewer: only with --record FILE.rrd (the viewer shows what the recorder records)")
     try:  # before the default skill's demonstrations are written into the state directory

@@ -20,14 +20,22 @@
    has exited, to the recorder (so it records the last events and writes its footer); a child
    still alive after ``stop_timeout`` seconds is SIGKILLed; then it closes its session.
 
+A recording is never rewritten (services/recording/segments.py): when ``record`` already holds a
+recording (an earlier session's, or one whose launcher was killed), the recorder writes its next
+segment ``<name>.<n>.rrd`` under the same Rerun application and recording id, given the earlier
+segments (``--seen``) so that what they hold (a learner's journalled roll-outs published again)
+is not written twice; ``acnmp replay <name>.rrd`` reads the segments together. A file there that
+is not an ACNMP recording is refused (ValueError) before anything starts.
+
 While it runs, a :class:`~services.launcher.supervision.Supervisor` restarts a child that dies
 (backoff, a restart limit; each restart logged and published as a ``process`` event); a
-restarted recorder writes a new file ``<name>.<n>.rrd`` beside the first (``recordings``), since
-the dead one's file cannot be reopened, under the same Rerun recording id; ``stop()`` merges
-the files back into ``record`` (``rerun rrd merge``: one recording that verifies) and removes the
-recorders' marks files (``<file>.seen.json``). The restarted recorder recovers the events
-published while no recorder ran from the publishers' caches and is given the earlier files
-(``--seen``) so it records none twice (services/recording/recorder.py).
+restarted recorder writes the next segment (``recordings``: this session's files), since the dead
+one's file cannot be reopened; ``stop()`` merges this session's files into its first one
+(``rerun rrd merge``: one file that verifies) and removes the merged recorders' marks files
+(``<file>.seen.json``; the first file's stays, for the session that continues the recording). The
+restarted recorder recovers the events published while no recorder ran from the publishers'
+caches and is given the earlier files (``--seen``) so it records none twice
+(services/recording/recorder.py).
 ``stop()`` ends supervision before it stops anything.
 
 The state directory is locked (``<state_dir>/deployment.lock``) while the deployment runs, so a
@@ -58,6 +66,7 @@ from acnmp_core.robots.registry import PLUGINS_ENV, plugins_for_children
 from acnmp_core.robots.registry import robot as robot_spec
 from services.learner.ownership import learner_argv, numbered_ids, state_dir_of
 from services.recording.event_ids import marks_path
+from services.recording.segments import next_segment, recording_identity, recording_segments
 from services.recording.publisher import EventPublisher
 from services.recording.web_viewer import page_url
 from services.transport import Keyspace, free_port, loopback_endpoint, open_session, wait_for_liveliness
@@ -179,7 +188,9 @@ class LocalDeployment:
         self.report = report
         self.supervisor: Supervisor | None = None
         self._events: EventPublisher | None = None
-        self.recordings: list[Path] = [] if self.record is None else [self.record]
+        self.recordings: list[Path] = [] if self.record is None else [self.record]  # this session's files
+        #: the recording's files of earlier sessions, which this one continues (set by start())
+        self.continued: list[Path] = []
         self.recording_id = uuid.uuid4().hex  # kept by a restarted recorder
         self._dir_lock = DirectoryLock(self.state_dir, "deployment.lock", "deployment")
         self.killed: list[str] = []  # children that needed SIGKILL when stopping
@@ -276,6 +287,13 @@ class LocalDeployment:
             self._start_spawner()  # it imports torch while the recorder starts
             if self.record is not None:
                 self.record.parent.mkdir(parents=True, exist_ok=True)
+                # an existing recording is continued in its next segment, never overwritten
+                self.continued = recording_segments(self.record)
+                seen = []
+                if self.continued:
+                    self.recording_id = recording_identity(self.continued).recording_id
+                    self.recordings = [next_segment(self.record)]
+                    seen = [a for p in self.continued for a in ("--seen", str(p))]
                 live = []
                 if self.viewer:
                     grpc_port, web_port = free_port(), free_port()
@@ -283,7 +301,8 @@ class LocalDeployment:
                     self.viewer_url = f"rerun+http://127.0.0.1:{grpc_port}/proxy"
                     self.web_viewer_url = page_url(self.viewer_url, web_port)
                 rec = self._spawn("recorder", entry_module("recorder"),
-                                  ["--out", str(self.record), "--recording-id", self.recording_id, *live],
+                                  ["--out", str(self.recordings[0]), "--recording-id", self.recording_id, *seen,
+                                   *live],
                                   keys.tokens("recorder"), [keys.events() + " (subscriber)", keys.recorder_status()])
                 self._wait_live([rec])
             started = []
@@ -338,7 +357,9 @@ class LocalDeployment:
         lines = [f"acnmp deployment '{self.namespace}': anchor {self.anchor} ({layout}, "
                  f"multicast off); state {self.state_dir}"]
         if self.record is not None:
-            lines.append(f"recording to {self.record}")
+            lines.append(f"recording to {self.recordings[0]}" + (
+                "" if not self.continued else f" (continuing {self.record}, {len(self.continued)} earlier file(s): "
+                f"`acnmp replay {self.record}` reads them together)"))
         if self.viewer_url is not None:
             lines.append(f"live viewer: rerun --connect {self.viewer_url}   or in a browser: {self.web_viewer_url}")
         lines.append(f"  {'process':<18} {'pid':>7}  liveliness / keys")
@@ -399,7 +420,7 @@ class LocalDeployment:
                 # the new recorder recovers the missed events from the publishers' caches and skips
                 # those the earlier files already hold (--seen, one per earlier file)
                 argv += ["--seen", argv[out]]
-                argv[out] = str(self.record.with_name(f"{self.record.stem}.{len(self.recordings)}{self.record.suffix}"))
+                argv[out] = str(next_segment(self.record, taken=self.recordings))
                 self.recordings.append(Path(argv[out]))
             child = Child(name, argv, self._start_process(argv, old.log), old.token, old.serves, old.log)
             self.children[name] = child
@@ -466,7 +487,7 @@ class LocalDeployment:
         self.session = None
         recordings = list(self.recordings)
         self._merge_recordings()
-        for rec in recordings:  # the recorders' marks files: only a restarted recorder needs them
+        for rec in recordings[1:]:  # merged away; the first's marks serve the session that continues it
             marks_path(rec).unlink(missing_ok=True)
         if self.announcement is not None:
             self.announcement.withdraw()
@@ -495,22 +516,23 @@ class LocalDeployment:
                 self.killed.append(c.name)
 
     def _merge_recordings(self) -> None:
-        """After a recorder restart: merge its files into ``record`` (the first has no footer, as its
-        writer was killed) and remove the others; on failure keep them all and say so."""
+        """After a recorder restart: merge this session's files into its first one (which has no
+        footer, as its writer was killed) and remove the others; on failure keep them all and say so."""
         if len(self.recordings) < 2:
             return
         rerun = Path(sys.executable).with_name("rerun")
-        merged = self.record.with_name(f".{self.record.name}.merged")
+        first = self.recordings[0]
+        merged = first.with_name(f".{first.name}.merged")
         out = subprocess.run([str(rerun), "rrd", "merge", "--continue-on-error", *map(str, self.recordings),
                               "-o", str(merged)], capture_output=True, text=True, timeout=300)
         if out.returncode != 0 or not merged.is_file():
             (self.report or log.warning)(f"could not merge the recordings {[str(p) for p in self.recordings]}: "
                                    f"{out.stderr.strip().splitlines()[-1:] or out.returncode}")
             return
-        os.replace(merged, self.record)
+        os.replace(merged, first)
         for extra in self.recordings[1:]:
             extra.unlink(missing_ok=True)
-        self.recordings = [self.record]
+        self.recordings = [first]
 
     def __enter__(self) -> "LocalDeployment":
         return self.start()

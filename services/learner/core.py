@@ -22,9 +22,11 @@ Restart: skills reload with their demonstrations (hash-checked); a job that was 
 mid-way). Roll-out indices stay global over attempts: an attempt's events continue after the
 indices the earlier attempts reserved, so a recording never holds one index twice. A batch's
 roll-out events are written to the job's journal (with the batch before) before their indices are
-reserved, and published after; a start publishes every journal again before any job runs, so a
-kill -9 anywhere in between costs the recording no roll-out (the recorder drops the ones it holds
-by job and index). Every event of
+reserved, and published after; a start publishes every journal again, one by one, before any job
+runs (services/learner/journals.py: one that cannot be published is quarantined, one whose
+publishing fails is kept and tried again, and neither holds up the others), so a kill -9 anywhere
+in between costs the recording no roll-out (the recorder drops the ones it holds by job and
+index). A finished job's journal goes once the recorder holds its roll-outs. Every event of
 a job carries ``attempt``; the job status reports ``rollouts`` (what the final attempt used) and
 ``rollouts_executed`` (all attempts). A job whose adaptation had finished but whose assimilation
 had not is only re-assimilated (once).
@@ -53,6 +55,7 @@ assimilations (which change a skill) still run one at a time.
 """
 from __future__ import annotations
 
+import contextlib
 import copy
 import dataclasses
 import hashlib
@@ -82,6 +85,7 @@ from services.recording.events import (batch_rollout_events, job_event, job_prog
 from services.transport.state_dir import DirectoryLock
 
 from .jobs import TERMINAL, UNFINISHED, JobRecord
+from .journals import RETRY_S as JOURNAL_RETRY_S, Journals, PendingJournal
 from .limits import StateLimits, busy_message
 from .runner import AdaptRunner, AdaptTask, make_runner
 from .metrics import MetricsReporter
@@ -120,12 +124,16 @@ class LearnerHealth:
     loop_error : why the job loop ended, if it ended by an error.
     write_error : the last state write's failure, None once a write succeeded again.
     quarantined : every file under the state directory's quarantine.
+    pending_journals : journalled roll-outs whose publishing failed (tried again until it works).
+    notes : one line per skill not served at its newest version since the start (why, and which is).
     """
 
     loop_running: bool
     loop_error: str | None
     write_error: str | None
     quarantined: tuple[Quarantined, ...]
+    pending_journals: tuple[PendingJournal, ...] = ()
+    notes: tuple[str, ...] = ()
 
     def problems(self) -> list[str]:
         """One line per problem (empty when healthy)."""
@@ -134,6 +142,7 @@ class LearnerHealth:
             out.append(f"the job loop has stopped: {self.loop_error}")
         if self.write_error is not None:
             out.append(f"cannot write its state: {self.write_error}")
+        out += list(self.notes) + [p.line() for p in self.pending_journals]
         out += [q.line() for q in self.quarantined[:HEALTH_FILES]]
         if len(self.quarantined) > HEALTH_FILES:
             out.append(f"... and {len(self.quarantined) - HEALTH_FILES} more quarantined files")
@@ -247,52 +256,47 @@ class LearnerCore:
                     self._persist(job, attempt=job.attempt + 1, state="queued")
             except StateWriteError as exc:
                 log.warning("job %s: %s; it is resumed all the same", job.job, exc)
-        self._unrecorded = self._read_journals()
+        self.journals = Journals(self.job_store, lambda event: self.publish(event), self._stop)
+        self._read_journals()
         self._prune_jobs()
         self._replayed = threading.Event()  # the journals' events are published again: jobs may run
         self._replayer = threading.Thread(target=self._replay_journals, name="journals", daemon=True)
         self._threads = [threading.Thread(target=self._job_loop, args=(runner,), name=f"jobs-{i}", daemon=True)
                          for i, runner in enumerate(self._runners)]
 
-    def _read_journals(self) -> dict[str, list[dict]]:
-        """The roll-out events of every job journal (:meth:`JobStore.take_journal`), by job. Their
-        indices count as reserved: a job's ``next_index`` moves past them (the kill may have come
+    def _read_journals(self) -> None:
+        """Read every job journal (services/learner/journals.py) for the replay; the indices they
+        hold count as reserved: a job's ``next_index`` moves past them (the kill may have come
         between the journal's write and the reservation's)."""
-        journals = {}
-        for job_id in self.job_store.journals():
-            events = self.job_store.take_journal(job_id)
-            if not events:
-                self.job_store.drop_journal(job_id)
-                continue
-            journals[job_id] = events
+        for job_id, top in self.journals.read().items():
             job = self.jobs.get(job_id)
-            top = 1 + max(int(ev.get("rollout_index", -1)) for ev in events)
             if job is not None and job.next_index < top:
                 try:
                     self._persist(job, next_index=top)
                 except StateWriteError as exc:
                     log.warning("job %s: %s; its journal's indices stay reserved in memory", job_id, exc)
                     job.next_index = top
-        return journals
 
     def _replay_journals(self) -> None:
-        """Publish the journals' events again, then remove the journals, then let the jobs run: a
+        """Publish the journals' events again, one journal at a time, then let the jobs run; then
+        try the held ones again until they are published (services/learner/journals.py): a
         roll-out whose indices were reserved reaches the recording even when the learner died
         before (or while) publishing it; the recorder keeps a learner job's roll-out once
         (services/recording/recorder.py)."""
         try:
-            for job_id, events in self._unrecorded.items():
-                for ev in events:
-                    if self._stop.is_set():
-                        return
-                    self.publish(ev)
-                self.job_store.drop_journal(job_id)
-                log.info("job %s: published its %d journalled roll-out event(s) again", job_id, len(events))
-        except Exception:
-            log.exception("could not publish the journalled roll-outs again; they stay for the next start")
+            self.journals.replay()
         finally:
-            self._unrecorded = {}
             self._replayed.set()
+        while self.journals.pending() and not self._stop.wait(JOURNAL_RETRY_S):
+            self.journals.retry()
+
+    def settle_journals(self, recorded: Callable[[list[str]], set[str]]) -> tuple[list[str], list[str]]:
+        """Remove the journals of finished jobs whose roll-outs the recorder holds: ``recorded``
+        gets the ids of such jobs that have one and returns those it confirmed. Returns the ids
+        removed and those kept (services/learner/journals.py)."""
+        with self._lock:
+            finished = [j.job for j in self.jobs.values() if j.state in TERMINAL]
+        return self.journals.settle(finished, recorded)
 
     @property
     def stopping(self) -> threading.Event:
@@ -323,7 +327,7 @@ class LearnerCore:
     def health(self) -> LearnerHealth:
         """The learner's health now: its job loop, its last write, the quarantined files."""
         return LearnerHealth(all(t.is_alive() for t in self._threads), self.loop_error, self.state.write_error,
-                             tuple(self.state.quarantined()))
+                             tuple(self.state.quarantined()), self.journals.pending(), tuple(self.skill_store.notes))
 
     # ----- skills ----------------------------------------------------------------------------
     def skill(self, name: str) -> SkillState:
@@ -596,9 +600,19 @@ class LearnerCore:
 
     @staticmethod
     def _progress_event(job: JobRecord, state: str) -> dict:
-        ev = job_progress_event(job.job, job.iteration, job.rollouts, job.best_return, state=state, skill=job.skill)
+        # events carry no lists: the excluded workers as one text, "<worker>: <why>; ..."
+        excluded = {"excluded_workers": "; ".join(e.line() for e in job.excluded_workers)} if job.excluded_workers else {}
+        ev = job_progress_event(job.job, job.iteration, job.rollouts, job.best_return, state=state, skill=job.skill,
+                                **excluded)
         ev["attempt"] = int(job.attempt)
         return ev
+
+    def _note_exclusions(self, job: JobRecord, evaluator: RolloutEvaluator) -> dict:
+        """The record changes that add the workers ``evaluator`` excluded (its ``excluded``, if it
+        has one) to ``job``'s ``excluded_workers``: ``{}`` when there is none new."""
+        known = {e.worker for e in job.excluded_workers}
+        new = tuple(e for e in getattr(evaluator, "excluded", ()) if e.worker not in known)
+        return {"excluded_workers": job.excluded_workers + new} if new else {}
 
     def _run_job(self, job_id: str, runner: AdaptRunner) -> None:
         with self._lock:
@@ -624,11 +638,17 @@ class LearnerCore:
                                    seed=req.seed, attempt=job.attempt, config=req.config.to_dict(),
                                    task_config=req.task_config, output_names=model.config.output_names,
                                    task_param_names=model.config.task_param_names))
-            on_iteration = self._recording(job, start_version)
             evaluator = self.evaluator_for(req)
+            on_iteration = self._recording(job, start_version, evaluator)
             task = AdaptTask(model, demos, req.target, req.config, req.seed,
                              credit=getattr(evaluator, "credit", "step"))
-            job_result = runner.run(task, evaluator, on_iteration, self._stop)
+            try:
+                job_result = runner.run(task, evaluator, on_iteration, self._stop)
+            finally:  # the workers excluded in a batch that failed: named in the failed record too
+                changes = self._note_exclusions(job, evaluator)
+                if changes:
+                    with contextlib.suppress(StateWriteError):  # the job's end writes its record again
+                        self._persist(job, **changes)
             # adaptation done: a crash from here on only re-assimilates
             self._persist(job, rollouts=job_result.rollouts, result=job_result)
         if job.cancel_requested:  # asked for while the last iteration ran: do not assimilate
@@ -691,10 +711,11 @@ class LearnerCore:
 
         return on_step
 
-    def _recording(self, job: JobRecord, model_version: int) -> Callable[[IterationLog, np.ndarray, RolloutBatch], None]:
-        """The ``on_iteration`` callback of ``job``'s adaptation of the skill's ``model_version``:
-        bookkeeping, then one rollout event per executed trajectory and a progress event; raises
-        InterruptedError once closing."""
+    def _recording(self, job: JobRecord, model_version: int,
+                   evaluator: RolloutEvaluator) -> Callable[[IterationLog, np.ndarray, RolloutBatch], None]:
+        """The ``on_iteration`` callback of ``job``'s adaptation of the skill's ``model_version`` with
+        ``evaluator``: bookkeeping (the workers it excluded too), then one rollout event per executed
+        trajectory and a progress event; raises InterruptedError once closing."""
         target: AdaptTarget = job.request.target
         drawing = robot_drawing(job.request.robot)
         # a drawn robot shows its own states; a point robot shows the conditioning points instead
@@ -715,9 +736,10 @@ class LearnerCore:
                 ev["model_version"] = int(model_version)
             # the events on disk, then their indices reserved, then published: a learner killed
             # anywhere in between publishes them at its next start (a failed write fails the job)
-            self.job_store.save_journal(job.job, previous + events)
+            self.journals.save(job.job, previous + events)
             self._persist(job, next_index=first + len(batch), iteration=it_log.iteration, rollouts=it_log.rollouts,
-                          best_return=best if job.best_return is None else max(job.best_return, best))
+                          best_return=best if job.best_return is None else max(job.best_return, best),
+                          **self._note_exclusions(job, evaluator))
             for ev in events:
                 self.publish(ev)
             previous[:] = events
@@ -774,9 +796,11 @@ class LearnerCore:
         with self._lock:
             self._wake.notify_all()
 
-    def close(self, timeout: float = 10.0) -> None:
+    def close(self, timeout: float = 10.0, before_unlock: Callable[[], None] | None = None) -> None:
         """Stop running jobs: the running one is interrupted (at its next iteration, or at once by an
-        evaluator watching :attr:`stopping`), saved ``interrupted``, and resumes on restart."""
+        evaluator watching :attr:`stopping`), saved ``interrupted``, and resumes on restart.
+        ``before_unlock`` runs once the jobs have stopped, while the state directory is still
+        locked (the service confirms what was recorded there, :meth:`settle_journals`)."""
         self._stop.set()
         with self._lock:
             self._wake.notify_all()
@@ -786,4 +810,8 @@ class LearnerCore:
                 thread.join(timeout=max(0.0, end - time.monotonic()))
         for runner in self._runners:
             runner.close()
-        self._dir_lock.release()
+        try:
+            if before_unlock is not None:
+                before_unlock()
+        finally:
+            self._dir_lock.release()

@@ -21,6 +21,7 @@ from acnmp_core.adaptation.config import AdaptResult
 from acnmp_core.jobs.adapt import AdaptJob, result_from_dict, result_to_dict
 from acnmp_core.jobs.transfer import PairJobResult, PairTrainJob
 from services.transport.wire import jsonable
+from services.worker.exclusion import Exclusion
 
 #: Job states: queued -> running -> done | failed | cancelled. ``interrupted``: the learner stopped
 #: (SIGTERM) while the job ran; a ``running`` record found at start-up means the learner died
@@ -50,6 +51,8 @@ class JobRecord:
     cancel_requested : a ``cancel`` query arrived while the job ran; it stops at its next
         iteration (also after a restart) and ends ``cancelled``.
     committed_version : the skill version holding the assimilated solution.
+    excluded_workers : the workers excluded from the job (any attempt), each with why
+        (services/worker/exclusion.py), in the order they were.
     created, updated : wall time (s since the epoch).
     """
 
@@ -67,6 +70,7 @@ class JobRecord:
     error: str | None = None
     committed_version: int | None = None
     cancel_requested: bool = False
+    excluded_workers: tuple[Exclusion, ...] = ()
     created: float = field(default_factory=time.time)
     updated: float = 0.0
 
@@ -82,6 +86,7 @@ class JobRecord:
         out["kind"] = self.kind
         out["request"] = self.request.to_dict()
         out["result"] = self._result_dict()
+        out["excluded_workers"] = [e.to_dict() for e in self.excluded_workers]
         return jsonable(out)
 
     @property
@@ -107,6 +112,7 @@ class JobRecord:
         else:
             values["request"] = AdaptJob.from_dict(d["request"])
             values["result"] = None if d.get("result") is None else result_from_dict(d["result"])
+        values["excluded_workers"] = tuple(Exclusion.from_dict(e) for e in d.get("excluded_workers") or ())
         if not isinstance(values.get("job"), str) or not isinstance(values.get("skill"), str):
             raise ValueError("fields 'job' and 'skill': expected strings")
         if values.get("state", "queued") not in JOB_STATES:
@@ -129,7 +135,7 @@ class JobRecord:
                   "attempt": self.attempt, "iteration": self.iteration, "rollouts": self.rollouts,
                   "rollouts_executed": self.next_index, "best_return": self.best_return, "error": self.error,
                   "committed_version": self.committed_version, "cancel_requested": self.cancel_requested,
-                  "result": self._result_dict()}
+                  "excluded_workers": [e.to_dict() for e in self.excluded_workers], "result": self._result_dict()}
         if isinstance(req, PairTrainJob):  # iteration counts training steps, of steps
             status.update(task="train_pair", robot=req.robot_b, commit=True, steps=req.config.steps,
                           budget=req.config.steps)

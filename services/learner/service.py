@@ -50,6 +50,7 @@ from services.transport.keys import check_name, is_concrete, job_from_key, skill
 from services.transport.rpc import NotServed
 from services.transport.state_dir import default_state_dir
 from services.transport.wire import array_field, error_payload, field, require_payload
+from services.worker.exclusion import WorkerExclusions
 from services.worker.remote import RemoteEvaluator
 
 from .core import LearnerBusy, LearnerCore, TrainSpec, UnknownJobError, UnknownSkillError
@@ -64,6 +65,9 @@ log = logging.getLogger(__name__)
 #: Seconds a closing learner waits for the recorder to confirm its roll-outs (well inside the
 #: launcher's stop timeout, after which it is SIGKILLed).
 RECORDED_WAIT = 4.0
+
+#: Seconds between looks at the finished jobs' journals (doubling up to SETTLE_MAX while some stay).
+SETTLE_FIRST, SETTLE_MAX = 1.0, 30.0
 
 #: Bound on the demonstrations of one train request (N * T * D values).
 MAX_DEMO_VALUES = 10_000_000
@@ -173,6 +177,8 @@ class LearnerService:
         self.events = EventPublisher(session, keys)
         self.wait_recorder = float(wait_recorder)
         self.chunk_timeout = float(chunk_timeout)
+        #: workers a job excluded lately: the other jobs avoid them for a while (services/worker/exclusion.py)
+        self.exclusions = WorkerExclusions()
         self._recorder_checked = wait_recorder <= 0
         self.core = LearnerCore(state_dir, evaluator_for=self._evaluator, publish=self._publish,
                                 on_version=self._put_weights, device=device, state_limits=state_limits,
@@ -199,6 +205,8 @@ class LearnerService:
         self.refused_keys = 0  # weights/latest queries on other wildcards, dropped
         self._latest = session.declare_queryable(keys.weights_latest("*"), self._handle_latest)
         self.core.start()
+        self._settler = threading.Thread(target=self._settle_loop, name="journals-settle", daemon=True)
+        self._settler.start()
         self.token_key = keys.learner_token(self.learner_id)
         self._token = session.liveliness().declare_token(self.token_key)
 
@@ -207,10 +215,29 @@ class LearnerService:
         """The core's skills by name."""
         return self.core.skills
 
+    # ----- finished jobs' journals -----------------------------------------------------------
+    def _recorded(self, jobs: list[str]) -> set[str]:
+        """Those of ``jobs`` whose roll-outs the recorder holds (every one this learner published);
+        all of them when the learner does not record (no recorder to wait for)."""
+        return set(jobs) if self.wait_recorder <= 0 else self.events.recorded(jobs)
+
+    def _settle_loop(self) -> None:
+        """Remove the journals of finished jobs once the recorder holds their roll-outs (looked at
+        every second, backing off to :data:`SETTLE_MAX` s while the recorder does not confirm
+        some), so a later session publishes no fragment of them into its recording."""
+        delay = SETTLE_FIRST
+        while not self.core.stopping.wait(delay):
+            try:
+                _removed, kept = self.core.settle_journals(self._recorded)
+            except Exception:  # a session closing under us: tried again
+                log.debug("settling the finished jobs' journals failed", exc_info=True)
+                kept = ["?"]
+            delay = min(2 * delay, SETTLE_MAX) if kept else SETTLE_FIRST
+
     # ----- what the core calls ---------------------------------------------------------------
     def _evaluator(self, job: AdaptJob) -> RemoteEvaluator:
         return RemoteEvaluator(self.session, self.keys, job.robot, job.task, dict(job.task_config),
-                               timeout=self.chunk_timeout, stop=self.core.stopping)
+                               timeout=self.chunk_timeout, stop=self.core.stopping, exclusions=self.exclusions)
 
     def _publish(self, event: dict) -> None:
         if not self._recorder_checked:
@@ -353,7 +380,17 @@ class LearnerService:
                 undeclare()
             except Exception:  # the session may be closing under us
                 log.debug("undeclare failed", exc_info=True)
-        self.core.close()
+        self.core.close(before_unlock=self._wait_recorded)
+        self._settler.join(timeout=5.0)
+        try:
+            self._token.undeclare()
+        except Exception:
+            log.debug("undeclare failed", exc_info=True)
+
+    def _wait_recorded(self) -> None:
+        """With a recorder (``wait_recorder`` > 0): wait up to :data:`RECORDED_WAIT` s until it holds
+        every roll-out this learner published; then (or without a recorder) remove the journals of
+        the finished jobs, whose roll-outs are all recorded (or never will be)."""
         started = time.monotonic()
         if self.wait_recorder > 0 and not self.events.wait_recorded(RECORDED_WAIT):
             waited = time.monotonic() - started
@@ -363,10 +400,9 @@ class LearnerService:
                             "hold the jobs' states", waited)
             else:
                 log.warning("the recorder did not confirm every roll-out of this learner within %.0f s", RECORDED_WAIT)
-        try:
-            self._token.undeclare()
-        except Exception:
-            log.debug("undeclare failed", exc_info=True)
+            self.core.settle_journals(self._recorded)  # those of the jobs it did confirm
+            return
+        self.core.settle_journals(lambda jobs: set(jobs))
 
     def __enter__(self) -> "LearnerService":
         return self

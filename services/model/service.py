@@ -39,6 +39,7 @@ import zenoh
 from acnmp_core.model.checkpoint import load_checkpoint
 from services.transport import Keyspace, Ready, declare_rpc, wait_until_stopped
 from services.transport.auth import authenticated_user
+from services.transport.heap import Trimmer, map_large_blocks
 from services.transport.keys import check_name, is_concrete, skill_from_key
 from services.transport.wire import WireError
 
@@ -119,25 +120,29 @@ class ModelService:
         # on which a client shares its predicts between processes; both share the handler threads and
         # the queue bound (--workers and --max-queue are the process's, whichever key a client asks on)
         self.zid = str(session.zid())
+        # what a large predict or weights message left behind goes back to the system once answered
+        self.trimmer = Trimmer().start()
         predict_keys = (self.keys.predict("*"), self.keys.predict_at("*", self.zid))
         if self.batcher is None:  # each predict decoded, checked and computed on a handler thread
             predict = declare_rpc(session, predict_keys,
                                   lambda req, q: handle_predict(self.registry, _skill_of(q), req),
                                   workers=workers, complete=False, max_queue=max_queue,
-                                  default_timeout=DEFAULT_QUERY_TIMEOUT)
+                                  default_timeout=DEFAULT_QUERY_TIMEOUT, on_payload=self.trimmer.note)
         else:  # zenoh's thread only queues the query: the batcher's threads decode, check and compute
             predict = declare_rpc(session, predict_keys, self._submit_predict, workers=0, complete=False,
-                                  decode_payload=False, default_timeout=DEFAULT_QUERY_TIMEOUT, pass_deadline=True)
+                                  decode_payload=False, default_timeout=DEFAULT_QUERY_TIMEOUT, pass_deadline=True,
+                                  on_payload=self.trimmer.note)
         self._predict_rpc = predict
         self._rpcs = [
             predict,
             # a transfer is a predict through two models: the same queue bound and deadline, no batching
             declare_rpc(session, self.keys.transfer("*"),
                         lambda req, q: handle_transfer(self.registry, _skill_of(q), req),
-                        workers=1, complete=False, max_queue=max_queue, default_timeout=DEFAULT_QUERY_TIMEOUT),
+                        workers=1, complete=False, max_queue=max_queue, default_timeout=DEFAULT_QUERY_TIMEOUT,
+                        on_payload=self.trimmer.note),
             declare_rpc(session, self.keys.info("*"),
                         lambda req, q: handle_info(self.registry, _skill_of(q), req),
-                        workers=1, complete=False),
+                        workers=1, complete=False, on_payload=self.trimmer.note),
         ]
         self._loader = threading.Thread(target=self._load_loop, name="model-loader", daemon=True)
         self._loader.start()
@@ -171,6 +176,7 @@ class ModelService:
         if not is_concrete(sample.key_expr):
             self.rejected += 1
             return
+        self.trimmer.note(len(sample.payload))
         self._inbox.put(("bytes", sample.payload.to_bytes(), str(sample.key_expr)))
 
     def _load_loop(self) -> None:
@@ -276,6 +282,7 @@ class ModelService:
             rpc.close()
         if self.batcher is not None:  # after the queryables: predicts already handed over are answered
             self.batcher.close()
+        self.trimmer.close()
 
     def __enter__(self) -> "ModelService":
         return self
@@ -302,6 +309,7 @@ class ModelConfig(ModelOptions):
         import torch
 
         torch.set_num_threads(1)  # one predict is small; threads would only fight over the cores
+        map_large_blocks()  # a flood of large predicts must not leave the process holding its buffers
         source = "learner" if authenticated_user(self.session.config) else "unauthenticated"
         with ModelService(session, self.session.namespace, skills=self.skills, workers=self.workers,
                           max_queue=self.max_queue, weights_source=source, batch_max=self.batch_max,

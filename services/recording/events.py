@@ -14,7 +14,8 @@ latent        skill str, version int, latent (L,) float, label? str, robot? str,
               map_xy? (2,) float (the latent's place in a 2-D map of a version's latents)
 model_version skill str, version int, loss? float, n_demos? int, note? str
 job_progress  job str, iteration int, rollouts int, best_return float|None,
-              success_rate? float, state? "running"|"done"|"failed"|"cancelled"|"interrupted", skill? str
+              success_rate? float, state? "running"|"done"|"failed"|"cancelled"|"interrupted", skill? str,
+              excluded_workers? str (the workers excluded from the job, "<worker>: <why>; ...")
 job           job str, method str (e.g. "acnmp", "rl_only", "promp_rl"), robot str, task str,
               skill? str, seed? int, attempt? int, config? str (JSON of the method's settings),
               task_config? str (JSON of the task's parameters), output_names? str (JSON list of
@@ -282,6 +283,7 @@ def validate_event(msg: dict) -> dict:
         state = field(msg, "state", str, default="running")
         if state not in JOB_STATES:
             raise WireError("bad_request", f"field 'state': {state!r} is not one of {JOB_STATES}")
+        field(msg, "excluded_workers", str, default=None)
     elif kind == "job":
         for key in ("method", "robot", "task"):
             field(msg, key, str)

@@ -85,6 +85,26 @@ class EventPublisher:
         with self._lock:
             return dict(self._rollouts)
 
+    def _held_by_recorder(self, timeout: float) -> dict[str, int]:
+        """``{job: n}``: the roll-outs of each job the recorder holds, as its status says: those it
+        wrote and those it found already held when they were published again (``republished``, a
+        learner's journal). WireError when no recorder answers."""
+        status = call(self.session, self.keys.recorder_status(), None, timeout=timeout)
+        held = dict(status.get("rollouts") or {})
+        for job, n in (status.get("republished") or {}).items():
+            held[job] = held.get(job, 0) + n
+        return held
+
+    def recorded(self, jobs: list[str], timeout: float = 5.0) -> set[str]:
+        """Those of ``jobs`` whose every rollout event this publisher put the recorder holds (one
+        status query; an empty set when no recorder answers)."""
+        wanted = self.rollouts_published()
+        try:
+            have = self._held_by_recorder(timeout)
+        except WireError:
+            return set()
+        return {job for job in jobs if have.get(job, 0) >= wanted.get(job, 0)}
+
     def wait_recorded(self, timeout: float = 10.0) -> bool:
         """Block until the recorder's counts (its status queryable) hold every rollout event this
         publisher put, job by job; True when they do, False after ``timeout`` s (or at once when no
@@ -99,7 +119,7 @@ class EventPublisher:
             if left <= 0:
                 return False
             try:
-                have = call(self.session, self.keys.recorder_status(), None, timeout=min(left, 5.0))["rollouts"]
+                have = self._held_by_recorder(min(left, 5.0))
             except WireError as exc:
                 if exc.code == "unavailable":  # no recorder: nothing will ever record them
                     return False

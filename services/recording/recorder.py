@@ -18,7 +18,9 @@ there is exactly one writer and shutdown is ordered:
 Declared entities: advanced subscriber ``acnmp/<ns>/event/**`` (zenoh-ext: history from the
 publishers' caches, late publisher detection, heartbeat recovery), queryable
 ``acnmp/<ns>/recorder/status`` (reply: ``{"v":1,"path","events":{kind:n},"rollouts":{job:n},
-"rejected":n,"duplicates":n,"missed":n}``), then, once both exist, liveliness token
+"rejected":n,"duplicates":n,"republished":{job:n},"missed":n}``; ``republished``: roll-outs a
+learner published again, from its journal, that the recording already held), then, once both
+exist, liveliness token
 ``acnmp/<ns>/recorder/<zid>``: a publisher that sees the token knows its events will be recorded.
 
 No event lost while the recorder is down: every event publisher keeps a cache
@@ -141,6 +143,7 @@ def record(session: zenoh.Session, keys: Keyspace, path: str, stop: threading.Ev
     web viewer connected to it."""
     events: queue.Queue = queue.Queue(maxsize=QUEUE_SIZE)
     rejected, duplicates = [0], [0]
+    republished: dict[str, int] = {}  # per job: roll-outs published again that the recording holds
     ids = earlier_events(seen)
 
     overflow: list = []  # events that arrived while shutting down with a full queue
@@ -160,13 +163,16 @@ def record(session: zenoh.Session, keys: Keyspace, path: str, stop: threading.Ev
                 rejected[0] += 1
             log.warning("rejected event on %s: %s", sample.key_expr, exc)
             return
-        eid = event_id(sample)
-        held = [i for i in (eid, rollout_key(msg)) if i is not None]
-        if held:
+        eid, key = event_id(sample), rollout_key(msg)
+        if eid is not None or key is not None:
             with lock:
                 # every id is added (a dropped event's own number leaves no gap in its publisher's)
-                if not all([ids.add(i) for i in held]):  # from a cache or a learner's journal, already held
+                new_event = eid is None or ids.add(eid)
+                new_rollout = key is None or ids.add(key)
+                if not (new_event and new_rollout):  # from a cache or a learner's journal, already held
                     duplicates[0] += 1
+                    if new_event:  # a learner published a roll-out this recording holds again
+                        republished[msg["job"]] = republished.get(msg["job"], 0) + 1
                     return
         item = (msg, eid)
         while True:
@@ -210,7 +216,8 @@ def record(session: zenoh.Session, keys: Keyspace, path: str, stop: threading.Ev
         misses = sub.sample_miss_listener(on_miss)
         status = declare_rpc(session, keys.recorder_status(),
                              lambda _req, _q: {"v": 1, "path": str(path), "rejected": rejected[0],
-                                               "duplicates": duplicates[0], "missed": missed(), **writer.stats()})
+                                               "duplicates": duplicates[0], "republished": dict(republished),
+                                               "missed": missed(), **writer.stats()})
         token_key = keys.recorder_token(str(session.zid()))
         token = session.liveliness().declare_token(token_key)
         log.info("recording %s into %s", keys.events(), path)

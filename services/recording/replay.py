@@ -15,6 +15,8 @@ from pathlib import Path
 
 import rerun as rr
 
+from .segments import recording_segments
+
 
 def _column(batch, name: str) -> list:
     """Values of a component column, one per row (AnyValues stores 1-element lists)."""
@@ -123,9 +125,11 @@ def recorded_event_ids(path: str | Path) -> set[str]:
 
 
 def summarize(path: str | Path) -> dict:
-    """Summarise a recording written by the recorder.
+    """Summarise a recording written by the recorder: the file ``path`` and its segments
+    (``<stem>.<n><suffix>``, services/recording/segments.py), read together.
 
-    Returns ``{"path", "application_id", "recording_id", "footer", "writer" (:func:`writer_state`),
+    Returns ``{"path", "segments" ([{"path", "footer"}], first first), "application_id",
+    "recording_id", "footer" and "writer" (:func:`writer_state`) of the newest segment,
     "jobs": {job: {...}},
     "skills": {skill: {"versions": [...], "latents": n}}, "processes": [...], "metrics": {...},
     "events": {kind: n}}``;
@@ -148,12 +152,17 @@ def summarize(path: str | Path) -> dict:
         raise FileNotFoundError(f"{path}: no such file")
     if not path.is_file():  # /dev/null, a fifo: rerun would wait on it or call it empty
         raise ValueError(f"{path}: not a regular file, not a recording")
-    footer = has_footer(path)  # before reading: a writer may add the footer meanwhile
-    writer = writer_state(path, footer)
-    reader, stores = _open(path)
-    if not stores:
-        raise ValueError(f"{path}: contains no recording")
-    store = stores[0]
+    files = recording_segments(path) or [path]
+    footers = [has_footer(f) for f in files]  # before reading: a writer may add the footer meanwhile
+    footer = footers[-1]
+    writer = writer_state(files[-1], footer)
+    opened = []
+    for f in files:
+        reader, stores = _open(f)
+        if not stores:
+            raise ValueError(f"{f}: contains no recording")
+        opened.append((reader, stores[0]))
+    store = opened[0][1]
 
     rollouts: dict[str, list[dict]] = defaultdict(list)
     progress: dict[str, list[dict]] = defaultdict(list)
@@ -162,7 +171,7 @@ def summarize(path: str | Path) -> dict:
     processes: list[dict] = []
     metrics: dict[str, dict[str, list]] = defaultdict(lambda: defaultdict(list))
     about: dict[str, dict] = {}  # job -> its job event's method, robot, task, skill, seed
-    for chunk in reader.stream(store=store):
+    for chunk in (c for reader, segment in opened for c in reader.stream(store=segment)):
         if chunk.is_static or chunk.is_empty:
             continue
         parts = chunk.entity_path.strip("/").split("/")
@@ -185,7 +194,7 @@ def summarize(path: str | Path) -> dict:
             for i in range(batch.num_rows):
                 rollouts[parts[1]].append({c: cols[c][i] for c in cols})
         elif head == "progress":
-            cols = {c: _column(batch, c) for c in ("iteration", "rollouts", "best_return", "state")}
+            cols = {c: _column(batch, c) for c in ("iteration", "rollouts", "best_return", "state", "excluded_workers")}
             for i in range(batch.num_rows):
                 progress[parts[1]].append({c: cols[c][i] for c in cols})
         elif head == "models":
@@ -230,6 +239,7 @@ def summarize(path: str | Path) -> dict:
               for s in sorted(set(versions) | set(latents))}
     return {
         "path": str(path),
+        "segments": [{"path": str(f), "footer": ft} for f, ft in zip(files, footers)],
         "application_id": store.application_id,
         "recording_id": store.recording_id,
         "footer": footer,
@@ -270,6 +280,10 @@ def format_summary(summary: dict) -> str:
         return "-" if x is None or (isinstance(x, float) and math.isnan(x)) else f"{x:.4g}"
 
     lines = [f"recording {summary['path']}  (app {summary['application_id']}, id {summary['recording_id']})"]
+    segments = summary.get("segments") or []
+    if len(segments) > 1:
+        lines.append(f"  {len(segments)} files read together: " + ", ".join(Path(s['path']).name for s in segments)
+                     + " (a recorder restarted, or the deployment started again on this recording)")
     writer = summary.get("writer") or {}
     state = writer.get("state")
     if state == "writing":
@@ -311,6 +325,8 @@ def format_summary(summary: dict) -> str:
             p = j["last_progress"]
             lines.append(f"    last progress: iteration {p['iteration']}, {p['rollouts']} roll-outs, "
                          f"best {num(p['best_return'])}, {p['state']}")
+            if p.get("excluded_workers"):
+                lines.append(f"    excluded workers: {p['excluded_workers']}")
     if summary["jobs"]:
         lines.append("  (a roll-out succeeded when it met the task, exploring roll-outs included; whether a job "
                      "succeeded, the `success` of an experiment's JSON, is its result: `acnmp query jobs`)")
@@ -322,8 +338,9 @@ def format_summary(summary: dict) -> str:
         cells = [f"{name} {num(m['first'])} -> {num(m['last'])}" for name, m in by_name.items()]
         steps = max(m["last_step"] or 0 for m in by_name.values())
         lines.append(f"  learner metrics of {source} (to step {steps}): " + ", ".join(cells))
-    lines.append(f"open it in the viewer:  rerun {summary['path']}   "
-                 f"(or: python -m rerun {summary['path']})")
-    lines.append(f"or in a browser:        rerun --serve-web --bind 127.0.0.1 {summary['path']}   "
+    every = " ".join(s["path"] for s in segments) or summary["path"]  # one recording in the viewer too
+    lines.append(f"open it in the viewer:  rerun {every}   "
+                 f"(or: python -m rerun {every})")
+    lines.append(f"or in a browser:        rerun --serve-web --bind 127.0.0.1 {every}   "
                  "(then open the address it prints, http://127.0.0.1:9090 by default)")
     return "\n".join(lines)

@@ -71,8 +71,8 @@ import rerun.blueprint as rrb
 
 from .drawings import drawer_for
 from .events import metric_values, rollout_key
+from .segments import APPLICATION_ID
 
-APPLICATION_ID = "acnmp"
 
 #: How many past roll-outs the trajectory views show next to the current one.
 TRAIL = 20
@@ -302,11 +302,15 @@ class RrdWriter:
         if best is not None:
             values["best_return"] = float(best)
             self.rec.log(f"best_return/{job}", rr.Scalars(float(best)))
+        excluded = msg.get("excluded_workers")
+        if excluded:
+            values["excluded_workers"] = str(excluded)
         self.rec.log(f"progress/{job}", rr.AnyValues(**values))
         best_txt = "-" if best is None else f"{best:.4g}"
-        level = "ERROR" if state == "failed" else "INFO"
+        level = "ERROR" if state == "failed" else ("WARN" if excluded else "INFO")
         self.rec.log("log/jobs", rr.TextLog(
-            f"{msg['job']} it={msg['iteration']} rollouts={rollouts} best={best_txt} {state}", level=level))
+            f"{msg['job']} it={msg['iteration']} rollouts={rollouts} best={best_txt} {state}"
+            + (f"; excluded workers: {excluded}" if excluded else ""), level=level))
 
     def _job(self, msg: dict) -> None:
         values = {k: msg[k] for k in ("method", "robot", "task", "skill", "config", "task_config", "output_names",

@@ -30,6 +30,7 @@ from services.transport.wire import WireError
 
 from .events import job_names
 from .replay import _column, _open
+from .segments import recording_segments
 
 __all__ = ["RecordingTables", "SCHEMAS", "read_recording"]
 
@@ -191,12 +192,18 @@ def _lists(batch: pa.RecordBatch, name: str) -> list[list | None]:
 
 
 def read_recording(paths: str | os.PathLike | Iterable[str | os.PathLike]) -> RecordingTables:
-    """Read one .rrd (or several files of one deployment, oldest first) into :class:`RecordingTables`.
+    """Read one .rrd (or several files of one deployment, oldest first) into :class:`RecordingTables`;
+    each file with its segments (``<stem>.<n><suffix>``, services/recording/segments.py).
 
     Raises FileNotFoundError for a missing file, ValueError for one that is not a readable
     recording. Roll-outs held by several files (same job, attempt and index) are kept once.
     """
-    files = [Path(paths)] if isinstance(paths, (str, os.PathLike)) else [Path(p) for p in paths]
+    given = [Path(paths)] if isinstance(paths, (str, os.PathLike)) else [Path(p) for p in paths]
+    files = []
+    for path in given:
+        for f in recording_segments(path) or [path]:
+            if f not in files:
+                files.append(f)
     rows: dict[str, list[dict]] = {name: [] for name in SCHEMAS}
     seen: set[tuple] = set()
     for path in files:

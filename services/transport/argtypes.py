@@ -11,6 +11,7 @@ import argparse
 import json
 import math
 import os
+import re
 import stat
 import sys
 from pathlib import Path
@@ -157,10 +158,23 @@ class UsageError(SystemExit):
     """A bad argument, already reported on stderr (exit code 2)."""
 
 
+#: An argument that starts with a minus and a digit (or ``-.`` and a digit) is a value, never an
+#: option: ``--obs -5:0,0`` (a time of -5), ``--task-params -1,2``. argparse alone takes only plain
+#: negative numbers (``-5``, ``-.5``) for values and reads ``-5:0,0`` as an unknown option.
+NEGATIVE_VALUE = re.compile(r"^-\.?\d")
+
+
 class Parser(argparse.ArgumentParser):
     """An argument parser whose mistakes are one line on stderr, naming the option and how to get
     help (argparse's usage block would come first otherwise); the parsers of sub-commands are of
-    this class too (argparse makes them of their parent's). Raises :class:`UsageError`."""
+    this class too (argparse makes them of their parent's). Raises :class:`UsageError`. A value
+    that starts with a minus and a digit is taken as a value (:data:`NEGATIVE_VALUE`): no option
+    of ours looks like that."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        # argparse's own hook (an attribute of 3.11-3.13): what looks like a negative number
+        self._negative_number_matcher = NEGATIVE_VALUE
 
     def error(self, message: str):
         print(f"{self.prog}: error: {message} (see {self.prog} --help)", file=sys.stderr)

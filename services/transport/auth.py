@@ -34,6 +34,7 @@ from typing import Mapping, Sequence
 import zenoh
 
 from .acl import ROLES, acl_config
+from .payload_limits import low_pass_filters
 from .session import MAX_MESSAGE_BYTES, make_config
 
 
@@ -75,7 +76,8 @@ def client_config(anchor: str, cred: Credentials) -> dict:
     return {"mode": "client", "connect": {"endpoints": [anchor]},
             "scouting": {"multicast": {"enabled": False}},
             "transport": {"auth": {"usrpwd": {"user": cred.user, "password": cred.password}},
-                          "link": {"rx": {"max_message_size": MAX_MESSAGE_BYTES}}}}
+                          "link": {"rx": {"max_message_size": MAX_MESSAGE_BYTES}}},
+            "low_pass_filter": low_pass_filters()}
 
 
 def router_settings(listen: Sequence[str], dictionary_file: str | Path, own: Credentials) -> dict:
@@ -85,7 +87,7 @@ def router_settings(listen: Sequence[str], dictionary_file: str | Path, own: Cre
             "transport": {"auth": {"usrpwd": {"user": own.user, "password": own.password,
                                               "dictionary_file": str(dictionary_file)}},
                           "link": {"rx": {"max_message_size": MAX_MESSAGE_BYTES}}},
-            "access_control": acl_config()}
+            "low_pass_filter": low_pass_filters(), "access_control": acl_config()}
 
 
 def router_config(listen: Sequence[str], dictionary_file: str | Path, own: Credentials) -> zenoh.Config:
@@ -135,6 +137,37 @@ class DeploymentSecrets:
     def remove(self) -> None:
         """Delete the directory and its files (the passwords die with the deployment)."""
         shutil.rmtree(self.directory, ignore_errors=True)
+
+
+def forget_secrets_when_launcher_dies(config_file: str | os.PathLike | None) -> bool:
+    """When ``config_file`` (this process's ``--config``) is a role's config in a deployment's
+    secrets directory (:class:`DeploymentSecrets`: ``users.txt`` beside it), remove that directory
+    once this process's launcher is found dead (services/transport/lifetime.py): a launcher killed
+    with -9 removes nothing, and the passwords must not outlive the deployment. Only while the file
+    is still the one this process read (same inode: a deployment started since has written its own).
+    Returns whether it will (a process not launched so, or with no such file, leaves everything)."""
+    from .lifetime import PARENT_PID_ENV, on_launcher_gone
+
+    if config_file is None or not os.environ.get(PARENT_PID_ENV):
+        return False
+    path = Path(config_file)
+    try:
+        inode = path.stat().st_ino
+    except OSError:
+        return False
+    if not (path.parent / "users.txt").is_file():
+        return False
+
+    def forget() -> None:
+        try:
+            if path.stat().st_ino != inode:
+                return
+        except OSError:
+            return
+        DeploymentSecrets(path.parent).remove()
+
+    on_launcher_gone(forget)
+    return True
 
 
 def authenticated_user(config_file: str | os.PathLike | None) -> str | None:

@@ -10,7 +10,7 @@ import os
 import signal
 import sys
 import threading
-from typing import NoReturn
+from typing import Callable, NoReturn
 
 log = logging.getLogger(__name__)
 
@@ -42,6 +42,14 @@ PARENT_PID_ENV = "ACNMP_PARENT_PID"
 #: the shutdown then, so a process that must outlive another (the recorder, the learner's last
 #: events) can tell this stop from a SIGTERM.
 launcher_gone = threading.Event()
+#: What to do once the launcher is found gone, before the stop (:func:`on_launcher_gone`).
+_when_gone: list[Callable[[], None]] = []
+
+
+def on_launcher_gone(action: Callable[[], None]) -> None:
+    """Run ``action`` once :func:`watch_parent` finds this process's launcher gone (killed: it
+    cleans up nothing itself), before the stop event is set; an action that raises is logged."""
+    _when_gone.append(action)
 
 
 def watch_parent(stop: threading.Event, poll: float = 0.5) -> threading.Thread | None:
@@ -61,6 +69,11 @@ def watch_parent(stop: threading.Event, poll: float = 0.5) -> threading.Thread |
     def gone() -> None:
         log.warning("launcher (pid %d) is gone: shutting down", parent)
         launcher_gone.set()
+        for action in list(_when_gone):
+            try:
+                action()
+            except Exception:
+                log.exception("cleaning up after the launcher failed")
         stop.set()
 
     def run() -> None:

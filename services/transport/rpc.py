@@ -21,6 +21,7 @@ import zenoh
 
 from .errors import wire_error
 from .keys import is_concrete
+from .payload_limits import request_limit, too_large_message
 from .wire import DEFAULT_MAX_BYTES, SCHEMA_VERSION, WireError, decode, encode, error_from_payload, error_payload
 
 log = logging.getLogger(__name__)
@@ -53,7 +54,8 @@ def call(session: zenoh.Session, key: str, payload: dict | bytes | None = None, 
     (model processes each serving some skills), a successful reply wins over error replies: a
     catch-all ``unknown_skill`` from one process must not hide another's answer. With only error
     replies, the first is raised as the :class:`WireError` it carries; with none, WireError
-    ``unavailable`` (the query ended early: nothing matched) or ``timeout``. The query carries
+    ``unavailable`` (the query ended early: nothing matched) or ``timeout``; a successful reply that
+    cannot be decoded raises :class:`UnreadableReply` (a WireError). The query carries
     ``timeout`` as its selector parameter, so a server does not compute it after it has expired.
     """
     return _query(session, key, payload, timeout, gather=False, expect_version=expect_version,
@@ -75,6 +77,9 @@ def _query(session: zenoh.Session, key: str, payload: dict | bytes | None, timeo
     """The successful replies of one query on ``key`` (the first one only unless ``gather``); see
     :func:`call` and :func:`call_all`."""
     body = encode(payload) if isinstance(payload, dict) else payload
+    limit = request_limit(key)
+    if body is not None and len(body) > limit:  # zenoh would drop it unanswered: say so now
+        raise WireError("too_large", too_large_message(key, len(body), limit))
     start = time.monotonic()
     first_err: WireError | None = None
     selector = zenoh.Selector(key, {TIMEOUT_PARAMETER: f"{timeout:g}"})
@@ -87,7 +92,7 @@ def _query(session: zenoh.Session, key: str, payload: dict | bytes | None, timeo
             try:
                 ok.append(decode(reply.ok.payload.to_bytes(), expect_version=expect_version, max_bytes=max_bytes))
             except WireError as exc:
-                raise WireError(exc.code, f"reply on {key}: {exc.message}") from None
+                raise UnreadableReply(exc.code, f"reply on {key}: {exc.message}") from None
             if not gather:
                 return ok
         elif first_err is None:
@@ -99,6 +104,11 @@ def _query(session: zenoh.Session, key: str, payload: dict | bytes | None, timeo
     if time.monotonic() - start < UNAVAILABLE_FRACTION * timeout:
         raise WireError("unavailable", f"no service answered on {key}")
     raise WireError("timeout", f"no reply on {key} within {timeout}s")
+
+
+class UnreadableReply(WireError):
+    """A query was answered, but its reply could not be read (not msgpack, NaN in an array, a bad
+    array map, ...): the answering service's fault, not the request's. The code is the decoding's."""
 
 
 Handler = Callable[..., Any]
@@ -126,7 +136,8 @@ class RpcQueryable:
     def __init__(self, session: zenoh.Session, key_expr: str | Sequence[str], handler: Handler, *, workers: int = 0,
                  decode_payload: bool = True, expect_version: int | None = SCHEMA_VERSION,
                  max_bytes: int = DEFAULT_MAX_BYTES, complete: bool = True, max_queue: int | None = None,
-                 default_timeout: float | None = None, pass_deadline: bool = False):
+                 default_timeout: float | None = None, pass_deadline: bool = False,
+                 on_payload: Callable[[int], None] | None = None):
         keys = [key_expr] if isinstance(key_expr, str) else list(key_expr)
         if not keys:
             raise ValueError("key_expr: expected at least one key expression")
@@ -139,6 +150,7 @@ class RpcQueryable:
         self.max_queue = max_queue
         self.default_timeout = default_timeout
         self._pass_deadline = pass_deadline
+        self._on_payload = on_payload
         self.served = 0
         self.failed = 0
         self.overloaded = 0  # refused at once: the queue was full
@@ -155,10 +167,31 @@ class RpcQueryable:
 
     def decode_request(self, query: zenoh.Query) -> dict | None:
         """The query's payload decoded as this queryable decodes it (None when it has none);
-        WireError on a bad one. For handlers declared with ``decode_payload=False`` that decode
-        later, on another thread."""
+        WireError on a bad one (``too_large`` over its key's bound, from the length alone). For
+        handlers declared with ``decode_payload=False`` that decode later, on another thread."""
+        self._check_size(query)
         raw = query.payload.to_bytes() if query.payload is not None else b""
         return decode(raw, expect_version=self._expect_version, max_bytes=self._max_bytes) if raw else None
+
+    def _check_size(self, query: zenoh.Query) -> None:
+        """WireError ``too_large`` when the payload is over its key's bound
+        (services/transport/payload_limits.py) or this queryable's ``max_bytes``; nothing is copied."""
+        size = len(query.payload) if query.payload is not None else 0
+        if self._on_payload is not None:
+            self._on_payload(size)
+        limit = min(self._max_bytes, request_limit(str(query.key_expr)))
+        if size > limit:
+            raise WireError("too_large", too_large_message(str(query.key_expr), size, limit))
+
+    def _oversized(self, query: zenoh.Query) -> bool:
+        # answered at once on zenoh's thread, never queued: the refusal costs no handler and no copy
+        try:
+            self._check_size(query)
+            return False
+        except WireError as exc:
+            with query:
+                self._fail(query, exc.code, exc.message)
+            return True
 
     def _refused(self, query: zenoh.Query) -> bool:
         # a query on a wildcard (acnmp/NS/skill/e1/*, acnmp/**) is answered by nobody: a service
@@ -171,12 +204,12 @@ class RpcQueryable:
         return True
 
     def _serve_inline(self, query: zenoh.Query) -> None:
-        if not self._refused(query):
+        if not self._refused(query) and not self._oversized(query):
             self._serve(query, self._deadline(query))
 
     def _dispatch(self, query: zenoh.Query) -> None:
         # hand the query to the pool so a slow handler never holds a zenoh runtime thread
-        if self._refused(query):
+        if self._refused(query) or self._oversized(query):
             return
         deadline = self._deadline(query)
         with self._lock:
@@ -301,7 +334,8 @@ def declare_rpc(session: zenoh.Session, key_expr: str | Sequence[str], handler: 
     ``pass_deadline=True`` calls ``handler(request, query, deadline)`` with that deadline
     (``time.monotonic()`` seconds, or None). A handler may return a :class:`concurrent.futures.Future`
     instead of a reply: the query is answered when it completes (its result or exception, as
-    above; :class:`Expired` drops the query unanswered), on the thread that completes it. With
+    above; :class:`Expired` drops the query unanswered), on the thread that completes it.
+    ``on_payload(size)`` is told each query's payload size (bytes) as it arrives. With
     ``workers=0`` the handler runs on zenoh's callback thread, so it must only hand the query on
     (return a future at once); with ``decode_payload=False`` it gets None as the request and may
     decode later with :meth:`RpcQueryable.decode_request`.

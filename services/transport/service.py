@@ -177,11 +177,13 @@ def run_service(config: Service, *, stop: threading.Event | None = None,
                 ready: Callable[[str], None] | None = None) -> int:
     """Run the service ``config`` describes until ``stop`` is set (default: SIGTERM/SIGINT, or its
     launcher dying); return its exit code. ``ready(line)`` gets the ready line (default: printed)."""
-    if stop is None:
-        stop = install_shutdown_handlers()
     from .about import AboutQueryable
+    from .auth import forget_secrets_when_launcher_dies
     from .keys import Keyspace
 
+    forget_secrets_when_launcher_dies(config.session.config)  # before the launcher is watched
+    if stop is None:
+        stop = install_shutdown_handlers()
     with config.session.open(config.default_mode) as session:
         about = AboutQueryable(session, Keyspace(config.session.namespace), config.name)
         try:

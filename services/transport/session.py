@@ -32,6 +32,7 @@ import zenoh
 
 from .argtypes import key_name
 from .keys import DEFAULT_NAMESPACE
+from .payload_limits import low_pass_filters
 from .wire import DEFAULT_MAX_BYTES
 
 MODES = ("peer", "client", "router")
@@ -126,6 +127,8 @@ def make_config(mode: str | None = "peer", listen: Sequence[str] | None = None,
         put("scouting/gossip/enabled", True if gossip is None else bool(gossip))
     if not from_file("transport/link/rx/max_message_size"):
         put("transport/link/rx/max_message_size", MAX_MESSAGE_BYTES)
+    if not from_file("low_pass_filter"):
+        put("low_pass_filter", low_pass_filters())
     return cfg
 
 

@@ -1,8 +1,8 @@
 """The worker's logic without zenoh: the roll-out request/reply codec and :class:`Worker`.
 
 Request ``{"v":1, "task": str, "task_config": map, "trajectories": (B,T,D) float,
-"times": (T,) float, "task_params": (P,) float | nil}`` -> reply ``{"v":1, "worker": id,
-<every field of the RolloutBatch>}``: ``rewards`` (B,T), ``success`` (B,) bool, ``states``
+"times": (T,) float, "task_params": (P,) float | nil, "chunk": str (optional)}`` -> reply
+``{"v":1, "worker": id, "chunk": the request's chunk, <every field of the RolloutBatch>}``: ``rewards`` (B,T), ``success`` (B,) bool, ``states``
 {name: (B,T,...)} and any field the library's RolloutBatch grows (e.g. ``errors`` (B,)), which then
 travels without a change here. Bad input gets a ``reply_err`` (``unknown_task``, ``bad_request``,
 ``bad_shape``, ...) and the worker keeps serving.
@@ -71,15 +71,24 @@ def take(batch: RolloutBatch, start: int, stop: int) -> RolloutBatch:
     return RolloutBatch(**{name: cut(getattr(batch, name)) for name in _BATCH_FIELDS})
 
 
-def rollout_request(task: str, task_config: dict, trajectories, times, task_params=None) -> dict:
-    """The request map asking a worker to execute ``trajectories`` (B, T, D) at ``times`` (T,)."""
-    return {"v": 1, "task": task, "task_config": task_config, "trajectories": trajectories, "times": times,
-            "task_params": task_params}
+def rollout_request(task: str, task_config: dict, trajectories, times, task_params=None,
+                    chunk: str | None = None) -> dict:
+    """The request map asking a worker to execute ``trajectories`` (B, T, D) at ``times`` (T,);
+    ``chunk`` names this request, and the reply must name it too (a reply for another chunk is
+    a bad reply: services/worker/remote.py)."""
+    request = {"v": 1, "task": task, "task_config": task_config, "trajectories": trajectories, "times": times,
+               "task_params": task_params}
+    if chunk is not None:
+        request["chunk"] = chunk
+    return request
 
 
-def rollout_reply(batch: RolloutBatch, worker_id: str, host: str = "") -> dict:
-    """The reply map of an executed batch: every RolloutBatch field that is set, the worker and its host."""
+def rollout_reply(batch: RolloutBatch, worker_id: str, host: str = "", chunk: str | None = None) -> dict:
+    """The reply map of an executed batch: every RolloutBatch field that is set, the worker, its
+    host and the request's ``chunk`` (when it named one)."""
     reply: dict[str, Any] = {"v": 1, "worker": worker_id, "host": host}
+    if chunk is not None:
+        reply["chunk"] = chunk
     for name in _BATCH_FIELDS:
         value = getattr(batch, name)
         if isinstance(value, dict):
@@ -141,6 +150,7 @@ class Worker:
             raise WireError("bad_shape", f"field 'trajectories': shape {trajs.shape}, need 1<=B<={MAX_BATCH}, T>=2")
         times = array_field(request, "times", shape=(t,))
         tp = array_field(request, "task_params", ndim=1, default=None, max_elements=1024)
+        chunk = field(request, "chunk", str, default=None)
         ev = self.evaluator(task, cfg)
         try:
             batch = ev.evaluate(trajs.astype(np.float64), times.astype(np.float64), tp)
@@ -149,7 +159,7 @@ class Worker:
         if self.delay > 0:
             time.sleep(self.delay * b)
         self.rollouts += b
-        return rollout_reply(batch, self.worker_id, self.host)
+        return rollout_reply(batch, self.worker_id, self.host, chunk)
 
     def close(self) -> None:
         """Close every cached evaluator that holds resources (PyBullet clients)."""

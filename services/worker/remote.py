@@ -3,31 +3,52 @@
 How a batch of B roll-outs is run:
 
 1. the live workers are the liveliness tokens ``acnmp/<ns>/worker/<robot>/*`` (waiting up to
-   ``discover_timeout`` for the first one);
+   ``discover_timeout`` for the first one), less the workers excluded (below);
 2. the batch is cut into contiguous chunks, one per worker (``np.array_split`` sizes), and every
-   chunk is queried concurrently on ``.../<id>/rollout``. When a batch has fewer roll-outs than
-   there are workers, the workers it goes to take turns (round robin from a random start per
-   evaluator), so many jobs with small batches spread over a large pool instead of all landing on
-   the first workers by name;
+   chunk is queried concurrently on ``.../<id>/rollout``, named by a ``chunk`` tag the reply must
+   carry back. When a batch has fewer roll-outs than there are workers, the workers it goes to
+   take turns (round robin from a random start per evaluator), so many jobs with small batches
+   spread over a large pool instead of all landing on the first workers by name;
 3. a liveliness subscriber watches the workers while chunks are in flight: when a worker's token
-   goes (it died, e.g. ``kill -9``) or its query fails with ``timeout``/``unavailable``/``internal``,
-   its chunk is cut again over the workers still live and re-sent;
+   goes (it died, e.g. ``kill -9``) or its query fails, its chunk is cut again over the healthy
+   workers and re-sent;
 4. results are written into their slots by index: each roll-out is taken from exactly one reply,
    so the returned batch is in order and every roll-out counts once. A reply that arrives for an
    abandoned chunk is discarded.
 
-The returned batch is an :class:`~services.worker.core.ExecutedBatch`: its ``workers`` name the
-worker that executed each roll-out. Client errors (``bad_request``, ``bad_shape``,
-``unknown_task``, ...) are not retried: they raise ValueError, as an in-process evaluator would. No
-live worker for ``discover_timeout`` raises RuntimeError.
+**One bad worker never fails the job** (issue 66). A worker is *excluded* from the job (for the
+evaluator's life: one attempt of a job), named in :attr:`RemoteEvaluator.excluded`, and its chunk
+re-sent to healthy workers, when it
+
+* answers with a reply that cannot be read or holds numbers no task reports: NaN or inf (the
+  wire refuses them), a reward, return, error or state beyond 1e150 in magnitude
+  (:class:`acnmp_core.rollout.RolloutBatch`), arrays of the wrong shape, another number of
+  roll-outs, another chunk's tag or another worker's id;
+* answers nothing within ``timeout`` (``timeout``), or far slower than its peers: a chunk still
+  running after :data:`SLOW_FACTOR` times the recent time per roll-out (at least
+  :data:`SLOW_MIN_S` s) is also sent to an idle healthy worker, the first answer counts, and a
+  worker beaten that way is excluded as too slow;
+* fails :data:`MAX_FAILURES` times (``internal``, ``unavailable``, a broken reply);
+* refuses a request (``bad_request``, ``bad_shape``, ``unknown_task``, ...) that another worker
+  then runs. The same refusal from a second worker means the request is at fault: ValueError, as an
+  in-process evaluator would raise, and nobody is excluded for it.
+
+Every exclusion also goes to the learner's :class:`~services.worker.exclusion.WorkerExclusions`
+(``exclusions``), so its other jobs avoid the worker for a while. The job fails (RuntimeError
+naming every excluded worker and why) only when no healthy worker of its kind is left for
+``discover_timeout`` seconds. The returned batch is an :class:`~services.worker.core.ExecutedBatch`:
+its ``workers`` name the worker that executed each roll-out.
 """
 from __future__ import annotations
 
 import contextlib
 import logging
 import random
+import statistics
 import threading
 import time
+import uuid
+from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
@@ -37,13 +58,29 @@ from acnmp_core.rollout import RolloutBatch
 from acnmp_core.tasks.registry import task_credit, task_names
 from services.transport import Keyspace, WireError, alive_tokens, call
 from services.transport.keys import check_name, token_id
+from services.transport.rpc import UnreadableReply
 
 from .core import ExecutedBatch, batch_from_reply, rollout_request, take
+from .exclusion import Exclusion, WorkerExclusions
 
 log = logging.getLogger(__name__)
 
-#: Error codes after which a chunk is re-sent to another worker (the worker, not the request, failed).
-RETRY_CODES = ("timeout", "unavailable", "internal")
+#: Error codes of a worker refusing the request itself: the request's fault once a second worker
+#: agrees (ValueError), the worker's once another runs it.
+REFUSAL_CODES = ("bad_request", "bad_shape", "bad_dtype", "non_finite", "too_large", "unknown_task", "malformed",
+                 "bad_version")
+#: Failures (``internal``, ``unavailable``, a broken session) after which a worker is excluded from the job.
+MAX_FAILURES = 2
+#: A chunk still running after this many times the recent seconds per roll-out times its size ...
+SLOW_FACTOR = 10.0
+#: ... and at least this many seconds is also sent to an idle healthy worker (its worker, if beaten, excluded).
+SLOW_MIN_S = 2.0
+#: Recent chunks whose seconds per roll-out say how long a chunk should take.
+DURATIONS_KEPT = 64
+
+
+class _BadReply(Exception):
+    """A worker's reply that answers something else than the chunk asked (the message says what)."""
 
 
 @dataclass
@@ -51,7 +88,15 @@ class _Chunk:
     start: int
     stop: int
     worker: str
-    attempt: int  # generation: a late reply of an abandoned attempt is ignored
+    attempt: int  # id of this query: a late reply of an abandoned one is ignored
+    group: int  # the dispatch of the range [start, stop): a chunk and its copy on a faster worker share it
+    sent: float  # time.monotonic() when queried
+    copy_of: int | None = None  # the attempt this one copies (sent because that one was slow)
+    copied: bool = False  # a copy of this one was sent
+
+    @property
+    def span(self) -> str:
+        return f"roll-outs {self.start}..{self.stop - 1}"
 
 
 class RemoteEvaluator:
@@ -63,16 +108,22 @@ class RemoteEvaluator:
     keys : the deployment's :class:`Keyspace` (or its namespace name).
     robot : whose workers to use (``acnmp/<ns>/worker/<robot>/*``).
     task, task_config : the registry task the workers run and its parameters.
-    timeout : seconds one chunk may take before it goes to another worker.
-    discover_timeout : seconds to wait for a live worker when there is none.
+    timeout : seconds one chunk may take before its worker is excluded and the chunk goes to another.
+    discover_timeout : seconds to wait for a live (healthy) worker when there is none.
     max_attempts : chunk re-sends per batch before giving up (RuntimeError).
     stop : when set (the learner shutting down), a batch in flight is abandoned at once with
         InterruptedError instead of waiting for its replies.
+    exclusions : the learner's registry of workers its jobs excluded lately (shared by its
+        evaluators; None: this evaluator's own).
+    slow_min_s : the least seconds a chunk runs before it counts as slow (:data:`SLOW_MIN_S`).
+
+    ``excluded`` lists the workers this evaluator excluded (its job's), in order.
     """
 
     def __init__(self, session: zenoh.Session, keys: Keyspace | str, robot: str, task: str,
                  task_config: dict | None = None, *, timeout: float = 60.0, discover_timeout: float = 10.0,
-                 max_attempts: int = 20, stop: threading.Event | None = None):
+                 max_attempts: int = 20, stop: threading.Event | None = None,
+                 exclusions: WorkerExclusions | None = None, slow_min_s: float = SLOW_MIN_S):
         self.session = session
         self.keys = keys if isinstance(keys, Keyspace) else Keyspace(keys)
         self.robot = check_name("robot", robot)
@@ -84,9 +135,15 @@ class RemoteEvaluator:
         self.discover_timeout = float(discover_timeout)
         self.max_attempts = int(max_attempts)
         self.stop = stop
+        self.exclusions = exclusions if exclusions is not None else WorkerExclusions()
+        self.slow_min_s = float(slow_min_s)
         self._pattern = self.keys.worker_token(self.robot)
         self.ignored_tokens = 0  # liveliness tokens that named no worker (wildcards, bad ids)
         self._turn = random.randrange(1 << 30)  # which worker a batch starts on (round robin)
+        #: the workers excluded from this evaluator's job, in order
+        self.excluded: list[Exclusion] = []
+        self._failures: dict[str, int] = {}
+        self._per_rollout: deque[float] = deque(maxlen=DURATIONS_KEPT)  # seconds per roll-out, recent chunks
 
     def workers(self) -> list[str]:
         """Ids of the workers of this robot kind alive now (one liveliness query)."""
@@ -111,15 +168,59 @@ class RemoteEvaluator:
             if time.monotonic() >= end:
                 return False
 
+    # ----- exclusions ------------------------------------------------------------------------
+    def _exclude(self, worker: str, reason: str) -> None:
+        if any(e.worker == worker for e in self.excluded):
+            return
+        exclusion = Exclusion(worker, reason)
+        self.excluded.append(exclusion)
+        self.exclusions.exclude(exclusion)
+        log.warning("worker %s failed (%s): excluded from the job", worker, reason)
+
+    def _is_excluded(self, worker: str) -> bool:
+        return any(e.worker == worker for e in self.excluded)
+
+    def _no_healthy_worker(self) -> RuntimeError:
+        why = "; ".join(e.line() for e in self.excluded) or "none excluded"
+        return RuntimeError(f"no healthy {self.robot} worker left in namespace {self.keys.namespace} "
+                            f"(excluded: {why})")
+
+    def _slow_after(self, n: int) -> float | None:
+        """Seconds after which a chunk of ``n`` roll-outs counts as slow (None: no chunk finished yet)."""
+        if not self._per_rollout:
+            return None
+        return max(self.slow_min_s, SLOW_FACTOR * statistics.median(self._per_rollout) * n)
+
+    # ----- one reply -------------------------------------------------------------------------
+    @staticmethod
+    def _read_reply(reply: dict, chunk: _Chunk, tag: str, steps: int) -> RolloutBatch:
+        """The batch of a reply to ``chunk`` (tag ``tag``, ``steps`` per roll-out); :class:`_BadReply`
+        when it answers something else."""
+        if reply.get("chunk") != tag:
+            raise _BadReply(f"a reply for another chunk ({reply.get('chunk')!r}, asked {tag!r})")
+        if reply.get("worker") != chunk.worker:
+            raise _BadReply(f"a reply naming worker {reply.get('worker')!r}")
+        try:
+            batch = batch_from_reply(reply)
+        except WireError as exc:
+            raise _BadReply(exc.message) from None
+        n = chunk.stop - chunk.start
+        if len(batch) != n:
+            raise _BadReply(f"{len(batch)} roll-outs for {n}")
+        if batch.rewards.shape[1] != steps:
+            raise _BadReply(f"rewards of shape {batch.rewards.shape} for {n} roll-outs of {steps} steps")
+        return batch
+
     def evaluate(self, trajectories, times, task_params=None) -> ExecutedBatch:
         """trajectories (B, T, D), times (T,), task_params (P,) or None -> the B roll-outs in order,
-        with the worker that executed each (``batch.workers``)."""
+        with the worker that executed each (``batch.workers``). ValueError when the request itself
+        is refused (by two workers); RuntimeError when no healthy worker is left."""
         trajs = np.asarray(trajectories, dtype=np.float64)
         if trajs.ndim != 3 or trajs.shape[0] < 1:
             raise ValueError(f"trajectories: expected shape (B, T, D) with B >= 1, got {trajs.shape}")
         times = np.asarray(times, dtype=np.float64)
         tp = None if task_params is None else np.asarray(task_params, dtype=np.float64).reshape(-1)
-        b = trajs.shape[0]
+        b, steps = trajs.shape[0], trajs.shape[1]
         results: list[RolloutBatch | None] = [None] * b  # one slot per roll-out
         done_by: list[str] = [""] * b
         host_of: list[str] = [""] * b
@@ -127,9 +228,10 @@ class RemoteEvaluator:
         live: set[str] = set()
         dead: set[str] = set()
         inflight: dict[int, _Chunk] = {}  # chunk attempt id -> chunk
-        failed: list[tuple[_Chunk, str]] = []
-        fatal: list[BaseException] = []
+        outcomes: list[tuple[_Chunk, str, object]] = []  # (chunk, kind, detail) from the query threads
+        refusals: list[tuple[_Chunk, str]] = []  # client-error refusals not yet contradicted
         counter = [0]
+        batch_tag = uuid.uuid4().hex[:12]
 
         def on_token(sample: zenoh.Sample) -> None:
             wid = token_id(sample.key_expr, self._pattern)
@@ -146,54 +248,148 @@ class RemoteEvaluator:
                 cond.notify_all()
 
         def run_chunk(chunk: _Chunk) -> None:
-            req = rollout_request(self.task, self.task_config, trajs[chunk.start:chunk.stop], times, tp)
+            tag = f"{batch_tag}-{chunk.attempt}"
+            req = rollout_request(self.task, self.task_config, trajs[chunk.start:chunk.stop], times, tp, chunk=tag)
             key = self.keys.worker_rollout(self.robot, chunk.worker)
             try:
                 reply = call(self.session, key, req, timeout=self.timeout)
-                batch = batch_from_reply(reply)
-                if len(batch) != chunk.stop - chunk.start:
-                    raise WireError("internal", f"worker {chunk.worker} returned {len(batch)} roll-outs "
-                                                f"for {chunk.stop - chunk.start}")
+                outcome = ("ok", (self._read_reply(reply, chunk, tag, steps), str(reply.get("host") or "")))
+            except UnreadableReply as exc:  # NaN in its arrays, not msgpack, ...: its fault, not ours
+                outcome = ("bad", f"{exc.code}: {exc.message}")
+            except _BadReply as exc:
+                outcome = ("bad", str(exc))
             except WireError as exc:
-                with cond:
-                    if inflight.pop(chunk.attempt, None) is not None:
-                        if exc.code in RETRY_CODES:
-                            failed.append((chunk, f"{exc.code}: {exc.message}"))
-                        else:
-                            fatal.append(ValueError(f"worker {chunk.worker}: {exc.code}: {exc.message}"))
-                    cond.notify_all()
-                return
-            except Exception as exc:  # a malformed reply; the session closing
-                with cond:
-                    if inflight.pop(chunk.attempt, None) is not None:
-                        failed.append((chunk, f"{type(exc).__name__}: {exc}"))
-                    cond.notify_all()
-                return
+                if exc.code == "timeout":
+                    outcome = ("slow", f"no answer within {self.timeout:g} s")
+                elif exc.code in REFUSAL_CODES:
+                    outcome = ("refused", f"{exc.code}: {exc.message}")
+                else:
+                    outcome = ("failed", f"{exc.code}: {exc.message}")
+            except Exception as exc:  # the session closing under us
+                outcome = ("failed", f"{type(exc).__name__}: {exc}")
             with cond:
-                if inflight.pop(chunk.attempt, None) is None:
-                    return  # abandoned (its worker was declared dead): the chunk ran elsewhere
-                for i in range(chunk.start, chunk.stop):
-                    results[i] = take(batch, i - chunk.start, i - chunk.start + 1)
-                    done_by[i] = chunk.worker
-                    host_of[i] = str(reply.get("host") or "")
+                outcomes.append((chunk, *outcome))
                 cond.notify_all()
 
+        def send(start: int, stop: int, worker: str, group: int | None = None, copy_of: int | None = None) -> _Chunk:
+            counter[0] += 1
+            chunk = _Chunk(start, stop, worker, counter[0], counter[0] if group is None else group, time.monotonic(),
+                           copy_of)
+            inflight[chunk.attempt] = chunk
+            threading.Thread(target=run_chunk, args=(chunk,), daemon=True, name=f"rollout-{worker}").start()
+            return chunk
+
+        def healthy() -> list[str]:
+            return sorted(w for w in live if not self._is_excluded(w))
+
+        def candidates(avoid: set[str]) -> list[str]:
+            """The workers to send to: healthy ones no other job excluded lately, outside ``avoid``;
+            else healthy ones outside ``avoid``; else (``avoid`` holds only failed ones) any healthy."""
+            ok = healthy()
+            others = self.exclusions.excluded()
+            for pool in ([w for w in ok if w not in avoid and w not in others], [w for w in ok if w not in avoid]):
+                if pool:
+                    return pool
+            return ok
+
         def dispatch(start: int, stop: int, avoid: set[str]) -> None:
-            # cut [start, stop) over the live workers not in `avoid`; caller holds `cond`
-            candidates = sorted(live - avoid)
-            if not candidates:
-                candidates = sorted(live)  # the only workers left: let them try again
-            if not candidates:
-                raise RuntimeError(f"no live {self.robot} worker in namespace {self.keys.namespace}")
-            n = min(len(candidates), stop - start)
-            first, self._turn = self._turn % len(candidates), self._turn + n
+            # cut [start, stop) over the candidates; caller holds `cond`
+            pool = candidates(avoid)
+            if not pool:
+                if not self._wait_for(cond, lambda: bool(healthy()), self.discover_timeout):
+                    raise self._no_healthy_worker()
+                pool = candidates(avoid)
+            n = min(len(pool), stop - start)
+            first, self._turn = self._turn % len(pool), self._turn + n
             for idx, part in enumerate(np.array_split(np.arange(start, stop), n)):
-                counter[0] += 1
-                worker = candidates[(first + idx) % len(candidates)]
-                chunk = _Chunk(int(part[0]), int(part[-1]) + 1, worker, counter[0])
-                inflight[chunk.attempt] = chunk
-                threading.Thread(target=run_chunk, args=(chunk,), daemon=True,
-                                 name=f"rollout-{chunk.worker}").start()
+                send(int(part[0]), int(part[-1]) + 1, pool[(first + idx) % len(pool)])
+
+        def drop_worker(worker: str) -> list[_Chunk]:
+            """Abandon every chunk in flight on ``worker`` (excluded or gone); returns those that
+            have no copy still running elsewhere (to be sent again)."""
+            mine = [c for c in inflight.values() if c.worker == worker]
+            for c in mine:
+                inflight.pop(c.attempt)
+            return [c for c in mine if not any(o.group == c.group for o in inflight.values())]
+
+        resends = [0]
+
+        def again(chunk: _Chunk, why: str, avoid: set[str]) -> None:
+            resends[0] += 1
+            if resends[0] > self.max_attempts:
+                raise RuntimeError(f"{chunk.span} failed {resends[0]} times; last: {why}")
+            log.warning("worker %s failed (%s): re-sending %s", chunk.worker, why, chunk.span)
+            dispatch(chunk.start, chunk.stop, avoid)
+
+        def settle(chunk: _Chunk, kind: str, detail) -> None:
+            """Act on one query's outcome (caller holds ``cond``)."""
+            if chunk.attempt not in inflight:
+                return  # abandoned (its worker excluded or gone, or a copy answered first)
+            if kind == "ok":
+                batch, host = detail
+                for c in [c for c in inflight.values() if c.group == chunk.group]:
+                    inflight.pop(c.attempt)
+                    if c is not chunk and chunk.copy_of == c.attempt:  # the copy beat the slow original
+                        self._exclude(c.worker, f"too slow: {c.span} unanswered after "
+                                                f"{time.monotonic() - c.sent:.1f} s, another worker answered them "
+                                                f"in {time.monotonic() - chunk.sent:.2f} s")
+                        for left in drop_worker(c.worker):
+                            again(left, "excluded", {c.worker})
+                self._per_rollout.append((time.monotonic() - chunk.sent) / (chunk.stop - chunk.start))
+                for i in range(chunk.start, chunk.stop):
+                    results[i] = take(batch, i - chunk.start, i - chunk.start + 1)
+                    done_by[i], host_of[i] = chunk.worker, host
+                for refused, why in list(refusals):  # someone else ran what it refused: its fault
+                    if refused.start < chunk.stop and chunk.start < refused.stop and refused.worker != chunk.worker:
+                        refusals.remove((refused, why))
+                        self._exclude(refused.worker, f"refused {refused.span} ({why}), which {chunk.worker} ran")
+                return
+            inflight.pop(chunk.attempt)
+            copy_running = any(c.group == chunk.group for c in inflight.values())
+            if kind in ("bad", "slow"):
+                self._exclude(chunk.worker, f"{'answered' if kind == 'bad' else 'too slow'} for {chunk.span}: {detail}")
+                pending = ([] if copy_running else [chunk]) + drop_worker(chunk.worker)
+                for c in pending:
+                    again(c, str(detail), {chunk.worker})
+                return
+            if kind == "refused":
+                others = {c.worker for c, _ in refusals} - {chunk.worker}
+                if others:  # a second worker refuses it too: the request is at fault
+                    raise ValueError(f"worker {chunk.worker}: {detail}")
+                refusals.append((chunk, str(detail)))
+                if copy_running:
+                    return
+                if not [w for w in healthy() if w != chunk.worker]:
+                    raise ValueError(f"worker {chunk.worker}: {detail}")  # nobody to ask whether it is the request
+                again(chunk, str(detail), {chunk.worker})
+                return
+            # failed: a worker that keeps failing is excluded, one failure is re-sent elsewhere
+            self._failures[chunk.worker] = self._failures.get(chunk.worker, 0) + 1
+            if self._failures[chunk.worker] >= MAX_FAILURES:
+                self._exclude(chunk.worker, f"failed {self._failures[chunk.worker]} times; last for {chunk.span}: "
+                                            f"{detail}")
+                pending = ([] if copy_running else [chunk]) + drop_worker(chunk.worker)
+            else:
+                pending = [] if copy_running else [chunk]
+            for c in pending:
+                again(c, str(detail), {chunk.worker})
+
+        def copy_slow_chunks() -> None:
+            """Send each chunk running far longer than its peers to an idle healthy worker too."""
+            busy = {c.worker for c in inflight.values()}
+            others = self.exclusions.excluded()
+            idle = [w for w in healthy() if w not in busy and w not in others]
+            for c in list(inflight.values()):
+                if not idle:
+                    return
+                limit = self._slow_after(c.stop - c.start)
+                if c.copied or c.copy_of is not None or limit is None or time.monotonic() - c.sent < limit:
+                    continue
+                c.copied = True
+                worker = idle.pop(0)
+                log.warning("worker %s: %s still running after %.1f s; also sent to %s", c.worker, c.span,
+                            time.monotonic() - c.sent, worker)
+                send(c.start, c.stop, worker, group=c.group, copy_of=c.attempt)
 
         sub = self.session.liveliness().declare_subscriber(self._pattern, on_token, history=True)
         try:
@@ -207,32 +403,18 @@ class RemoteEvaluator:
                     raise RuntimeError(f"no live {self.robot} worker in namespace {self.keys.namespace} "
                                        f"after {self.discover_timeout}s")
                 dispatch(0, b, set())
-                resends = 0
                 while True:
-                    if fatal:
-                        raise fatal[0]
                     self._check_stop()
-                    # chunks on a worker that died: abandon and re-send
-                    for att, chunk in list(inflight.items()):
-                        if chunk.worker in dead:
-                            inflight.pop(att)
-                            failed.append((chunk, "worker disappeared"))
-                    if failed:
-                        redo, failed[:] = list(failed), []
-                        for chunk, why in redo:
-                            resends += 1
-                            if resends > self.max_attempts:
-                                raise RuntimeError(f"roll-outs {chunk.start}..{chunk.stop - 1} failed "
-                                                   f"{resends} times; last: {why}")
-                            log.warning("worker %s failed (%s): re-sending roll-outs %d..%d",
-                                        chunk.worker, why, chunk.start, chunk.stop - 1)
-                            if not live - {chunk.worker}:
-                                # nobody else: wait a little for a worker to (re)appear
-                                self._wait_for(cond, lambda: bool(live - {chunk.worker}), self.discover_timeout)
-                            dispatch(chunk.start, chunk.stop, {chunk.worker})
-                    if not inflight and not failed:
+                    while outcomes:
+                        settle(*outcomes.pop(0))
+                    for c in [c for c in inflight.values() if c.worker in dead]:  # its worker died: re-send
+                        if c.attempt in inflight:
+                            for left in drop_worker(c.worker):
+                                again(left, "worker disappeared", {c.worker})
+                    if not inflight and not outcomes:
                         break
-                    cond.wait(timeout=0.5 if self.stop is None else 0.1)  # a stop is seen within 0.1 s
+                    copy_slow_chunks()
+                    cond.wait(timeout=0.1)
                     if time.monotonic() > deadline + self.timeout * (self.max_attempts + 1):
                         raise RuntimeError("roll-out batch did not complete")
         finally:

@@ -50,7 +50,9 @@ def test_e1_job_end_to_end_is_recorded_exactly(tmp_path, verify_rrd):
         while (info := call(s, keys.info("e1"), None, timeout=10))["version"] != want:
             assert time.monotonic() < deadline, info
             time.sleep(0.2)
-    # the deployment is down: the recorder finalised the file
+    # the deployment is down: the recorder finalised the file, and the learner, the recorder having
+    # confirmed the job's roll-outs, removed its journal (a next session publishes nothing of it)
+    assert not list((tmp_path / "state" / "jobs").glob("*.rollouts"))
     used = st["result"]["rollouts"]
     summary = summarize(rrd)
     rec = summary["jobs"][job]
@@ -108,6 +110,11 @@ def test_children_stop_and_the_recording_is_valid_when_the_launcher_is_killed(tm
             time.sleep(0.2)
             alive = [p for p in pids if _running(p)]
         assert alive == [], f"children still running 30 s after the launcher died: {alive}"
+        # the deployment's passwords went with it: its children removed them (issue 66: 3 of 9
+        # credential files stayed until the next start)
+        from services.transport.runfile import deployment_dir
+
+        assert not [p.name for p in deployment_dir("upk").glob("*") if p.name != "run.json"]
     finally:
         if proc.poll() is None:
             proc.kill()

@@ -132,3 +132,19 @@ def test_generated_hostile_requests_get_documented_codes(deployment, name):
     rss = peak_rss(deployment.children["model"].pid)
     print(f"{name}: {dict(codes)}; model service peak RSS {rss / 2**20:.0f} MiB")  # shown with -s
     assert rss < MODEL_RSS_BOUND
+
+
+def test_a_request_over_its_keys_bound_is_refused_at_once_and_never_reaches_the_service(deployment):
+    """Issue 66: a predict of 60 MB (under the 64 MiB cap) cost the model service 1.6 GB it kept, and
+    a 500 MB one waited the whole timeout. Over its key's bound a request is refused before it is
+    sent (``too_large``); sent anyway (a raw get), zenoh drops it and the get ends at once."""
+    from services.transport.payload_limits import request_limit
+
+    keys = deployment.keys
+    for key in (keys.predict("e1"), keys.info("e1"), keys.job_status("e1-0123456789"), keys.train("e1")):
+        body = b"\x00" * (request_limit(key) + 1)
+        err = error_of(deployment, key, body, timeout=60)  # a dropped query would end in timeout after 60 s
+        assert err.code == "too_large" and f"at most {request_limit(key)} bytes" in err.message, (key, err)
+    oversized = b"\x00" * (request_limit(keys.predict("e1")) + 1)
+    assert list(deployment.session.get(keys.predict("e1"), payload=oversized, timeout=60)) == []
+    assert served(deployment)["mean"].shape == (20, 2)

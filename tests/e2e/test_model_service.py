@@ -324,3 +324,39 @@ def test_two_model_processes_share_a_clients_predicts_and_a_gone_one_falls_back(
                                                          n_steps=50).mean, ref.mean)
         assert a.predicts_answered == before + 4
         assert sorted(sent) == sorted([KEYS.predict_at("reach", a.zid)] * 2 + [KEYS.predict_at("reach", b_zid)] * 2)
+
+
+def test_a_service_whose_session_lacks_zenohs_filter_still_refuses_an_oversized_predict_unread(small_model):
+    """A session opened from a config file without the per-key filter (services/transport/payload_limits.py)
+    gets the oversized query; the service answers ``too_large`` from its length, without decoding it."""
+    import json
+
+    import zenoh
+
+    from services.transport.payload_limits import request_limit
+    from services.transport.wire import error_from_payload
+
+    ep = loopback_endpoint(free_port())
+
+    def bare(**endpoints) -> zenoh.Config:  # zenoh's defaults: no low_pass_filter
+        cfg = zenoh.Config()
+        cfg.insert_json5("scouting/multicast/enabled", "false")
+        for key, value in endpoints.items():
+            cfg.insert_json5(f"{key}/endpoints", json.dumps(value))
+        return cfg
+
+    with open_session(config=bare(listen=[ep])) as server, open_session(config=bare(connect=[ep])) as raw:
+        with ModelService(server, NS, fetch_latest=False) as service:
+            service.load(SkillModel("reach", 1, small_model))
+            key = KEYS.predict("reach")
+            body = b"\x00" * (request_limit(key) + 1)  # not even msgpack: it is never read
+            deadline = time.monotonic() + 10
+            while True:
+                replies = list(raw.get(key, payload=body, timeout=30))
+                if replies or time.monotonic() > deadline:
+                    break
+                time.sleep(0.05)  # the raw session may not know the queryable yet
+            (reply,) = replies
+            err = error_from_payload(reply.err.payload.to_bytes())
+            assert err.code == "too_large" and f"at most {request_limit(key)} bytes" in err.message, err
+

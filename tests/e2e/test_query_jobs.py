@@ -52,6 +52,8 @@ def test_a_skill_is_trained_adapted_listed_and_watched_from_the_shell(tmp_path, 
         assert line.split()[:6] == [job, "adapt", "e1", "viapoint", "done", f"{row.rollouts}/30"]
         code, out, _ = run_cli("query", "jobs", "--json", *conn)
         assert code == 0 and [r["job"] for r in json.loads(out)] == [job]
+        # every attempt's roll-outs (what the recording holds), not only the final attempt's
+        assert json.loads(out)[0]["rollouts_executed"] == status["rollouts_executed"] == row.rollouts_executed > 0
 
         code, out, _ = run_cli("query", "watch", job, "--json", *conn)
         assert code == 0 and json.loads(out)["state"] == "done"

@@ -73,6 +73,8 @@ def test_up_quarantines_bad_files_serves_the_rest_and_is_up_once_the_changed_fil
                             ("skills/e2/model-v0.pt", "not a readable checkpoint (truncated or not a torch file)")):
             assert f"acnmp up: learner: quarantined {rel}: {reason} (moved to quarantine/" in said, said
         assert "weights_only" not in said and "before going live" not in said
+        # which version is served instead, on acnmp up's output too (issue 66: the learner's log alone)
+        assert "acnmp up: learner: skill e1: version(s) 1 unusable (quarantined); serving version 0" in said, said
         with ACNMPClient(namespace=ns, timeout=10) as client:
             info = client.info("e1")  # right after "up": the new file's skill, above every version used
             assert info["version"] == 2 and info["data_hash"] == demos_b.content_hash(), info

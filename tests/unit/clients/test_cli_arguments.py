@@ -387,3 +387,19 @@ def test_every_experiment_takes_seeds_with_one_meaning(name, capsys):
         build_parser().parse_args(["experiment", name, "--help"])
     text = capsys.readouterr().out
     assert "--seeds SEEDS" in text and "--seed " not in text and "--runs" not in text
+
+
+@pytest.mark.parametrize("argv, dest, value", [
+    (["query", "predict", "--skill", "e1", "--obs", "-5:0,0"], "obs", ["-5:0,0"]),
+    (["query", "predict", "--skill", "e1", "--obs", "-.5:0,0", "--obs", "1:-2,3"], "obs", ["-.5:0,0", "1:-2,3"]),
+    (["query", "predict", "--skill", "e1", "--obs", "0:0,0", "--task-params", "-1,2"], "task_params", "-1,2"),
+])
+def test_a_value_starting_with_a_minus_and_a_digit_is_a_value(argv, dest, value):
+    """``--obs -5:0,0`` was read as an unknown option -5:0,0 (only ``--obs=-5:0,0`` worked)."""
+    from clients.cli import build_parser
+
+    assert getattr(build_parser().parse_args(argv), dest) == value
+
+
+def test_an_unknown_option_is_still_refused(capsys):
+    assert "unrecognized arguments: -x" in refused(["query", "predict", "--skill", "e1", "--obs", "0:0,0", "-x"], capsys)

@@ -176,7 +176,8 @@ def test_a_file_of_another_kind_in_place_of_a_checkpoint_is_named_without_torchs
     (tmp_path / "skills/e1/model-v0.pt").write_bytes(b"\x80\x04\x95" + bytes(range(256)) * 20)  # a pickle, not torch
     core = _core(tmp_path)
     try:
-        demos, line = core.health().problems()  # the demonstrations its checkpoint named, and it
+        note, demos, line = core.health().problems()  # what is served now, the demonstrations its checkpoint named, and it
+        assert note.startswith("skill e1: no usable version (version(s) 0 quarantined)"), note
         assert demos.startswith("quarantined skills/e1/demos-v0.npz: part of version 0 of skill e1")
         assert line.startswith("quarantined skills/e1/model-v0.pt: not a readable checkpoint (truncated or not a "
                                "torch file) (moved to quarantine/") and "weights_only" not in line

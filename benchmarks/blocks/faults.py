@@ -1,0 +1,51 @@
+"""The docs blocks of docs/FAULTS.md: the model service's memory under payloads at the predict
+bound (bench_model_memory.json) and the fault benchmark (bench_faults.json)."""
+from __future__ import annotations
+
+from benchmarks.report_kit import block, has_result, load, renderer
+
+
+@renderer("model-memory")
+def model_memory() -> str:
+    """RSS of the model process idle, at peak and idle again; how fast over-bound requests are refused."""
+    r = load("bench_model_memory")
+    t = r["targets"]
+    rows = [["predicts at the bound", f"{r['predicts']} x {r['payload_bytes'] / 2**20:.0f} MiB from {r['senders']} senders "
+             f"({', '.join(f'{n} {k}' for k, n in sorted(r['answers'].items()))})",
+             f"idle {r['idle_mib']:.0f} MiB, peak {r['peak_mib']:.0f} MiB, idle again {r['after_mib']:.0f} MiB: "
+             f"**{r['after_over_idle']:.2f}x** idle", f"<= {t['after_over_idle']}x idle",
+             "yes" if r["after_over_idle"] <= t["after_over_idle"] else "**no**"]]
+    names = {"over_bound_client": "one byte over the bound, through the client",
+             "over_bound_raw_get": "one byte over the bound, a raw zenoh get",
+             "500mb_client": "500 MB, through the client"}
+    for key, label in names.items():
+        x = r["refusals"][key]
+        rows.append([label, f"{x['bytes'] / 2**20:.0f} MiB", f"{x['answer']} after **{x['seconds']:.3f} s**",
+                     f"< {t['refusal_s']:g} s", "yes" if x["seconds"] < t["refusal_s"] else "**no**"])
+    return block(r, "bench_model_memory", ["case", "sent", "measured", "target", "met"], rows,
+                 "Idle again: the lowest resident set over the 10 s after the last answer (sampled every 0.1 s). "
+                 "A raw get over the bound is dropped by zenoh's filter: it ends with no reply at once.")
+
+
+@renderer("faults")
+def faults() -> str:
+    """Kills of the learner, restarts on the same recording, a bad worker per mode (bench_faults.json)."""
+    if not has_result("bench_faults"):
+        return "*Not measured yet: `python benchmarks/performance/bench_faults.py`.*"
+    r = load("bench_faults")
+    k = r["kills"]
+    rows = [["kill -9 of the learner between reserving and publishing a batch",
+             f"{k['kills']} kills ({', '.join(f'{n} {w}' for w, n in sorted(k['where'].items()))}), "
+             f"{k['restarts_same_record']} of them with the launcher killed too and started again on the same --record",
+             f"{k['jobs']} jobs done: {k['lost']} roll-outs lost, {k['duplicated']} duplicated of "
+             f"{k['reserved']} reserved; {k['segments']} recording files",
+             "0 lost, 0 duplicated", "yes" if k["lost"] == 0 and k["duplicated"] == 0 else "**no**"]]
+    for mode, m in r["workers"].items():
+        avoided = m["jobs"] - m["named"]
+        rows.append([f"a worker answering {m['what']} beside 2 healthy ones", f"{m['jobs']} jobs at once",
+                     f"{m['done']}/{m['jobs']} done in {m['seconds']:.1f} s; named by {m['named']}"
+                     + (f" (the other {avoided} avoided it)" if avoided else "")
+                     + f"; {m['rollouts_by_bad']} of its roll-outs used",
+                     "every job done, the worker named, none of its roll-outs used",
+                     "yes" if m["done"] == m["jobs"] and m["named"] >= 1 and m["rollouts_by_bad"] == 0 else "**no**"])
+    return block(r, "bench_faults", ["fault", "runs", "measured", "target", "met"], rows, r.get("note", ""))
