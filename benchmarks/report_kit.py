@@ -66,11 +66,30 @@ def where(name: str) -> str:
     return result_path(name).relative_to(ROOT).as_posix()
 
 
+def shown_command(command: str) -> str:
+    """A provenance command as a page shows it: a path inside the repository relative to it, and a
+    file outside it (a scratch file only the machine that made the result had) as ``FILE`` with its
+    suffix, ``--out``/``--json``'s as ``OUT``: the command a user runs in a clone, naming the files
+    they choose."""
+    import shlex
+
+    words, out = shlex.split(command), []
+    for i, w in enumerate(words):
+        if w.startswith("/"):
+            path = Path(w)
+            if path.is_relative_to(ROOT):
+                w = path.relative_to(ROOT).as_posix()
+            else:
+                w = ("OUT" if i and words[i - 1] in ("--out", "--json") else "FILE") + "".join(path.suffixes)
+        out.append(w)
+    return shlex.join(out)
+
+
 def source(result: dict, file: str) -> str:
-    """One line naming the JSON file, its command and commit."""
+    """One line naming the JSON file, its command (:func:`shown_command`) and commit."""
     p = result.get("provenance") or {}
     commit = (p.get("commit") or "unknown")[:10] + (" (dirty tree)" if p.get("dirty") else "")
-    return f"*From `{where(file)}`: `{p.get('command', '?')}` at commit {commit}, " \
+    return f"*From `{where(file)}`: `{shown_command(p.get('command', '?'))}` at commit {commit}, " \
            f"{result.get('wall_time_s', float('nan')):.0f} s on {p.get('machine', {}).get('cpu_count', '?')} cores.*"
 
 

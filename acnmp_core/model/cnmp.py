@@ -190,6 +190,11 @@ class CNMP(nn.Module):
         # the linear path; with prior_basis 0 it is made when the model is fitted to demonstrations
         self.prior: LinearPrior | None = (LinearPrior(d, p, config.prior_basis)
                                           if config.prior == "linear" and config.prior_basis else None)
+        self._value_bounds: tuple[torch.Tensor, torch.Tensor] | None = None
+
+    def _load_from_state_dict(self, *args, **kwargs):
+        self._value_bounds = None  # the normalisation changes: its bounds are read again
+        super()._load_from_state_dict(*args, **kwargs)
 
     # ----- normalisation -------------------------------------------------------------------------
     def fit_normalization(self, demos: DemoSet) -> None:
@@ -199,6 +204,7 @@ class CNMP(nn.Module):
         self.task_norm.fit(demos.all_task_params(), mode="range")
         self.value_norm.fit(demos.all_values(), mode="standard")
         self.fitted.fill_(True)
+        self._value_bounds = None
         if self.config.prior == "linear":
             self.fit_prior(demos)
 
@@ -318,8 +324,10 @@ class CNMP(nn.Module):
             return obs_x
         d, p = self.config.n_outputs, self.config.n_task_params
         dims = obs_x[..., 1 + p + d:]
-        lo, hi = (self.value_norm.normalize(b.to(torch.float64)).to(obs_x.dtype).to(obs_x.device)
-                  for b in (self.value_norm.low, self.value_norm.high))
+        if self._value_bounds is None:  # the demonstrations' value range, normalised (once per fit or load)
+            self._value_bounds = tuple(self.value_norm.normalize(b.to(torch.float64)).to(torch.float32)
+                                       for b in (self.value_norm.low, self.value_norm.high))
+        lo, hi = (b.to(obs_x.device) for b in self._value_bounds)
         values = torch.maximum(torch.minimum(obs_x[..., 1 + p:1 + p + d], hi), lo) * dims
         return torch.cat([obs_x[..., :1], obs_x[..., 1:1 + p].clamp(0.0, 1.0), values, dims], dim=-1)
 

@@ -136,8 +136,10 @@ class LinearPrior(nn.Module):
         d, k = self.n_outputs, self.n_basis
         _, mu_w, mu_c, a, cov, noise = self._numbers()
         w = (mu_w + (np.asarray(task_params, dtype=np.float64).reshape(b, -1) - mu_c) @ a.T).reshape(b, d, k)
-        seen = np.asarray(obs_dims, dtype=np.float64) * np.asarray(obs_mask, dtype=np.float64)[..., None]  # (B, N, D)
         phi = self.basis(obs_t)  # (B, N, K)
+        if n == 0:  # the task parameters alone
+            return w, np.zeros((b, 0, d))
+        seen = np.asarray(obs_dims, dtype=np.float64) * np.asarray(obs_mask, dtype=np.float64)[..., None]  # (B, N, D)
         innovation = (np.asarray(obs_v, dtype=np.float64) - np.einsum("bnk,bdk->bnd", phi, w)) * seen
         # rows (n, e) of H S: the basis at t_n read through output e's block of S, masked
         hs = np.einsum("bnk,ekfl->bnefl", phi, cov) * seen[..., None, None]

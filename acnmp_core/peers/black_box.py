@@ -5,14 +5,17 @@ Primitive-based (Re-)Planning Policy", 2023; the ALRhub ``fancy_gym`` black-box 
 (Paraschos et al., NeurIPS 2013) from ``mp_pytorch`` maps a weight vector to a whole trajectory,
 the environment executes it as one episode, and CMA-ES (Hansen 2016, "The CMA Evolution
 Strategy: A Tutorial"; the ``cma`` package) searches the weights by the episodes' returns.
-fancy_gym's Meta-World setting: 5 radial basis functions per output on a linear phase.
+fancy_gym's Meta-World setting: 5 radial basis functions per output on a linear phase; the
+comparison also runs the count with the lowest leave-one-out error on the demonstrations alone
+(:func:`choose_n_basis`), since the count decides how well the ProMP can follow them.
 
 The search starts from the demonstrations' ProMP: the weights of every demonstration (least
 squares, ``mp_pytorch``'s ``learn_mp_params_from_trajs``) with their task parameters form a joint
-Gaussian; conditioned on the test position it gives the initial mean (Paraschos et al.'s
-conditioning on a context, which for a joint Gaussian is a linear regression from task parameters
-to weights). The initial step size is the demonstrations' weight spread (the mean of the weights'
-standard deviations). CMA-ES runs with ``cma``'s defaults otherwise (population 4 + 3 ln n).
+Gaussian; conditioned on the test condition (its task parameters and observed points) it gives the
+initial mean (Paraschos et al.'s conditioning, which for task parameters is a linear regression from
+them to the weights). The initial step size is the demonstrations' weight spread (the mean of the
+weights' standard deviations), the same rule on every task. CMA-ES runs with ``cma``'s defaults
+otherwise (population 4 + 3 ln n).
 
 One generation executes the distribution's mean (the method's deterministic output, counted as an
 episode) and stops if it succeeded, else the population, then updates CMA-ES with the returns.

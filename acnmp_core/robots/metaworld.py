@@ -1,10 +1,12 @@
-"""The robot kinds ``metaworld-reach``, ``metaworld-push`` and ``metaworld-pick-place``: Meta-World's
-Sawyer tasks through the Gymnasium adapter (:mod:`acnmp_core.robots.gym_robot`).
+"""The robot kinds ``metaworld-reach``, ``metaworld-push``, ``metaworld-pick-place``,
+``metaworld-window-open`` and ``metaworld-button-press``: Meta-World's Sawyer tasks through the
+Gymnasium adapter (:mod:`acnmp_core.robots.gym_robot`).
 
-Each kind runs one task (``metaworld_reach``, ``metaworld_push``, ``metaworld_pick_place``) that
-executes trajectories (T, 4): the hand's target position (x, y, z) m after each environment step,
-PD-tracked with :data:`~acnmp_core.tasks.metaworld.scene.KP`, and the gripper command, sent as it is (:data:`~acnmp_core.tasks.metaworld.scene.CONTROL`).
-The task parameters place the puck and the goal (:class:`~acnmp_core.tasks.metaworld.scene.MetaWorldTask`); the rewards are
+Each kind runs one task (``metaworld_reach``, ``metaworld_push``, ...) that executes trajectories
+(T, 4): the hand's target position (x, y, z) m after each environment step, PD-tracked with
+:data:`~acnmp_core.tasks.metaworld.scene.KP`, and the gripper command, sent as it is
+(:data:`~acnmp_core.tasks.metaworld.scene.CONTROL`). The task parameters place the puck and the goal,
+or the articulated object (:class:`~acnmp_core.tasks.metaworld.scene.MetaWorldTask`); the rewards are
 Meta-World's own per step; success is Meta-World's success at any step of the episode, and the
 error the smallest distance to the goal it reached (m). Building a kind's evaluator without the
 ``metaworld`` extra fails with one line naming it.

@@ -22,10 +22,11 @@ condition (``path_error_to_expert``, in the task's :attr:`~.tasks.PeerTask.path_
 The result is written after every run (:func:`~.run.run_peers` with ``out``), so a partial run is
 usable and ``resume`` continues it; :func:`~.run.merge_results` joins parts run side by side.
 """
-from .config import BUDGET, CASES, METHODS, STEP_BASED_METHODS, TRAJECTORY_METHODS, PeerRun, PeersConfig, library_versions
+from .config import (BUDGET, CASES, METHODS, STEP_BASED_METHODS, TASK_NAMES, TRAJECTORY_METHODS, PeerRun,
+                     PeersConfig, library_versions)
 from .figure import STYLE, plot_peers
 from .run import load_runs, merge_results, plan, run_line, run_peers, summarise
-from .tasks import TASK_NAMES, PeerTask, peer_task, test_position
+from .tasks import PeerTask, peer_task, test_position
 
 __all__ = ["BUDGET", "CASES", "METHODS", "STEP_BASED_METHODS", "TRAJECTORY_METHODS", "PeerRun", "PeersConfig",
            "library_versions", "STYLE", "plot_peers", "load_runs", "merge_results", "plan", "run_line", "run_peers",

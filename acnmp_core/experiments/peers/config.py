@@ -19,6 +19,18 @@ CASES = ("extrapolation", "interpolation")
 BUDGET = 1000
 #: CNMP training steps (the project's default)
 TRAIN_STEPS = 3000
+#: the names of E1's, E2's and the Pusher's tasks (their classes: :mod:`.tasks`)
+E1_TASK, E2_TASK, PUSHER_TASK = "e1-viapoint", "e2-push", "pusher"
+
+
+def _task_names() -> tuple[str, ...]:
+    from ...tasks.metaworld.scene import TASKS
+
+    return tuple(TASKS) + (E1_TASK, E2_TASK, PUSHER_TASK)
+
+
+#: every task's name, in the order of the results: Meta-World's, then E1, E2 and the Pusher
+TASK_NAMES = _task_names()
 #: the libraries whose versions the result records
 LIBRARIES = ("metaworld", "mujoco", "gymnasium", "pybullet", "stable-baselines3", "mp-pytorch", "cma", "torch",
              "numpy")
@@ -28,7 +40,7 @@ LIBRARIES = ("metaworld", "mujoco", "gymnasium", "pybullet", "stable-baselines3"
 class PeersConfig:
     """What :func:`~acnmp_core.experiments.peers.run.run_peers` runs.
 
-    tasks : among :data:`~acnmp_core.experiments.peers.tasks.TASK_NAMES`. methods : among
+    tasks : among :data:`TASK_NAMES`. methods : among
     :data:`METHODS`. seeds : one CNMP (per model kind) and one test position per case each. cases :
     among :data:`CASES` (a task runs those that apply to it). train_steps : CNMP training. budget :
     episodes per test position of every adaptive method. eval_every : SB3 training episodes between
@@ -45,8 +57,6 @@ class PeersConfig:
     bc_steps: int = 3000
 
     def __post_init__(self) -> None:
-        from .tasks import TASK_NAMES
-
         for name, given, known in (("tasks", self.tasks, TASK_NAMES), ("methods", self.methods, METHODS),
                                    ("cases", self.cases, CASES)):
             bad = [g for g in given if g not in known]

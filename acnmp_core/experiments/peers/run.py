@@ -11,8 +11,9 @@ from typing import Callable
 import numpy as np
 
 from ...errors import InputError
-from .config import CASES, METHODS, STEP_BASED_METHODS, TRAJECTORY_METHODS, PeerRun, PeersConfig, library_versions, median_episodes
-from .tasks import TASK_NAMES, PeerTask, peer_task
+from .config import (CASES, METHODS, STEP_BASED_METHODS, TASK_NAMES, TRAJECTORY_METHODS, PeerRun, PeersConfig,
+                     library_versions, median_episodes)
+from .tasks import PeerTask, peer_task
 
 Item = tuple[str, int, str, str]  # (task, seed, case, method)
 

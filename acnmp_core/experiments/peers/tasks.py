@@ -21,7 +21,7 @@ import numpy as np
 
 from ...adaptation.config import AdaptTarget
 from ...errors import InputError
-from .config import CASES
+from .config import CASES, E1_TASK, E2_TASK, PUSHER_TASK, TASK_NAMES
 
 #: why the step-based peers cannot run on E1
 NO_STEP_ENV = ("E1 scores a path at three points (start, via-point, end) and has no state between them "
@@ -203,7 +203,7 @@ class MetaWorldPeer(PeerTask):
 class ViaPointPeer(PeerTask):
     """The paper's E1: the 2-D obstacle paths and their extrapolated via-point (module docstring)."""
 
-    name = "e1-viapoint"
+    name = E1_TASK
     cases = ("extrapolation",)
     not_applicable = {"promp_rl": "it starts from the demonstration nearest in task parameters, and E1's "
                                   "condition is a via-point, not a task parameter",
@@ -239,7 +239,7 @@ class PushPeer(PeerTask):
     """The paper's E2 (module docstring): the CNMP methods get ACNMP's dense reward, the ProMP
     methods the final distance (E2's choice for its episodic baseline)."""
 
-    name = "e2-push"
+    name = E2_TASK
     path_unit = "rad"
 
     def __init__(self) -> None:
@@ -285,7 +285,7 @@ class PusherPeer(PeerTask):
     draws them (generator ``seed``), interpolation positions inside the training region (generator
     ``[seed, 1]``)."""
 
-    name = "pusher"
+    name = PUSHER_TASK
     path_unit = "rad"
 
     def _demos(self):
@@ -321,16 +321,6 @@ class PusherPeer(PeerTask):
         from ...tasks.pusher.env import demo_transitions
 
         return demo_transitions(self.arrays.values, self.arrays.task_params)
-
-
-def _metaworld_names() -> tuple[str, ...]:
-    from ...tasks.metaworld.scene import TASKS
-
-    return tuple(TASKS)
-
-
-#: every task's name, in the order of the results
-TASK_NAMES = _metaworld_names() + (ViaPointPeer.name, PushPeer.name, PusherPeer.name)
 
 
 def peer_task(name: str) -> PeerTask:

@@ -52,10 +52,11 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--candidates", default=",".join(CANDIDATES), help="comma-separated candidates (--list)")
     ap.add_argument("--tasks", default=",".join(TASK_NAMES), help="comma-separated tasks")
-    ap.add_argument("--cases", default="extrapolation,interpolation")
-    ap.add_argument("--seeds", default="0,1,2,3,4")
-    ap.add_argument("--budget", type=int, default=1000)
-    ap.add_argument("--out", default=str(study_results("method") / "study.json"))
+    ap.add_argument("--cases", default="extrapolation,interpolation", help="comma-separated cases (default: both)")
+    ap.add_argument("--seeds", default="0,1,2,3,4", help="comma-separated seeds (default 0,1,2,3,4)")
+    ap.add_argument("--budget", type=int, default=1000, help="episodes per run (default 1000, the comparison's)")
+    ap.add_argument("--out", default=str(study_results("method") / "study.json"),
+                    help="the result (default benchmarks/studies/method/results/study.json); its runs are kept")
     ap.add_argument("--list", action="store_true", help="print the candidates and exit")
     args = ap.parse_args(argv)
     if args.list:
