@@ -15,6 +15,7 @@ from acnmp_core.model.training import TrainConfig
 from services.learner.core import LearnerCore, TrainSpec, UnknownJobError, UnknownSkillError
 from services.learner.store import JobStore
 from services.recording.events import validate_event
+from services.transport.wire import jsonable
 from services.worker.core import ExecutedBatch
 
 SMALL = dict(encoder_widths=(32, 32), decoder_widths=(32, 32))
@@ -60,8 +61,11 @@ def test_a_job_runs_records_every_rollout_and_assimilates(tmp_path, setup):
         status = core.status(record.job)
         with pytest.raises(UnknownJobError):
             core.status("e1-nothing")
+        # a finished job stays as it ended: a cancel answers its state and changes nothing
+        assert jsonable(core.cancel(record.job)) == jsonable(status) == jsonable(core.status(record.job))
     finally:
         core.close()
+    assert jsonable(JobStore(tmp_path).load_all()[record.job].status()) == jsonable(status)  # and on disk
     assert status["state"] == "done", status["error"]
     assert status["rollouts"] == status["result"]["rollouts"] == status["rollouts_executed"] == 9
     rollouts = [e for e in events if e["kind"] == "rollout"]
