@@ -167,6 +167,45 @@ def test_a_bad_state_file_is_quarantined_and_everything_else_serves(kind, fault,
         again.close()
 
 
+#: What remembers that e1's version 1 was used, after its checkpoint was quarantined: every place the
+#: learner counts (services/learner/store.py, "Versions are never reused"), or one of them alone.
+KEPT = ("version record and quarantine", "version record", "quarantined files", "job record")
+
+
+@pytest.mark.parametrize("kept", KEPT)
+def test_a_restart_after_a_quarantine_never_reuses_the_quarantined_version_number(kept, baseline, tmp_path):
+    """e1's version 1 is found unreadable at a start and quarantined (e1 is served at version 0);
+    the learner stops and starts again, with every record of number 1 lost but ``kept`` (an
+    operator emptied the quarantine, the version record was lost, the job that committed it was
+    pruned); e1's next version is 2 all the same, never a second version 1."""
+    base, done_job = baseline
+    state = tmp_path / "state"
+    shutil.copytree(base, state)
+    (state / "skills/e1/model-v1.pt").write_bytes(np.random.default_rng(KEPT.index(kept)).bytes(4096))
+    if kept != "job record":  # the done job whose record names version 1
+        (state / f"jobs/{done_job}.json").unlink()
+    core = _core(state)
+    try:
+        assert core.skills["e1"].version == 0 and "skills/e1/model-v1.pt" in {q.path for q in core.state.found}
+    finally:
+        core.close()
+    if "version record" not in kept:
+        (state / "skills/e1/versions.json").unlink()
+    if kept not in ("version record and quarantine", "quarantined files"):
+        shutil.rmtree(state / QUARANTINE)
+    again = _core(state)
+    try:
+        assert again.skills["e1"].version == 0 and again.state.found == []
+        assert again.train_skill("e1", _spec()).version == 2
+    finally:
+        again.close()
+    again = _core(state)  # and the number is durable
+    try:
+        assert again.skills["e1"].version == 2
+    finally:
+        again.close()
+
+
 def test_a_file_of_another_kind_in_place_of_a_checkpoint_is_named_without_torchs_advice(tmp_path):
     """Torch's own message for a file it cannot load safely suggests ``weights_only=False``, which
     would let a file of unknown origin run code; the learner says what the file is not instead."""
