@@ -228,7 +228,8 @@ def test_the_queue_limit_refuses_with_busy_and_memory_stays_bounded_over_10000_s
         assert accepted == 80 and refused == 10_000 - 80
         assert message == ("the learner already holds 20 unfinished jobs, its limit (--max-queued-jobs 20); nothing "
                            "was queued: send it again once some have finished")
-        assert len(core.jobs) <= 20 + 30 and len(list(core.job_store.root.iterdir())) == len(core.jobs)
+        # every accepted job ended (cancelled): the newest 30 records are kept, exactly
+        assert len(core.jobs) == 30 and len(list(core.job_store.root.iterdir())) == len(core.jobs)
         assert grown < 256 * 1024, grown  # 7500 submissions later: no more than a few records' worth
     finally:
         core.close()
@@ -246,3 +247,25 @@ def test_finished_job_records_are_pruned_by_age(tmp_path, setup):
         assert list(core.jobs) == [recent.job] and not core.job_store.path(old.job).exists()
     finally:
         core.close()
+
+
+def test_exactly_keep_jobs_finished_records_are_kept_the_newest(tmp_path, setup):
+    """``--keep-jobs 2``: after each job ends, the records of the two newest finished jobs stay (in
+    memory, on disk, after a restart), an unfinished one is never pruned."""
+    limits = StateLimits(keep_finished_jobs=2)
+    core = LearnerCore(tmp_path, evaluator_for=lambda req: Scripted(), state_limits=limits)  # not started
+    try:
+        core.train_skill("e1", TrainSpec(setup.demos, CNMPConfig(n_outputs=2, **SMALL), TrainConfig(steps=1)))
+        jobs = [core.submit("e1", _request(setup, seed)).job for seed in range(5)]
+        for n, job in enumerate(jobs[:4], start=1):
+            core.cancel(job)
+            kept = jobs[max(0, n - 2):]  # the two newest finished ones, and the queued ones
+            assert list(core.jobs) == kept, n
+            assert sorted(p.stem for p in core.job_store.root.glob("*.json")) == sorted(kept)
+    finally:
+        core.close()
+    again = LearnerCore(tmp_path, evaluator_for=lambda req: Scripted(), state_limits=limits)
+    try:
+        assert list(again.jobs) == jobs[2:]
+    finally:
+        again.close()
