@@ -206,6 +206,45 @@ def test_a_restart_after_a_quarantine_never_reuses_the_quarantined_version_numbe
         again.close()
 
 
+@pytest.mark.parametrize("case", ["checkpoint", "demonstrations", "job record"])
+def test_a_readable_file_in_the_place_of_another_is_quarantined(case, tmp_path):
+    """A well-formed file under another file's name (restored from the wrong backup, copied by
+    hand): version 0's checkpoint or demonstrations as version 1's, a job's record under another
+    job's id. Each is quarantined, saying whose it is; the rest serves as before."""
+    core = _core(tmp_path)
+    core.train_skill("e1", _spec())
+    core.train_skill("e1", TrainSpec(obstacle_demos(n_steps=15), CNMPConfig(n_outputs=2, **SMALL), TrainConfig(steps=1)))
+    core.close()
+    d = tmp_path / "skills/e1"
+    jobs = tmp_path / "jobs"
+    if case == "job record":
+        from acnmp_core.experiments.viapoint import make_setup
+        from acnmp_core.jobs.adapt import AdaptJob
+
+        setup = make_setup()
+        core = _core(tmp_path)
+        job = core.submit("e1", AdaptJob(setup.target, "viapoint", "point2d", setup.task_config)).job
+        core.close()
+        rel, bad = "jobs/e1-0123456789.json", f"holds job {job!r}, its name says 'e1-0123456789'"
+        shutil.copy(jobs / f"{job}.json", tmp_path / rel)
+    else:
+        name = {"checkpoint": "model-v{}.pt", "demonstrations": "demos-v{}.npz"}[case]
+        rel = f"skills/e1/{name.format(1)}"
+        shutil.copy(d / name.format(0), tmp_path / rel)
+        bad = ("holds skill 'e1' version 0, its name says e1 version 1" if case == "checkpoint"
+               else "does not match the data hash that model-v1.pt records")
+    core = _core(tmp_path)
+    try:
+        found = {q.path: q.reason for q in core.state.found}
+        assert found.get(rel) == bad, found
+        if case == "job record":
+            assert list(core.jobs) == [job]
+        else:
+            assert core.skills["e1"].version == 0 and core.train_skill("e1", _spec()).version == 2
+    finally:
+        core.close()
+
+
 def test_a_file_of_another_kind_in_place_of_a_checkpoint_is_named_without_torchs_advice(tmp_path):
     """Torch's own message for a file it cannot load safely suggests ``weights_only=False``, which
     would let a file of unknown origin run code; the learner says what the file is not instead."""
