@@ -269,3 +269,26 @@ def test_exactly_keep_jobs_finished_records_are_kept_the_newest(tmp_path, setup)
         assert list(again.jobs) == jobs[2:]
     finally:
         again.close()
+
+
+def test_a_commit_whose_checkpoint_cannot_be_written_leaves_nothing_of_its_version(tmp_path, monkeypatch, setup):
+    """The checkpoint is a version's commit point: when it cannot be written, the demonstrations
+    already written for that version are removed again, and the skill stays as it was."""
+    core = LearnerCore(tmp_path, evaluator_for=lambda req: Scripted())
+    try:
+        spec = TrainSpec(setup.demos, CNMPConfig(n_outputs=2, **SMALL), TrainConfig(steps=1))
+        core.train_skill("e1", spec)
+        real = store.atomic_write_bytes
+
+        def write(target, data, **kw):  # the disk fills up between the demonstrations and the checkpoint
+            if os.path.basename(target) == "model-v1.pt":
+                raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(target))
+            return real(target, data, **kw)
+
+        monkeypatch.setattr(store, "atomic_write_bytes", write)
+        with pytest.raises(StateWriteError, match=r"while saving skill e1 version 1 to .*model-v1\.pt$"):
+            core.train_skill("e1", spec)
+        assert core.skills["e1"].version == 0
+        assert sorted(os.listdir(core.state.root / "skills" / "e1")) == ["demos-v0.npz", "model-v0.pt", "versions.json"]
+    finally:
+        core.close()
