@@ -1,11 +1,10 @@
-"""The mutation check of the learner's state, job and ownership code: every mutant of the table
-(benchmarks/mutation/mutants.py) applied alone to a copy of this checkout, and the tests that cover
-its file run against it.
+"""The mutation check of the learner: each break of a hand-kept table applied alone, its file's tests run.
 
     python benchmarks/mutation/run.py                       # all of them -> benchmarks/results/mutation.json
     python benchmarks/mutation/run.py --only core-cancel-finished,runner-weights-not-returned   # a few, printed
     python benchmarks/mutation/run.py --list                # the table, nothing run
 
+The table (benchmarks/mutation/mutants.py) breaks the learner's state, job and ownership code.
 The checkout is copied (its tracked and untracked files, so uncommitted tests count) to a temporary
 directory, never changed in place. Each group of tests first runs on the unmutated copy and must
 pass. Then each mutant: its ``find`` text replaced in the copy, ``pytest -x`` on its file's tests
@@ -112,7 +111,7 @@ def score(rows: list[dict]) -> dict:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0],
                                  formatter_class=argparse.RawDescriptionHelpFormatter,
-                                 epilog="\n".join(__doc__.splitlines()[2:6]))
+                                 epilog="examples:\n" + "\n".join(__doc__.splitlines()[2:5]))
     ap.add_argument("--only", default=None, help="comma-separated mutant ids to run (default: all); the result "
                                                  "is printed, and written only with --out")
     ap.add_argument("--list", action="store_true", help="list the table's mutants and exit")
