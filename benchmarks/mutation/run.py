@@ -35,7 +35,8 @@ from benchmarks.mutation.mutants import MUTANTS, SCOPE, SERVICE, TESTS, Mutant  
 
 #: Seconds one mutant's tests may take before the mutant counts as killed (a hang fails a suite too).
 DEFAULT_TIMEOUT = 900.0
-FAILED = re.compile(r"^(?:FAILED|ERROR) (.+?)(?: - .*)?$", re.M)
+#: A line of pytest's short summary naming a failed test (not a captured log line at level ERROR).
+FAILED = re.compile(r"^(?:FAILED|ERROR) (tests/.+?)(?: - .*)?$", re.M)
 
 
 def copy_checkout(dest: Path) -> None:
