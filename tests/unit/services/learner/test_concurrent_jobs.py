@@ -9,6 +9,7 @@ import signal
 import threading
 
 import numpy as np
+import torch
 import pytest
 
 from acnmp_core.jobs.adapt import AdaptJob
@@ -192,3 +193,58 @@ def test_a_job_whose_adaptation_process_dies_fails_alone(trained, tmp_path, setu
         assert core.health().problems() == []
     finally:
         core.close()
+
+
+class SolvedOnThirdBatch:
+    """The in-process task's rewards, with success only from the third batch on: iteration 0 (the
+    mean alone, then the noisy roll-outs) fails, so the policy is updated once before the mean of
+    iteration 1 succeeds and the job commits what it adapted."""
+
+    def __init__(self, task):
+        self.task, self.calls = task, 0
+
+    def evaluate(self, trajectories, times, task_params=None):
+        self.calls += 1
+        batch = self.task.evaluate(trajectories, times, task_params)
+        batch.success = np.full(len(trajectories), self.calls >= 3)
+        return ExecutedBatch.of(batch, ["w0"] * len(trajectories))
+
+
+def _committed(trained, tmp_path, setup, runner: str) -> tuple[dict, dict]:
+    """Run one committing job on ``runner``; returns (its status, the committed version's weights)."""
+    core = _core(trained, tmp_path / runner, Gate(setup.task), job_runner=runner)
+    core.evaluator_for = lambda job: SolvedOnThirdBatch(setup.task)
+    try:
+        job = AdaptJob(setup.target, "viapoint", "point2d", setup.task_config, AdaptConfig(max_rollouts=20),
+                       seed=5, commit=True, assimilate_steps=1)
+        job_id = core.submit("e1", job).job
+        assert core.wait_idle(WAIT)
+        status = core.status(job_id)
+        return status, core.skills["e1"].model
+    finally:
+        core.close()
+
+
+def test_the_version_a_job_commits_holds_the_weights_it_adapted_on_either_runner(trained, tmp_path, setup):
+    """What a committing job promises: the new version is the adapted model (trained on with the
+    solution), whichever runner computed it; the process runner hands its child's weights back."""
+    from acnmp_core.model.checkpoint import load_checkpoint
+
+    on_thread, model = _committed(trained, tmp_path, setup, "thread")
+    assert on_thread["state"] == "done" and on_thread["committed_version"] == 1, on_thread
+    # the mean failed, the policy was updated, the updated mean succeeded: the weights changed
+    assert [h["mean_success"] for h in on_thread["result"]["history"]] == [False, True]
+    # the new version predicts the solution for the target (1 assimilation step from the adapted
+    # weights), not what the version it adapted predicted
+    solution = on_thread["result"]["trajectory"]
+    before = load_checkpoint(trained / "skills" / "e1" / "model-v0.pt")[0]
+    off = {name: float(np.abs(m.predict_query(setup.target.query(m)).mean - solution).max())
+           for name, m in (("committed", model), ("version 0", before))}
+    assert off["committed"] < 0.1 * off["version 0"], off
+    in_process, child_model = _committed(trained, tmp_path, setup, "process")
+    assert in_process["committed_version"] == 1
+    np.testing.assert_array_equal(in_process["result"]["trajectory"], solution)
+    weights, child_weights = model.state_dict(), child_model.state_dict()
+    assert weights.keys() == child_weights.keys()
+    for name in weights:  # bit-equal: the same adapted weights were assimilated
+        assert torch.equal(weights[name], child_weights[name]), name

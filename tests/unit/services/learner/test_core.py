@@ -15,6 +15,7 @@ from acnmp_core.model.training import TrainConfig
 from services.learner.core import LearnerCore, TrainSpec, UnknownJobError, UnknownSkillError
 from services.learner.store import JobStore
 from services.recording.events import job_names, validate_event
+from services.transport.wire import jsonable
 from services.worker.core import ExecutedBatch
 
 SMALL = dict(encoder_widths=(32, 32), decoder_widths=(32, 32))
@@ -61,8 +62,11 @@ def test_a_job_runs_records_every_rollout_and_assimilates(tmp_path, setup):
         status = core.status(record.job)
         with pytest.raises(UnknownJobError):
             core.status("e1-nothing")
+        # a finished job stays as it ended: a cancel answers its state and changes nothing
+        assert jsonable(core.cancel(record.job)) == jsonable(status) == jsonable(core.status(record.job))
     finally:
         core.close()
+    assert jsonable(JobStore(tmp_path).load_all()[record.job].status()) == jsonable(status)  # and on disk
     assert status["state"] == "done", status["error"]
     assert status["rollouts"] == status["result"]["rollouts"] == status["rollouts_executed"] == 9
     rollouts = [e for e in events if e["kind"] == "rollout"]
@@ -270,3 +274,66 @@ def test_a_skill_is_found_trained_as_asked_until_another_version_replaces_it(tmp
         assert again.trained_from("e1", replace(spec, seed=4)) is None
     finally:
         again.close()
+
+
+class Solves(Recorded):
+    """Every roll-out succeeds (rewards 0): a job's first mean is its solution."""
+
+    def evaluate(self, trajectories, times, task_params=None):
+        import numpy as np
+
+        self.calls += 1
+        b, t = trajectories.shape[:2]
+        return ExecutedBatch(np.zeros((b, t)), np.ones(b, dtype=bool), workers=("w0",) * b)
+
+
+class Fails(Recorded):
+    """No roll-out succeeds (rewards -1 per step)."""
+
+    def evaluate(self, trajectories, times, task_params=None):
+        import numpy as np
+
+        self.calls += 1
+        b, t = trajectories.shape[:2]
+        return ExecutedBatch(-np.ones((b, t)), np.zeros(b, dtype=bool), workers=("w0",) * b)
+
+
+def test_a_committing_job_that_finds_no_solution_commits_nothing(tmp_path, setup):
+    versions = []
+    core = LearnerCore(tmp_path, evaluator_for=lambda job: Fails(setup.task),
+                       on_version=lambda state: versions.append(state.version))
+    try:
+        core.train_skill("e1", TrainSpec(setup.demos, CNMPConfig(n_outputs=2, **SMALL), TrainConfig(steps=5), seed=3))
+        job = core.submit("e1", _job(setup, max_rollouts=5)).job
+        core.start()
+        assert core.wait_idle(60)
+        status = core.status(job)
+    finally:
+        core.close()
+    assert status["state"] == "done" and not status["result"]["success"]
+    assert status["committed_version"] is None and versions == [0] and core.skills["e1"].version == 0
+
+
+def test_a_job_that_died_after_committing_its_solution_is_not_assimilated_twice(tmp_path, setup):
+    """kill -9 after the new version's checkpoint but before the job's record said so: the restarted
+    job finds its solution already in the skill and is done with that version, not a second one."""
+    core = LearnerCore(tmp_path, evaluator_for=lambda job: Solves(setup.task))
+    try:
+        core.train_skill("e1", TrainSpec(setup.demos, CNMPConfig(n_outputs=2, **SMALL), TrainConfig(steps=5), seed=3))
+        record = core.submit("e1", _job(setup, max_rollouts=5))
+        core.start()
+        assert core.wait_idle(60) and core.status(record.job)["committed_version"] == 1
+    finally:
+        core.close()
+    record.state, record.committed_version = "running", None  # its record as the kill left it
+    JobStore(tmp_path).save(record)
+    fresh = Solves(setup.task)
+    again = LearnerCore(tmp_path, evaluator_for=lambda job: fresh).start()
+    try:
+        assert again.wait_idle(60)
+        status = again.status(record.job)
+        skill = again.skills["e1"]
+    finally:
+        again.close()
+    assert status["state"] == "done" and status["attempt"] == 1 and status["committed_version"] == 1
+    assert skill.version == 1 and len(skill.demos) == len(setup.demos) + 1 and fresh.calls == 0

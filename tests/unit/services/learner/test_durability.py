@@ -228,7 +228,8 @@ def test_the_queue_limit_refuses_with_busy_and_memory_stays_bounded_over_10000_s
         assert accepted == 80 and refused == 10_000 - 80
         assert message == ("the learner already holds 20 unfinished jobs, its limit (--max-queued-jobs 20); nothing "
                            "was queued: send it again once some have finished")
-        assert len(core.jobs) <= 20 + 30 and len(list(core.job_store.root.iterdir())) == len(core.jobs)
+        # every accepted job ended (cancelled): the newest 30 records are kept, exactly
+        assert len(core.jobs) == 30 and len(list(core.job_store.root.iterdir())) == len(core.jobs)
         assert grown < 256 * 1024, grown  # 7500 submissions later: no more than a few records' worth
     finally:
         core.close()
@@ -244,5 +245,50 @@ def test_finished_job_records_are_pruned_by_age(tmp_path, setup):
         old.updated = time.time() - 2 * 86400  # as if it ended two days ago
         core.cancel(recent.job)  # a job ending prunes
         assert list(core.jobs) == [recent.job] and not core.job_store.path(old.job).exists()
+    finally:
+        core.close()
+
+
+def test_exactly_keep_jobs_finished_records_are_kept_the_newest(tmp_path, setup):
+    """``--keep-jobs 2``: after each job ends, the records of the two newest finished jobs stay (in
+    memory, on disk, after a restart), an unfinished one is never pruned."""
+    limits = StateLimits(keep_finished_jobs=2)
+    core = LearnerCore(tmp_path, evaluator_for=lambda req: Scripted(), state_limits=limits)  # not started
+    try:
+        core.train_skill("e1", TrainSpec(setup.demos, CNMPConfig(n_outputs=2, **SMALL), TrainConfig(steps=1)))
+        jobs = [core.submit("e1", _request(setup, seed)).job for seed in range(5)]
+        for n, job in enumerate(jobs[:4], start=1):
+            core.cancel(job)
+            kept = jobs[max(0, n - 2):]  # the two newest finished ones, and the queued ones
+            assert list(core.jobs) == kept, n
+            assert sorted(p.stem for p in core.job_store.root.glob("*.json")) == sorted(kept)
+    finally:
+        core.close()
+    again = LearnerCore(tmp_path, evaluator_for=lambda req: Scripted(), state_limits=limits)
+    try:
+        assert list(again.jobs) == jobs[2:]
+    finally:
+        again.close()
+
+
+def test_a_commit_whose_checkpoint_cannot_be_written_leaves_nothing_of_its_version(tmp_path, monkeypatch, setup):
+    """The checkpoint is a version's commit point: when it cannot be written, the demonstrations
+    already written for that version are removed again, and the skill stays as it was."""
+    core = LearnerCore(tmp_path, evaluator_for=lambda req: Scripted())
+    try:
+        spec = TrainSpec(setup.demos, CNMPConfig(n_outputs=2, **SMALL), TrainConfig(steps=1))
+        core.train_skill("e1", spec)
+        real = store.atomic_write_bytes
+
+        def write(target, data, **kw):  # the disk fills up between the demonstrations and the checkpoint
+            if os.path.basename(target) == "model-v1.pt":
+                raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(target))
+            return real(target, data, **kw)
+
+        monkeypatch.setattr(store, "atomic_write_bytes", write)
+        with pytest.raises(StateWriteError, match=r"while saving skill e1 version 1 to .*model-v1\.pt$"):
+            core.train_skill("e1", spec)
+        assert core.skills["e1"].version == 0
+        assert sorted(os.listdir(core.state.root / "skills" / "e1")) == ["demos-v0.npz", "model-v0.pt", "versions.json"]
     finally:
         core.close()

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from services.learner.ownership import Ownership, owner_of, parse_learners, skill_of_job
+from services.learner.ownership import Ownership, learner_argv, numbered_ids, owner_of, parse_learners, skill_of_job
 
 LEARNERS = ("learner", "learner-2", "learner-3")
 SKILLS = [f"skill{i}" for i in range(300)]
@@ -45,3 +45,15 @@ def test_job_ids_and_the_learners_option():
             parse_learners(bad)
     with pytest.raises(ValueError, match="not among"):
         Ownership("other", LEARNERS)
+
+
+def test_the_first_learner_keeps_the_deployments_state_directory(tmp_path):
+    """What a launcher hands its learners (docs/DEPLOYMENT.md, "Several learners"): the first keeps
+    the deployment's state directory, so a deployment of one learner grown to several still serves
+    its skills; the others get ``learners/<id>`` under it; a lone learner gets no --learners."""
+    ids = numbered_ids(3)
+    assert ids == ("learner", "learner-2", "learner-3")
+    assert learner_argv("learner", ids, tmp_path) == ["--state-dir", str(tmp_path), "--id", "learner",
+                                                      "--learners", "learner,learner-2,learner-3"]
+    assert learner_argv("learner-3", ids, tmp_path)[:2] == ["--state-dir", str(tmp_path / "learners" / "learner-3")]
+    assert learner_argv("learner", numbered_ids(1), tmp_path) == ["--state-dir", str(tmp_path), "--id", "learner"]

@@ -167,6 +167,84 @@ def test_a_bad_state_file_is_quarantined_and_everything_else_serves(kind, fault,
         again.close()
 
 
+#: What remembers that e1's version 1 was used, after its checkpoint was quarantined: every place the
+#: learner counts (services/learner/store.py, "Versions are never reused"), or one of them alone.
+KEPT = ("version record and quarantine", "version record", "quarantined files", "job record")
+
+
+@pytest.mark.parametrize("kept", KEPT)
+def test_a_restart_after_a_quarantine_never_reuses_the_quarantined_version_number(kept, baseline, tmp_path):
+    """e1's version 1 is found unreadable at a start and quarantined (e1 is served at version 0);
+    the learner stops and starts again, with every record of number 1 lost but ``kept`` (an
+    operator emptied the quarantine, the version record was lost, the job that committed it was
+    pruned); e1's next version is 2 all the same, never a second version 1."""
+    base, done_job = baseline
+    state = tmp_path / "state"
+    shutil.copytree(base, state)
+    (state / "skills/e1/model-v1.pt").write_bytes(np.random.default_rng(KEPT.index(kept)).bytes(4096))
+    if kept != "job record":  # the done job whose record names version 1
+        (state / f"jobs/{done_job}.json").unlink()
+    core = _core(state)
+    try:
+        assert core.skills["e1"].version == 0 and "skills/e1/model-v1.pt" in {q.path for q in core.state.found}
+    finally:
+        core.close()
+    if "version record" not in kept:
+        (state / "skills/e1/versions.json").unlink()
+    if kept not in ("version record and quarantine", "quarantined files"):
+        shutil.rmtree(state / QUARANTINE)
+    again = _core(state)
+    try:
+        assert again.skills["e1"].version == 0 and again.state.found == []
+        assert again.train_skill("e1", _spec()).version == 2
+    finally:
+        again.close()
+    again = _core(state)  # and the number is durable
+    try:
+        assert again.skills["e1"].version == 2
+    finally:
+        again.close()
+
+
+@pytest.mark.parametrize("case", ["checkpoint", "demonstrations", "job record"])
+def test_a_readable_file_in_the_place_of_another_is_quarantined(case, tmp_path):
+    """A well-formed file under another file's name (restored from the wrong backup, copied by
+    hand): version 0's checkpoint or demonstrations as version 1's, a job's record under another
+    job's id. Each is quarantined, saying whose it is; the rest serves as before."""
+    core = _core(tmp_path)
+    core.train_skill("e1", _spec())
+    core.train_skill("e1", TrainSpec(obstacle_demos(n_steps=15), CNMPConfig(n_outputs=2, **SMALL), TrainConfig(steps=1)))
+    core.close()
+    d = tmp_path / "skills/e1"
+    jobs = tmp_path / "jobs"
+    if case == "job record":
+        from acnmp_core.experiments.viapoint import make_setup
+        from acnmp_core.jobs.adapt import AdaptJob
+
+        setup = make_setup()
+        core = _core(tmp_path)
+        job = core.submit("e1", AdaptJob(setup.target, "viapoint", "point2d", setup.task_config)).job
+        core.close()
+        rel, bad = "jobs/e1-0123456789.json", f"holds job {job!r}, its name says 'e1-0123456789'"
+        shutil.copy(jobs / f"{job}.json", tmp_path / rel)
+    else:
+        name = {"checkpoint": "model-v{}.pt", "demonstrations": "demos-v{}.npz"}[case]
+        rel = f"skills/e1/{name.format(1)}"
+        shutil.copy(d / name.format(0), tmp_path / rel)
+        bad = ("holds skill 'e1' version 0, its name says e1 version 1" if case == "checkpoint"
+               else "does not match the data hash that model-v1.pt records")
+    core = _core(tmp_path)
+    try:
+        found = {q.path: q.reason for q in core.state.found}
+        assert found.get(rel) == bad, found
+        if case == "job record":
+            assert list(core.jobs) == [job]
+        else:
+            assert core.skills["e1"].version == 0 and core.train_skill("e1", _spec()).version == 2
+    finally:
+        core.close()
+
+
 def test_a_file_of_another_kind_in_place_of_a_checkpoint_is_named_without_torchs_advice(tmp_path):
     """Torch's own message for a file it cannot load safely suggests ``weights_only=False``, which
     would let a file of unknown origin run code; the learner says what the file is not instead."""
