@@ -213,3 +213,38 @@ def all_checks(scope: str, checks: list[tuple[str, bool]]) -> tuple[str, bool | 
     """One line of every check ("[ok]" or "[missed]" before each) and whether all passed."""
     text = "; ".join(f"{'[ok]' if ok else '[missed]'} {what}" for what, ok in checks)
     return f"{scope}: {text}", all(ok for _, ok in checks) if checks else None
+
+
+#: the product's methods in the peers comparison (the default and the paper's), the rest are its peers
+PEERS_OWN = ("lfd", "lfd_paper", "acnmp", "acnmp_paper")
+
+
+def _median_episodes(runs: list[dict]) -> float:
+    """The median episodes of peers runs, a censored run beyond every number (inf when half or more are)."""
+    return float(np.median([r["episodes"] if r["success"] else np.inf for r in runs])) if runs else np.nan
+
+
+def peers_verdicts(result: dict, method: str = "acnmp") -> list[dict]:
+    """Issue 64's decided target on every task and case of a peers result (``acnmp experiment
+    peers --json``): ``method`` succeeds in at least as many seeds as the best peer and its median
+    episodes to a first success are at most the best peer's (ties count; a censored median is
+    beyond every number). One dict per task and case with ``task``, ``case``, ``successes``,
+    ``runs``, ``median``, the peers' best ``peer_successes`` (and ``by_successes``, the method with
+    it) and ``peer_median`` (``by_median``), and ``met``; the peers are every method but LfD only
+    and ACNMP's own."""
+    out = []
+    for task in result["config"]["tasks"]:
+        for case in result["config"]["cases"]:
+            runs = [r for r in result["runs"] if (r["task"], r["case"]) == (task, case)]
+            mine = [r for r in runs if r["method"] == method]
+            peers = {m: [r for r in runs if r["method"] == m] for m in {r["method"] for r in runs} - set(PEERS_OWN)}
+            if not mine or not peers:
+                continue
+            by_s = max(peers, key=lambda m: (sum(r["success"] for r in peers[m]), -_median_episodes(peers[m])))
+            by_m = min(peers, key=lambda m: (_median_episodes(peers[m]), -sum(r["success"] for r in peers[m])))
+            ok, med = sum(r["success"] for r in mine), _median_episodes(mine)
+            ps, pm = sum(r["success"] for r in peers[by_s]), _median_episodes(peers[by_m])
+            out.append({"task": task, "case": case, "successes": ok, "runs": len(mine), "median": med,
+                        "peer_successes": ps, "by_successes": by_s, "peer_median": pm, "by_median": by_m,
+                        "met": ok >= ps and med <= pm})
+    return out
