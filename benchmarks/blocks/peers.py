@@ -172,3 +172,26 @@ def _register() -> None:
 
 
 _register()
+
+
+@renderer("method-study")
+def method_study() -> str:
+    """The method study's ladder (benchmarks/studies/method/): per task and case, each candidate's
+    successes and median episodes, the two ends from the comparison of record."""
+    study, r = load("method_study"), load("peers")
+    ladder = (("paper", r, "acnmp_paper"), ("linear", study, "linear"), ("linear_clip", study, "linear_clip"),
+              ("default", r, "acnmp"))
+    rows = []
+    for task in r["config"]["tasks"]:
+        for case in r["config"]["cases"]:
+            cells = []
+            for _, res, method in ladder:
+                runs = _runs(res, task, case, method)
+                cells.append(f"{sum(x['success'] for x in runs)}/{len(runs)}, "
+                             f"{_median_shown(_median_episodes(runs), _budget(r))}" if runs else "-")
+            if any(c != "-" for c in cells):
+                rows.append([_short(task), case, *cells])
+    return "\n".join([table(["task", "case", *[name for name, _, _ in ladder]], rows), "",
+                      "*Successes of 5 seeds, median episodes to a first success (\"> B\": half of the seeds or "
+                      f"more did not succeed within the budget B = {_budget(r)}).*", "",
+                      source(study, "method_study"), "", source(r, "peers")])

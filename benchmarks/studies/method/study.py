@@ -6,8 +6,8 @@ settings. Every candidate runs through the comparison's own code (``acnmp_core.e
 so its numbers are comparable with peers.json run for run.
 
 Usage:
-  python benchmarks/studies/method/study.py --candidates paper,linear --tasks e2-push,pusher \\
-      --cases extrapolation --seeds 0,1,2,3,4 --out benchmarks/studies/method/results/study.json
+  python benchmarks/studies/method/study.py                                  # both candidates, every task
+  python benchmarks/studies/method/study.py --candidates linear --tasks e2-push,pusher --cases extrapolation
   python benchmarks/studies/method/study.py --list        # the candidates and what each changes
 Runs already in --out are kept (the study resumes).
 """
@@ -30,16 +30,12 @@ from acnmp_core.experiments.peers.config import PeerRun  # noqa: E402
 from acnmp_core.experiments.peers.methods import Variant, acnmp_run  # noqa: E402
 from benchmarks._results import provenance, study_results  # noqa: E402
 
-#: candidate -> (the model's linear path and whether the network's parameters are clipped, AdaptConfig
-#: fields over the paper's method, what it is)
+#: candidate -> (the model's linear path, whether the network's conditions are clipped, AdaptConfig
+#: fields over the paper's method, what it is). The two ends of the ladder need no run of their own:
+#: the paper's method and the default are ``acnmp_paper`` and ``acnmp`` of the comparison of record.
 CANDIDATES = {
-    "paper": ("none", True, {}, "the paper's method: the CNMP alone, the paper's adaptation"),
-    "linear": ("linear", False, {}, "the CNMP with the demonstrations' linear path, the paper's adaptation"),
-    "linear_clip": ("linear", True, {}, "as linear, the network's task parameters clipped to the demonstrations' range"),
-    "linear_clip_mean_first": ("linear", True, {"mean_first": True}, "as linear_clip, every mean executed before its "
-                                                                     "iteration's noisy roll-outs"),
-    "linear_clip_demos": ("linear", True, {"mean_first": True, "noise": "demos"},
-                          "as linear_clip_mean_first, exploration along the demonstrations' differences"),
+    "linear": ("linear", False, {}, "the paper's method on the CNMP with the demonstrations' linear path"),
+    "linear_clip": ("linear", True, {}, "as linear, the network's conditions clipped to the demonstrations' ranges"),
 }
 
 
@@ -50,13 +46,13 @@ def variant(name: str) -> Variant:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--candidates", default=",".join(CANDIDATES), help="comma-separated candidates (--list)")
+    ap.add_argument("--candidates", default=",".join(CANDIDATES), help="comma-separated candidates (default: all; --list)")
     ap.add_argument("--tasks", default=",".join(TASK_NAMES), help="comma-separated tasks")
     ap.add_argument("--cases", default="extrapolation,interpolation", help="comma-separated cases (default: both)")
     ap.add_argument("--seeds", default="0,1,2,3,4", help="comma-separated seeds (default 0,1,2,3,4)")
     ap.add_argument("--budget", type=int, default=1000, help="episodes per run (default 1000, the comparison's)")
-    ap.add_argument("--out", default=str(study_results("method") / "study.json"),
-                    help="the result (default benchmarks/studies/method/results/study.json); its runs are kept")
+    ap.add_argument("--out", default=str(study_results("method") / "method_study.json"),
+                    help="the result (default benchmarks/studies/method/results/method_study.json); its runs are kept")
     ap.add_argument("--list", action="store_true", help="print the candidates and exit")
     args = ap.parse_args(argv)
     if args.list:
