@@ -31,6 +31,11 @@ def _budget(r: dict) -> int:
     return int(r["config"]["budget"])
 
 
+def _block(tbl: str, note: str, *sources: str) -> str:
+    """A table, its note in italics and the source lines."""
+    return "\n".join([tbl, "", f"*{note}*", "", *[x for s in sources for x in (s, "")]]).rstrip()
+
+
 @renderer("peers-verdict")
 def peers_verdict() -> str:
     """Issue 64's target on every task and case, the misses first: the default against the best
@@ -70,13 +75,13 @@ def peers_results() -> str:
                 rows.append([_short(task), case, PEER_LABELS[m], f"{sum(x['success'] for x in runs)}/{len(runs)}",
                              _median_shown(med, max(x["budget"] for x in runs)), ", ".join(x["shown"] for x in runs),
                              fmt(float(np.median([x["time_s"] for x in runs])))])
-    return "\n".join([table(["task", "case", "method", "success", "episodes (median)", "per seed (0, 1, ...)",
-                             "wall time (median, s)"], rows), "",
-                      "*Episodes: executed until the method's deterministic output first succeeded, evaluation "
-                      "episodes included; \"> B\": no success within the budget B (a median is \"> B\" when half of "
-                      f"the runs or more are). Budget: {_budget(r)} episodes for every adaptive method, one for LfD "
-                      "only. Wall time per run on the shared 2-core machine, without the CNMP's training.*", "",
-                      source(r, "peers")])
+    return _block(table(["task", "case", "method", "success", "episodes (median)", "per seed (0, 1, ...)",
+                         "wall time (median, s)"], rows),
+                  "Episodes: executed until the method's deterministic output first succeeded, evaluation "
+                  "episodes included; \"> B\": no success within the budget B (a median is \"> B\" when half of "
+                  f"the runs or more are). Budget: {_budget(r)} episodes for every adaptive method, one for LfD "
+                  "only. Wall time per run on the shared 2-core machine, without the CNMP's training.",
+                  source(r, "peers"))
 
 
 @renderer("peers-settings")
@@ -94,13 +99,13 @@ def peers_settings() -> str:
                      ", ".join(map(str, prior)) or "-",
                      "; ".join(f"{PEER_LABELS[m]}: {why}" for m, why in r["not_applicable"].get(task, {}).items()
                                if m in r["config"]["methods"]) or "-"])
-    return "\n".join([table(["task", "ProMP + CMA-ES bases (chosen)", "leave-one-out error per basis count",
-                             "default model's linear path: bases", "not applicable, and why"], rows), "",
-                      "*Both basis counts are chosen on the demonstrations alone: each held out in turn, the "
-                      "model of the others conditioned on its task parameters and start (E1, without task "
-                      "parameters: its start, middle and end), the error in units of each output's standard "
-                      "deviation; the smallest mean error wins. No test position enters the choice.*", "",
-                      source(r, "peers")])
+    return _block(table(["task", "ProMP + CMA-ES bases (chosen)", "leave-one-out error per basis count",
+                         "default model's linear path: bases", "not applicable, and why"], rows),
+                  "Both basis counts are chosen on the demonstrations alone: each held out in turn, the "
+                  "model of the others conditioned on its task parameters and start (E1, without task "
+                  "parameters: its start, middle and end), the error in units of each output's standard "
+                  "deviation; the smallest mean error wins. No test position enters the choice.",
+                  source(r, "peers"))
 
 
 @renderer("peers-study")
@@ -119,14 +124,13 @@ def peers_study() -> str:
             unit = "rad" if task in ("e2-push", "pusher") else "m"
             rows.append([_short(task), case, unit, path(cols["lfd"]), path(cols["lfd_paper"]), path(cols["promp_cma"]),
                          once(cols["lfd"]), once(cols["lfd_paper"]), once(cols["promp_cma"])])
-    return "\n".join([table(["task", "case", "unit", "default model to expert", "paper's CNMP to expert",
-                             "conditioned ProMP to expert", "default succeeds at once", "paper's CNMP at once",
-                             "ProMP + CMA-ES at once"], rows), "",
-                      "*Distances: root mean square over the steps of the distance between the trajectory each "
-                      "method starts from and the expert's own at the test condition (Meta-World: the hand's "
-                      "x, y, z; E1: the path of the extrapolated amplitude; E2: the held-out demonstration's "
-                      "joints; Pusher: the scripted expert's joints), medians over the seeds.*", "",
-                      source(r, "peers")])
+    return _block(table(["task", "case", "unit", "default model to expert", "paper's CNMP to expert",
+                         "conditioned ProMP to expert", "default succeeds at once", "paper's CNMP at once",
+                         "ProMP + CMA-ES at once"], rows),
+                  "Distances: root mean square over the steps of the distance between the trajectory each "
+                  "method starts from and the expert's own at the test condition (Meta-World: the hand's "
+                  "x, y, z; E1: the path of the extrapolated amplitude; E2: the held-out demonstration's "
+                  "joints; Pusher: the scripted expert's joints), medians over the seeds.", source(r, "peers"))
 
 
 @renderer("algorithm-summary")
@@ -146,8 +150,6 @@ def algorithm_summary() -> str:
 def _default_beside_paper(task: str) -> str:
     """An experiment page's block: on ``task`` of the comparison of record, the default method beside
     the paper's (LfD only and ACNMP of each), per case: successes, median episodes, per seed."""
-    from benchmarks.report_kit import renderers  # noqa: F401  (registered below)
-
     r = load("peers")
     rows = []
     for case in r["config"]["cases"]:
@@ -157,11 +159,10 @@ def _default_beside_paper(task: str) -> str:
                 rows.append([case, PEER_LABELS[m], f"{sum(x['success'] for x in runs)}/{len(runs)}",
                              _median_shown(_median_episodes(runs), max(x["budget"] for x in runs)),
                              ", ".join(x["shown"] for x in runs)])
-    return "\n".join([table(["case", "method", "success", "episodes (median)", "per seed (0, 1, ...)"], rows), "",
-                      f"*The comparison of record's runs on this task ([peers.md](peers.md), {len(r['config']['seeds'])} "
-                      "seeds, budget " + str(_budget(r)) + " episodes): the default method (the linear path beside "
-                      "the CNMP, each mean first; [ALGORITHM.md](../ALGORITHM.md)) beside the paper's.*", "",
-                      source(r, "peers")])
+    return _block(table(["case", "method", "success", "episodes (median)", "per seed (0, 1, ...)"], rows),
+                  f"The comparison of record's runs on this task ([peers.md](peers.md), {len(r['config']['seeds'])} "
+                  f"seeds, budget {_budget(r)} episodes): the default method (the linear path beside the CNMP, each "
+                  "mean first; [ALGORITHM.md](../ALGORITHM.md)) beside the paper's.", source(r, "peers"))
 
 
 def _register() -> None:
@@ -191,7 +192,6 @@ def method_study() -> str:
                              f"{_median_shown(_median_episodes(runs), _budget(r))}" if runs else "-")
             if any(c != "-" for c in cells):
                 rows.append([_short(task), case, *cells])
-    return "\n".join([table(["task", "case", *[name for name, _, _ in ladder]], rows), "",
-                      "*Successes of 5 seeds, median episodes to a first success (\"> B\": half of the seeds or "
-                      f"more did not succeed within the budget B = {_budget(r)}).*", "",
-                      source(study, "method_study"), "", source(r, "peers")])
+    return _block(table(["task", "case", *[name for name, _, _ in ladder]], rows),
+                  "Successes of 5 seeds, median episodes to a first success (\"> B\": half of the seeds or more did "
+                  f"not succeed within the budget B = {_budget(r)}).", source(study, "method_study"), source(r, "peers"))
