@@ -89,6 +89,9 @@ def source(result: dict, file: str) -> str:
     """One line naming the JSON file, its command (:func:`shown_command`) and commit."""
     p = result.get("provenance") or {}
     commit = (p.get("commit") or "unknown")[:10] + (" (dirty tree)" if p.get("dirty") else "")
+    made = {((part.get("provenance") or {}).get("commit") or "unknown")[:10] for part in result.get("parts", [])}
+    if made:  # a merge of parts run side by side: where the numbers were made
+        commit += f", its parts made at {', '.join(sorted(made))}"
     return f"*From `{where(file)}`: `{shown_command(p.get('command', '?'))}` at commit {commit}, " \
            f"{result.get('wall_time_s', float('nan')):.0f} s on {p.get('machine', {}).get('cpu_count', '?')} cores.*"
 
