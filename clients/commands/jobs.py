@@ -46,6 +46,9 @@ def add_job_commands(sub) -> None:
     train.add_argument("--steps", type=int_at_least(1), default=None, metavar="N",
                        help="training steps (default: the learner's TrainConfig, 5000)")
     train.add_argument("--seed", type=int_at_least(0), default=0, help="training seed (default 0)")
+    train.add_argument("--prior", choices=("linear", "none"), default=None,
+                       help="the model: linear (the default) the demonstrations' linear path beside the CNMP, "
+                            "none the paper's CNMP alone (docs/ALGORITHM.md)")
     train.set_defaults(func=_run_train)
 
     adapt = sub.add_parser("adapt", help="queue an adaptation job (RL with simultaneous SL) on a skill",
@@ -66,6 +69,9 @@ def add_job_commands(sub) -> None:
     adapt.add_argument("--budget", type=int_at_least(1), default=None, metavar="N",
                        help="roll-out budget (default: AdaptConfig's, 200)")
     adapt.add_argument("--seed", type=int_at_least(0), default=0, help="exploration seed (default 0)")
+    adapt.add_argument("--paper", action="store_true",
+                       help="the paper's adaptation (AdaptConfig.paper(): each iteration's mean and noisy roll-outs "
+                            "as one batch) instead of the default (each mean first; docs/ALGORITHM.md)")
     adapt.add_argument("--commit", action="store_true",
                        help="assimilate a successful solution into the skill (a new version is served)")
     adapt.add_argument("--watch", action="store_true", help="follow the job until it ends (as `watch`)")
@@ -111,6 +117,8 @@ def _run_train(args) -> int:
     options = {"seed": args.seed}
     if args.steps is not None:
         options["train"] = {"steps": args.steps}
+    if args.prior is not None:
+        options["model"] = {"prior": args.prior}
     for key in ("value_names", "task_param_names"):
         names = getattr(arrays, key)
         if names is not None:
@@ -143,7 +151,8 @@ def _adapt_job(args, client):
         raise ValueError(f"--task-config: not JSON ({exc})") from None
     if not isinstance(task_config, dict):
         raise ValueError("--task-config: expected a JSON object")
-    config = AdaptConfig() if args.budget is None else AdaptConfig(max_rollouts=args.budget)
+    make = AdaptConfig.paper if args.paper else AdaptConfig
+    config = make() if args.budget is None else make(max_rollouts=args.budget)
     target = AdaptTarget(times, values, _floats(args.task_params, "--task-params"), query_times,
                          None if mask.all() else mask)
     return skill, AdaptJob(target, args.task, args.robot, task_config, config, args.seed, args.commit)

@@ -22,15 +22,16 @@ def test_a_skill_is_trained_adapted_listed_and_watched_from_the_shell(tmp_path, 
     tg = setup.target
     with LocalDeployment(NS, workers=1, state_dir=tmp_path / "state") as dep:
         conn = ("-n", NS, "--connect", dep.anchor)
+        # the paper's CNMP and adaptation (--prior none, --paper): its mean misses the via-point, so it adapts
         code, out, err = run_cli("query", "train", "--skill", "e1", "--demos", str(demos), "--steps", "300",
-                             *conn)
+                                 "--prior", "none", *conn)
         assert code == 0, err
         assert out.startswith("skill e1 version 0: trained on 6 demonstrations")
 
         obs = [f"--obs={t}:{x},{y}" for t, (x, y) in zip(tg.obs_times, tg.obs_values)]
         code, out, err = run_cli("query", "adapt", "--skill", "e1", "--task", "viapoint", *obs,
-                             "--task-config", json.dumps(setup.task_config), "--budget", "30", "--commit",
-                             "--watch", *conn)
+                                 "--task-config", json.dumps(setup.task_config), "--budget", "30", "--commit",
+                                 "--paper", "--watch", *conn)
         assert code in (0, 1), err  # done -> 0; the outcome line says what happened either way
         job = out.split()[1]
         assert out.splitlines()[0] == (f"job {job} queued on skill e1 (viapoint on point2d, budget 30 roll-outs)")
@@ -41,7 +42,9 @@ def test_a_skill_is_trained_adapted_listed_and_watched_from_the_shell(tmp_path, 
         with ACNMPClient(NS, session=dep.session, timeout=10) as client:
             (row,) = client.jobs()
             status = client.job_status(job)
+            assert client.info("e1")["config"]["prior"] == "none"
         assert isinstance(row, JobSummary) and row.job == job and row.state == "done" and row.budget == 30
+        assert row.rollouts > 1 and row.rollouts % 5 == 0  # the paper's accounting: means and noisy ones in fives
         assert row.rollouts == status["result"]["rollouts"] and row.success == status["result"]["success"]
         assert row.task == "viapoint" and row.robot == "point2d" and row.created <= row.updated
 
