@@ -92,8 +92,9 @@ def source(result: dict, file: str) -> str:
     made = {((part.get("provenance") or {}).get("commit") or "unknown")[:10] for part in result.get("parts", [])}
     if made:  # a merge of parts run side by side: where the numbers were made
         commit += f", its parts made at {', '.join(sorted(made))}"
+    took = f"{result['wall_time_s']:.0f} s " if result.get("wall_time_s") is not None else ""
     return f"*From `{where(file)}`: `{shown_command(p.get('command', '?'))}` at commit {commit}, " \
-           f"{result.get('wall_time_s', float('nan')):.0f} s on {p.get('machine', {}).get('cpu_count', '?')} cores.*"
+           f"{took}on {p.get('machine', {}).get('cpu_count', '?')} cores.*"
 
 
 def fmt(x, digits: int = 3) -> str:
