@@ -237,7 +237,9 @@ def peers_verdicts(result: dict, method: str = "acnmp") -> list[dict]:
         for case in result["config"]["cases"]:
             runs = [r for r in result["runs"] if (r["task"], r["case"]) == (task, case)]
             mine = [r for r in runs if r["method"] == method]
-            peers = {m: [r for r in runs if r["method"] == m] for m in {r["method"] for r in runs} - set(PEERS_OWN)}
+            # in the result's order of methods, so that a tie names the same peer on every run
+            peers = {m: [r for r in runs if r["method"] == m] for m in result["config"]["methods"]
+                     if m not in PEERS_OWN and any(r["method"] == m for r in runs)}
             if not mine or not peers:
                 continue
             by_s = max(peers, key=lambda m: (sum(r["success"] for r in peers[m]), -_median_episodes(peers[m])))
