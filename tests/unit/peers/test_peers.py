@@ -306,8 +306,8 @@ def test_the_default_meets_its_target_with_as_many_successes_and_a_median_no_lar
     from clients.experiments.targets import peers_verdicts
 
     def runs(task, method, episodes):
-        return [dict(task=task, case="extrapolation", method=method, seed=i, episodes=e or 1000, success=e is not None)
-                for i, e in enumerate(episodes)]
+        return [dict(task=task, case="extrapolation", method=method, seed=i, params=[], episodes=e or 1000,
+                     success=e is not None, budget=1000, time_s=0.0) for i, e in enumerate(episodes)]
 
     result = {"config": {"tasks": ["a", "b", "c", "d"], "cases": ["extrapolation"],
                          "methods": ["acnmp", "acnmp_paper", "promp_cma", "ppo_bc"]},
