@@ -92,20 +92,26 @@ def check(name: str, results: Path = RESULTS) -> Stale | None:
     path = results / f"{name}.json"
     if not path.exists():
         return Stale(name, "no result file", "")
-    p = json.loads(path.read_text()).get("provenance") or {}
-    command, commit = p.get("command", ""), p.get("commit")
-    if not commit or _git("merge-base", "--is-ancestor", commit, "HEAD").returncode != 0:
-        return Stale(name, f"made at commit {commit or 'unknown'}, which this checkout does not descend from", command)
+    result = json.loads(path.read_text())
+    p = result.get("provenance") or {}
+    command = p.get("command", "")
+    # a merge of parts run side by side (peers.py --merge) is as old as its parts' code, not its own commit
+    commits = [p.get("commit")] + [(part.get("provenance") or {}).get("commit") for part in result.get("parts", [])]
+    for commit in commits:
+        if not commit or _git("merge-base", "--is-ancestor", commit, "HEAD").returncode != 0:
+            return Stale(name, f"made at commit {commit or 'unknown'}, which this checkout does not descend from",
+                         command)
     outside = outside_paths(command)
     if outside:
         return Stale(name, f"its command names files outside the repository ({', '.join(outside)})", command)
     script = script_of(command)
     if script is None or not (ROOT / script).exists():
         return Stale(name, f"its command's script {script or '(none)'} is not in the repository", command)
-    changed = _git("diff", "--name-only", commit, "HEAD", "--", *code_of(script)).stdout.split()
-    if changed:
-        return Stale(name, f"made at {commit[:10]}; its code changed since: {', '.join(changed[:6])}"
-                           + (f" and {len(changed) - 6} more" if len(changed) > 6 else ""), command)
+    for commit in dict.fromkeys(commits):
+        changed = _git("diff", "--name-only", commit, "HEAD", "--", *code_of(script)).stdout.split()
+        if changed:
+            return Stale(name, f"made at {commit[:10]}; its code changed since: {', '.join(changed[:6])}"
+                               + (f" and {len(changed) - 6} more" if len(changed) > 6 else ""), command)
     return None
 
 

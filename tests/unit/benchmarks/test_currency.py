@@ -47,3 +47,8 @@ def test_a_result_is_stale_after_its_code_changes_or_when_its_command_cannot_be_
     assert "outside the repository" in result("scratch", "benchmarks/experiments/e2_push.py --out /tmp/x.json", head).why
     assert "does not descend" in result("foreign", "benchmarks/experiments/e2_push.py", "0" * 40).why
     assert currency.check("missing", tmp_path).why == "no result file"
+    # a merge made at HEAD of parts made before its code changed is as old as its parts
+    (tmp_path / "merged.json").write_text(json.dumps({"provenance": {"command": "benchmarks/experiments/peers.py",
+                                                                     "commit": head},
+                                                      "parts": [{"provenance": {"commit": first}}]}))
+    assert "changed since" in currency.check("merged", tmp_path).why
