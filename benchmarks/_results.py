@@ -13,7 +13,8 @@ sys.path.insert(0, str(ROOT))
 from clients.experiments.common import add_run_arguments, seed_list  # noqa: E402
 from clients.provenance import provenance  # noqa: E402
 
-__all__ = ["RESULTS", "ROOT", "benchmark_args", "provenance", "main_provenance", "save_result", "start_run", "study_results"]
+__all__ = ["RESULTS", "ROOT", "benchmark_args", "development_seeds", "provenance", "main_provenance", "save_result",
+           "start_run", "study_results"]
 
 #: What README and docs/ publish (and the regression pins): the product's results.
 RESULTS = ROOT / "benchmarks" / "results"
@@ -23,6 +24,22 @@ def study_results(study: str) -> Path:
     """The folder of a study's own JSON and figures, beside its notes and scripts:
     ``benchmarks/studies/<study>/results/``."""
     return ROOT / "benchmarks" / "studies" / study / "results"
+
+
+def development_seeds(text: str) -> tuple[int, ...]:
+    """An argparse type for a study of the comparison's tasks: comma-separated seeds, refused when
+    one is a report seed (:func:`acnmp_core.experiments.peers.config.check_development_seeds`)."""
+    from acnmp_core.errors import InputError
+    from acnmp_core.experiments.peers.config import check_development_seeds
+
+    try:
+        seeds = [int(s) for s in text.split(",") if s.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected comma-separated integers, got {text!r}") from None
+    try:
+        return check_development_seeds(seeds, "--seeds")
+    except InputError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def benchmark_args(doc: str, name: str, argv: list[str] | None, *, results: Path = RESULTS,

@@ -163,17 +163,38 @@ def condition_marks(n_steps: int, n_task_params: int) -> list[int]:
     return [0] if n_task_params else [0, n_steps // 2, n_steps - 1]
 
 
+#: an output whose standard deviation over the demonstrations is below this fraction of its largest
+#: magnitude (plus this, absolutely) is constant: it carries nothing to hold out
+CONSTANT_OUTPUT = 1e-9
+
+
+def varying_outputs(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The outputs of demonstrations ``values`` (N, T, D) that vary (a bool mask (D,)) and their
+    standard deviations (D,). A constant output (a gripper held closed) has a spread of rounding
+    noise: dividing by it would turn the noise into errors of any size."""
+    flat = values.reshape(-1, values.shape[-1])
+    std = flat.std(axis=0)
+    return std > CONSTANT_OUTPUT * (1.0 + np.abs(flat).max(axis=0)), std
+
+
 def leave_one_out(values: np.ndarray, task_params: np.ndarray,
-                  predict: Callable[[list[int], int, list[int]], np.ndarray]) -> float:
-    """Mean over the N demonstrations (values (N, T, D), task parameters (N, P)) of the RMS error of
-    ``predict(rest, k, marks)`` -- a model of demonstrations ``rest`` conditioned on demonstration
-    ``k``'s task parameters and its rows ``marks`` (:func:`condition_marks`), (T, D) -- against
-    demonstration ``k``, in units of each output's standard deviation over the demonstrations."""
+                  predict: Callable[[list[int], int, list[int]], np.ndarray],
+                  held_out: Sequence[int] | None = None) -> float:
+    """Mean over the held-out demonstrations (default all N; values (N, T, D), task parameters
+    (N, P)) of the RMS error of ``predict(rest, k, marks)`` -- a model of demonstrations ``rest``
+    conditioned on demonstration ``k``'s task parameters and its rows ``marks``
+    (:func:`condition_marks`), (T, D) -- against demonstration ``k``, in units of each output's
+    standard deviation over the demonstrations. Outputs that do not vary (:func:`varying_outputs`)
+    are left out; with none varying the error is 0."""
     n, t_len, _ = values.shape
-    scale = np.maximum(values.reshape(-1, values.shape[2]).std(axis=0), 1e-12)
+    varying, std = varying_outputs(values)
+    if not varying.any():
+        return 0.0
     marks = condition_marks(t_len, task_params.shape[1])
-    errs = [np.sqrt(np.mean(((predict([i for i in range(n) if i != k], k, marks) - values[k]) / scale) ** 2))
-            for k in range(n)]
+    ks = range(n) if held_out is None else held_out
+    errs = [np.sqrt(np.mean((((predict([i for i in range(n) if i != k], k, marks) - values[k]) / np.where(varying, std, 1.0))
+                             [:, varying]) ** 2))
+            for k in ks]
     return float(np.mean(errs))
 
 

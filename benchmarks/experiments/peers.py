@@ -1,9 +1,12 @@
 """The comparison of record: ACNMP (the product's default and the paper's method) beside LfD only,
-ProMP + RL, black-box ProMP + CMA-ES (basis count chosen on the demonstrations, and fancy_gym's 5)
-and stable-baselines3 PPO + BC on Meta-World's reach, push, pick-place, window-open and
-button-press, the paper's E1 and E2, and Gymnasium's Pusher-v5; PPO and SAC + BC on reach.
+ProMP + RL, black-box ProMP + CMA-ES (basis count chosen on the demonstrations, and fancy_gym's 5;
+on E2 also on ACNMP's dense reward) and stable-baselines3 PPO + BC on Meta-World's reach, push,
+pick-place, window-open and button-press, the paper's E1, E2 and E3, Gymnasium's Pusher-v5 and two
+path families that bend with their condition; SAC + BC on reach.
 
-Writes benchmarks/results/peers.json (provenance, the result of ``run_peers``) and peers.png.
+Seeds: the report seeds 5-14 (10 test positions per task and case), which no study, test or
+tuning runs; the stable-baselines3 methods on 5-9 (minutes a run; docs/experiments/peers.md says
+why). Writes benchmarks/results/peers.json (provenance, the result of ``run_peers``) and peers.png.
 
 Usage:
   python benchmarks/experiments/peers.py                       # the whole plan, one process
@@ -12,8 +15,9 @@ Usage:
 
 The sizes are the library's defaults (the same as ``acnmp experiment peers``). The result is written
 after every run, so a stopped run is usable (its ``not_run`` lists what is missing) and ``--resume``
-continues it. Parts made by processes side by side (``--part K/N``: the plan's tasks dealt out in
-turn) are merged only when they were made at one commit.
+continues it at the commit its runs were made at (another commit is refused). Parts made by
+processes side by side (``--part K/N``: the plan's tasks dealt out in turn) are merged only when
+they were made at one commit.
 """
 from __future__ import annotations
 
@@ -28,15 +32,18 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 from acnmp_core.errors import InputError  # noqa: E402
-from acnmp_core.experiments.peers import (CASES, STEP_BASED_METHODS, TASK_NAMES, TRAJECTORY_METHODS,  # noqa: E402
-                                          PeersConfig, merge_results, plot_peers, run_line, run_peers)
+from acnmp_core.experiments.peers import (CASES, REPORT_SEEDS, STEP_BASED_METHODS, TASK_NAMES,  # noqa: E402
+                                          TRAJECTORY_METHODS, PeersConfig, merge_results, plot_peers, run_line,
+                                          run_peers)
 from benchmarks._results import RESULTS, provenance, save_result  # noqa: E402
 
 OUT = RESULTS / "peers.json"
 #: the methods of record: every trajectory method and PPO + BC everywhere it applies ...
 METHODS = TRAJECTORY_METHODS + ("ppo_bc",)
-#: ... and SB3 from scratch and SAC + BC where they were measured before (reach; module docstring)
-EXTRA = {"metaworld-reach": ("ppo", "sac_bc")}
+#: ... and SAC + BC where it was measured before (reach; SB3 from scratch needs thousands of episodes)
+EXTRA = {"metaworld-reach": ("sac_bc",)}
+#: the stable-baselines3 methods run on the first half of the report seeds (minutes a run)
+STEP_BASED_SEEDS = REPORT_SEEDS[:5]
 
 
 def _names(text: str) -> tuple[str, ...]:
@@ -62,11 +69,20 @@ def _part(text: str) -> tuple[int, int]:
 
 def configs(tasks: tuple[str, ...], methods: tuple[str, ...], seeds: tuple[int, ...],
             cases: tuple[str, ...]) -> list[PeersConfig]:
-    """The plan as configs: ``methods`` on every task, and the extra SB3 methods on their task."""
-    out = [PeersConfig(tasks=tasks, methods=methods, seeds=seeds, cases=cases)]
+    """The plan as configs: the trajectory ``methods`` on every task and ``seeds``; the SB3 ones
+    among them on the seeds of :data:`STEP_BASED_SEEDS` that are in ``seeds`` (all of ``seeds``
+    when none is); the extra SB3 methods on their task."""
+    traj = tuple(m for m in methods if m not in STEP_BASED_METHODS)
+    steps = tuple(m for m in methods if m in STEP_BASED_METHODS)
+    sb3_seeds = tuple(s for s in seeds if s in STEP_BASED_SEEDS) or seeds
+    out = [PeersConfig(tasks=tasks, methods=traj, seeds=seeds, cases=cases)] if traj else []
+    if steps:
+        out.append(PeersConfig(tasks=tasks, methods=steps, seeds=sb3_seeds, cases=cases))
     for task, extra in EXTRA.items():
         if task in tasks and (more := tuple(m for m in extra if m in STEP_BASED_METHODS and m not in methods)):
-            out.append(PeersConfig(tasks=(task,), methods=more, seeds=seeds, cases=("extrapolation",)))
+            out.append(PeersConfig(tasks=(task,), methods=more, seeds=sb3_seeds, cases=("extrapolation",)))
+    if not out:
+        raise InputError("methods: expected at least one")
     return out
 
 
@@ -77,8 +93,9 @@ def main(argv: list[str] | None = None) -> int:
                     help=f"comma-separated tasks (default: all: {','.join(TASK_NAMES)})")
     ap.add_argument("--methods", type=_names, default=METHODS, metavar="M,..",
                     help=f"comma-separated methods (default: {','.join(METHODS)}, and {EXTRA} there)")
-    ap.add_argument("--seeds", type=_seeds, default=(0, 1, 2, 3, 4), metavar="S,..",
-                    help="comma-separated seeds (default 0,1,2,3,4)")
+    ap.add_argument("--seeds", type=_seeds, default=REPORT_SEEDS, metavar="S,..",
+                    help="comma-separated seeds (default: the report seeds "
+                         f"{REPORT_SEEDS[0]}-{REPORT_SEEDS[-1]}; SB3 on {STEP_BASED_SEEDS[0]}-{STEP_BASED_SEEDS[-1]})")
     ap.add_argument("--cases", type=_names, default=CASES, metavar="C,..",
                     help=f"comma-separated cases (default: both: {','.join(CASES)})")
     ap.add_argument("--part", type=_part, default=None, metavar="K/N",
@@ -108,11 +125,15 @@ def main(argv: list[str] | None = None) -> int:
     except InputError as exc:
         ap.error(str(exc))
     meta = provenance()
+    commit = f"{meta['commit']}{'-dirty' if meta.get('dirty') else ''}"
     results = []
     for i, config in enumerate(plans):
         out = args.out if i == 0 else f"{args.out}.part{i}"
-        results.append(run_peers(config, out=out, resume=args.resume, header={"provenance": meta},
-                                 on_run=lambda r: print(run_line(r), flush=True)))
+        try:
+            results.append(run_peers(config, out=out, resume=args.resume, header={"provenance": meta},
+                                     on_run=lambda r: print(run_line(r), flush=True), commit=commit))
+        except InputError as exc:
+            ap.error(str(exc))
     result = results[0] if len(results) == 1 else merge_results(results, {"provenance": meta})
     for i in range(1, len(plans)):
         Path(f"{args.out}.part{i}").unlink(missing_ok=True)

@@ -9,27 +9,55 @@ from ...errors import InputError
 
 #: the methods that execute whole trajectories: LfD only (the product's model and the paper's
 #: CNMP), ACNMP (the product's default and the paper's method), ProMP + RL, ProMP + CMA-ES (the
-#: basis count chosen on the demonstrations, and fancy_gym's 5)
-TRAJECTORY_METHODS = ("lfd", "lfd_paper", "acnmp", "acnmp_paper", "promp_rl", "promp_cma", "promp_cma5")
+#: basis count chosen on the demonstrations, and fancy_gym's 5), and the ProMP methods on the dense
+#: reward where a task gives them another one by default (E2: :data:`DENSE_METHODS`)
+TRAJECTORY_METHODS = ("lfd", "lfd_paper", "acnmp", "acnmp_paper", "promp_rl", "promp_cma", "promp_cma5",
+                      "promp_rl_dense", "promp_cma_dense", "promp_cma5_dense")
+#: the ProMP methods given the reward ACNMP adapts on where their own differs (E2's final distance
+#: against its time-averaged distance): the same information for every method
+DENSE_METHODS = ("promp_rl_dense", "promp_cma_dense", "promp_cma5_dense")
 #: the step-based methods (stable-baselines3), warm-started by behaviour cloning or from scratch
 STEP_BASED_METHODS = ("ppo_bc", "ppo", "sac_bc", "sac")
 METHODS = TRAJECTORY_METHODS + STEP_BASED_METHODS
+#: ACNMP's own methods and LfD only: the rest are its peers
+OWN_METHODS = ("lfd", "lfd_paper", "acnmp", "acnmp_paper")
 CASES = ("extrapolation", "interpolation")
 #: the episode budget of every adaptive method per test position (LfD only executes one)
 BUDGET = 1000
 #: CNMP training steps (the project's default)
 TRAIN_STEPS = 3000
-#: the names of E1's, E2's and the Pusher's tasks (their classes: :mod:`.tasks`)
-E1_TASK, E2_TASK, PUSHER_TASK = "e1-viapoint", "e2-push", "pusher"
+#: the names of E1's, E2's, E3's and the Pusher's tasks (their classes: :mod:`.tasks`)
+E1_TASK, E2_TASK, E3_TASK, PUSHER_TASK = "e1-viapoint", "e2-push", "e3-wall", "pusher"
+#: the path families whose demonstrations bend with their condition (:mod:`acnmp_core.tasks.families`)
+FAMILY_TASKS = ("bump", "arc")
+#: the tasks whose demonstrations are not linear in their conditions (the linear path's held-out
+#: error on them: benchmarks/studies/method/README.md)
+NON_LINEAR_TASKS = (E2_TASK, E3_TASK) + FAMILY_TASKS
+#: the seeds every choice of a method, its settings and its peers' settings is made on
+DEVELOPMENT_SEEDS = (0, 1, 2, 3, 4)
+#: the seeds the comparison of record reports: no study, test or tuning runs them
+REPORT_SEEDS = tuple(range(5, 15))
+
+
+def check_development_seeds(seeds, what: str) -> tuple[int, ...]:
+    """``seeds`` as a tuple if none is a report seed (:data:`REPORT_SEEDS`), else InputError naming
+    ``what`` (a study, a setting) and the report seeds it names: they belong to the run of record."""
+    seeds = tuple(int(s) for s in seeds)
+    bad = sorted(set(seeds) & set(REPORT_SEEDS))
+    if bad:
+        raise InputError(f"{what}: seeds {', '.join(map(str, bad))} are report seeds, run by the comparison of "
+                         f"record alone; choose on the development seeds {DEVELOPMENT_SEEDS[0]}-{DEVELOPMENT_SEEDS[-1]}")
+    return seeds
 
 
 def _task_names() -> tuple[str, ...]:
     from ...tasks.metaworld.scene import TASKS
 
-    return tuple(TASKS) + (E1_TASK, E2_TASK, PUSHER_TASK)
+    return tuple(TASKS) + (E1_TASK, E2_TASK, E3_TASK, PUSHER_TASK) + FAMILY_TASKS
 
 
-#: every task's name, in the order of the results: Meta-World's, then E1, E2 and the Pusher
+#: every task's name, in the order of the results: Meta-World's, then E1, E2, E3, the Pusher and
+#: the path families
 TASK_NAMES = _task_names()
 #: the libraries whose versions the result records
 LIBRARIES = ("metaworld", "mujoco", "gymnasium", "pybullet", "stable-baselines3", "mp-pytorch", "cma", "torch",
@@ -41,7 +69,8 @@ class PeersConfig:
     """What :func:`~acnmp_core.experiments.peers.run.run_peers` runs.
 
     tasks : among :data:`TASK_NAMES`. methods : among
-    :data:`METHODS`. seeds : one CNMP (per model kind) and one test position per case each. cases :
+    :data:`METHODS`. seeds : one CNMP (per model kind) and one test position per case each (default:
+    the development seeds; the comparison of record runs :data:`REPORT_SEEDS`). cases :
     among :data:`CASES` (a task runs those that apply to it). train_steps : CNMP training. budget :
     episodes per test position of every adaptive method. eval_every : SB3 training episodes between
     two evaluations of the deterministic policy. bc_steps : behaviour cloning's Adam steps.
@@ -49,7 +78,7 @@ class PeersConfig:
 
     tasks: tuple[str, ...]
     methods: tuple[str, ...] = TRAJECTORY_METHODS
-    seeds: tuple[int, ...] = (0, 1, 2, 3, 4)
+    seeds: tuple[int, ...] = DEVELOPMENT_SEEDS
     cases: tuple[str, ...] = CASES
     train_steps: int = TRAIN_STEPS
     budget: int = BUDGET
@@ -93,6 +122,15 @@ class PeerRun:
     budget: int
     time_s: float
     details: dict = field(default_factory=dict)
+    wall_s: float | None = None
+    commit: str | None = None
+
+    @property
+    def whole_wall_s(self) -> float:
+        """:attr:`wall_s`, or for a run that did not record it its time and its model's training."""
+        if self.wall_s is not None:
+            return float(self.wall_s)
+        return float(self.time_s) + float(self.details.get("train_s") or 0.0)
 
     @property
     def censored(self) -> bool:
@@ -109,11 +147,18 @@ class PeerRun:
     @classmethod
     def from_json(cls, d: dict) -> "PeerRun":
         return cls(**{k: d[k] for k in ("task", "method", "seed", "case", "params", "episodes", "success",
-                                        "budget", "time_s")}, details=d.get("details", {}))
+                                        "budget", "time_s")}, details=d.get("details", {}), wall_s=d.get("wall_s"),
+                   commit=d.get("commit"))
 
     @property
     def key(self) -> tuple:
         return (self.task, self.method, self.seed, self.case)
+
+
+def mean_episodes(runs: list[PeerRun]) -> tuple[float, bool]:
+    """The mean episodes of ``runs`` and whether it is a lower bound: a censored run counts the
+    episodes it executed (its budget), which its first success would exceed."""
+    return float(np.mean([r.episodes for r in runs])), any(r.censored for r in runs)
 
 
 def median_episodes(runs: list[PeerRun]) -> float:

@@ -93,8 +93,9 @@ def acnmp_run(task: PeerTask, config: PeersConfig, seed: int, case: str, method:
                    bool(r["success"]), budget, round(time.perf_counter() - t0, 2), details)
 
 
-def promp_rl_run(task: PeerTask, config: PeersConfig, seed: int, case: str) -> PeerRun:
-    """The project's adaptive ProMP + REPS (E2's settings) from the demonstration nearest in task parameters."""
+def promp_rl_run(task: PeerTask, config: PeersConfig, seed: int, case: str, method: str = "promp_rl") -> PeerRun:
+    """The project's adaptive ProMP + REPS (E2's settings) from the demonstration nearest in task
+    parameters, on ``method``'s reward (``promp_rl`` or its dense twin)."""
     from dataclasses import replace
 
     from ...baselines.promp_rl import PrompRLConfig
@@ -105,17 +106,18 @@ def promp_rl_run(task: PeerTask, config: PeersConfig, seed: int, case: str) -> P
                       q0=task.q0, n_joints=a.values.shape[2], demo_arrays=a)
     cfg = replace(PrompRLConfig(**{**PROMP_DEFAULTS, "max_rollouts": config.budget}), seed=seed)
     t0 = time.perf_counter()
-    r = run_promp_case(setup, case, task.evaluator("promp_rl"), cfg)
-    return PeerRun(task.name, "promp_rl", seed, case, task.params(seed, case).tolist(), int(r["rollouts"]),
+    r = run_promp_case(setup, case, task.evaluator(method), cfg)
+    return PeerRun(task.name, method, seed, case, task.params(seed, case).tolist(), int(r["rollouts"]),
                    bool(r["success"]), config.budget, round(time.perf_counter() - t0, 2),
                    {"final_error": r["final_error"], "lfd_error": r["lfd_error"], "curve": r["curve"]})
 
 
 def promp_cma_run(task: PeerTask, config: PeersConfig, seed: int, case: str, method: str) -> PeerRun:
-    """Black-box ProMP + CMA-ES with the task's chosen basis count (``promp_cma``) or fancy_gym's 5."""
+    """Black-box ProMP + CMA-ES with the task's chosen basis count (``promp_cma``) or fancy_gym's 5
+    (``promp_cma5``), or their dense-reward twins."""
     from ...peers.black_box import N_BASIS, BlackBoxConfig, DemoProMP, run_black_box
 
-    n_basis = task.cma_basis if method == "promp_cma" else N_BASIS
+    n_basis = task.cma_basis if method.removesuffix("_dense") == "promp_cma" else N_BASIS
     a, target = task.arrays, task.target(seed, case)
     t0 = time.perf_counter()
     promp = DemoProMP(task.times, a.values, a.task_params, n_basis)
@@ -151,8 +153,8 @@ def run_method(task: PeerTask, config: PeersConfig, seed: int, case: str, method
     """``method`` on ``task`` at ``seed``'s ``case`` (``state`` keeps the seed's trained models)."""
     if method in VARIANTS or method in LFD_OF:
         return acnmp_run(task, config, seed, case, method, state)
-    if method == "promp_rl":
-        return promp_rl_run(task, config, seed, case)
-    if method in ("promp_cma", "promp_cma5"):
+    if method.removesuffix("_dense") == "promp_rl":
+        return promp_rl_run(task, config, seed, case, method)
+    if method.removesuffix("_dense") in ("promp_cma", "promp_cma5"):
         return promp_cma_run(task, config, seed, case, method)
     return step_based_run(task, config, seed, case, method)

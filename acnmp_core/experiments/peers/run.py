@@ -11,8 +11,8 @@ from typing import Callable
 import numpy as np
 
 from ...errors import InputError
-from .config import (CASES, METHODS, STEP_BASED_METHODS, TASK_NAMES, TRAJECTORY_METHODS, PeerRun, PeersConfig,
-                     library_versions, median_episodes)
+from .config import (CASES, FAMILY_TASKS, METHODS, STEP_BASED_METHODS, TASK_NAMES, TRAJECTORY_METHODS, PeerRun, PeersConfig,
+                     library_versions, mean_episodes, median_episodes)
 from .tasks import PeerTask, peer_task
 
 Item = tuple[str, int, str, str]  # (task, seed, case, method)
@@ -34,9 +34,11 @@ def plan(config: PeersConfig, not_applicable: Callable[[str], dict[str, str]] | 
 
 
 def _task_class(name: str) -> type[PeerTask]:
-    from .tasks import MetaWorldPeer, PushPeer, PusherPeer, ViaPointPeer
+    from .tasks import FamilyPeer, HolePeer, MetaWorldPeer, PushPeer, PusherPeer, ViaPointPeer
 
-    return {c.name: c for c in (ViaPointPeer, PushPeer, PusherPeer)}.get(name, MetaWorldPeer)
+    if name in FAMILY_TASKS:
+        return FamilyPeer
+    return {c.name: c for c in (ViaPointPeer, PushPeer, PusherPeer, HolePeer)}.get(name, MetaWorldPeer)
 
 
 def _cases(name: str) -> tuple[str, ...]:
@@ -44,12 +46,13 @@ def _cases(name: str) -> tuple[str, ...]:
 
 
 def _not_applicable(name: str) -> dict[str, str]:
-    return dict(_task_class(name).not_applicable)
+    return _task_class(name).inapplicable()
 
 
 def summarise(runs: list[PeerRun]) -> dict:
     """Per task, case and method: ``runs``, ``successes``, ``median_episodes`` (None when half of the
     runs or more are censored: the median is then beyond the budget, ``median_shown`` "> budget"),
+    ``mean_episodes`` (a censored run counting its budget: then ``mean_is_lower_bound``),
     ``median_time_s``, ``budget`` (the largest), ``seeds``."""
     out: dict = {}
     for r in runs:
@@ -59,11 +62,13 @@ def summarise(runs: list[PeerRun]) -> dict:
         for case, methods in cases.items():
             for method, rs in methods.items():
                 median = median_episodes(rs)
+                mean, censored = mean_episodes(rs)
                 budget = max(r.budget for r in rs)
                 summary.setdefault(task, {}).setdefault(case, {})[method] = {
                     "runs": len(rs), "successes": int(sum(r.success for r in rs)),
                     "median_episodes": None if not np.isfinite(median) else median,
                     "median_shown": f"> {budget}" if not np.isfinite(median) else f"{median:g}",
+                    "mean_episodes": round(mean, 2), "mean_is_lower_bound": censored,
                     "median_time_s": float(np.median([r.time_s for r in rs])), "budget": budget,
                     "seeds": [r.seed for r in rs]}
     return summary
@@ -97,29 +102,31 @@ def run_peers(config: PeersConfig, *, out: str | Path | None = None, resume: boo
               header: dict | None = None, on_run: Callable[[PeerRun], None] | None = None,
               progress: bool = False,
               run_method: Callable[[PeerTask, PeersConfig, int, str, str, dict], PeerRun] | None = None,
-              make_task: Callable[[str], PeerTask] = peer_task) -> dict:
+              make_task: Callable[[str], PeerTask] = peer_task, commit: str | None = None) -> dict:
     """Run :func:`plan`'s runs and return the JSON-ready result: ``experiment`` "peers", ``config``,
     ``versions`` (:func:`~.config.library_versions`), ``not_applicable`` (per task: method -> why),
     ``settings`` (per task, what was chosen on the demonstrations), ``runs`` (:class:`PeerRun` as
     JSON, with ``censored`` and ``shown``), ``summary`` (:func:`summarise`), ``not_run`` (the
-    planned runs missing), ``wall_time_s``.
+    planned runs missing), ``wall_time_s``: the sum of every run's whole wall time
+    (:attr:`PeerRun.whole_wall_s`: its training and its task's set-up included), the resumed runs' too.
 
     out : the result is written there after every run (and at the end). resume : runs already in
-    ``out`` (same task, method, seed, case) are kept and not run again. header : entries put first
-    (e.g. provenance). on_run : called with each finished run. run_method, make_task : what runs a
-    method and builds a task (default :func:`~.methods.run_method`, :func:`~.tasks.peer_task`).
+    ``out`` (same task, method, seed, case) are kept and not run again; InputError when one of them
+    was made at another commit than ``commit`` (a result of record is made at one). header : entries
+    put first (e.g. provenance). on_run : called with each finished run. run_method, make_task :
+    what runs a method and builds a task (default :func:`~.methods.run_method`,
+    :func:`~.tasks.peer_task`). commit : the commit the runs are made at, recorded in each.
     """
     from .methods import run_method as default_run
 
     run_method = run_method or default_run
     path = None if out is None else Path(out)
     runs = load_runs(path) if (resume and path is not None) else []
+    check_one_commit(runs, commit, path)
     settings = json.loads(path.read_text()).get("settings", {}) if (resume and path is not None and runs) else {}
     done = {r.key for r in runs}
     planned = plan(config)
     todo = [item for item in planned if (item[0], item[3], item[1], item[2]) not in done]
-    t_start = time.perf_counter()
-    before = sum(float(r.time_s) for r in runs)
     tasks: dict[str, PeerTask] = {}
 
     def result() -> dict:
@@ -129,7 +136,7 @@ def run_peers(config: PeersConfig, *, out: str | Path | None = None, resume: boo
         return {**(header or {}), "experiment": "peers", "config": asdict(config), "versions": library_versions(),
                 "not_applicable": {t: _not_applicable(t) for t in config.tasks},
                 "settings": {**settings, **_settings(tasks)},
-                "wall_time_s": round(before + time.perf_counter() - t_start, 1),
+                "wall_time_s": round(sum(r.whole_wall_s for r in runs), 1),
                 "runs": [r.to_json() for r in runs], "summary": summarise(runs), "not_run": missing}
 
     bar = None
@@ -140,12 +147,14 @@ def run_peers(config: PeersConfig, *, out: str | Path | None = None, resume: boo
     state: dict = {}
     try:
         for kind, seed, case, method in todo:
+            t0 = time.perf_counter()
             if kind not in tasks:
                 for other in list(tasks):  # one task's simulators at a time
                     settings.update(_settings({other: tasks[other]}))
                     tasks.pop(other).close()
                 tasks[kind] = make_task(kind)
             r = run_method(tasks[kind], config, seed, case, method, state)
+            r.wall_s, r.commit = round(time.perf_counter() - t0, 2), commit
             runs.append(r)
             if path is not None:
                 _write(path, result())
@@ -162,6 +171,16 @@ def run_peers(config: PeersConfig, *, out: str | Path | None = None, resume: boo
     if path is not None:
         _write(path, final)
     return final
+
+
+def check_one_commit(runs: list[PeerRun], commit: str | None, path: Path | None) -> None:
+    """InputError when a run of ``runs`` (kept from ``path`` to resume) was made at another commit
+    than ``commit``, or did not record its commit: resuming would mix code versions in one result."""
+    other = sorted({str(r.commit) for r in runs if r.commit != commit})
+    if runs and other:
+        n = sum(r.commit != commit for r in runs)
+        raise InputError(f"{path}: {n} of its {len(runs)} runs were made at commit {', '.join(other)}, not at "
+                         f"{commit}; a result is made at one commit: resume at theirs, or start anew")
 
 
 def run_line(r: PeerRun) -> str:

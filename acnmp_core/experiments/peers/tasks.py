@@ -10,6 +10,11 @@ step-based environment, behind one interface (:class:`PeerTask`).
   targets (:mod:`acnmp_core.experiments.push`), in PyBullet.
 * ``pusher`` (:class:`PusherPeer`): Gymnasium's MuJoCo ``Pusher-v5`` (:mod:`acnmp_core.tasks.pusher`),
   test positions drawn per seed in the extrapolation region and inside the training region.
+* ``e3-wall`` (:class:`HolePeer`): the paper's E3 wall with the hole's position as the condition
+  (:mod:`acnmp_core.tasks.wall.hole`); ``bump`` and ``arc`` (:class:`FamilyPeer`): path families
+  that bend with their condition (:mod:`acnmp_core.tasks.families`). Their demonstrations are not
+  linear in their conditions; they are kinematic (a path scored at a few points), so the
+  step-based peers do not apply.
 
 A method that cannot run on a task is named in :attr:`PeerTask.not_applicable` with the reason.
 """
@@ -21,11 +26,17 @@ import numpy as np
 
 from ...adaptation.config import AdaptTarget
 from ...errors import InputError
-from .config import CASES, E1_TASK, E2_TASK, PUSHER_TASK, TASK_NAMES
+from .config import CASES, DENSE_METHODS, E1_TASK, E2_TASK, E3_TASK, FAMILY_TASKS, PUSHER_TASK, TASK_NAMES
 
 #: why the step-based peers cannot run on E1
 NO_STEP_ENV = ("E1 scores a path at three points (start, via-point, end) and has no state between them "
                "for a step-based policy to act on")
+#: why the step-based peers cannot run on the kinematic families
+NO_DYNAMICS = ("the task scores a kinematic path at a few points (no dynamics, no state between them) "
+               "for a step-based policy to act on")
+STEP_BASED = ("ppo_bc", "ppo", "sac_bc", "sac")
+#: why a ProMP method's dense-reward twin does not run on a task
+ONE_REWARD = "every method is given this task's one reward: the plain method has it"
 
 
 @functools.lru_cache(maxsize=None)
@@ -58,6 +69,15 @@ class PeerTask:
     cases: tuple[str, ...] = CASES
     path_unit: str = "m"
     not_applicable: dict[str, str] = {}
+    #: the ProMP methods are given another reward than ACNMP's by default (their ``_dense`` twins
+    #: then run on ACNMP's)
+    other_reward: bool = False
+
+    @classmethod
+    def inapplicable(cls) -> dict[str, str]:
+        """Method -> why it does not run on this task: :attr:`not_applicable`, and the dense-reward
+        twins where every method has one reward."""
+        return {**({} if cls.other_reward else {m: ONE_REWARD for m in DENSE_METHODS}), **cls.not_applicable}
 
     def __init__(self) -> None:
         self.arrays = self._demos()
@@ -237,10 +257,12 @@ class ViaPointPeer(PeerTask):
 
 class PushPeer(PeerTask):
     """The paper's E2 (module docstring): the CNMP methods get ACNMP's dense reward, the ProMP
-    methods the final distance (E2's choice for its episodic baseline)."""
+    methods the final distance (E2's choice for its episodic baseline) and, as their ``_dense``
+    twins, ACNMP's reward."""
 
     name = E2_TASK
     path_unit = "rad"
+    other_reward = True
 
     def __init__(self) -> None:
         from ..push import make_setup
@@ -259,7 +281,8 @@ class PushPeer(PeerTask):
     def _rewards(self, method: str) -> str:
         from ..push import reward_for
 
-        return reward_for(self.setup.setting, "promp_rl" if method.startswith("promp") else "acnmp")
+        final = method.startswith("promp") and method not in DENSE_METHODS
+        return reward_for(self.setup.setting, "promp_rl" if final else "acnmp")
 
     def _evaluator(self, reward: str):
         from ..push import make_task
@@ -323,6 +346,77 @@ class PusherPeer(PeerTask):
         return demo_transitions(self.arrays.values, self.arrays.task_params)
 
 
+class _KinematicPeer(PeerTask):
+    """A kinematic task scored at a few points of a path: one test condition drawn per seed and
+    case (generator ``[seed, case index]``), the query observing the demonstrations' common start."""
+
+    not_applicable = {m: NO_DYNAMICS for m in STEP_BASED}
+    path_unit = "units"
+
+    def _draw(self, case: str, rng: np.random.Generator) -> np.ndarray:
+        raise NotImplementedError
+
+    @functools.lru_cache(maxsize=None)
+    def target(self, seed: int, case: str) -> AdaptTarget:
+        p = self._draw(case, np.random.default_rng([int(seed), CASES.index(case)]))
+        t = self.times
+        return AdaptTarget(t[:1].copy(), self.q0[None], p, t.copy())
+
+
+class HolePeer(_KinematicPeer):
+    """The paper's E3 wall, the hole's centre as the condition (module docstring)."""
+
+    name = E3_TASK
+
+    def _demos(self):
+        from ...data.demo_io import DemoArrays
+        from ...tasks.wall.hole import PARAM_NAMES, hole_demos
+
+        times, values, params = hole_demos()
+        return DemoArrays(times, values, params, task_param_names=np.array(PARAM_NAMES), value_names=np.array(["x", "y"]))
+
+    def _draw(self, case: str, rng: np.random.Generator) -> np.ndarray:
+        from ...tasks.wall.hole import sample_hole
+
+        return sample_hole(case, rng)
+
+    def _evaluator(self, reward: str):
+        from ...tasks.wall.hole import HoleTask
+
+        return HoleTask()
+
+    def expert_path(self, seed: int, case: str) -> np.ndarray:
+        from ...tasks.wall.hole import expert_path
+
+        return expert_path(self.params(seed, case))
+
+
+class FamilyPeer(_KinematicPeer):
+    """A path family of :mod:`acnmp_core.tasks.families` (module docstring), called ``name``."""
+
+    def __init__(self, name: str) -> None:
+        from ...tasks.families import family
+
+        self.name, self.family = name, family(name)
+        super().__init__()
+
+    def _demos(self):
+        from ...data.demo_io import DemoArrays
+
+        times, values, params = self.family.demonstrations()
+        return DemoArrays(times, values, params, task_param_names=np.array(self.family.param_names),
+                          value_names=np.array(self.family.output_names))
+
+    def _draw(self, case: str, rng: np.random.Generator) -> np.ndarray:
+        return self.family.sample(case, rng)
+
+    def _evaluator(self, reward: str):
+        return self.family.task()
+
+    def expert_path(self, seed: int, case: str) -> np.ndarray:
+        return self.family.path(self.times, self.params(seed, case))
+
+
 def peer_task(name: str) -> PeerTask:
     """A new :class:`PeerTask` called ``name`` (one of :data:`TASK_NAMES`); InputError otherwise."""
     if name == ViaPointPeer.name:
@@ -331,6 +425,10 @@ def peer_task(name: str) -> PeerTask:
         return PushPeer()
     if name == PusherPeer.name:
         return PusherPeer()
+    if name == HolePeer.name:
+        return HolePeer()
+    if name in FAMILY_TASKS:
+        return FamilyPeer(name)
     if name in TASK_NAMES:
         return MetaWorldPeer(name)
     raise InputError(f"tasks: expected one of {', '.join(TASK_NAMES)}, got {name!r}")

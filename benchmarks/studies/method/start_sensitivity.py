@@ -29,7 +29,7 @@ from acnmp_core.experiments.peers import peer_task  # noqa: E402
 from acnmp_core.model.cnmp import CNMP, CNMPConfig  # noqa: E402
 from acnmp_core.model.prior import BASIS_CANDIDATES  # noqa: E402
 from acnmp_core.peers.black_box import DemoProMP  # noqa: E402
-from benchmarks._results import provenance, study_results  # noqa: E402
+from benchmarks._results import development_seeds, provenance, study_results  # noqa: E402
 
 
 def path_only(task, n_basis: int) -> CNMP:
@@ -48,7 +48,8 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--tasks", default="metaworld-push", help="comma-separated tasks (default metaworld-push)")
     ap.add_argument("--cases", default="extrapolation", help="comma-separated cases (default extrapolation)")
-    ap.add_argument("--seeds", default="0,1,2,3,4", help="comma-separated seeds (default 0,1,2,3,4)")
+    ap.add_argument("--seeds", type=development_seeds, default=(0, 1, 2, 3, 4),
+                    help="comma-separated development seeds (default 0,1,2,3,4; the report seeds are refused)")
     ap.add_argument("--out", default=str(study_results("method") / "start_sensitivity.json"),
                     help="the result (default benchmarks/studies/method/results/start_sensitivity.json)")
     args = ap.parse_args(argv)
@@ -61,7 +62,7 @@ def main(argv: list[str] | None = None) -> int:
             ours = {k: path_only(task, k) for k in BASIS_CANDIDATES}
             peers = {k: DemoProMP(task.times, a.values, a.task_params, k) for k in BASIS_CANDIDATES}
             for case in args.cases.split(","):
-                for seed in (int(s) for s in args.seeds.split(",")):
+                for seed in args.seeds:
                     target = task.target(seed, case)
                     p = np.asarray(target.task_params)
                     trajs = [m.predict_query(target.query(m)).mean for m in ours.values()]

@@ -28,7 +28,7 @@ from acnmp_core.adaptation.config import AdaptConfig  # noqa: E402
 from acnmp_core.experiments.peers import PeersConfig, TASK_NAMES, peer_task, run_line, summarise  # noqa: E402
 from acnmp_core.experiments.peers.config import PeerRun  # noqa: E402
 from acnmp_core.experiments.peers.methods import Variant, acnmp_run  # noqa: E402
-from benchmarks._results import provenance, study_results  # noqa: E402
+from benchmarks._results import development_seeds, provenance, study_results  # noqa: E402
 
 #: candidate -> (the model's linear path, whether the network's conditions are clipped, AdaptConfig
 #: fields over the paper's method, what it is). The two ends of the ladder need no run of their own:
@@ -49,7 +49,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--candidates", default=",".join(CANDIDATES), help="comma-separated candidates (default: all; --list)")
     ap.add_argument("--tasks", default=",".join(TASK_NAMES), help="comma-separated tasks")
     ap.add_argument("--cases", default="extrapolation,interpolation", help="comma-separated cases (default: both)")
-    ap.add_argument("--seeds", default="0,1,2,3,4", help="comma-separated seeds (default 0,1,2,3,4)")
+    ap.add_argument("--seeds", type=development_seeds, default=(0, 1, 2, 3, 4),
+                    help="comma-separated development seeds (default 0,1,2,3,4; the report seeds are refused)")
     ap.add_argument("--budget", type=int, default=1000, help="episodes per run (default 1000, the comparison's)")
     ap.add_argument("--out", default=str(study_results("method") / "method_study.json"),
                     help="the result (default benchmarks/studies/method/results/method_study.json); its runs are kept")
@@ -65,7 +66,7 @@ def main(argv: list[str] | None = None) -> int:
     if unknown:
         ap.error(f"--candidates: unknown {unknown}; --list names them")
     variants = {name: variant(name) for name in names}
-    seeds = tuple(int(s) for s in args.seeds.split(","))
+    seeds = args.seeds
     config = PeersConfig(tasks=tuple(args.tasks.split(",")), methods=("acnmp",), seeds=seeds,
                          cases=tuple(args.cases.split(",")), budget=args.budget)
     out = Path(args.out)

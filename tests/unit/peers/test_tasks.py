@@ -99,3 +99,35 @@ def test_a_run_on_e2_counts_every_episode_within_its_budget(tmp_path):
         assert r["episodes"] == 4 or r["success"]
     assert result["settings"]["e2-push"]["promp_cma_basis"] == runs["promp_cma"]["details"]["n_basis"]
     assert runs["lfd"]["details"]["path_error_to_expert"] > 0
+
+
+@pytest.mark.parametrize("name", ["e3-wall", "bump", "arc"])
+def test_the_non_linear_tasks_draw_conditions_beyond_their_demonstrations_that_their_expert_solves(name):
+    """E3's wall (the hole's centre as the condition) and the two path families: demonstrations over
+    a training region, conditions drawn from the seed beyond it and inside it, each solved by the
+    task's expert (E3's demonstrator, the family itself), and no step-based peer (kinematic paths)."""
+    task = peer_task(name)
+    try:
+        a = task.arrays
+        lo, hi = a.task_params.min(axis=0), a.task_params.max(axis=0)
+        ev = task.evaluator("acnmp")
+        assert ev.evaluate(a.values, task.times, a.task_params[0]).returns.shape == (len(a.values),)
+        for seed in range(3):
+            for case in ("extrapolation", "interpolation"):
+                p = task.params(seed, case)
+                beyond = (p < lo) | (p > hi)
+                assert beyond.any() if case == "extrapolation" else not beyond.any()
+                assert np.array_equal(p, task.params(seed, case))  # the seed alone decides it
+                assert ev.evaluate(task.expert_path(seed, case)[None], task.times, p).success[0]
+        assert {"ppo_bc", "ppo", "sac_bc", "sac", "promp_cma_dense"} <= set(task.inapplicable())
+        assert "promp_rl" not in task.inapplicable()
+    finally:
+        task.close()
+
+
+def test_e2_gives_the_promp_peers_acnmp_s_dense_reward_as_their_twins(e2):
+    """The same information for every method: the ProMP methods' dense twins run on the reward ACNMP
+    adapts on (E2's time-averaged distance), the plain ones on the final distance."""
+    assert e2.evaluator("promp_cma_dense") is e2.evaluator("acnmp") is e2.evaluator("promp_rl_dense")
+    assert e2.evaluator("promp_cma") is not e2.evaluator("acnmp")
+    assert not set(e2.inapplicable()) & {"promp_rl_dense", "promp_cma_dense", "promp_cma5_dense"}
