@@ -53,7 +53,9 @@ def assimilate(model: CNMP, demos: DemoSet, solution: Demonstration, cfg: Assimi
                conditions: AdaptTarget | None = None, seed: int = 0,
                optimizer: torch.optim.Optimizer | FusedAdam | None = None,
                stop: threading.Event | None = None) -> tuple[DemoSet, list[float]]:
-    """Add ``solution`` to ``demos`` and continue training ``model`` in place on the new set.
+    """Add ``solution`` to ``demos`` and continue training ``model`` in place on the new set: the
+    range its network sees widens to the solution's and its linear path, if any, is fitted again
+    with the solution among the demonstrations (:meth:`~acnmp_core.model.cnmp.CNMP.follow_demos`).
 
     Parameters
     ----------
@@ -74,6 +76,8 @@ def assimilate(model: CNMP, demos: DemoSet, solution: Demonstration, cfg: Assimi
     cfg = cfg or AssimilationConfig()
     new = demos.added(Demonstration(np.asarray(solution.times), np.asarray(solution.values),
                                     np.asarray(solution.task_params)))
+    # beyond the first range the solution must reach the network as it is, and join the path's statistics
+    model.follow_demos(new)
     if cfg.steps == 0:
         return new, []
     train_cfg = TrainConfig(batch_size=cfg.batch_size, n_targets=cfg.n_targets,

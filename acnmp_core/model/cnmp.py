@@ -5,13 +5,16 @@ mean-aggregated over the observations into one latent ``r``. Decoder: an MLP ove
 ``[r, t, task_params]`` giving a mean and a softplus std (with a floor) per output dimension.
 All normalisation lives inside the model: every public method takes and returns raw units.
 
-With ``CNMPConfig.prior = "linear"`` (the default) the mean has a linear path beside the network:
+With ``CNMPConfig.prior = "linear"`` the mean has a linear path beside the network:
 the demonstrations' ProMP jointly Gaussian with their task parameters
 (:class:`~acnmp_core.model.prior.LinearPrior`), conditioned on the query's task parameters (in a
 skill without task parameters: on its observed points), and the network's mean is added to it, so
 the network learns what the linear path misses. The linear path extrapolates demonstrations that vary linearly with their conditions; the
-network, which sees the conditions clipped to the demonstrations' ranges (``prior_clip``), carries
-what is not linear. ``prior = "none"`` is the paper's CNMP.
+network, which sees the conditions clipped to the range it was trained on (``prior_clip``; the
+range widens when a solution beyond it is assimilated, :meth:`CNMP.widen_range`), carries
+what is not linear. ``prior = "none"`` is the paper's CNMP. ``prior = "auto"`` (the default)
+chooses between the two when the model is trained, from the demonstrations' held-out error at the
+edges of their conditions (:mod:`acnmp_core.model.selection`); the config then records the choice.
 """
 from __future__ import annotations
 
@@ -28,10 +31,12 @@ from ..validation import check_array, check_positive_int
 from .episodes import PackedDemos
 from .normalization import AffineNormalizer
 from .prior import LinearPrior, choose_n_basis
+from .selection import PriorChoice
 
-#: What the mean is made of (``CNMPConfig.prior``): the network alone ("none", the paper's CNMP) or
-#: the demonstrations' linear-Gaussian path plus the network's residual ("linear").
-PRIORS = ("none", "linear")
+#: What the mean is made of (``CNMPConfig.prior``): the network alone ("none", the paper's CNMP),
+#: the demonstrations' linear-Gaussian path plus the network's residual ("linear"), or the one of
+#: the two the demonstrations need, chosen when the model is trained ("auto", the default).
+PRIORS = ("auto", "none", "linear")
 
 #: Times may exceed the trained range by this fraction of it before a query is rejected.
 TIME_RANGE_TOLERANCE = 0.05
@@ -47,14 +52,19 @@ class CNMPConfig:
       Defaults follow the paper's appendix table (3 layers of 128 in each).
     std_floor : the smallest std the decoder can output, in normalised units (avoids NLL blow-up).
     output_names, task_param_names : optional labels, carried in checkpoints and service info.
-    prior : "linear" (the default): the mean is the demonstrations' linear-Gaussian path plus the
-      network's residual (module docstring); "none": the network alone (the paper's CNMP).
+    prior : "auto" (the default): "linear" or "none", chosen from the demonstrations when the model
+      is trained (:func:`~acnmp_core.model.selection.choose_prior`; the config then holds the
+      choice and ``prior_choice`` why); "linear": the mean is the demonstrations' linear-Gaussian
+      path plus the network's residual (module docstring); "none": the network alone (the paper's CNMP).
+    prior_choice : what the "auto" choice measured (:class:`~acnmp_core.model.selection.PriorChoice`),
+      None when the prior was given.
     prior_basis : basis functions per output of the linear path; 0 (the default) chooses it by
       leave-one-out error on the demonstrations when the model is fitted to them
       (:func:`~acnmp_core.model.prior.choose_n_basis`), and the config then records the choice.
     prior_clip : with the linear path, the network sees task parameters and observed values
-      clipped to the demonstrations' ranges: beyond them the linear path carries the change and the
-      network adds what it learnt at the nearest edge, instead of extrapolating itself.
+      clipped to the range it was trained on (the demonstrations', widened by assimilated
+      solutions): beyond it the linear path carries the change and the network adds what it learnt
+      at the nearest edge, instead of extrapolating itself.
     """
 
     n_outputs: int
@@ -64,9 +74,10 @@ class CNMPConfig:
     std_floor: float = 1e-2
     output_names: Sequence[str] = field(default_factory=tuple)
     task_param_names: Sequence[str] = field(default_factory=tuple)
-    prior: str = "linear"
+    prior: str = "auto"
     prior_basis: int = 0
     prior_clip: bool = True
+    prior_choice: PriorChoice | None = None
 
     def __post_init__(self) -> None:
         self.n_outputs = check_positive_int("n_outputs", self.n_outputs)
@@ -85,6 +96,8 @@ class CNMPConfig:
         )
         if self.prior not in PRIORS:
             raise ValueError(f"prior: expected one of {', '.join(PRIORS)}, got {self.prior!r}")
+        if isinstance(self.prior_choice, dict):
+            self.prior_choice = PriorChoice.from_dict(self.prior_choice)
         self.prior_basis = check_positive_int("prior_basis", self.prior_basis, minimum=0)
         if self.prior_basis == 1:
             raise ValueError("prior_basis: expected 0 (chosen from the demonstrations) or at least 2, got 1")
@@ -115,6 +128,7 @@ class CNMPConfig:
     def to_dict(self) -> dict:
         """Plain types only, so a checkpoint loads with ``weights_only=True``."""
         d = asdict(self)
+        d["prior_choice"] = None if self.prior_choice is None else self.prior_choice.to_dict()
         return {k: list(v) if isinstance(v, tuple) else v for k, v in d.items()}
 
     @classmethod
@@ -190,7 +204,7 @@ class CNMP(nn.Module):
         # the linear path; with prior_basis 0 it is made when the model is fitted to demonstrations
         self.prior: LinearPrior | None = (LinearPrior(d, p, config.prior_basis)
                                           if config.prior == "linear" and config.prior_basis else None)
-        self._value_bounds: tuple[torch.Tensor, torch.Tensor] | None = None
+        self._value_bounds: tuple[torch.Tensor, ...] | None = None
 
     def _load_from_state_dict(self, *args, **kwargs):
         self._value_bounds = None  # the normalisation changes: its bounds are read again
@@ -198,7 +212,12 @@ class CNMP(nn.Module):
 
     # ----- normalisation -------------------------------------------------------------------------
     def fit_normalization(self, demos: DemoSet) -> None:
-        """Set the normalisation statistics from ``demos`` (raw units). Called once before training."""
+        """Set the normalisation statistics from ``demos`` (raw units). Called once before training.
+        A model whose prior is still "auto" is refused (ValueError): :func:`~.training.train` chooses
+        it first."""
+        if self.config.prior == "auto":
+            raise ValueError('prior: "auto" is chosen when the model is trained (acnmp_core.model.training.train); '
+                             'give "linear" or "none" to fit it without training')
         self._check_demos(demos)
         self.time_norm.fit(demos.all_times()[:, None], mode="range")
         self.task_norm.fit(demos.all_task_params(), mode="range")
@@ -292,8 +311,8 @@ class CNMP(nn.Module):
         """(B,N,1+P+2D), (B,N), (B,M,1+P) -> mean (B,M,D), std (B,M,D), latent (B,L); normalised units.
         With a linear path the mean is that path plus the network's residual (module docstring)."""
         weights = self.prior_weights(obs_x, obs_mask)
-        latent = self.encode(self._net_obs(obs_x), obs_mask)
-        mean, std = self.decode(latent, self._net_targets(tgt_x))
+        latent = self.encode(self.network_obs(obs_x), obs_mask)
+        mean, std = self.decode(latent, self.network_targets(tgt_x))
         return self._with_prior(mean, tgt_x, weights), std, latent
 
     # ----- the linear path ---------------------------------------------------------------------
@@ -316,27 +335,79 @@ class CNMP(nn.Module):
         return self.prior.condition(x[..., 0], x[..., 1 + p:1 + p + d], x[..., 1 + p + d:], obs_mask.cpu().numpy(),
                                     x[:, 0, 1:1 + p])[0]
 
-    def _net_obs(self, obs_x: torch.Tensor) -> torch.Tensor:
+    def _bounds(self) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
+        """The range the network was trained on, normalised (float32): task parameters' low and high
+        (P,), values' low and high (D,); computed once per fit, load or widening."""
+        if self._value_bounds is None:
+            self._value_bounds = tuple(norm.normalize(b.to(torch.float64)).to(torch.float32)
+                                       for norm in (self.task_norm, self.value_norm) for b in (norm.low, norm.high))
+        return self._value_bounds
+
+    def network_obs(self, obs_x: torch.Tensor) -> torch.Tensor:
         """The encoder's observations: with a clipping linear path (``prior_clip``), their task
-        parameters and values clipped to the demonstrations' ranges, so the network never sees a
-        condition beyond what it was trained on (the path carries what lies beyond); else ``obs_x``."""
+        parameters and values clipped to the range the network was trained on, so it never sees a
+        condition beyond it (the path carries what lies beyond); else ``obs_x``."""
         if self.prior is None or not self.config.prior_clip:
             return obs_x
         d, p = self.config.n_outputs, self.config.n_task_params
         dims = obs_x[..., 1 + p + d:]
-        if self._value_bounds is None:  # the demonstrations' value range, normalised (once per fit or load)
-            self._value_bounds = tuple(self.value_norm.normalize(b.to(torch.float64)).to(torch.float32)
-                                       for b in (self.value_norm.low, self.value_norm.high))
-        lo, hi = (b.to(obs_x.device) for b in self._value_bounds)
+        p_lo, p_hi, lo, hi = (b.to(obs_x.device) for b in self._bounds())
         values = torch.maximum(torch.minimum(obs_x[..., 1 + p:1 + p + d], hi), lo) * dims
-        return torch.cat([obs_x[..., :1], obs_x[..., 1:1 + p].clamp(0.0, 1.0), values, dims], dim=-1)
+        params = torch.maximum(torch.minimum(obs_x[..., 1:1 + p], p_hi), p_lo)
+        return torch.cat([obs_x[..., :1], params, values, dims], dim=-1)
 
-    def _net_targets(self, tgt_x: torch.Tensor) -> torch.Tensor:
+    def network_targets(self, tgt_x: torch.Tensor) -> torch.Tensor:
         """The decoder's targets: with a clipping linear path, their task parameters clipped to the
-        demonstrations' range (normalised [0, 1]); else ``tgt_x`` itself."""
+        range the network was trained on; else ``tgt_x`` itself."""
         if self.prior is None or not self.config.prior_clip or not self.config.n_task_params:
             return tgt_x
-        return torch.cat([tgt_x[..., :1], tgt_x[..., 1:].clamp(0.0, 1.0)], dim=-1)
+        p_lo, p_hi = (b.to(tgt_x.device) for b in self._bounds()[:2])
+        return torch.cat([tgt_x[..., :1], torch.maximum(torch.minimum(tgt_x[..., 1:], p_hi), p_lo)], dim=-1)
+
+    def follow_demos(self, demos: DemoSet) -> None:
+        """Continued training on ``demos`` (the demonstrations the model was fitted on, then the
+        solutions assimilated since, in that order), normalisation kept: the range the network sees
+        widens to every one's (:meth:`widen_range`), and the linear path, if any, takes the
+        solutions in. With task parameters it passes through them and stays where it was at the
+        demonstrations (:meth:`~.prior.LinearPrior.absorb`: a solution beyond the first range is
+        answered there, the demonstrations at the edge are not moved); without, they join its
+        statistics (it is fitted again on all of them, its basis count kept)."""
+        self._check_demos(demos)
+        # with task parameters the path carries the solutions: the network keeps its first range there
+        bent = self.prior is not None and bool(self.config.n_task_params)
+        for demo in demos:
+            self.widen_range(demo, task_params=not bent)
+        if self.prior is None:
+            return
+        n_fitted = len(self.prior.demo_c)
+        if not self.config.n_task_params or not n_fitted or len(demos) < n_fitted:
+            self.fit_prior(demos)
+        elif len(demos) > n_fitted:
+            packed = self.pack(demos.subset(range(n_fitted, len(demos))))
+            self.prior.absorb(packed.times[..., 0].numpy(), packed.values.numpy(), packed.task_params.numpy(),
+                              packed.lengths.numpy())
+
+    def widen_range(self, demo, *, task_params: bool = True) -> None:
+        """Take a new demonstration's values (T, D) and, with ``task_params``, its task parameters
+        (P,) (raw units) into the range the network is trained on (the normalisers' ``low`` and
+        ``high``; their shift and scale, what the network's inputs mean, are kept): a solution
+        assimilated beyond the demonstrations is then seen by the network as it is, not clipped to
+        the old edge."""
+        for norm, data in ((self.task_norm, np.asarray(demo.task_params, dtype=np.float64).reshape(1, -1)),
+                           (self.value_norm, np.asarray(demo.values, dtype=np.float64))):
+            if norm.dim and (task_params or norm is self.value_norm):
+                norm.low.copy_(torch.minimum(norm.low, torch.as_tensor(data.min(axis=0))))
+                norm.high.copy_(torch.maximum(norm.high, torch.as_tensor(data.max(axis=0))))
+        self._value_bounds = None
+
+    def path_mean(self, query: Query) -> np.ndarray | None:
+        """(T, D) the linear path alone for a prepared single :class:`Query`, raw units (None
+        without a linear path): what the network's residual is added to."""
+        weights = self.prior_weights(query.obs_x, query.obs_mask)
+        if weights is None:
+            return None
+        path = self.prior.path(query.tgt_x[..., 0].numpy().astype(np.float64), weights)[0]
+        return self.value_norm.denormalize(torch.from_numpy(path)).numpy()
 
     def _with_prior(self, mean: torch.Tensor, tgt_x: torch.Tensor, weights: np.ndarray | None) -> torch.Tensor:
         """The network's mean (B, M, D) plus the linear path at the targets' times (unchanged without one)."""
@@ -505,12 +576,12 @@ class CNMP(nn.Module):
         device = self.device
         with torch.no_grad():
             weights = [self.prior_weights(q.obs_x, q.obs_mask) for q in queries]
-            obs = [self._net_obs(q.obs_x)[0] for q in queries]
+            obs = [self.network_obs(q.obs_x)[0] for q in queries]
             h = self.encoder(torch.cat(obs).to(device))
             # the same masked mean as encode() on each query (its mask is all ones)
             latents = [part.sum(0) / float(n) for part, n in zip(h.split(n_obs), n_obs)]
             r = torch.stack(latents).repeat_interleave(torch.tensor(n_tgt, device=device), dim=0)  # (sum T, L)
-            mean, std = self._head(torch.cat([r, torch.cat([self._net_targets(q.tgt_x)[0] for q in queries]).to(device)],
+            mean, std = self._head(torch.cat([r, torch.cat([self.network_targets(q.tgt_x)[0] for q in queries]).to(device)],
                                              dim=-1))
             if self.prior is not None:
                 mean = torch.cat([self._with_prior(m[None], q.tgt_x, w)[0]
@@ -566,4 +637,4 @@ class CNMP(nn.Module):
         """Latent (L,) of a whole trajectory: times (T,), values (T, D) used as observations."""
         q = self.make_query(times, values, task_params, np.asarray(times, dtype=np.float64)[:1])
         with torch.no_grad():
-            return self.encode(self._net_obs(q.obs_x), q.obs_mask)[0].cpu().double().numpy()
+            return self.encode(self.network_obs(q.obs_x), q.obs_mask)[0].cpu().double().numpy()

@@ -155,7 +155,11 @@ def train(
     Parameters
     ----------
     model : the CNMP; its normalisation is fitted on ``demos`` first unless ``fit_normalization``
-        is False (continued training, e.g. after assimilation, keeps the original statistics).
+        is False (continued training, e.g. after assimilation, keeps the original statistics; the
+        range the network sees and the linear path follow ``demos``: :meth:`CNMP.follow_demos`). A
+        model whose prior is "auto" has it chosen first from ``demos``
+        (:func:`~acnmp_core.model.selection.choose_prior`, which trains its candidates on held-out
+        folds of them with this ``cfg``), and its config records the choice.
     demos : the demonstrations (raw units).
     cfg : hyper-parameters; defaults to :class:`TrainConfig`.
     seed : makes the run deterministic (sampling and validation split).
@@ -176,7 +180,14 @@ def train(
             raise ValueError("device: give the optimizer of a model already on its device, or no optimizer")
         model.to_device(device)
     if fit_normalization:
+        if model.config.prior == "auto":
+            from .selection import choose_prior
+
+            choice = choose_prior(demos, model.config, cfg, seed)
+            model.config.prior, model.config.prior_choice = choice.chosen, choice
         model.fit_normalization(demos)
+    else:
+        model.follow_demos(demos)
     gen = torch.Generator().manual_seed(seed)
     train_set, val_set = split_demos(demos, cfg.val_fraction, gen)
     sampler = make_sampler(model, train_set, cfg)

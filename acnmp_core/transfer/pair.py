@@ -46,12 +46,19 @@ class TransferPair:
     @classmethod
     def from_models(cls, model_a: CNMP, model_b: CNMP) -> "TransferPair":
         """A pair of two existing CNMPs (e.g. rebuilt from a weights message), used as they are.
-        Raises InputError unless both have no task parameters and latents of one size."""
+        Raises InputError unless both have no task parameters and latents of one size, and unless a
+        robot B with a linear path has robot A's outputs: its path is conditioned on the
+        observations, and a transferred skill's are robot A's (a pair of two robots' CNMPs trains
+        the network alone, as :class:`TransferPair` does)."""
         if model_a.config.n_task_params or model_b.config.n_task_params:
             raise InputError("models: a transfer pair's CNMPs have no task parameters")
         if model_a.config.latent_dim != model_b.config.latent_dim:
             raise InputError(f"model_b: latent size {model_b.config.latent_dim} differs from model_a's "
                              f"{model_a.config.latent_dim}")
+        if model_b.config.prior != "none" and tuple(model_b.config.output_names) != tuple(model_a.config.output_names):
+            raise InputError("model_b: its linear path is conditioned on observations of its own outputs "
+                             f"{list(model_b.config.output_names)}, and a transferred skill observes robot A's "
+                             f"{list(model_a.config.output_names)}; train robot B's CNMP with prior='none'")
         pair = cls.__new__(cls)
         pair.model_a, pair.model_b = model_a, model_b
         return pair
@@ -166,20 +173,37 @@ class TransferredSkill(nn.Module):
         return self.model_b.pack(demos)
 
     def latent(self, query: Query) -> torch.Tensor:
-        """Latent (1, L) of A's observations in ``query`` (A's encoder is not trained here)."""
+        """Latent (1, L) of A's observations in ``query`` (A's encoder is not trained here), as A's
+        own predictions encode them (clipped to A's range where A has a linear path)."""
         with torch.no_grad():
-            return self.model_a.encode(query.obs_x, query.obs_mask)
+            return self.model_a.encode(self.model_a.network_obs(query.obs_x), query.obs_mask)
+
+    def _decode(self, query: Query) -> tuple[torch.Tensor, torch.Tensor]:
+        """B's decoder on A's latent, plus B's linear path (if any) conditioned on A's observations,
+        which are in B's outputs (:meth:`TransferPair.from_models`): mean, std (1, T, D_B) normalised."""
+        b = self.model_b
+        mean, std = b.decode(self.latent(query), b.network_targets(query.tgt_x))
+        if b.prior is None:
+            return mean, std
+        a = self.model_a
+        d = b.config.n_outputs
+        x = query.obs_x.double()
+        # A's normalised observations in raw units, then in B's normalisation (the same outputs)
+        dims = x[..., 1 + d:]
+        t = b.time_norm.normalize(a.time_norm.denormalize(x[..., :1]))
+        v = b.value_norm.normalize(a.value_norm.denormalize(x[..., 1:1 + d])) * dims
+        obs_b = torch.cat([t, v, dims], dim=-1).to(query.obs_x.dtype)
+        return b._with_prior(mean, query.tgt_x, b.prior_weights(obs_b, query.obs_mask)), std
 
     def mean_normalized(self, query: Query) -> torch.Tensor:
         """Differentiable (in B's decoder) mean (T, D_B), normalised units."""
-        mean, _ = self.model_b.decode(self.latent(query), query.tgt_x)
-        return mean[0]
+        return self._decode(query)[0][0]
 
     def predict_query(self, query: Query) -> Prediction:
         """Robot B's trajectory for ``query``, raw units: mean, std (T, D_B), latent (L,)."""
         with torch.no_grad():
             latent = self.latent(query)
-            mean, std = self.model_b.decode(latent, query.tgt_x)
+            mean, std = self._decode(query)
             mean = self.value_norm.denormalize(mean[0].double())
             std = self.value_norm.denormalize_std(std[0].double())
         return Prediction(query.times.copy(), mean.numpy(), std.numpy(), latent[0].double().numpy())

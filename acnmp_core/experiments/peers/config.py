@@ -7,12 +7,13 @@ import numpy as np
 
 from ...errors import InputError
 
-#: the methods that execute whole trajectories: LfD only (the product's model and the paper's
-#: CNMP), ACNMP (the product's default and the paper's method), ProMP + RL, ProMP + CMA-ES (the
+#: the methods that execute whole trajectories: LfD only (the product's model, the paper's CNMP and
+#: the previous default's), ACNMP (the product's default, the paper's method and the previous
+#: default: the linear path beside the network always), ProMP + RL, ProMP + CMA-ES (the
 #: basis count chosen on the demonstrations, and fancy_gym's 5), and the ProMP methods on the dense
 #: reward where a task gives them another one by default (E2: :data:`DENSE_METHODS`)
-TRAJECTORY_METHODS = ("lfd", "lfd_paper", "acnmp", "acnmp_paper", "promp_rl", "promp_cma", "promp_cma5",
-                      "promp_rl_dense", "promp_cma_dense", "promp_cma5_dense")
+TRAJECTORY_METHODS = ("lfd", "lfd_paper", "lfd_linear", "acnmp", "acnmp_paper", "acnmp_linear", "promp_rl",
+                      "promp_cma", "promp_cma5", "promp_rl_dense", "promp_cma_dense", "promp_cma5_dense")
 #: the ProMP methods given the reward ACNMP adapts on where their own differs (E2's final distance
 #: against its time-averaged distance): the same information for every method
 DENSE_METHODS = ("promp_rl_dense", "promp_cma_dense", "promp_cma5_dense")
@@ -20,7 +21,7 @@ DENSE_METHODS = ("promp_rl_dense", "promp_cma_dense", "promp_cma5_dense")
 STEP_BASED_METHODS = ("ppo_bc", "ppo", "sac_bc", "sac")
 METHODS = TRAJECTORY_METHODS + STEP_BASED_METHODS
 #: ACNMP's own methods and LfD only: the rest are its peers
-OWN_METHODS = ("lfd", "lfd_paper", "acnmp", "acnmp_paper")
+OWN_METHODS = ("lfd", "lfd_paper", "lfd_linear", "acnmp", "acnmp_paper", "acnmp_linear")
 CASES = ("extrapolation", "interpolation")
 #: the episode budget of every adaptive method per test position (LfD only executes one)
 BUDGET = 1000
@@ -99,7 +100,7 @@ class PeersConfig:
 
     def budget_of(self, method: str) -> int:
         """The episode budget of ``method``: one for LfD only, :attr:`budget` for the others."""
-        return 1 if method in ("lfd", "lfd_paper") else int(self.budget)
+        return 1 if method.startswith("lfd") else int(self.budget)
 
 
 @dataclass

@@ -7,9 +7,14 @@ from .config import METHODS, PeerRun
 
 #: colours and labels of the methods
 STYLE = {"lfd": ("tab:pink", "LfD only"), "lfd_paper": ("tab:red", "LfD only (paper's CNMP)"),
+         "lfd_linear": ("lightpink", "LfD only (previous default)"),
          "acnmp": ("tab:green", "ACNMP"), "acnmp_paper": ("darkgreen", "ACNMP (paper's method)"),
+         "acnmp_linear": ("yellowgreen", "ACNMP (previous default)"),
          "promp_rl": ("tab:blue", "ProMP + RL"), "promp_cma": ("tab:purple", "ProMP + CMA-ES"),
-         "promp_cma5": ("violet", "ProMP + CMA-ES (5 bases)"), "ppo": ("tab:orange", "PPO"),
+         "promp_cma5": ("violet", "ProMP + CMA-ES (5 bases)"),
+         "promp_rl_dense": ("tab:cyan", "ProMP + RL, dense reward"),
+         "promp_cma_dense": ("indigo", "ProMP + CMA-ES, dense reward"),
+         "promp_cma5_dense": ("plum", "ProMP + CMA-ES (5 bases), dense reward"), "ppo": ("tab:orange", "PPO"),
          "ppo_bc": ("tab:brown", "PPO + BC"), "sac_bc": ("tab:olive", "SAC + BC"), "sac": ("tab:gray", "SAC")}
 #: panels per row
 COLUMNS = 4

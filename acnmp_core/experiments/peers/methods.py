@@ -1,10 +1,13 @@
 """Each method of the peers comparison on one task at one test condition, as a :class:`~.config.PeerRun`.
 
-* ``lfd``, ``acnmp``: the product's default model (a CNMP with the demonstrations' linear path,
+* ``lfd``, ``acnmp``: the product's default model (a CNMP that chooses from its demonstrations
+  between the linear path beside the network and the network alone,
   :class:`~acnmp_core.model.cnmp.CNMPConfig`'s defaults) conditioned on the test condition and executed
   once, then adapted with the default :class:`~acnmp_core.adaptation.config.AdaptConfig`;
 * ``lfd_paper``, ``acnmp_paper``: the paper's method (the CNMP alone, ``prior="none"``, adapted with
   :meth:`AdaptConfig.paper`);
+* ``lfd_linear``, ``acnmp_linear``: the default of the previous round (the linear path beside the
+  network always, the default adaptation), kept so its verdict stays measured;
 * ``promp_rl``: the project's adaptive ProMP + episodic REPS from the nearest demonstration (E2's settings);
 * ``promp_cma``, ``promp_cma5``: black-box ProMP + CMA-ES (fancy_gym's recipe) from the
   demonstrations' ProMP conditioned on the test condition, with the basis count chosen by
@@ -36,11 +39,13 @@ class Variant:
     clip: bool = True
 
 
-#: the product's default and the paper's method; ``lfd``/``lfd_paper`` execute their model's first mean
-VARIANTS = {"acnmp": Variant("linear", lambda budget: AdaptConfig(max_rollouts=budget)),
-            "acnmp_paper": Variant("none", lambda budget: AdaptConfig.paper(max_rollouts=budget))}
+#: the product's default, the paper's method and the previous default; the LfD-only methods execute
+#: their model's first mean
+VARIANTS = {"acnmp": Variant("auto", lambda budget: AdaptConfig(max_rollouts=budget)),
+            "acnmp_paper": Variant("none", lambda budget: AdaptConfig.paper(max_rollouts=budget)),
+            "acnmp_linear": Variant("linear", lambda budget: AdaptConfig(max_rollouts=budget))}
 #: which variant's model each LfD-only method executes
-LFD_OF = {"lfd": "acnmp", "lfd_paper": "acnmp_paper"}
+LFD_OF = {"lfd": "acnmp", "lfd_paper": "acnmp_paper", "lfd_linear": "acnmp_linear"}
 
 
 def train_model(task: PeerTask, seed: int, steps: int, prior: str, clip: bool = True):
@@ -85,7 +90,9 @@ def acnmp_run(task: PeerTask, config: PeersConfig, seed: int, case: str, method:
     r = run_acnmp_target(copy.deepcopy(model), task.arrays.to_demo_set(), target, task.evaluator(method),
                          variant.adapt(budget), seed)
     details = {"final_error": r["final_error"], "lfd_error": r["lfd_error"], "train_s": train_s, "curve": r["curve"],
-               "prior_basis": model.config.prior_basis}
+               "prior": model.config.prior, "prior_basis": model.config.prior_basis}
+    if model.config.prior_choice is not None:
+        details["prior_choice"] = {"chosen": model.config.prior_choice.chosen, "errors": model.config.prior_choice.errors}
     expert = task.expert_path(seed, case)
     if method in LFD_OF and expert is not None:
         details["path_error_to_expert"] = task.path_error(model.predict_query(target.query(model)).mean, expert)

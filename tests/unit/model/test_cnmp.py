@@ -91,7 +91,7 @@ def test_config_validation():
 
 
 def test_training_lowers_the_nll(e1_demos):
-    model = CNMP(CNMPConfig(n_outputs=2), seed=3)
+    model = CNMP(CNMPConfig(n_outputs=2, prior="none"), seed=3)
     model.fit_normalization(e1_demos)
     before = evaluate_nll(model, e1_demos)
     train(model, e1_demos, TrainConfig(steps=600), seed=3, progress=False)

@@ -71,10 +71,10 @@ def _check_against_reference(model, demos, cfg, seed: int) -> None:
 
 
 def test_episodes_follow_the_sampling_rule_bit_for_bit(e1_demos):
-    e1 = CNMP(CNMPConfig(n_outputs=2))
+    e1 = CNMP(CNMPConfig(n_outputs=2, prior="none"))
     e1.fit_normalization(e1_demos)
     ragged = _ragged()
-    model = CNMP(CNMPConfig(n_outputs=3, n_task_params=2))
+    model = CNMP(CNMPConfig(n_outputs=3, n_task_params=2, prior="none"))
     model.fit_normalization(ragged)
     for cfg in (TrainConfig(), TrainConfig(min_obs=2, max_obs=9, n_targets=7, partial_obs_prob=0.7),
                 TrainConfig(targets_include_obs=True),
@@ -87,7 +87,7 @@ def test_a_sampler_over_a_changed_demo_set_samples_the_new_demonstrations():
     """The sampler's float32 table is built from the demonstrations it is made for: after a
     demonstration joins the set (assimilation), a new sampler draws from it, with its values."""
     demos = _ragged()
-    model = CNMP(CNMPConfig(n_outputs=3, n_task_params=2))
+    model = CNMP(CNMPConfig(n_outputs=3, n_task_params=2, prior="none"))
     model.fit_normalization(demos)
     old = make_sampler(model, demos, TrainConfig())
     solution = Demonstration(np.linspace(0, 1, 40), np.full((40, 3), 7.0), np.array([0.5, -0.5]))
@@ -105,7 +105,7 @@ def test_with_targets_include_obs_every_observation_is_a_target():
     """CNP-style episodes: each observed point (time and full value) is also one of the targets, so
     the model is taught to pass through what it is conditioned on; the default never does that."""
     demos = _ragged()
-    model = CNMP(CNMPConfig(n_outputs=3, n_task_params=2))
+    model = CNMP(CNMPConfig(n_outputs=3, n_task_params=2, prior="none"))
     model.fit_normalization(demos)
     for include in (True, False):
         ep = make_sampler(model, demos, TrainConfig(targets_include_obs=include, partial_obs_prob=0.0)).sample(
@@ -131,7 +131,7 @@ def test_first_points_is_argsort_also_when_keys_tie():
 
 def _packed():
     demos = DemoSet.from_arrays(np.linspace(0, 1, 30), np.random.default_rng(0).normal(size=(2, 30, 1)))
-    model = CNMP(CNMPConfig(n_outputs=1))
+    model = CNMP(CNMPConfig(n_outputs=1, prior="none"))
     model.fit_normalization(demos)
     return model.pack(demos)
 
@@ -140,7 +140,7 @@ def test_task_parameter_jitter_moves_each_episode_by_one_draw_of_the_std():
     """task_param_jitter: each episode's task parameters (normalised) move by one Gaussian draw,
     the same in its observations and its targets; the default draws nothing (the reference above)."""
     demos = _ragged()
-    model = CNMP(CNMPConfig(n_outputs=3, n_task_params=2))
+    model = CNMP(CNMPConfig(n_outputs=3, n_task_params=2, prior="none"))
     model.fit_normalization(demos)
     idx = torch.zeros(4000, dtype=torch.long)  # every episode from demonstration 0
     ep = make_sampler(model, demos, TrainConfig(task_param_jitter=0.25)).sample(4000, torch.Generator().manual_seed(0), idx)
@@ -163,7 +163,7 @@ def test_mixup_blends_two_demonstrations_at_the_same_points():
     task parameter) holds in every blended episode, at task parameters between the demonstrations'."""
     t = np.linspace(0, 1, 30)
     demos = DemoSet([Demonstration(t, np.column_stack([np.full(30, p), t * p]), np.array([p])) for p in (1.0, 2.0, 5.0)])
-    model = CNMP(CNMPConfig(n_outputs=2, n_task_params=1))
+    model = CNMP(CNMPConfig(n_outputs=2, n_task_params=1, prior="none"))
     model.fit_normalization(demos)
     ep = make_sampler(model, demos, TrainConfig(mixup=1.0, partial_obs_prob=0.0)).sample(2000, torch.Generator().manual_seed(0))
     p = model.task_norm.denormalize(ep.tgt_x[..., 1:2].double())
@@ -175,7 +175,7 @@ def test_mixup_blends_two_demonstrations_at_the_same_points():
     assert np.mean(~np.isin(np.round(ptp, 4), [1.0, 2.0, 5.0])) > 0.5  # most episodes lie between demonstrations
     assert 1.0 - 1e-5 <= ptp.min() and ptp.max() <= 5.0 + 1e-5
     ragged = _ragged()
-    m2 = CNMP(CNMPConfig(n_outputs=3, n_task_params=2))
+    m2 = CNMP(CNMPConfig(n_outputs=3, n_task_params=2, prior="none"))
     m2.fit_normalization(ragged)
     with pytest.raises(ValueError, match="one time grid"):
         make_sampler(m2, ragged, TrainConfig(mixup=0.5))

@@ -14,7 +14,7 @@ from acnmp_core.model.training import TrainConfig, make_sampler, nll_loss
 
 
 def _net(seed: int = 0) -> CNMP:
-    return CNMP(CNMPConfig(n_outputs=2, encoder_widths=(32, 32), decoder_widths=(32, 32)), seed=seed)
+    return CNMP(CNMPConfig(n_outputs=2, encoder_widths=(32, 32), decoder_widths=(32, 32), prior="none"), seed=seed)
 
 
 def _run(make_opt, e1_demos, *, stepper: bool, steps: int = 40, subset_from: int | None = None) -> tuple[CNMP, dict]:

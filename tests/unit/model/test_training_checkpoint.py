@@ -46,7 +46,7 @@ def test_validation_split_holds_out_demonstrations(e1_demos, monkeypatch):
         return samplers[-1][1]
 
     monkeypatch.setattr(training, "make_sampler", spy)
-    model = CNMP(CNMPConfig(n_outputs=2, **SMALL))
+    model = CNMP(CNMPConfig(n_outputs=2, prior="none", **SMALL))
     res = train(model, e1_demos, TrainConfig(steps=20, val_every=10, val_fraction=0.34), progress=False)
     (train_set, _), (val_set, _) = samplers
 

@@ -86,7 +86,7 @@ def test_a_stop_interrupts_training_and_assimilation_at_their_next_step(tmp_path
     stop.set()
     with pytest.raises(InterruptedError):
         train(CNMP(CNMPConfig(n_outputs=2)), e1_demos, TrainConfig(steps=10**7), progress=False, stop=stop)
-    model = CNMP(CNMPConfig(n_outputs=2))
+    model = CNMP(CNMPConfig(n_outputs=2, prior="none"))
     model.fit_normalization(e1_demos)
     with pytest.raises(InterruptedError):
         assimilate(model, e1_demos, e1_demos[0], AssimilationConfig(steps=10**7), stop=stop)

@@ -1,0 +1,169 @@
+"""Which model a skill's demonstrations need, chosen from them: the linear path beside the network,
+or the network alone (the paper's CNMP).
+
+The linear path (:mod:`.prior`) extrapolates demonstrations that vary linearly with their
+conditions and smears those that do not (a bump moving in time); the network alone interpolates
+both and extrapolates neither by construction, but follows a non-linear family further. Which one
+a skill needs shows in its own demonstrations, at the edges of their conditions' range:
+
+* **Edge folds** (:func:`edge_folds`): for each task parameter, the demonstrations at its largest
+  value are held out together, then those at its smallest (a grid's whole face: a real step beyond
+  the others); without task parameters, the two demonstrations at the ends of the demonstrations'
+  first principal component.
+* **Held-out error** (:func:`held_out_errors`): each candidate is fitted to the others -- the
+  network trained as the skill is, with fewer steps (:data:`FOLD_STEP_SHARE`) -- and predicts each
+  held-out demonstration from what a query gives it (its task parameters and start; without task
+  parameters, its start, middle and end: :func:`~.prior.condition_marks`). The error is the RMS in
+  units of each output's spread over the demonstrations (outputs that do not vary left out), the
+  mean over the held-out demonstrations.
+* **The choice** (:func:`choose_prior`): the candidate with the smaller error; a tie goes to the
+  network alone (the paper's). With fewer than :data:`MIN_DEMOS` demonstrations nothing can be held
+  out and leave enough to fit: the network alone, said in the choice's one-line reason.
+
+The choice, every candidate's error and the folds are recorded in the skill's config
+(:class:`PriorChoice`, ``CNMPConfig.prior_choice``).
+"""
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, replace
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..data.demos import DemoSet
+from .prior import condition_marks, varying_outputs
+
+if TYPE_CHECKING:
+    from .cnmp import CNMPConfig
+    from .training import TrainConfig
+
+#: the candidates, in the order a tie is broken: the network alone first
+CANDIDATES = ("none", "linear")
+#: fewer demonstrations than this: no choice, the network alone
+MIN_DEMOS = 4
+#: a fold keeps at least this many demonstrations to fit
+MIN_KEPT = 3
+#: a fold's network trains this share of the skill's training steps (at least :data:`MIN_FOLD_STEPS`)
+FOLD_STEP_SHARE = 1 / 3
+MIN_FOLD_STEPS = 500
+
+
+@dataclass(frozen=True)
+class PriorChoice:
+    """What :func:`choose_prior` chose and why.
+
+    chosen : "linear" or "none". errors : candidate -> held-out error at the edges (normalised RMS;
+    empty when nothing could be held out). folds : the held-out demonstrations' indices, one list
+    per fold. reason : one line a user reads (``acnmp query info``, the learner's train event).
+    """
+
+    chosen: str
+    errors: dict[str, float]
+    folds: tuple[tuple[int, ...], ...]
+    reason: str
+
+    def to_dict(self) -> dict:
+        """Plain types only (a checkpoint loads with ``weights_only=True``)."""
+        d = asdict(self)
+        d["folds"] = [list(f) for f in self.folds]
+        return d
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "PriorChoice":
+        return cls(str(d["chosen"]), {str(k): float(v) for k, v in d["errors"].items()},
+                   tuple(tuple(int(i) for i in f) for f in d["folds"]), str(d["reason"]))
+
+
+def edge_folds(task_params: np.ndarray, values: np.ndarray) -> list[tuple[int, ...]]:
+    """The held-out sets at the edges of the demonstrations' conditions (module docstring): task
+    parameters (N, P) and values (N, T, D) on one grid. Each fold keeps at least :data:`MIN_KEPT`
+    demonstrations; equal folds appear once."""
+    n = len(values)
+    folds: list[tuple[int, ...]] = []
+    if task_params.shape[1]:
+        columns = task_params.T
+    else:  # the demonstrations' main mode of variation stands in for a condition
+        flat = values.reshape(n, -1)
+        flat = flat - flat.mean(axis=0)
+        columns = (flat @ np.linalg.svd(flat, full_matrices=False)[2][0])[None]
+    for col in columns:
+        span = col.max() - col.min()
+        if span <= 0:
+            continue
+        for end in (col.max(), col.min()):
+            fold = tuple(int(i) for i in np.flatnonzero(np.abs(col - end) <= 1e-9 * span))
+            if n - len(fold) >= MIN_KEPT and fold not in folds:
+                folds.append(fold)
+    return folds
+
+
+def _on_grid(demos: DemoSet) -> tuple[np.ndarray, np.ndarray]:
+    """(N, T) phases and (N, T, D) values of ``demos`` resampled on one grid of T = the shortest's length."""
+    t_len = min(len(d.times) for d in demos)
+    grid = np.linspace(0.0, 1.0, t_len)
+    values = np.stack([np.stack([np.interp(grid, (d.times - d.times[0]) / (d.times[-1] - d.times[0]), d.values[:, j])
+                                 for j in range(d.values.shape[1])], axis=1) for d in demos])
+    return np.tile(grid, (len(demos), 1)), values
+
+
+def held_out_errors(demos: DemoSet, config: "CNMPConfig", train_cfg: "TrainConfig", seed: int = 0,
+                    candidates: tuple[str, ...] = CANDIDATES, folds: list[tuple[int, ...]] | None = None,
+                    fold_steps: int | None = None) -> tuple[dict[str, float], list[tuple[int, ...]]]:
+    """Every candidate's held-out error at the edges of ``demos``' conditions (module docstring) and
+    the folds: a CNMP of ``config`` with ``prior`` the candidate ("linear", "none", or "path": the
+    linear path alone, nothing trained) fitted to each fold's other demonstrations, its network
+    trained with ``train_cfg`` for ``fold_steps`` steps (default :data:`FOLD_STEP_SHARE` of its
+    steps, at least :data:`MIN_FOLD_STEPS`), seed ``seed``. Empty errors when no fold exists."""
+    from .cnmp import CNMP
+    from .training import train
+
+    demo_list = list(demos)
+    params = demos.all_task_params()
+    _, grid_values = _on_grid(demos)
+    folds = edge_folds(params, grid_values) if folds is None else folds
+    if not folds:
+        return {}, []
+    varying, std = varying_outputs(grid_values)
+    if not varying.any():
+        return {c: 0.0 for c in candidates}, folds
+    steps = fold_steps if fold_steps is not None else max(MIN_FOLD_STEPS, int(train_cfg.steps * FOLD_STEP_SHARE))
+    fold_cfg = replace(train_cfg, steps=steps)
+    errors: dict[str, list[float]] = {c: [] for c in candidates}
+    for fold in folds:
+        rest = demos.subset([i for i in range(len(demo_list)) if i not in fold])
+        for cand in candidates:
+            model = CNMP(replace(config, prior="linear" if cand == "path" else cand, prior_choice=None,
+                                 prior_basis=config.prior_basis if cand != "none" else 0), seed=seed)
+            if cand == "path":
+                model.fit_normalization(rest)
+            else:
+                train(model, rest, fold_cfg, seed=seed, progress=False)
+            for k in fold:
+                d = demo_list[k]
+                marks = condition_marks(len(d.times), d.task_params.shape[0])
+                query = model.make_query(d.times[marks], d.values[marks], d.task_params if d.task_params.size else None,
+                                         d.times)
+                pred = model.path_mean(query) if cand == "path" else model.predict_query(query).mean
+                err = (pred - d.values) / np.where(varying, std, 1.0)
+                errors[cand].append(float(np.sqrt(np.mean(err[:, varying] ** 2))))
+    return {c: float(np.mean(e)) for c, e in errors.items()}, folds
+
+
+def choose_prior(demos: DemoSet, config: "CNMPConfig", train_cfg: "TrainConfig", seed: int = 0) -> PriorChoice:
+    """The model ``demos`` need (module docstring): :func:`held_out_errors` of the linear path with
+    the network's residual and of the network alone, the smaller wins (a tie: the network alone).
+    Fewer than :data:`MIN_DEMOS` demonstrations, or no fold at the edges: the network alone."""
+    n = len(demos)
+    if n < MIN_DEMOS:
+        return PriorChoice("none", {}, (), f"{n} demonstration(s): too few to hold any out and fit the rest "
+                                           f"(at least {MIN_DEMOS}); the network alone (the paper's CNMP)")
+    errors, folds = held_out_errors(demos, config, train_cfg, seed)
+    if not errors:
+        return PriorChoice("none", {}, (), "no demonstration stands at an edge of the others' conditions to hold "
+                                           "out; the network alone (the paper's CNMP)")
+    chosen = min(CANDIDATES, key=lambda c: (round(errors[c], 9), CANDIDATES.index(c)))
+    name = {"linear": "the linear path beside the network", "none": "the network alone (the paper's CNMP)"}
+    shown = ", ".join(f"{c} {errors[c]:.3g}" for c in CANDIDATES)
+    return PriorChoice(chosen, errors, tuple(folds),
+                       f"{name[chosen]}: held-out error at the edges of the demonstrations' conditions {shown} "
+                       f"({len(folds)} folds)")
