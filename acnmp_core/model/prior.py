@@ -40,8 +40,8 @@ PARAM_VARIANCE = 1e-6
 #: how far (normalised task-parameter units, the demonstrations' range being 1) an assimilated
 #: solution bends the path around it before the path is the demonstrations' regression again
 ANCHOR_SCALE = 0.25
-#: the variables of the path that grow with the demonstrations and solutions it holds
-_SIZED = ("demo_c", "anchor_c", "anchor_r")
+#: the buffers of the path whose first size is the number of demonstrations or solutions it holds
+SIZED_PRIOR_BUFFERS = ("demo_c", "anchor_c", "anchor_r")
 
 
 class LinearPrior(nn.Module):
@@ -102,7 +102,7 @@ class LinearPrior(nn.Module):
         self._size_buffers(*sizes)
         super()._load_from_state_dict(state_dict, prefix, local_metadata, strict, missing_keys, unexpected_keys,
                                       error_msgs)
-        for k in _SIZED:
+        for k in SIZED_PRIOR_BUFFERS:
             if prefix + k not in state_dict and prefix + k in missing_keys:
                 missing_keys.remove(prefix + k)
 

@@ -130,18 +130,10 @@ def demo_format() -> str:
     return format_table()
 
 
-def peers_row() -> list[str]:
-    from clients.experiments.targets import peers_verdicts
-
-    r = load("peers")
-    d, p = peers_verdicts(r, "acnmp"), peers_verdicts(r, "acnmp_paper")
-    return [f"peers, {len(r['config']['tasks'])} tasks ({len(r['config']['seeds'])} seeds)", "–",
-            f"default ≥ the best peer on {sum(v['met'] for v in d)}/{len(d)} tasks and cases; "
-            f"the paper's method on {sum(v['met'] for v in p)}"]
-
-
 @renderer("readme-results")
 def readme_results() -> str:
+    from benchmarks.blocks.peers import peers_row
+
     rows = [e1_row(), e2_row(), e3_row(), e4_row(), e5_row(), e6_row(), peers_row()]
     from clients.experiments.targets import PREDICT_CEILING_SHARE, ceiling_share
 

@@ -214,37 +214,3 @@ def all_checks(scope: str, checks: list[tuple[str, bool]]) -> tuple[str, bool | 
     text = "; ".join(f"{'[ok]' if ok else '[missed]'} {what}" for what, ok in checks)
     return f"{scope}: {text}", all(ok for _, ok in checks) if checks else None
 
-
-#: the product's methods in the peers comparison (the default and the paper's), the rest are its peers
-PEERS_OWN = ("lfd", "lfd_paper", "acnmp", "acnmp_paper")
-
-
-def peers_verdicts(result: dict, method: str = "acnmp") -> list[dict]:
-    """Issue 64's decided target on every task and case of a peers result (``acnmp experiment
-    peers --json``): ``method`` succeeds in at least as many seeds as the best peer and its median
-    episodes to a first success are at most the best peer's (ties count; a censored median is
-    beyond every number). One dict per task and case with ``task``, ``case``, ``successes``,
-    ``runs``, ``median``, the peers' best ``peer_successes`` (and ``by_successes``, the method with
-    it) and ``peer_median`` (``by_median``), and ``met``; the peers are every method but LfD only
-    and ACNMP's own."""
-    from acnmp_core.experiments.peers.config import PeerRun, median_episodes  # not at the CLI's start-up
-
-    every = [PeerRun.from_json(r) for r in result["runs"]]
-    out = []
-    for task in result["config"]["tasks"]:
-        for case in result["config"]["cases"]:
-            runs = [r for r in every if (r.task, r.case) == (task, case)]
-            mine = [r for r in runs if r.method == method]
-            # in the result's order of methods, so that a tie names the same peer on every run
-            peers = {m: [r for r in runs if r.method == m] for m in result["config"]["methods"]
-                     if m not in PEERS_OWN and any(r.method == m for r in runs)}
-            if not mine or not peers:
-                continue
-            by_s = max(peers, key=lambda m: (sum(r.success for r in peers[m]), -median_episodes(peers[m])))
-            by_m = min(peers, key=lambda m: (median_episodes(peers[m]), -sum(r.success for r in peers[m])))
-            ok, med = sum(r.success for r in mine), median_episodes(mine)
-            ps, pm = sum(r.success for r in peers[by_s]), median_episodes(peers[by_m])
-            out.append({"task": task, "case": case, "successes": ok, "runs": len(mine), "median": med,
-                        "peer_successes": ps, "by_successes": by_s, "peer_median": pm, "by_median": by_m,
-                        "met": ok >= ps and med <= pm})
-    return out

@@ -352,10 +352,14 @@ class LearnerCore:
         with self._train_lock:
             res = train(model, spec.demos, spec.train_cfg, seed=spec.seed, progress=False, stop=self._stop,
                         on_validation=self._train_curve(skill, spec.train_cfg.steps), device=self.device)
+        choice = model.config.prior_choice
+        # which model the demonstrations chose, and why, in one line (the recording's version event, the log)
+        chosen = choice.reason if choice is not None else f"{model.config.prior} (as the request set it)"
+        log.info("skill %s: model %s", skill, chosen)
         with self._lock:
             state = SkillState(skill, model, spec.demos, self.skill_store.next_version(skill),
                                source_hash=spec.demos.content_hash(), trained_as=train_fingerprint(spec))
-            self._commit_skill(state, loss=res.best_val, note="trained")
+            self._commit_skill(state, loss=res.best_val, note="trained", model=chosen)
         return state
 
     def trained_from(self, skill: str, spec: TrainSpec) -> SkillState | None:

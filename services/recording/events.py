@@ -12,7 +12,7 @@ rollout       job str, rollout_index int>=0, trajectory (T,D) float, times (T,) 
               drawing? str (a robot drawing kind) with that drawing's fields
 latent        skill str, version int, latent (L,) float, label? str, robot? str,
               map_xy? (2,) float (the latent's place in a 2-D map of a version's latents)
-model_version skill str, version int, loss? float, n_demos? int, note? str
+model_version skill str, version int, loss? float, n_demos? int, note? str, model? str
 job_progress  job str, iteration int, rollouts int, best_return float|None,
               success_rate? float, state? "running"|"done"|"failed"|"cancelled"|"interrupted", skill? str,
               excluded_workers? str (the workers excluded from the job, "<worker>: <why>; ...")
@@ -276,6 +276,7 @@ def validate_event(msg: dict) -> dict:
         array_field(msg, "map_xy", shape=(2,), default=None)
     elif kind == "model_version":
         _nonneg(msg, "version")
+        field(msg, "model", str, default=None)
     elif kind == "job_progress":
         _nonneg(msg, "iteration")
         _nonneg(msg, "rollouts")
