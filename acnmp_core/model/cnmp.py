@@ -31,7 +31,7 @@ from ..validation import check_array, check_positive_int
 from .episodes import PackedDemos
 from .normalization import AffineNormalizer
 from .prior import LinearPrior, choose_n_basis
-from .selection import PriorChoice
+from .choice import PriorChoice
 
 #: What the mean is made of (``CNMPConfig.prior``): the network alone ("none", the paper's CNMP),
 #: the demonstrations' linear-Gaussian path plus the network's residual ("linear"), or the one of
@@ -56,7 +56,7 @@ class CNMPConfig:
       is trained (:func:`~acnmp_core.model.selection.choose_prior`; the config then holds the
       choice and ``prior_choice`` why); "linear": the mean is the demonstrations' linear-Gaussian
       path plus the network's residual (module docstring); "none": the network alone (the paper's CNMP).
-    prior_choice : what the "auto" choice measured (:class:`~acnmp_core.model.selection.PriorChoice`),
+    prior_choice : what the "auto" choice measured (:class:`~acnmp_core.model.choice.PriorChoice`),
       None when the prior was given.
     prior_basis : basis functions per output of the linear path; 0 (the default) chooses it by
       leave-one-out error on the demonstrations when the model is fitted to them

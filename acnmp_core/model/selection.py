@@ -25,17 +25,20 @@ The choice, every candidate's error and the folds are recorded in the skill's co
 """
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, replace
-from typing import TYPE_CHECKING
+from dataclasses import replace
+from typing import Callable
 
 import numpy as np
 
 from ..data.demos import DemoSet
+from .choice import PriorChoice
+from .cnmp import CNMP, CNMPConfig
 from .prior import condition_marks, varying_outputs
 
-if TYPE_CHECKING:
-    from .cnmp import CNMPConfig
-    from .training import TrainConfig
+#: how a fold's model is trained: ``fit(model, demos)`` (the library's trains it as the skill is, for
+#: :func:`fold_steps` steps: :func:`~acnmp_core.model.training.train` passes it, since it chooses the
+#: prior through this module)
+Fit = Callable[[CNMP, DemoSet], object]
 
 #: the candidates, in the order a tie is broken: the network alone first
 CANDIDATES = ("none", "linear")
@@ -46,32 +49,6 @@ MIN_KEPT = 3
 #: a fold's network trains this share of the skill's training steps (at least :data:`MIN_FOLD_STEPS`)
 FOLD_STEP_SHARE = 1 / 3
 MIN_FOLD_STEPS = 500
-
-
-@dataclass(frozen=True)
-class PriorChoice:
-    """What :func:`choose_prior` chose and why.
-
-    chosen : "linear" or "none". errors : candidate -> held-out error at the edges (normalised RMS;
-    empty when nothing could be held out). folds : the held-out demonstrations' indices, one list
-    per fold. reason : one line a user reads (``acnmp query info``, the learner's train event).
-    """
-
-    chosen: str
-    errors: dict[str, float]
-    folds: tuple[tuple[int, ...], ...]
-    reason: str
-
-    def to_dict(self) -> dict:
-        """Plain types only (a checkpoint loads with ``weights_only=True``)."""
-        d = asdict(self)
-        d["folds"] = [list(f) for f in self.folds]
-        return d
-
-    @classmethod
-    def from_dict(cls, d: dict) -> "PriorChoice":
-        return cls(str(d["chosen"]), {str(k): float(v) for k, v in d["errors"].items()},
-                   tuple(tuple(int(i) for i in f) for f in d["folds"]), str(d["reason"]))
 
 
 def edge_folds(task_params: np.ndarray, values: np.ndarray) -> list[tuple[int, ...]]:
@@ -106,17 +83,19 @@ def _on_grid(demos: DemoSet) -> tuple[np.ndarray, np.ndarray]:
     return np.tile(grid, (len(demos), 1)), values
 
 
-def held_out_errors(demos: DemoSet, config: "CNMPConfig", train_cfg: "TrainConfig", seed: int = 0,
-                    candidates: tuple[str, ...] = CANDIDATES, folds: list[tuple[int, ...]] | None = None,
-                    fold_steps: int | None = None) -> tuple[dict[str, float], list[tuple[int, ...]]]:
-    """Every candidate's held-out error at the edges of ``demos``' conditions (module docstring) and
-    the folds: a CNMP of ``config`` with ``prior`` the candidate ("linear", "none", or "path": the
-    linear path alone, nothing trained) fitted to each fold's other demonstrations, its network
-    trained with ``train_cfg`` for ``fold_steps`` steps (default :data:`FOLD_STEP_SHARE` of its
-    steps, at least :data:`MIN_FOLD_STEPS`), seed ``seed``. Empty errors when no fold exists."""
-    from .cnmp import CNMP
-    from .training import train
+def fold_steps(steps: int) -> int:
+    """The training steps of a fold's network for a skill trained ``steps`` steps: :data:`FOLD_STEP_SHARE`
+    of them, at least :data:`MIN_FOLD_STEPS`."""
+    return max(MIN_FOLD_STEPS, int(steps * FOLD_STEP_SHARE))
 
+
+def held_out_errors(demos: DemoSet, config: CNMPConfig, fit: Fit, seed: int = 0,
+                    candidates: tuple[str, ...] = CANDIDATES,
+                    folds: list[tuple[int, ...]] | None = None) -> tuple[dict[str, float], list[tuple[int, ...]]]:
+    """Every candidate's held-out error at the edges of ``demos``' conditions (module docstring) and
+    the folds: a CNMP of ``config`` (weights seeded by ``seed``) with ``prior`` the candidate
+    ("linear", "none", or "path": the linear path alone, nothing trained) fitted to each fold's
+    other demonstrations, its network trained by ``fit``. Empty errors when no fold exists."""
     demo_list = list(demos)
     params = demos.all_task_params()
     _, grid_values = _on_grid(demos)
@@ -126,8 +105,6 @@ def held_out_errors(demos: DemoSet, config: "CNMPConfig", train_cfg: "TrainConfi
     varying, std = varying_outputs(grid_values)
     if not varying.any():
         return {c: 0.0 for c in candidates}, folds
-    steps = fold_steps if fold_steps is not None else max(MIN_FOLD_STEPS, int(train_cfg.steps * FOLD_STEP_SHARE))
-    fold_cfg = replace(train_cfg, steps=steps)
     errors: dict[str, list[float]] = {c: [] for c in candidates}
     for fold in folds:
         rest = demos.subset([i for i in range(len(demo_list)) if i not in fold])
@@ -137,7 +114,7 @@ def held_out_errors(demos: DemoSet, config: "CNMPConfig", train_cfg: "TrainConfi
             if cand == "path":
                 model.fit_normalization(rest)
             else:
-                train(model, rest, fold_cfg, seed=seed, progress=False)
+                fit(model, rest)
             for k in fold:
                 d = demo_list[k]
                 marks = condition_marks(len(d.times), d.task_params.shape[0])
@@ -149,15 +126,16 @@ def held_out_errors(demos: DemoSet, config: "CNMPConfig", train_cfg: "TrainConfi
     return {c: float(np.mean(e)) for c, e in errors.items()}, folds
 
 
-def choose_prior(demos: DemoSet, config: "CNMPConfig", train_cfg: "TrainConfig", seed: int = 0) -> PriorChoice:
+def choose_prior(demos: DemoSet, config: CNMPConfig, fit: Fit, seed: int = 0) -> PriorChoice:
     """The model ``demos`` need (module docstring): :func:`held_out_errors` of the linear path with
-    the network's residual and of the network alone, the smaller wins (a tie: the network alone).
-    Fewer than :data:`MIN_DEMOS` demonstrations, or no fold at the edges: the network alone."""
+    the network's residual and of the network alone (trained by ``fit``), the smaller wins (a tie:
+    the network alone). Fewer than :data:`MIN_DEMOS` demonstrations, or no fold at the edges: the
+    network alone."""
     n = len(demos)
     if n < MIN_DEMOS:
         return PriorChoice("none", {}, (), f"{n} demonstration(s): too few to hold any out and fit the rest "
                                            f"(at least {MIN_DEMOS}); the network alone (the paper's CNMP)")
-    errors, folds = held_out_errors(demos, config, train_cfg, seed)
+    errors, folds = held_out_errors(demos, config, fit, seed)
     if not errors:
         return PriorChoice("none", {}, (), "no demonstration stands at an edge of the others' conditions to hold "
                                            "out; the network alone (the paper's CNMP)")

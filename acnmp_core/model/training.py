@@ -183,7 +183,7 @@ def train(
         if model.config.prior == "auto":
             from .selection import choose_prior
 
-            choice = choose_prior(demos, model.config, cfg, seed)
+            choice = choose_prior(demos, model.config, fold_trainer(cfg, seed), seed)
             model.config.prior, model.config.prior_choice = choice.chosen, choice
         model.fit_normalization(demos)
     else:
@@ -233,6 +233,18 @@ def train(
     model.load_state_dict(best_state)
     model.eval()
     return result
+
+
+def fold_trainer(cfg: TrainConfig, seed: int) -> Callable[[CNMP, DemoSet], TrainResult]:
+    """How the default's choice of model (:func:`~acnmp_core.model.selection.choose_prior`) trains a
+    held-out fold's network: as the skill (``cfg``, ``seed``) for
+    :func:`~acnmp_core.model.selection.fold_steps` of its steps, no progress bar."""
+    from dataclasses import replace
+
+    from .selection import fold_steps
+
+    fold_cfg = replace(cfg, steps=fold_steps(cfg.steps))
+    return lambda model, demos: train(model, demos, fold_cfg, seed=seed, progress=False)
 
 
 def check_stop(stop: threading.Event | None, what: str) -> None:

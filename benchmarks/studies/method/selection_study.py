@@ -43,7 +43,7 @@ from acnmp_core.experiments.peers import PeerRun, PeersConfig, peer_task, run_li
 from acnmp_core.experiments.peers.config import TASK_NAMES  # noqa: E402
 from acnmp_core.experiments.peers.methods import Variant, _model, acnmp_run  # noqa: E402
 from acnmp_core.model.selection import held_out_errors  # noqa: E402
-from acnmp_core.model.training import TrainConfig  # noqa: E402
+from acnmp_core.model.training import TrainConfig, fold_trainer  # noqa: E402
 from benchmarks._results import development_seeds, provenance, study_results  # noqa: E402
 
 CANDIDATES = {
@@ -68,7 +68,7 @@ def errors_part(tasks: list[str], steps: int, out: Path) -> None:
 
             cfg = CNMPConfig(n_outputs=a.values.shape[2], n_task_params=a.task_params.shape[1])
             t0 = time.perf_counter()
-            errors, folds = held_out_errors(demos, cfg, TrainConfig(steps=steps), seed=0,
+            errors, folds = held_out_errors(demos, cfg, fold_trainer(TrainConfig(steps=steps), 0), seed=0,
                                             candidates=("path", "linear", "none"))
             chosen = min(("none", "linear"), key=lambda c: (round(errors[c], 9), ("none", "linear").index(c)))
             rows[kind] = {"errors": errors, "folds": [list(f) for f in folds], "chosen": chosen,
