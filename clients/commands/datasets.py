@@ -20,9 +20,9 @@ examples:
   acnmp demos import --format minari acnmp/e1-v0 -o e1.npz --trajectory actions \\
       --task-params acnmp/task_params --successful
   acnmp demos import --format rosbag2 bags/* --list                    # topics, types, counts
-  acnmp demos import --format rosbag2 arm.bag -o arm.npz --split topic:/goal \
+  acnmp demos import --format rosbag2 arm.bag -o arm.npz --split topic:/goal \\
       --trajectory '/joint_states:position[shoulder,elbow,wrist]' --task-params /goal:pose.position@first
-  acnmp demos import --format rosbag2 out/bags/* -o back.npz --trajectory /acnmp/trajectory \
+  acnmp demos import --format rosbag2 out/bags/* -o back.npz --trajectory /acnmp/trajectory \\
       --task-params acnmp.task_params --successful                   # an export's roll-outs
   acnmp up --demos pick=pick.npz                                        # a skill trained on them
 """
