@@ -222,13 +222,28 @@ class _Bag:
                                               "a ROS 2 Jazzy type or one whose definition the bag holds, as bags "
                                               "recorded since ROS 2 Iron do)")
         start = self.reader.start_time
-        for conn, stamp, raw in self.reader.messages(connections=conns):
+        counts = dict.fromkeys((c.id for c in conns), 0)
+        stored = self.reader.messages(connections=conns)
+        while True:
+            try:
+                conn, stamp, raw = next(stored)
+            except StopIteration:
+                break
+            except Exception as exc:  # noqa: BLE001 - the storage's own errors for damaged bytes (rosbags'
+                # ReaderError, apsw's CorruptError, an OverflowError of a length read from random bytes)
+                raise DatasetError(self.path, f"damaged or truncated: its storage cannot be read past "
+                                              f"{sum(counts.values())} messages ({_line(exc)})") from None
+            counts[conn.id] += 1
             try:
                 msg = self.store.deserialize_cdr(raw, conn.msgtype)
             except Exception as exc:  # noqa: BLE001 - a damaged message
                 raise DatasetError(self.path, f"topic {conn.topic!r}: cannot read its {conn.msgtype} messages "
                                               f"({_line(exc)})") from None
             yield conn.topic, (_stamp(msg, clock, stamp, self.path, conn.topic) - start) * 1e-9, msg
+        for conn in conns:  # a message lost to damage (a record whose channel or time was overwritten)
+            if conn.msgcount and counts[conn.id] != conn.msgcount:
+                raise DatasetError(self.path, f"damaged or truncated: {counts[conn.id]} messages on {conn.topic!r} "
+                                              f"where its metadata.yaml counts {conn.msgcount}")
 
 
 def _definitions(conn, typesys) -> dict:
@@ -323,7 +338,24 @@ class _Rows:
     names: list[str] | None = None
 
 
-def _trajectory(bag: _Bag, sel: BagSelection, msgs) -> _Rows:
+def _by_name(bag: _Bag, ref: MessageRef, t: float, rows: np.ndarray, names: list[str],
+             columns: dict[str, tuple[str, ...]]) -> np.ndarray:
+    """``rows`` (R, k) of one message, its columns named ``names`` by the message, put in the order
+    the first message of the import named them (``columns[ref.text]``, set by that message):
+    JointState and JointTrajectory may list their joints in another order in every message, so
+    a column is a joint by its name, never by its place. DatasetError when the message names
+    other components than the first did (a joint more or less: select them by name)."""
+    first = columns.setdefault(ref.text, tuple(names))
+    if tuple(names) == first:
+        return rows
+    if len(set(names)) == len(names) and sorted(names) == sorted(first):
+        return rows[:, [names.index(n) for n in first]]
+    raise DatasetError(bag.path, f"topic {ref.topic!r}: the message at {t:.6f} s names {', '.join(names) or 'none'} "
+                                 f"where the first named {', '.join(first) or 'none'} (expected the same components in "
+                                 f"every message: select them by name, e.g. [{','.join(first[:2])}])", ref.text)
+
+
+def _trajectory(bag: _Bag, sel: BagSelection, msgs, columns: dict[str, tuple[str, ...]]) -> _Rows:
     out = _Rows()
     for t, msg in msgs:
         parts = []
@@ -332,7 +364,7 @@ def _trajectory(bag: _Bag, sel: BagSelection, msgs) -> _Rows:
                 rows, offsets, names = extract(msg, path_of(ref, msgtype(msg)))
             except PathError as exc:
                 raise DatasetError(bag.path, f"topic {ref.topic!r}: {exc}", ref.text) from None
-            parts.append((rows, offsets, names))
+            parts.append((_by_name(bag, ref, t, rows, names, columns), offsets, list(columns[ref.text])))
         counts = {p[0].shape[0] for p in parts}
         if len(counts) > 1:
             raise DatasetError(bag.path, f"the references give {sorted(counts)} rows per message (expected as many "
@@ -376,12 +408,12 @@ def read_rosbag2(bags: Sequence[str | os.PathLike], sel: BagSelection) -> Datase
     message type neither ROS 2 Jazzy nor the bag defines, an episode without messages, a NaN."""
     if not bags:
         raise DatasetError("rosbag2", "no bag given (expected one or more bag directories)")
-    store, episodes, names = typestore(), [], {}
+    store, episodes, names, columns = typestore(), [], {}, {}
     paths = [bag_dir(b) for b in bags]
     for path in paths:
         bag = _Bag(path, store)
         try:
-            episodes += _read_bag(bag, sel, names, first_index=len(episodes))
+            episodes += _read_bag(bag, sel, names, columns, first_index=len(episodes))
         finally:
             bag.close()
     if sel.given:
@@ -398,7 +430,7 @@ def read_rosbag2(bags: Sequence[str | os.PathLike], sel: BagSelection) -> Datase
     return data
 
 
-def _read_bag(bag: _Bag, sel: BagSelection, names: dict, first_index: int) -> list[Episode]:
+def _read_bag(bag: _Bag, sel: BagSelection, names: dict, columns: dict, first_index: int) -> list[Episode]:
     topic = sel.trajectory[0].topic
     bag.check_topic(topic, "the trajectory's")
     for ref in sel.task_params:
@@ -411,7 +443,7 @@ def _read_bag(bag: _Bag, sel: BagSelection, names: dict, first_index: int) -> li
         by_topic[name].append((t, msg))
     if not by_topic[topic]:
         raise DatasetError(bag.path, f"no message on {topic!r} (expected the trajectory's messages)", sel.feature)
-    rows = _trajectory(bag, sel, by_topic[topic])
+    rows = _trajectory(bag, sel, by_topic[topic], columns)
     times, values = np.asarray(rows.times), np.asarray(rows.values)
     order = np.argsort(times, kind="stable")  # messages are in receive order; stamps may differ
     times, values = times[order], values[order]
@@ -433,7 +465,7 @@ def _read_bag(bag: _Bag, sel: BagSelection, names: dict, first_index: int) -> li
                                          f"message on {topic!r} (expected its trajectory)", sel.feature)
         params = {}
         for ref in sel.task_params:
-            params[ref.text] = _param(bag, ref, by_topic[ref.topic], lo, hi, first_index + k, names)
+            params[ref.text] = _param(bag, ref, by_topic[ref.topic], lo, hi, first_index + k, names, columns)
         episodes.append(Episode(first_index + k, {sel.feature: values[inside], TIME: times[inside].reshape(-1, 1)},
                                 {**fields, **params}, dict(labels),
                                 None if success is None else bool(success[0])))
@@ -447,7 +479,8 @@ def _read_bag(bag: _Bag, sel: BagSelection, names: dict, first_index: int) -> li
     return episodes
 
 
-def _param(bag: _Bag, ref: MessageRef, msgs: list, lo: float, hi: float, index: int, names: dict) -> np.ndarray:
+def _param(bag: _Bag, ref: MessageRef, msgs: list, lo: float, hi: float, index: int, names: dict,
+           columns: dict) -> np.ndarray:
     inside = [(t, m) for t, m in msgs if lo <= t < hi]
     if not inside:
         raise DatasetError(bag.path, f"episode {index}: no message on {ref.topic!r} between {lo:.3f} and {hi:.3f} s "
@@ -461,9 +494,9 @@ def _param(bag: _Bag, ref: MessageRef, msgs: list, lo: float, hi: float, index: 
         raise DatasetError(bag.path, f"gives {rows.shape[0]} rows per message (expected one: not [*])", ref.text)
     if not np.isfinite(rows).all():
         raise DatasetError(bag.path, f"the message at {t:.6f} s holds NaN or inf (expected finite numbers)", ref.text)
-    labels = _array_labels(msg, labels)
-    names.setdefault(ref.text, tuple(labels))
-    return rows[0]
+    row = _by_name(bag, ref, t, rows, _array_labels(msg, labels), columns)[0]
+    names.setdefault(ref.text, columns[ref.text])
+    return row
 
 
 def _array_labels(msg, labels: list[str]) -> list[str]:
