@@ -12,7 +12,8 @@ reference selects in one message (``/joint_states:position[shoulder,elbow]``,
 
 Out: :func:`write_rosbag2` writes each roll-out as a bag of its own (``DIR/rollout_0000/``...):
 its commanded trajectory as one ``trajectory_msgs/msg/JointTrajectory`` on ``/acnmp/trajectory``
-(joint names the skill's output names, ``time_from_start`` the recorded time in seconds), its
+(joint names the skill's output names, ``time_from_start`` the recorded time in seconds, or scaled
+to a given duration), its
 reward per step on ``/acnmp/reward`` (``std_msgs/msg/Float64``), its success on ``/acnmp/success``
 (``std_msgs/msg/Bool``), its task parameters on ``/acnmp/task_params``
 (``std_msgs/msg/Float64MultiArray``, the names as the dimension's label), and the job, skill,
@@ -553,17 +554,24 @@ def _field_kinds(store, type_name: str) -> str:
     return ", ".join(out)
 
 
-def write_rosbag2(root: str | os.PathLike, rollouts: list[RolloutEpisode], *, storage: str = "mcap") -> Path:
+def write_rosbag2(root: str | os.PathLike, rollouts: list[RolloutEpisode], *, storage: str = "mcap",
+                  duration: float | None = None) -> Path:
     """Write ``rollouts`` as bags in the new directory ``root`` (which must not exist, or be
     empty), one bag per roll-out, ``rollout_0000``, ``rollout_0001``, ... in recording order,
     as the module docstring describes, with ``storage`` ("mcap" or "sqlite3"); return ``root``.
-    Written in a temporary directory beside ``root`` and renamed into place: a failure leaves
-    nothing. DatasetError for roll-outs that do not fit together, a ``root`` that is not new or
-    an unknown storage."""
+    ``duration`` (s): each roll-out's times scaled so that it lasts that long (``time_from_start``
+    and the messages' stamps: the robot's pace for ``ros2 bag play``; ``acnmp.duration`` in the
+    metadata); None: the recorded times as they are (the phase). Times are whole nanoseconds in a
+    bag (``builtin_interfaces/Duration``): each is rounded to the nearest, so read back they are
+    within 0.5 ns of the recorded ones. Written in a temporary directory beside ``root`` and
+    renamed into place: a failure leaves nothing. DatasetError for roll-outs that do not fit
+    together, a ``root`` that is not new, an unknown storage or a duration that is not > 0."""
     rosbag2, _ = _rosbags()
     root = Path(root)
     if storage not in STORAGES:
         raise DatasetError(root, f"storage {storage!r} (expected one of {', '.join(STORAGES)})")
+    if duration is not None and not (math.isfinite(duration) and duration > 0):
+        raise DatasetError(root, f"duration {duration!r} (expected seconds > 0)")
     if root.exists() and (not root.is_dir() or any(root.iterdir())):
         raise DatasetError(root, "already exists (expected a new or empty directory for the bags)")
     d, p = check_rollouts(rollouts, str(root))
@@ -575,21 +583,25 @@ def write_rosbag2(root: str | os.PathLike, rollouts: list[RolloutEpisode], *, st
         for i, r in enumerate(rollouts):
             if r.wall_time is not None:
                 start = max(start, int(r.wall_time * 1e9))
+            scale = 1.0 if duration is None else duration / float(r.times[-1] - r.times[0])
             with rosbag2.Writer(tmp / f"rollout_{i:04d}", version=9, storage_plugin=plugin) as writer:
-                _write_rollout(writer, store, r, start, names, param_names)
-            start += int(math.ceil(float(r.times[-1] - r.times[0]) + 1.0) * 1e9)  # the next one after it
+                _write_rollout(writer, store, r, start, names, param_names, scale)
+                if duration is not None:
+                    writer.set_custom_data(f"{META_PREFIX}duration", json.dumps(float(duration)))
+            start += int(math.ceil(float(r.times[-1] - r.times[0]) * scale + 1.0) * 1e9)  # the next one after it
     return root
 
 
-def _write_rollout(writer, store, r: RolloutEpisode, start: int, names: list[str], param_names: list[str]) -> None:
-    """One roll-out's messages (its times from ``start`` ns) and metadata into an open Writer."""
+def _write_rollout(writer, store, r: RolloutEpisode, start: int, names: list[str], param_names: list[str],
+                   scale: float = 1.0) -> None:
+    """One roll-out's messages (its times, multiplied by ``scale``, from ``start`` ns) and metadata into an open Writer."""
     t = store.types
     time_msg, duration = t["builtin_interfaces/msg/Time"], t["builtin_interfaces/msg/Duration"]
 
     def stamp(ns: int):
         return time_msg(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
 
-    offsets = [int(round(float(x - r.times[0]) * 1e9)) for x in r.times]
+    offsets = [int(round(float(x - r.times[0]) * scale * 1e9)) for x in r.times]
     header = t["std_msgs/msg/Header"](stamp=stamp(start), frame_id="")
     point = t["trajectory_msgs/msg/JointTrajectoryPoint"]
     empty = np.zeros(0, dtype=np.float64)

@@ -240,10 +240,10 @@ def describe(data) -> str:
 
 
 def export_rollouts(tables, *, lerobot: str | None, minari: str | None, job: str | None, fps: int,
-                    rosbag2: str | None = None, storage: str = "mcap") -> list[str]:
+                    rosbag2: str | None = None, storage: str = "mcap", duration: float | None = None) -> list[str]:
     """Write the roll-outs of ``tables`` (RecordingTables; of ``job`` when given) as a LeRobot
     dataset at ``lerobot``, a Minari dataset ``minari`` and/or ROS 2 bags in ``rosbag2`` (with
-    ``storage``); returns the lines to print."""
+    ``storage``, each roll-out lasting ``duration`` s when given); returns the lines to print."""
     from acnmp_core.datasets.lerobot import write_lerobot
     from acnmp_core.datasets.minari import write_minari
 
@@ -252,7 +252,7 @@ def export_rollouts(tables, *, lerobot: str | None, minari: str | None, job: str
     if rosbag2:
         from acnmp_core.datasets.rosbag2 import write_rosbag2
 
-        path = write_rosbag2(rosbag2, rollouts, storage=storage)
+        path = write_rosbag2(rosbag2, rollouts, storage=storage, duration=duration)
         lines.append(f"wrote {path}: {len(rollouts)} ROS 2 bags ({storage}), rollout_0000 ... "
                      f"(acnmp demos import --format rosbag2 {path}/* --trajectory /acnmp/trajectory)")
     if lerobot:
