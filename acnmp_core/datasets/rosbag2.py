@@ -33,7 +33,7 @@ import numpy as np
 
 from .episodes import (DatasetEpisodes, DatasetError, Episode, RolloutEpisode, check_rollouts, new_directory,
                        rollout_names)
-from .message_paths import MessageRef, PathError, extract, msgtype, path_of
+from .message_paths import NAME_FIELDS, MessageRef, PathError, extract, msgtype, path_of
 
 #: storage plugins a bag is written with (``mcap`` the default, ``sqlite3`` the older one)
 STORAGES = ("mcap", "sqlite3")
@@ -514,7 +514,11 @@ def _array_labels(msg, labels: list[str]) -> list[str]:
 
 def describe_bags(bags: Sequence[str | os.PathLike]) -> str:
     """What each bag holds, one line per topic: its type, message count and fields (numbers,
-    arrays of numbers ``[]``, messages), and the bag's custom_data keys."""
+    arrays of numbers ``[]``, messages with their numeric fields: ``point (Point: x, y, z)``, the
+    paths ``/goal:point[0:2]`` selects from); under a topic whose messages name their components
+    (JointState's ``name``, JointTrajectory's ``joint_names``) the names its messages give, in the
+    first message's order, and in how many orders they come (the import places them by name); and
+    the bag's custom_data keys. DatasetError for a path that is not a bag or a damaged one."""
     store, lines = typestore(), []
     for b in bags:
         bag = _Bag(bag_dir(b), store)
@@ -523,9 +527,14 @@ def describe_bags(bags: Sequence[str | os.PathLike]) -> str:
             seconds = (r.end_time - r.start_time) * 1e-9 if r.message_count else 0.0
             lines.append(f"{bag.path}: ROS 2 bag, {len(bag.types)} topics, {r.message_count} messages over "
                          f"{seconds:.3f} s")
+            named = _names_seen(bag)
             for topic, info in sorted(r.topics.items()):
                 fields = _field_kinds(bag.store, info.msgtype)
                 lines.append(f"  {topic:<28} {info.msgtype:<38} {info.msgcount:>7} messages  {fields}")
+                for key, orders in named.get(topic, {}).items():
+                    first = orders[0]
+                    again = f" (in {len(orders)} orders: placed by name)" if len(orders) > 1 else ""
+                    lines.append(f"  {'':<28} {key} seen: {', '.join(first) or 'none'}{again}")
             custom = bag.custom_data()
             if custom:
                 lines.append("  custom_data: " + ", ".join(sorted(custom)))
@@ -534,8 +543,25 @@ def describe_bags(bags: Sequence[str | os.PathLike]) -> str:
     return "\n".join(lines)
 
 
+def _names_seen(bag: _Bag) -> dict[str, dict[str, list[tuple[str, ...]]]]:
+    """{topic: {name field: the distinct name lists its messages give, first seen first}} for the
+    topics whose type has a name field (:data:`~.message_paths.NAME_FIELDS`) and whose type is known."""
+    topics = {t for t, kind in bag.types.items() if kind in bag.store.fielddefs
+              and any(name in NAME_FIELDS for name, _ in bag.store.fielddefs[kind][1])}
+    seen: dict[str, dict[str, list[tuple[str, ...]]]] = {}
+    for topic, _, msg in bag.messages(topics, "receive") if topics else ():
+        for key in NAME_FIELDS:
+            names = getattr(msg, key, None)
+            if isinstance(names, list):
+                orders = seen.setdefault(topic, {}).setdefault(key, [])
+                if tuple(names) not in orders:
+                    orders.append(tuple(names))
+    return seen
+
+
 def _field_kinds(store, type_name: str) -> str:
-    """``name (kind), ...`` of a type's fields, from the typestore's definitions."""
+    """``name (kind), ...`` of a type's fields, from the typestore's definitions; a message field
+    with the numeric fields inside it (``point (Point: x, y, z)``)."""
     try:
         _, fields = store.fielddefs[type_name]
     except KeyError:
@@ -546,12 +572,34 @@ def _field_kinds(store, type_name: str) -> str:
         if kind == "BASE":
             out.append(name if spec[0] != "string" else f"{name} (text)")
         elif kind == "NAME":
-            out.append(f"{name} ({spec.split('/')[-1]})")
-        else:
-            inner = spec[0]
-            base = inner[1][0] if getattr(inner[0], "name", "") == "BASE" else inner[1].split("/")[-1]
-            out.append(f"{name}[] ({base})" if base != "string" else f"{name}[] (text)")
+            inside = ", ".join(_numeric_leaves(store, spec)) if name != "header" else ""
+            out.append(f"{name} ({spec.split('/')[-1]}{': ' + inside if inside else ''})")
+        elif getattr(spec[0][0], "name", "") == "BASE":
+            out.append(f"{name}[] ({spec[0][1][0]})" if spec[0][1][0] != "string" else f"{name}[] (text)")
+        else:  # a sequence of messages: [*] takes a row from each
+            inside = ", ".join(_numeric_leaves(store, spec[0][1]))
+            out.append(f"{name}[] ({spec[0][1].split('/')[-1]}{': ' + inside if inside else ''})")
     return ", ".join(out)
+
+
+def _numeric_leaves(store, type_name: str, prefix: str = "", depth: int = 0) -> list[str]:
+    """The paths of the numbers inside a message type, as a reference names them (``x``,
+    ``position.x``, ``positions[]``); headers and text left out, as :func:`~.message_paths.extract`
+    leaves them out of a message it flattens."""
+    if depth > 4 or type_name not in store.fielddefs:
+        return []
+    out = []
+    for name, (node, spec) in store.fielddefs[type_name][1]:
+        kind = getattr(node, "name", str(node))
+        if name == "header":
+            continue
+        if kind == "BASE" and spec[0] != "string":
+            out.append(f"{prefix}{name}")
+        elif kind == "NAME":
+            out += _numeric_leaves(store, spec, f"{prefix}{name}.", depth + 1)
+        elif kind != "BASE" and getattr(spec[0][0], "name", "") == "BASE" and spec[0][1][0] != "string":
+            out.append(f"{prefix}{name}[]")
+    return out
 
 
 def write_rosbag2(root: str | os.PathLike, rollouts: list[RolloutEpisode], *, storage: str = "mcap",

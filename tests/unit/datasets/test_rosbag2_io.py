@@ -154,7 +154,30 @@ def test_list_shows_topics_types_and_counts(written, run_cli):
     rows = {line.split()[0]: line.split() for line in out.splitlines()[1:]}
     assert rows["/joint_states"][1:3] == ["sensor_msgs/msg/JointState", str(sum(len(ep[0]) for ep in episodes))]
     assert rows["/goal"][1:3] == ["geometry_msgs/msg/PoseStamped", "5"]
-    assert "position[] (float64)" in out and "points[] (JointTrajectoryPoint)" in out
+    assert "position[] (float64)" in out and "points[] (JointTrajectoryPoint: positions[], velocities[]," in out
+    # what a reference needs (issue 72): the numbers inside a message and the joint names the messages give
+    assert "pose (Pose: position.x, position.y, position.z, orientation.x, orientation.y, orientation.z, " \
+           "orientation.w)" in out
+    below = out.splitlines()[out.splitlines().index(next(line for line in out.splitlines() if "/joint_states" in line)) + 1]
+    assert below.split() == ["name", "seen:", "shoulder,", "elbow,", "wrist", "(in", "2", "orders:", "placed", "by",
+                             "name)"]
+    assert "joint_names seen: shoulder, elbow, wrist\n" in out + "\n"
+
+
+def test_a_task_parameter_constant_over_every_episode_is_warned_of(written, tmp_path, run_cli):
+    """Issue 72: `/goal:pose.position@first` quietly made the goal's z (0.5 in every episode) a third task
+    parameter; the import says so on stderr (and writes the file: the user may want it)."""
+    one, _, _ = written
+    code, out, err = run_cli("demos", "import", "--format", "rosbag2", str(one), "-o", str(tmp_path / "d.npz"),
+                             "--split", "topic:/goal", "--trajectory", "/joint_states",
+                             "--task-params", "/goal:pose.position@first")
+    assert code == 0 and out.startswith("wrote ") and err.strip() == (
+        "acnmp demos import: warning: task parameter 'pose.position.z' is 0.5 in every demonstration (a constant "
+        "tells the skill nothing; select the others, e.g. FIELD[0:2]@first)")
+    code, _, err = run_cli("demos", "import", "--format", "rosbag2", str(one), "-o", str(tmp_path / "e.npz"),
+                           "--split", "topic:/goal", "--trajectory", "/joint_states",
+                           "--task-params", "/goal:pose.position[0:2]@first")
+    assert code == 0 and err == ""
 
 
 def _shuffled(k: int, i: int) -> list[int]:
@@ -224,6 +247,7 @@ def _untyped_bag(root: Path) -> Path:
     ("one", ["--trajectory", "/joint_states", "--split", "every:2"], "not a split"),
     ("one", ["--trajectory", "/joint_states", "--task-params", "/goal:pose"], "expected /goal:pose@first"),
     ("one", ["--trajectory", "/joint_states", "--successful"], "does not mark episodes successful"),
+    ("one", ["--trajectory", "/joint_states", "--align", "after"], "--align: for a feature with one row more"),
     ("untyped", ["--trajectory", "/grip:taus"], "message type lab_msgs/msg/Grip is unknown"),
     ("nan", ["--trajectory", "/joint_states", "--split", "topic:/goal"], "holds NaN or inf (expected finite numbers)"),
 ])
