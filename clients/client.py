@@ -281,11 +281,6 @@ class ACNMPClient:
         """How many model services are live and reachable now (liveliness tokens), skills or not."""
         return len(alive_tokens(self.session, self.keys.model_service_token("*"), timeout))
 
-    def worker_kinds(self, timeout: float = 2.0) -> list[str]:
-        """The robot kinds of the workers live and reachable now (their liveliness tokens
-        ``.../worker/<robot>/<id>``), each once, sorted."""
-        return sorted({key.split("/")[-2] for key in alive_tokens(self.session, f"{self.keys.prefix}/worker/*/*", timeout)})
-
     # ----- learner ---------------------------------------------------------------------------
     def train(self, skill: str, times, values, task_params=None, timeout: float | None = None, **options) -> dict:
         """Ask the learner to train ``skill`` on demonstrations and wait until it has.

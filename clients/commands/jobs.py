@@ -162,6 +162,15 @@ def _adapt_job(args, client):
     return skill, AdaptJob(target, args.task, _robot(args, client), task_config, config, args.seed, args.commit)
 
 
+def worker_kinds(client, timeout: float = 2.0) -> list[str]:
+    """The robot kinds of the workers ``client``'s deployment runs now (their liveliness tokens
+    ``.../worker/<robot>/<id>``), each once, sorted."""
+    from services.transport import alive_tokens
+
+    tokens = alive_tokens(client.session, f"{client.keys.prefix}/worker/*/*", timeout)
+    return sorted({key.split("/")[-2] for key in tokens})
+
+
 def _robot(args, client) -> str:
     """``--robot``, or the one robot kind the deployment's workers are of (their liveliness tokens):
     ValueError naming the kinds when they are several, ClientError ``unavailable`` when none is live."""
@@ -169,7 +178,7 @@ def _robot(args, client) -> str:
 
     if args.robot is not None:
         return args.robot
-    kinds = client.worker_kinds()
+    kinds = worker_kinds(client)
     if len(kinds) == 1:
         return kinds[0]
     if not kinds:
