@@ -23,6 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
+from services.recording.web_viewer import stop_child
+
 FLAGS = ("--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
          "--disable-background-networking", "--disable-component-update", "--disable-sync",
          "--remote-debugging-pipe")
@@ -84,13 +86,7 @@ class Chromium:
         if self.proc is not None:
             for stream in (self._send, self._receive):
                 stream.close()
-            if self.proc.poll() is None:
-                self.proc.terminate()
-                try:
-                    self.proc.wait(timeout=10)
-                except subprocess.TimeoutExpired:
-                    self.proc.kill()
-                    self.proc.wait(timeout=10)
+            stop_child(self.proc, grace=10.0)
             self.proc = None
         shutil.rmtree(self._dir, ignore_errors=True)
 
