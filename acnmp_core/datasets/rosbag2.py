@@ -12,7 +12,8 @@ reference selects in one message (``/joint_states:position[shoulder,elbow]``,
 
 Out: :func:`write_rosbag2` writes each roll-out as a bag of its own (``DIR/rollout_0000/``...):
 its commanded trajectory as one ``trajectory_msgs/msg/JointTrajectory`` on ``/acnmp/trajectory``
-(joint names the skill's output names, ``time_from_start`` the recorded time in seconds), its
+(joint names the skill's output names, ``time_from_start`` the recorded time in seconds, or scaled
+to a given duration), its
 reward per step on ``/acnmp/reward`` (``std_msgs/msg/Float64``), its success on ``/acnmp/success``
 (``std_msgs/msg/Bool``), its task parameters on ``/acnmp/task_params``
 (``std_msgs/msg/Float64MultiArray``, the names as the dimension's label), and the job, skill,
@@ -32,7 +33,7 @@ import numpy as np
 
 from .episodes import (DatasetEpisodes, DatasetError, Episode, RolloutEpisode, check_rollouts, new_directory,
                        rollout_names)
-from .message_paths import MessageRef, PathError, extract, msgtype, path_of
+from .message_paths import NAME_FIELDS, MessageRef, PathError, extract, msgtype, path_of
 
 #: storage plugins a bag is written with (``mcap`` the default, ``sqlite3`` the older one)
 STORAGES = ("mcap", "sqlite3")
@@ -222,13 +223,28 @@ class _Bag:
                                               "a ROS 2 Jazzy type or one whose definition the bag holds, as bags "
                                               "recorded since ROS 2 Iron do)")
         start = self.reader.start_time
-        for conn, stamp, raw in self.reader.messages(connections=conns):
+        counts = dict.fromkeys((c.id for c in conns), 0)
+        stored = self.reader.messages(connections=conns)
+        while True:
+            try:
+                conn, stamp, raw = next(stored)
+            except StopIteration:
+                break
+            except Exception as exc:  # noqa: BLE001 - the storage's own errors for damaged bytes (rosbags'
+                # ReaderError, apsw's CorruptError, an OverflowError of a length read from random bytes)
+                raise DatasetError(self.path, f"damaged or truncated: its storage cannot be read past "
+                                              f"{sum(counts.values())} messages ({_line(exc)})") from None
+            counts[conn.id] += 1
             try:
                 msg = self.store.deserialize_cdr(raw, conn.msgtype)
             except Exception as exc:  # noqa: BLE001 - a damaged message
                 raise DatasetError(self.path, f"topic {conn.topic!r}: cannot read its {conn.msgtype} messages "
                                               f"({_line(exc)})") from None
             yield conn.topic, (_stamp(msg, clock, stamp, self.path, conn.topic) - start) * 1e-9, msg
+        for conn in conns:  # a message lost to damage (a record whose channel or time was overwritten)
+            if conn.msgcount and counts[conn.id] != conn.msgcount:
+                raise DatasetError(self.path, f"damaged or truncated: {counts[conn.id]} messages on {conn.topic!r} "
+                                              f"where its metadata.yaml counts {conn.msgcount}")
 
 
 def _definitions(conn, typesys) -> dict:
@@ -323,7 +339,24 @@ class _Rows:
     names: list[str] | None = None
 
 
-def _trajectory(bag: _Bag, sel: BagSelection, msgs) -> _Rows:
+def _by_name(bag: _Bag, ref: MessageRef, t: float, rows: np.ndarray, names: list[str],
+             columns: dict[str, tuple[str, ...]]) -> np.ndarray:
+    """``rows`` (R, k) of one message, its columns named ``names`` by the message, put in the order
+    the first message of the import named them (``columns[ref.text]``, set by that message):
+    JointState and JointTrajectory may list their joints in another order in every message, so
+    a column is a joint by its name, never by its place. DatasetError when the message names
+    other components than the first did (a joint more or less: select them by name)."""
+    first = columns.setdefault(ref.text, tuple(names))
+    if tuple(names) == first:
+        return rows
+    if len(set(names)) == len(names) and sorted(names) == sorted(first):
+        return rows[:, [names.index(n) for n in first]]
+    raise DatasetError(bag.path, f"topic {ref.topic!r}: the message at {t:.6f} s names {', '.join(names) or 'none'} "
+                                 f"where the first named {', '.join(first) or 'none'} (expected the same components in "
+                                 f"every message: select them by name, e.g. [{','.join(first[:2])}])", ref.text)
+
+
+def _trajectory(bag: _Bag, sel: BagSelection, msgs, columns: dict[str, tuple[str, ...]]) -> _Rows:
     out = _Rows()
     for t, msg in msgs:
         parts = []
@@ -332,7 +365,7 @@ def _trajectory(bag: _Bag, sel: BagSelection, msgs) -> _Rows:
                 rows, offsets, names = extract(msg, path_of(ref, msgtype(msg)))
             except PathError as exc:
                 raise DatasetError(bag.path, f"topic {ref.topic!r}: {exc}", ref.text) from None
-            parts.append((rows, offsets, names))
+            parts.append((_by_name(bag, ref, t, rows, names, columns), offsets, list(columns[ref.text])))
         counts = {p[0].shape[0] for p in parts}
         if len(counts) > 1:
             raise DatasetError(bag.path, f"the references give {sorted(counts)} rows per message (expected as many "
@@ -376,12 +409,12 @@ def read_rosbag2(bags: Sequence[str | os.PathLike], sel: BagSelection) -> Datase
     message type neither ROS 2 Jazzy nor the bag defines, an episode without messages, a NaN."""
     if not bags:
         raise DatasetError("rosbag2", "no bag given (expected one or more bag directories)")
-    store, episodes, names = typestore(), [], {}
+    store, episodes, names, columns = typestore(), [], {}, {}
     paths = [bag_dir(b) for b in bags]
     for path in paths:
         bag = _Bag(path, store)
         try:
-            episodes += _read_bag(bag, sel, names, first_index=len(episodes))
+            episodes += _read_bag(bag, sel, names, columns, first_index=len(episodes))
         finally:
             bag.close()
     if sel.given:
@@ -398,7 +431,7 @@ def read_rosbag2(bags: Sequence[str | os.PathLike], sel: BagSelection) -> Datase
     return data
 
 
-def _read_bag(bag: _Bag, sel: BagSelection, names: dict, first_index: int) -> list[Episode]:
+def _read_bag(bag: _Bag, sel: BagSelection, names: dict, columns: dict, first_index: int) -> list[Episode]:
     topic = sel.trajectory[0].topic
     bag.check_topic(topic, "the trajectory's")
     for ref in sel.task_params:
@@ -411,7 +444,7 @@ def _read_bag(bag: _Bag, sel: BagSelection, names: dict, first_index: int) -> li
         by_topic[name].append((t, msg))
     if not by_topic[topic]:
         raise DatasetError(bag.path, f"no message on {topic!r} (expected the trajectory's messages)", sel.feature)
-    rows = _trajectory(bag, sel, by_topic[topic])
+    rows = _trajectory(bag, sel, by_topic[topic], columns)
     times, values = np.asarray(rows.times), np.asarray(rows.values)
     order = np.argsort(times, kind="stable")  # messages are in receive order; stamps may differ
     times, values = times[order], values[order]
@@ -433,7 +466,7 @@ def _read_bag(bag: _Bag, sel: BagSelection, names: dict, first_index: int) -> li
                                          f"message on {topic!r} (expected its trajectory)", sel.feature)
         params = {}
         for ref in sel.task_params:
-            params[ref.text] = _param(bag, ref, by_topic[ref.topic], lo, hi, first_index + k, names)
+            params[ref.text] = _param(bag, ref, by_topic[ref.topic], lo, hi, first_index + k, names, columns)
         episodes.append(Episode(first_index + k, {sel.feature: values[inside], TIME: times[inside].reshape(-1, 1)},
                                 {**fields, **params}, dict(labels),
                                 None if success is None else bool(success[0])))
@@ -447,7 +480,8 @@ def _read_bag(bag: _Bag, sel: BagSelection, names: dict, first_index: int) -> li
     return episodes
 
 
-def _param(bag: _Bag, ref: MessageRef, msgs: list, lo: float, hi: float, index: int, names: dict) -> np.ndarray:
+def _param(bag: _Bag, ref: MessageRef, msgs: list, lo: float, hi: float, index: int, names: dict,
+           columns: dict) -> np.ndarray:
     inside = [(t, m) for t, m in msgs if lo <= t < hi]
     if not inside:
         raise DatasetError(bag.path, f"episode {index}: no message on {ref.topic!r} between {lo:.3f} and {hi:.3f} s "
@@ -461,9 +495,9 @@ def _param(bag: _Bag, ref: MessageRef, msgs: list, lo: float, hi: float, index: 
         raise DatasetError(bag.path, f"gives {rows.shape[0]} rows per message (expected one: not [*])", ref.text)
     if not np.isfinite(rows).all():
         raise DatasetError(bag.path, f"the message at {t:.6f} s holds NaN or inf (expected finite numbers)", ref.text)
-    labels = _array_labels(msg, labels)
-    names.setdefault(ref.text, tuple(labels))
-    return rows[0]
+    row = _by_name(bag, ref, t, rows, _array_labels(msg, labels), columns)[0]
+    names.setdefault(ref.text, columns[ref.text])
+    return row
 
 
 def _array_labels(msg, labels: list[str]) -> list[str]:
@@ -480,7 +514,11 @@ def _array_labels(msg, labels: list[str]) -> list[str]:
 
 def describe_bags(bags: Sequence[str | os.PathLike]) -> str:
     """What each bag holds, one line per topic: its type, message count and fields (numbers,
-    arrays of numbers ``[]``, messages), and the bag's custom_data keys."""
+    arrays of numbers ``[]``, messages with their numeric fields: ``point (Point: x, y, z)``, the
+    paths ``/goal:point[0:2]`` selects from); under a topic whose messages name their components
+    (JointState's ``name``, JointTrajectory's ``joint_names``) the names its messages give, in the
+    first message's order, and in how many orders they come (the import places them by name); and
+    the bag's custom_data keys. DatasetError for a path that is not a bag or a damaged one."""
     store, lines = typestore(), []
     for b in bags:
         bag = _Bag(bag_dir(b), store)
@@ -489,9 +527,14 @@ def describe_bags(bags: Sequence[str | os.PathLike]) -> str:
             seconds = (r.end_time - r.start_time) * 1e-9 if r.message_count else 0.0
             lines.append(f"{bag.path}: ROS 2 bag, {len(bag.types)} topics, {r.message_count} messages over "
                          f"{seconds:.3f} s")
+            named = _names_seen(bag)
             for topic, info in sorted(r.topics.items()):
                 fields = _field_kinds(bag.store, info.msgtype)
                 lines.append(f"  {topic:<28} {info.msgtype:<38} {info.msgcount:>7} messages  {fields}")
+                for key, orders in named.get(topic, {}).items():
+                    first = orders[0]
+                    again = f" (in {len(orders)} orders: placed by name)" if len(orders) > 1 else ""
+                    lines.append(f"  {'':<28} {key} seen: {', '.join(first) or 'none'}{again}")
             custom = bag.custom_data()
             if custom:
                 lines.append("  custom_data: " + ", ".join(sorted(custom)))
@@ -500,8 +543,25 @@ def describe_bags(bags: Sequence[str | os.PathLike]) -> str:
     return "\n".join(lines)
 
 
+def _names_seen(bag: _Bag) -> dict[str, dict[str, list[tuple[str, ...]]]]:
+    """{topic: {name field: the distinct name lists its messages give, first seen first}} for the
+    topics whose type has a name field (:data:`~.message_paths.NAME_FIELDS`) and whose type is known."""
+    topics = {t for t, kind in bag.types.items() if kind in bag.store.fielddefs
+              and any(name in NAME_FIELDS for name, _ in bag.store.fielddefs[kind][1])}
+    seen: dict[str, dict[str, list[tuple[str, ...]]]] = {}
+    for topic, _, msg in bag.messages(topics, "receive") if topics else ():
+        for key in NAME_FIELDS:
+            names = getattr(msg, key, None)
+            if isinstance(names, list):
+                orders = seen.setdefault(topic, {}).setdefault(key, [])
+                if tuple(names) not in orders:
+                    orders.append(tuple(names))
+    return seen
+
+
 def _field_kinds(store, type_name: str) -> str:
-    """``name (kind), ...`` of a type's fields, from the typestore's definitions."""
+    """``name (kind), ...`` of a type's fields, from the typestore's definitions; a message field
+    with the numeric fields inside it (``point (Point: x, y, z)``)."""
     try:
         _, fields = store.fielddefs[type_name]
     except KeyError:
@@ -512,25 +572,54 @@ def _field_kinds(store, type_name: str) -> str:
         if kind == "BASE":
             out.append(name if spec[0] != "string" else f"{name} (text)")
         elif kind == "NAME":
-            out.append(f"{name} ({spec.split('/')[-1]})")
-        else:
-            inner = spec[0]
-            base = inner[1][0] if getattr(inner[0], "name", "") == "BASE" else inner[1].split("/")[-1]
-            out.append(f"{name}[] ({base})" if base != "string" else f"{name}[] (text)")
+            inside = ", ".join(_numeric_leaves(store, spec)) if name != "header" else ""
+            out.append(f"{name} ({spec.split('/')[-1]}{': ' + inside if inside else ''})")
+        elif getattr(spec[0][0], "name", "") == "BASE":
+            out.append(f"{name}[] ({spec[0][1][0]})" if spec[0][1][0] != "string" else f"{name}[] (text)")
+        else:  # a sequence of messages: [*] takes a row from each
+            inside = ", ".join(_numeric_leaves(store, spec[0][1]))
+            out.append(f"{name}[] ({spec[0][1].split('/')[-1]}{': ' + inside if inside else ''})")
     return ", ".join(out)
 
 
-def write_rosbag2(root: str | os.PathLike, rollouts: list[RolloutEpisode], *, storage: str = "mcap") -> Path:
+def _numeric_leaves(store, type_name: str, prefix: str = "", depth: int = 0) -> list[str]:
+    """The paths of the numbers inside a message type, as a reference names them (``x``,
+    ``position.x``, ``positions[]``); headers and text left out, as :func:`~.message_paths.extract`
+    leaves them out of a message it flattens."""
+    if depth > 4 or type_name not in store.fielddefs:
+        return []
+    out = []
+    for name, (node, spec) in store.fielddefs[type_name][1]:
+        kind = getattr(node, "name", str(node))
+        if name == "header":
+            continue
+        if kind == "BASE" and spec[0] != "string":
+            out.append(f"{prefix}{name}")
+        elif kind == "NAME":
+            out += _numeric_leaves(store, spec, f"{prefix}{name}.", depth + 1)
+        elif kind != "BASE" and getattr(spec[0][0], "name", "") == "BASE" and spec[0][1][0] != "string":
+            out.append(f"{prefix}{name}[]")
+    return out
+
+
+def write_rosbag2(root: str | os.PathLike, rollouts: list[RolloutEpisode], *, storage: str = "mcap",
+                  duration: float | None = None) -> Path:
     """Write ``rollouts`` as bags in the new directory ``root`` (which must not exist, or be
     empty), one bag per roll-out, ``rollout_0000``, ``rollout_0001``, ... in recording order,
     as the module docstring describes, with ``storage`` ("mcap" or "sqlite3"); return ``root``.
-    Written in a temporary directory beside ``root`` and renamed into place: a failure leaves
-    nothing. DatasetError for roll-outs that do not fit together, a ``root`` that is not new or
-    an unknown storage."""
+    ``duration`` (s): each roll-out's times scaled so that it lasts that long (``time_from_start``
+    and the messages' stamps: the robot's pace for ``ros2 bag play``; ``acnmp.duration`` in the
+    metadata); None: the recorded times as they are (the phase). Times are whole nanoseconds in a
+    bag (``builtin_interfaces/Duration``): each is rounded to the nearest, so read back they are
+    within 0.5 ns of the recorded ones. Written in a temporary directory beside ``root`` and
+    renamed into place: a failure leaves nothing. DatasetError for roll-outs that do not fit
+    together, a ``root`` that is not new, an unknown storage or a duration that is not > 0."""
     rosbag2, _ = _rosbags()
     root = Path(root)
     if storage not in STORAGES:
         raise DatasetError(root, f"storage {storage!r} (expected one of {', '.join(STORAGES)})")
+    if duration is not None and not (math.isfinite(duration) and duration > 0):
+        raise DatasetError(root, f"duration {duration!r} (expected seconds > 0)")
     if root.exists() and (not root.is_dir() or any(root.iterdir())):
         raise DatasetError(root, "already exists (expected a new or empty directory for the bags)")
     d, p = check_rollouts(rollouts, str(root))
@@ -542,21 +631,25 @@ def write_rosbag2(root: str | os.PathLike, rollouts: list[RolloutEpisode], *, st
         for i, r in enumerate(rollouts):
             if r.wall_time is not None:
                 start = max(start, int(r.wall_time * 1e9))
+            scale = 1.0 if duration is None else duration / float(r.times[-1] - r.times[0])
             with rosbag2.Writer(tmp / f"rollout_{i:04d}", version=9, storage_plugin=plugin) as writer:
-                _write_rollout(writer, store, r, start, names, param_names)
-            start += int(math.ceil(float(r.times[-1] - r.times[0]) + 1.0) * 1e9)  # the next one after it
+                _write_rollout(writer, store, r, start, names, param_names, scale)
+                if duration is not None:
+                    writer.set_custom_data(f"{META_PREFIX}duration", json.dumps(float(duration)))
+            start += int(math.ceil(float(r.times[-1] - r.times[0]) * scale + 1.0) * 1e9)  # the next one after it
     return root
 
 
-def _write_rollout(writer, store, r: RolloutEpisode, start: int, names: list[str], param_names: list[str]) -> None:
-    """One roll-out's messages (its times from ``start`` ns) and metadata into an open Writer."""
+def _write_rollout(writer, store, r: RolloutEpisode, start: int, names: list[str], param_names: list[str],
+                   scale: float = 1.0) -> None:
+    """One roll-out's messages (its times, multiplied by ``scale``, from ``start`` ns) and metadata into an open Writer."""
     t = store.types
     time_msg, duration = t["builtin_interfaces/msg/Time"], t["builtin_interfaces/msg/Duration"]
 
     def stamp(ns: int):
         return time_msg(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
 
-    offsets = [int(round(float(x - r.times[0]) * 1e9)) for x in r.times]
+    offsets = [int(round(float(x - r.times[0]) * scale * 1e9)) for x in r.times]
     header = t["std_msgs/msg/Header"](stamp=stamp(start), frame_id="")
     point = t["trajectory_msgs/msg/JointTrajectoryPoint"]
     empty = np.zeros(0, dtype=np.float64)

@@ -23,7 +23,7 @@ def datasets_round_trip() -> str:
         f"deployment, recorded; its roll-outs exported, loaded by the format's own library, the successful ones "
         f"imported back and a skill trained on them ({cfg['skill_steps']} steps):",
         "",
-        table(["format", "roll-outs exported", "episodes the library loaded", "successful", "imported bit for bit",
+        table(["format", "roll-outs exported", "episodes the library loaded", "successful", "values imported bit for bit",
                "reproduction RMSE (max, m)", "export (episodes/s)", "import (episodes/s)"], rows),
         "",
         f"* E1's tolerance is {fmt(r['lerobot']['tolerance'])} m. Export and import per second include reading "

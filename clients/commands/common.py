@@ -127,6 +127,20 @@ def _floats(text: str | None, name: str) -> np.ndarray | None:
     return np.array([_number(v, f"{name} {text!r}") for v in parts])
 
 
+def check_condition(skill: str, info: dict, values: np.ndarray, task_params: np.ndarray | None) -> None:
+    """Refuse a conditioning that does not fit the skill ``info`` describes (its info reply) before
+    it is sent: ValueError naming the option when the observations (N, D) carry another number of
+    values than the skill's outputs, or the task parameters (P,) another number than its own."""
+    names = ", ".join(info.get("output_names") or ())
+    if values.shape[1] != info["n_outputs"]:
+        raise ValueError(f"--obs: {values.shape[1]} values per observation; skill {skill!r} has {info['n_outputs']} "
+                         f"outputs ({names}): one value each, _ for one not observed")
+    if task_params is not None and len(task_params) != info["n_task_params"]:
+        given = ", ".join(info.get("task_param_names") or ()) or "none"
+        raise ValueError(f"--task-params: {len(task_params)} values; skill {skill!r} has {info['n_task_params']} "
+                         f"task parameters ({given})")
+
+
 def _client(args, role: str = "client"):
     from clients.client import ACNMPClient
 

@@ -20,9 +20,9 @@ examples:
   acnmp demos import --format minari acnmp/e1-v0 -o e1.npz --trajectory actions \\
       --task-params acnmp/task_params --successful
   acnmp demos import --format rosbag2 bags/* --list                    # topics, types, counts
-  acnmp demos import --format rosbag2 arm.bag -o arm.npz --split topic:/goal \
+  acnmp demos import --format rosbag2 arm.bag -o arm.npz --split topic:/goal \\
       --trajectory '/joint_states:position[shoulder,elbow,wrist]' --task-params /goal:pose.position@first
-  acnmp demos import --format rosbag2 out/bags/* -o back.npz --trajectory /acnmp/trajectory \
+  acnmp demos import --format rosbag2 out/bags/* -o back.npz --trajectory /acnmp/trajectory \\
       --task-params acnmp.task_params --successful                   # an export's roll-outs
   acnmp up --demos pick=pick.npz                                        # a skill trained on them
 """
@@ -110,7 +110,7 @@ def register_import(sub) -> None:
                    help="a trajectory feature with one row more than the episode's steps (Minari's observations: "
                         "the reset state first): before: rows 0..T-1, the state each step starts from; after: rows "
                         "1..T, the state each step reaches (what a robot that tracks one row per step is commanded); "
-                        "default: every row (features of different lengths cut to the shortest)")
+                        "default: every row (features of different lengths cut to the shortest); not for bags")
     p.add_argument("--resample", type=int_at_least(2), default=None, metavar="T",
                    help="T rows per demonstration, linearly interpolated over the phase (default: each episode's own "
                         "frames; different lengths are kept, padded, with their lengths)")
@@ -176,6 +176,9 @@ def run_import(args) -> int:
         raise ValueError("--output and --trajectory: both needed to write demonstrations (or --list to look first)")
     check_output_path(args.output, "--output")
     if bags:
+        if args.align:  # Minari's observations have the reset state first; a bag's trajectory does not
+            raise ValueError("--align: for a feature with one row more than the episode's steps (Minari's "
+                             "observations); a bag's trajectory has a row per message: not with --format rosbag2")
         data, selection = _bag_selection(args)
     else:
         try:
@@ -187,7 +190,27 @@ def run_import(args) -> int:
             raise ValueError(f"--trajectory/--task-params: {exc}") from None
         data = read_dataset(args.format, args.source[0])
     demos = select_demos(data, selection)
-    return write_demos(args.output, demos)
+    code = write_demos(args.output, demos)
+    warn_constant_task_params(demos)
+    return code
+
+
+def warn_constant_task_params(demos) -> None:
+    """Say on stderr which task parameters of ``demos`` (DemoArrays) have one value in every one of
+    its two or more demonstrations (e.g. a goal's z on a table): a constant tells the skill nothing,
+    and an adaptation must then be given that value too."""
+    import sys
+
+    import numpy as np
+
+    tp = np.asarray(demos.task_params)
+    if tp.shape[0] < 2:
+        return
+    names = [str(n) for n in demos.task_param_names] if demos.task_param_names is not None else []
+    for j in np.flatnonzero(np.all(tp == tp[0], axis=0)):
+        name = names[j] if j < len(names) else f"task parameter {j}"
+        print(f"acnmp demos import: warning: task parameter {name!r} is {tp[0, j]:g} in every demonstration (a "
+              "constant tells the skill nothing; select the others, e.g. FIELD[0:2]@first)", file=sys.stderr)
 
 
 def _bag_selection(args):
@@ -240,10 +263,10 @@ def describe(data) -> str:
 
 
 def export_rollouts(tables, *, lerobot: str | None, minari: str | None, job: str | None, fps: int,
-                    rosbag2: str | None = None, storage: str = "mcap") -> list[str]:
+                    rosbag2: str | None = None, storage: str = "mcap", duration: float | None = None) -> list[str]:
     """Write the roll-outs of ``tables`` (RecordingTables; of ``job`` when given) as a LeRobot
     dataset at ``lerobot``, a Minari dataset ``minari`` and/or ROS 2 bags in ``rosbag2`` (with
-    ``storage``); returns the lines to print."""
+    ``storage``, each roll-out lasting ``duration`` s when given); returns the lines to print."""
     from acnmp_core.datasets.lerobot import write_lerobot
     from acnmp_core.datasets.minari import write_minari
 
@@ -252,7 +275,7 @@ def export_rollouts(tables, *, lerobot: str | None, minari: str | None, job: str
     if rosbag2:
         from acnmp_core.datasets.rosbag2 import write_rosbag2
 
-        path = write_rosbag2(rosbag2, rollouts, storage=storage)
+        path = write_rosbag2(rosbag2, rollouts, storage=storage, duration=duration)
         lines.append(f"wrote {path}: {len(rollouts)} ROS 2 bags ({storage}), rollout_0000 ... "
                      f"(acnmp demos import --format rosbag2 {path}/* --trajectory /acnmp/trajectory)")
     if lerobot:

@@ -16,7 +16,8 @@ import numpy as np
 from services.transport import jsonable
 from services.transport.argtypes import int_at_least, non_empty, seconds
 
-from .common import _ask, _client, _common, _fail, _floats, _skill, condition_arguments, parse_obs, parse_obs_json
+from .common import (_ask, _client, _common, _fail, _floats, _skill, check_condition, condition_arguments, parse_obs,
+                     parse_obs_json)
 
 EPILOG = """\
 examples:
@@ -62,8 +63,9 @@ def add_job_commands(sub) -> None:
     condition_arguments(adapt, task_params=True, required=True, verb="adapt")
     adapt.add_argument("--task", required=True, type=non_empty,
                        help="the task that scores roll-outs (`acnmp robots` lists each robot's)")
-    adapt.add_argument("--robot", default="point2d", type=non_empty,
-                       help="the robot kind whose workers run the roll-outs (default: %(default)s)")
+    adapt.add_argument("--robot", default=None, type=non_empty,
+                       help="the robot kind whose workers run the roll-outs (default: the kind of the deployment's "
+                            "workers, when they are all of one kind)")
     adapt.add_argument("--task-config", metavar="JSON", default=None,
                        help="the task's settings as a JSON object, e.g. for viapoint "
                             "'{\"t_v\": [0.25], \"point\": [[0.25, 0.6]], \"tolerance\": [0.02]}' (the times, "
@@ -143,9 +145,12 @@ def _adapt_job(args, client):
 
     times, values, mask = parse_obs_json(args.obs_json) if args.obs_json else parse_obs(args.obs)
     query_times = _floats(args.times, "--times")
+    task_params = _floats(args.task_params, "--task-params")
     skill = _skill(args, client)
+    info = client.info(skill)
+    check_condition(skill, info, values, task_params)  # a bad shape is the user's argument: exit 2, nothing queued
     if query_times is None:
-        lo, hi = client.info(skill)["time_range"]
+        lo, hi = info["time_range"]
         query_times = np.linspace(lo, hi, 100 if args.steps is None else args.steps)
     try:
         task_config = json.loads(args.task_config) if args.task_config else {}
@@ -155,9 +160,34 @@ def _adapt_job(args, client):
         raise ValueError("--task-config: expected a JSON object")
     make = AdaptConfig.paper if args.paper else AdaptConfig
     config = make() if args.budget is None else make(max_rollouts=args.budget)
-    target = AdaptTarget(times, values, _floats(args.task_params, "--task-params"), query_times,
-                         None if mask.all() else mask)
-    return skill, AdaptJob(target, args.task, args.robot, task_config, config, args.seed, args.commit)
+    target = AdaptTarget(times, values, task_params, query_times, None if mask.all() else mask)
+    return skill, AdaptJob(target, args.task, _robot(args, client), task_config, config, args.seed, args.commit)
+
+
+def worker_kinds(client, timeout: float = 2.0) -> list[str]:
+    """The robot kinds of the workers ``client``'s deployment runs now (their liveliness tokens
+    ``.../worker/<robot>/<id>``), each once, sorted."""
+    from services.transport import alive_tokens
+
+    tokens = alive_tokens(client.session, f"{client.keys.prefix}/worker/*/*", timeout)
+    return sorted({key.split("/")[-2] for key in tokens})
+
+
+def _robot(args, client) -> str:
+    """``--robot``, or the one robot kind the deployment's workers are of (their liveliness tokens):
+    ValueError naming the kinds when they are several, ClientError ``unavailable`` when none is live."""
+    from clients.client import ClientError
+
+    if args.robot is not None:
+        return args.robot
+    kinds = worker_kinds(client)
+    if len(kinds) == 1:
+        return kinds[0]
+    if not kinds:
+        raise ClientError("unavailable", "no worker is live in the deployment: give --robot KIND (a job waits "
+                                         "for workers of its kind)")
+    raise ValueError(f"--robot: the deployment runs workers of {', '.join(kinds)}: choose the kind that runs "
+                     f"--task {args.task}")
 
 
 def _run_adapt(args) -> int:

@@ -6,7 +6,7 @@ import argparse
 import json
 import sys
 
-from services.transport.argtypes import int_at_least, non_empty
+from services.transport.argtypes import int_at_least, non_empty, seconds
 
 EPILOG = """\
 examples:
@@ -19,6 +19,7 @@ examples:
   acnmp replay run.rrd --export-lerobot e1-lerobot/     # each roll-out an episode of a LeRobot v3 dataset
   acnmp replay run.rrd --export-minari acnmp/e1-v0      # ... of a Minari dataset ($MINARI_DATASETS_PATH)
   acnmp replay run.rrd --export-rosbag2 e1-bags/        # each roll-out a ROS 2 bag (MCAP): e1-bags/rollout_0000, ...
+  acnmp replay run.rrd --export-rosbag2 bags/ --duration 2   # time_from_start over 2 s: the robot's pace
 
 In Python: services.recording.tables.read_recording("run.rrd") gives the same tables (pyarrow),
 .trajectories(job) a (N, T, D) numpy array; `acnmp demos from-recording` writes demonstrations.
@@ -49,6 +50,10 @@ def register(subparsers) -> None:
                              "skill and task parameters in the bag's metadata (docs/DATA.md)")
     parser.add_argument("--storage", choices=("mcap", "sqlite3"), default="mcap",
                         help="with --export-rosbag2: the bags' storage (default: %(default)s)")
+    parser.add_argument("--duration", type=seconds(), default=None, metavar="S",
+                        help="with --export-rosbag2: each roll-out's time_from_start and stamps scaled so it lasts S "
+                             "seconds, the robot's pace for `ros2 bag play` (default: the recorded time, the phase: "
+                             "1 s for E1)")
     parser.add_argument("--fps", type=int_at_least(1), default=10, metavar="N",
                         help="with --export-lerobot: the dataset's frames per second (timestamps = frame / N; default 10)")
     parser.add_argument("--execute", action="store_true",
@@ -69,6 +74,8 @@ def run(args) -> int:
     from services.recording.replay import format_summary, summarize
 
     datasets = bool(args.export_lerobot or args.export_minari or args.export_rosbag2)
+    if args.duration is not None and not args.export_rosbag2:
+        raise ValueError("--duration: only with --export-rosbag2")
     if (args.namespace or args.limit) and not args.execute:
         raise ValueError("--namespace, --limit: only with --execute")
     if args.job and not (args.execute or datasets):
@@ -95,7 +102,8 @@ def run(args) -> int:
         from .datasets import export_rollouts
 
         for line in export_rollouts(tables, lerobot=args.export_lerobot, minari=args.export_minari,
-                                    rosbag2=args.export_rosbag2, job=args.job, fps=args.fps, storage=args.storage):
+                                    rosbag2=args.export_rosbag2, job=args.job, fps=args.fps, storage=args.storage,
+                                    duration=args.duration):
             print(line)
         if not (args.export or args.execute):
             return 0

@@ -221,8 +221,10 @@ def stopping_line(dep) -> str:
              for n in ("learner", "model") if n in names]
     if workers:
         parts.append(f"{workers} worker{'s' if workers != 1 else ''}")
-    if "recorder" in names:
-        parts.append(f"then the recorder (it writes the rest and the footer of {dep.record})")
+    if "recorder" in names:  # the file it writes now: a continued recording's next segment, a restarted recorder's
+        files = dep.recordings or [dep.record]
+        merged = f", then merged into {files[0]}" if len(files) > 1 else ""
+        parts.append(f"then the recorder (it writes the rest and the footer of {files[-1]}){merged}")
     return (f"acnmp up: stopping deployment {dep.namespace!r}: {', '.join(parts) or 'nothing started'}; "
             f"skills and jobs stay in {dep.state_dir}")
 

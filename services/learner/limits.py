@@ -114,7 +114,7 @@ def check_pair(job: PairTrainJob, limits: LearnerLimits) -> None:
 
 @dataclass(frozen=True)
 class StateLimits:
-    """Bounds on what the learner keeps (docs/DEPLOYMENT.md, "State directory").
+    """Bounds on what the learner keeps (docs/STATE.md).
 
     max_queued_jobs : unfinished jobs (queued, running, interrupted) the learner holds; a new job
         beyond it is refused with ``busy`` (nothing is written). One learner serves a deployment,

@@ -1,6 +1,6 @@
 """The learner's durable state: skills (model + demonstrations) and jobs, under one directory.
 
-Layout of ``<state_dir>`` (docs/DEPLOYMENT.md, "State directory", tells the same story to an
+Layout of ``<state_dir>`` (docs/STATE.md tells the same story to an
 operator)::
 
     skills/<skill>/model-v<N>.pt          checkpoint of version N (acnmp_core.model.checkpoint); meta:

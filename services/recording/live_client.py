@@ -29,3 +29,4 @@ def saving_client(url: str, path: str | Path) -> Iterator[subprocess.Popen]:
         except subprocess.TimeoutExpired:
             client.kill()
             client.wait()
+        client.stderr.close()

@@ -61,6 +61,18 @@ def page_url(grpc_url: str, port: int) -> str:
     return f"http://{BIND}:{int(port)}/?url={quote(grpc_url, safe='')}&hide_welcome_screen"
 
 
+def stop_child(proc: subprocess.Popen, grace: float) -> int:
+    """End the child ``proc`` if it still runs: SIGTERM, then SIGKILL when it has not exited after
+    ``grace`` seconds; return its exit code once it has exited."""
+    if proc.poll() is None:
+        proc.terminate()
+        try:
+            return proc.wait(timeout=grace)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+    return proc.wait(timeout=grace)
+
+
 def _die_with_parent():
     """``preexec_fn`` on Linux: the child gets SIGTERM when the thread that started it dies (a
     recorder killed with -9 leaves no viewer holding its port); None elsewhere."""
@@ -115,13 +127,8 @@ class WebViewer:
 
     def close(self) -> None:
         """Stop the child (SIGTERM, SIGKILL after 5 s) and remove its directory; idempotent."""
-        if self.proc is not None and self.proc.poll() is None:
-            self.proc.terminate()
-            try:
-                self.proc.wait(timeout=5)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait(timeout=5)
+        if self.proc is not None:
+            stop_child(self.proc, grace=5.0)
         if self._dir is not None:
             shutil.rmtree(self._dir, ignore_errors=True)
             self._dir = None

@@ -49,4 +49,18 @@ def test_the_example_plugin_from_install_to_an_adaptation_on_a_deployment(instal
         run = subprocess.run([sys.executable, str(EXAMPLE / "adapt.py"), "0.6", "0.45"], cwd=tmp_path, env=env,
                              capture_output=True, text=True, timeout=300)
         assert run.returncode == 0, run.stderr[-2000:]
+        # from the shell, no --robot: the deployment's workers are my_arm's (issue 72: it took point2d's and
+        # failed); a task parameter too many is the user's argument, refused before anything is sent
+        query = [sys.executable, "-m", "clients.cli", "query", "adapt", "--skill", "reach", "--task", "reach",
+                 "--obs", "0:0.3,1.2", "--budget", "5"]
+        queued = subprocess.run([*query, "--task-params", "0.6,0.45"], cwd=tmp_path, env=env, capture_output=True,
+                                text=True, timeout=120)
+        assert queued.returncode == 0 and "queued on skill reach (reach on my_arm," in queued.stdout, queued.stderr
+        for bad, words in ((["--task-params", "0.6,0.45,0"], "--task-params: 3 values; skill 'reach' has 2 task "
+                                                              "parameters ("),
+                           (["--task-params", "0.6,0.45", "--obs", "1:0.3,1.2,0"],
+                            "--obs: 3 values per observation; skill 'reach' has 2 outputs")):
+            refused = subprocess.run([*query, *bad], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120)
+            assert refused.returncode == 2 and refused.stderr.count("\n") == 1 and words in refused.stderr, \
+                refused.stderr
     assert "success True" in run.stdout, run.stdout

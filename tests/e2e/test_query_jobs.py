@@ -70,14 +70,25 @@ def test_a_skill_is_trained_adapted_listed_and_watched_from_the_shell(tmp_path, 
             (("query", "adapt", "--skill", "e1", "--task", "viapoint", "--obs", "0:0,0", "--task-config", "[1"),
              2, "--task-config"),
             (("query", "train", "--skill", "e1", "--demos", str(tmp_path / "none.npz")), 2, "none.npz"),
+            # shapes the skill does not have: the user's arguments, refused before the adapt is sent (issue 72)
+            (("query", "adapt", "--skill", "e1", "--task", "viapoint", "--obs", "0:0,0,0"), 2,
+             "--obs: 3 values per observation; skill 'e1' has 2 outputs (y0, y1)"),
+            (("query", "adapt", "--skill", "e1", "--task", "viapoint", "--obs", "0:0,0", "--task-params", "0.7,0.45,0"),
+             2, "--task-params: 3 values; skill 'e1' has 0 task parameters (none)"),
             (("query", "jobs", "--limit", "0"), 2, "--limit"),
         ]:
             code, out, err = run_cli(*argv, *conn)
             assert code == exit_code and len(err.strip().splitlines()) == 1 and words in err, (argv, err)
+        # --robot defaults to the kind of the deployment's workers (the first adapt: point2d's); workers of two
+        # kinds leave the choice to the user (issue 72: point2d was taken whatever ran)
+        dep.start_worker("w-planar3", robot="planar3")
+        code, out, err = run_cli("query", "adapt", "--skill", "e1", "--task", "viapoint", *obs, *conn)
+        assert code == 2 and err.strip() == ("acnmp: error: --robot: the deployment runs workers of planar3, point2d: "
+                                             "choose the kind that runs --task viapoint"), err
         with ACNMPClient(NS, session=dep.session, timeout=10) as client:
             assert [r.job for r in client.jobs()] == [job]
         # adapt --watch --json: stdout is the final status alone (the queued line goes to stderr)
-        code, out, err = run_cli("query", "adapt", "--skill", "e1", "--task", "viapoint", *obs,
+        code, out, err = run_cli("query", "adapt", "--skill", "e1", "--task", "viapoint", *obs, "--robot", "point2d",
                                  "--task-config", json.dumps(setup.task_config), "--budget", "5", "--watch", "--json",
                                  *conn)
         assert code in (0, 1) and json.loads(out)["state"] == "done", err

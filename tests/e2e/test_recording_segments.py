@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from clients.commands.up import stopping_line
 from services.launcher import LocalDeployment
 from services.recording.events import rollout_event
 from services.recording.replay import summarize
@@ -19,24 +20,28 @@ JOB = "e1-0123456789"
 TIMES = np.linspace(0.0, 1.0, 10)
 
 
-def _session(rrd, state, first: int, n: int) -> LocalDeployment:
+def _session(rrd, state, first: int, n: int) -> tuple[LocalDeployment, dict, str]:
     """A recorder-only deployment on ``rrd`` publishing roll-outs ``first``..``first+n-1`` of
-    :data:`JOB` as a learner does (with ``attempt``), until its recorder holds them."""
+    :data:`JOB` as a learner does (with ``attempt``), until its recorder holds them; with its
+    recorder's status and the line ``acnmp up`` prints as it stops it."""
     with LocalDeployment("segments", workers=0, model=False, learner=False, record=rrd, state_dir=state) as dep:
         for i in range(first, first + n):
             ev = rollout_event(JOB, i, np.zeros((len(TIMES), 2)) + i, TIMES, -np.ones(len(TIMES)), worker="w0")
             dep.events.publish({**ev, "attempt": 0})
         assert dep.events.wait_recorded(30)
         status = call(dep.session, dep.keys.recorder_status(), timeout=10)
-    return dep, status
+        stopping = stopping_line(dep)
+    return dep, status, stopping
 
 
 def test_a_deployment_started_again_on_its_recording_continues_it_in_a_next_segment(tmp_path, verify_rrd, run_cli):
     rrd = tmp_path / "r.rrd"
-    first, _ = _session(rrd, tmp_path / "state", 0, 10)
+    first, _, first_stop = _session(rrd, tmp_path / "state", 0, 10)
     size = rrd.stat().st_size
-    second, status = _session(rrd, tmp_path / "state", 5, 10)  # 5..9 again: a journal published again
+    second, status, second_stop = _session(rrd, tmp_path / "state", 5, 10)  # 5..9 again: a journal published again
     assert first.recordings == [rrd] and second.continued == [rrd] and second.recordings == [tmp_path / "r.1.rrd"]
+    # the stop names the file the recorder finishes (issue 72: it named r.rrd while r.1.rrd was written)
+    assert f"the footer of {rrd})" in first_stop and f"the footer of {tmp_path / 'r.1.rrd'})" in second_stop
     assert rrd.stat().st_size == size  # never rewritten
     assert status["rollouts"][JOB] == 5 and status["republished"][JOB] == 5  # 10..14 written, 5..9 held already
     summary = summarize(rrd)

@@ -403,3 +403,27 @@ def test_a_value_starting_with_a_minus_and_a_digit_is_a_value(argv, dest, value)
 
 def test_an_unknown_option_is_still_refused(capsys):
     assert "unrecognized arguments: -x" in refused(["query", "predict", "--skill", "e1", "--obs", "0:0,0", "-x"], capsys)
+
+
+def _parsers(parser: argparse.ArgumentParser, name: str = "acnmp"):
+    """``(command, parser)`` of ``parser`` and of every sub-command under it."""
+    yield name, parser
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for sub, child in action.choices.items():
+                yield from _parsers(child, f"{name} {sub}")
+
+
+def test_every_help_example_keeps_its_line_breaks():
+    """An example continued with a backslash stays on two lines in `--help` (issue 72: a ``\\`` at
+    a line's end inside a plain string joined the lines, `--split topic:/goal       --trajectory ...`
+    came out as one 182-column line): no example line is wider than 120 columns, none holds the
+    indentation of a line it swallowed."""
+    import re
+
+    from clients.cli import build_parser
+
+    bad = [f"{name}: {line.strip()[:60]}" for name, parser in _parsers(build_parser())
+           for line in (parser.epilog or "").splitlines()
+           if len(line) > 120 or re.search(r"\S {3,}--", line)]
+    assert not bad, bad
