@@ -11,7 +11,8 @@ a skill needs shows in its own demonstrations, at the edges of their conditions'
   the others); without task parameters, the two demonstrations at the ends of the demonstrations'
   first principal component.
 * **Held-out error** (:func:`held_out_errors`): each candidate is fitted to the others -- the
-  network trained as the skill is, with fewer steps (:data:`FOLD_STEP_SHARE`) -- and predicts each
+  network trained as the skill is, the folds of both candidates sharing as many steps as the
+  skill's own training (:func:`fold_steps`) -- and predicts each
   held-out demonstration from what a query gives it (its task parameters and start; without task
   parameters, its start, middle and end: :func:`~.prior.condition_marks`). The error is the RMS in
   units of each output's spread over the demonstrations (outputs that do not vary left out), the
@@ -35,10 +36,10 @@ from .choice import PriorChoice
 from .cnmp import CNMP, CNMPConfig
 from .prior import condition_marks, varying_outputs
 
-#: how a fold's model is trained: ``fit(model, demos)`` (the library's trains it as the skill is, for
-#: :func:`fold_steps` steps: :func:`~acnmp_core.model.training.train` passes it, since it chooses the
-#: prior through this module)
-Fit = Callable[[CNMP, DemoSet], object]
+#: how a fold's model is trained: ``fit(model, demos, n_fits)`` with ``n_fits`` the number of fold
+#: networks the choice trains (the library's trains it as the skill is, for :func:`fold_steps` steps:
+#: :func:`~acnmp_core.model.training.train` passes it, since it chooses the prior through this module)
+Fit = Callable[[CNMP, DemoSet, int], object]
 
 #: the candidates, in the order a tie is broken: the network alone first
 CANDIDATES = ("none", "linear")
@@ -46,9 +47,10 @@ CANDIDATES = ("none", "linear")
 MIN_DEMOS = 4
 #: a fold keeps at least this many demonstrations to fit
 MIN_KEPT = 3
-#: a fold's network trains this share of the skill's training steps (at least :data:`MIN_FOLD_STEPS`)
-FOLD_STEP_SHARE = 1 / 3
-MIN_FOLD_STEPS = 500
+#: the folds' networks of both candidates train this many times the skill's steps between them ...
+CHOICE_STEP_SHARE = 1.0
+#: ... each at least this many steps
+MIN_FOLD_STEPS = 300
 
 
 def edge_folds(task_params: np.ndarray, values: np.ndarray) -> list[tuple[int, ...]]:
@@ -83,10 +85,11 @@ def _on_grid(demos: DemoSet) -> tuple[np.ndarray, np.ndarray]:
     return np.tile(grid, (len(demos), 1)), values
 
 
-def fold_steps(steps: int) -> int:
-    """The training steps of a fold's network for a skill trained ``steps`` steps: :data:`FOLD_STEP_SHARE`
-    of them, at least :data:`MIN_FOLD_STEPS`."""
-    return max(MIN_FOLD_STEPS, int(steps * FOLD_STEP_SHARE))
+def fold_steps(steps: int, n_fits: int) -> int:
+    """The training steps of each of ``n_fits`` fold networks (folds x trained candidates) for a skill
+    trained ``steps`` steps: together :data:`CHOICE_STEP_SHARE` of them, each at least
+    :data:`MIN_FOLD_STEPS`. The choice costs about one more training of the skill."""
+    return max(MIN_FOLD_STEPS, int(steps * CHOICE_STEP_SHARE / max(1, n_fits)))
 
 
 def held_out_errors(demos: DemoSet, config: CNMPConfig, fit: Fit, seed: int = 0,
@@ -114,7 +117,7 @@ def held_out_errors(demos: DemoSet, config: CNMPConfig, fit: Fit, seed: int = 0,
             if cand == "path":
                 model.fit_normalization(rest)
             else:
-                fit(model, rest)
+                fit(model, rest, len(folds) * sum(c != "path" for c in candidates))
             for k in fold:
                 d = demo_list[k]
                 marks = condition_marks(len(d.times), d.task_params.shape[0])

@@ -235,16 +235,16 @@ def train(
     return result
 
 
-def fold_trainer(cfg: TrainConfig, seed: int) -> Callable[[CNMP, DemoSet], TrainResult]:
+def fold_trainer(cfg: TrainConfig, seed: int) -> Callable[[CNMP, DemoSet, int], TrainResult]:
     """How the default's choice of model (:func:`~acnmp_core.model.selection.choose_prior`) trains a
-    held-out fold's network: as the skill (``cfg``, ``seed``) for
-    :func:`~acnmp_core.model.selection.fold_steps` of its steps, no progress bar."""
+    held-out fold's network, one of ``n_fits``: as the skill (``cfg``, ``seed``) for
+    :func:`~acnmp_core.model.selection.fold_steps` steps, no progress bar."""
     from dataclasses import replace
 
     from .selection import fold_steps
 
-    fold_cfg = replace(cfg, steps=fold_steps(cfg.steps))
-    return lambda model, demos: train(model, demos, fold_cfg, seed=seed, progress=False)
+    return lambda model, demos, n_fits: train(model, demos, replace(cfg, steps=fold_steps(cfg.steps, n_fits)),
+                                              seed=seed, progress=False)
 
 
 def check_stop(stop: threading.Event | None, what: str) -> None:

@@ -48,32 +48,53 @@ VARIANTS = {"acnmp": Variant("auto", lambda budget: AdaptConfig(max_rollouts=bud
 LFD_OF = {"lfd": "acnmp", "lfd_paper": "acnmp_paper", "lfd_linear": "acnmp_linear"}
 
 
-def train_model(task: PeerTask, seed: int, steps: int, prior: str, clip: bool = True):
-    """A default-size CNMP with linear path ``prior`` (``prior_clip`` ``clip``) trained ``steps``
-    steps on ``task``'s demonstrations (seed ``seed``), the outputs and task parameters named as the
-    demonstrations."""
-    from ...model.cnmp import CNMP, CNMPConfig
-    from ...model.training import TrainConfig, train
+def model_config(task: PeerTask, prior: str, clip: bool = True):
+    """A default-size :class:`~acnmp_core.model.cnmp.CNMPConfig` for ``task``'s demonstrations, its
+    outputs and task parameters named as they are, with ``prior`` and ``prior_clip`` ``clip``."""
+    from ...model.cnmp import CNMPConfig
 
     a = task.arrays
     names = lambda arr: () if arr is None else tuple(str(n) for n in arr)  # noqa: E731
-    model = CNMP(CNMPConfig(n_outputs=a.values.shape[2], n_task_params=a.task_params.shape[1],
-                            output_names=names(a.value_names), task_param_names=names(a.task_param_names),
-                            prior=prior, prior_clip=clip), seed=seed)
-    train(model, a.to_demo_set(), TrainConfig(steps=steps), seed=seed)
+    return CNMPConfig(n_outputs=a.values.shape[2], n_task_params=a.task_params.shape[1],
+                      output_names=names(a.value_names), task_param_names=names(a.task_param_names), prior=prior,
+                      prior_clip=clip)
+
+
+def train_model(task: PeerTask, seed: int, steps: int, prior: str, clip: bool = True):
+    """A CNMP of :func:`model_config` trained ``steps`` steps on ``task``'s demonstrations (seed ``seed``)."""
+    from ...model.cnmp import CNMP
+    from ...model.training import TrainConfig, train
+
+    model = CNMP(model_config(task, prior, clip), seed=seed)
+    train(model, task.arrays.to_demo_set(), TrainConfig(steps=steps), seed=seed)
     return model
 
 
 def _model(task: PeerTask, config: PeersConfig, seed: int, variant: Variant, state: dict):
     """The seed's model of ``variant``, trained once for both cases and every variant with this
-    model (kept in ``state``)."""
+    model (kept in ``state``). The default's model ("auto") is the model of the prior its choice
+    names, trained with the same seed: training "auto" chooses (its held-out folds), then trains
+    exactly that model (the tests check it), so the choice is made here and the chosen model is
+    shared with the variant that names its prior; its time counts the choice and, if it trained
+    the model, the training."""
     key = (task.name, seed, variant.prior, variant.clip)
     if key not in state:
         for old in [k for k in state if k[:2] != key[:2]]:  # only this seed's models are kept
             del state[old]
         t0 = time.perf_counter()
-        state[key] = (train_model(task, seed, config.train_steps, variant.prior, variant.clip),
-                      round(time.perf_counter() - t0, 2))
+        if variant.prior == "auto":
+            from ...model.selection import choose_prior
+            from ...model.training import TrainConfig, fold_trainer
+
+            choice = choose_prior(task.arrays.to_demo_set(), model_config(task, "auto", variant.clip),
+                                  fold_trainer(TrainConfig(steps=config.train_steps), seed), seed)
+            chosen = _model(task, config, seed, Variant(choice.chosen, variant.adapt, variant.clip), state)[0]
+            model = copy.deepcopy(chosen)
+            model.config.prior_choice = choice
+            state[key] = (model, round(time.perf_counter() - t0, 2))
+        else:
+            state[key] = (train_model(task, seed, config.train_steps, variant.prior, variant.clip),
+                          round(time.perf_counter() - t0, 2))
     return state[key]
 
 

@@ -78,3 +78,13 @@ def test_too_few_demonstrations_fall_back_to_the_paper_s_network_in_one_line():
 def test_a_model_whose_prior_is_still_auto_is_not_fitted_without_training():
     with pytest.raises(ValueError, match='"auto" is chosen when the model is trained'):
         CNMP(CNMPConfig(n_outputs=1)).fit_normalization(DemoSet.from_arrays(T, _shape(T)[None, :, None]))
+
+
+def test_training_auto_trains_exactly_the_model_of_the_prior_it_chose():
+    """The choice draws on no random state the training uses: the chosen model is the one training
+    that prior with the same seed gives (the comparison shares it between the default and that prior)."""
+    demos = DemoSet.from_arrays(*BUMP.demonstrations())
+    auto, chosen = _trained(demos, "auto", steps=200, seed=3), None
+    chosen = _trained(demos, auto.config.prior, steps=200, seed=3)
+    q = auto.make_query([0.0], [[0.0]], [0.7], T)
+    np.testing.assert_array_equal(auto.predict_query(q).mean, chosen.predict_query(q).mean)
