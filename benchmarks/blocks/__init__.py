@@ -1,7 +1,9 @@
 """The renderers of the docs blocks (benchmarks/report.py), one module per experiment: e1 ... e6,
 pusher, peers, jobs (jobs side by side, sizing), faults (docs/FAULTS.md), mutation (the learner's
-mutation check), datasets, predict (the model service's throughput), adaptation (the settings sweep)
-and readme (the README's results table, the experiments' table, the targets). Each renderer
+mutation check), datasets, predict (the model service's throughput), adaptation (the settings sweep),
+readme (the README's results table, the experiments' table, the targets) and recipes (each of the
+paper's experiments under the paper's method and the default, side by side). Each renderer
 registers itself in :data:`benchmarks.report_kit.RENDERERS` by its block name when its module is
 imported; importing this package imports them all."""
-from . import adaptation, datasets, e1, e2, e3, e4, e5, e6, faults, jobs, mutation, peers, predict, pusher, readme  # noqa: F401
+from . import (adaptation, datasets, e1, e2, e3, e4, e5, e6, faults, jobs, mutation, peers, predict, pusher,  # noqa: F401
+               readme, recipes)

@@ -3,7 +3,6 @@ experiment ran before recipes existed; the default is the product's AdaptConfig(
 experiment's protocol, and the product's self-selecting model."""
 from __future__ import annotations
 
-import json
 from dataclasses import fields
 
 import pytest
@@ -94,14 +93,3 @@ def test_the_prior_each_seed_chose_is_read_wherever_the_experiment_keeps_it():
     assert chosen_priors({"runs": runs}) == {0: "linear", 1: "none"}  # E2, E5, E6, several E1 seeds
     assert chosen_priors({"per_run": [{"seed": 0}]}) == {}  # E4: the pairs record none
 
-
-def test_the_cli_runs_the_default_recipe_and_says_so(tmp_path, capsys):
-    from clients.cli import main
-
-    out = tmp_path / "e1.json"
-    assert main(["experiment", "viapoint", "--recipe", "default", "--budget", "3", "--train-steps", "50", "--quiet",
-                 "--json", str(out)]) == 0
-    r = json.loads(out.read_text())
-    assert r["recipe"] == {"name": "default", "prior": "auto"}
-    assert r["model"]["prior"] in ("none", "linear") and r["model"]["reason"]  # chosen, and why
-    assert "the default method (model: " in capsys.readouterr().out
