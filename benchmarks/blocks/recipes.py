@@ -86,28 +86,34 @@ def e1_recipes() -> str:
 
 @renderer("e2-recipes")
 def e2_recipes() -> str:
-    """E2 under both recipes: ACNMP per case (LfD's first trajectory and the adaptation), ProMP + RL
-    (the same under both: checked) beside it."""
+    """E2 under both recipes: ACNMP per case (LfD's first trajectory and the adaptation), and ProMP +
+    RL beside it, which is no recipe's: one row when both runs gave it the same numbers, else each
+    run's."""
     results = both("e2_push")
+    same = results["paper"]["methods"]["promp_rl"] == results["default"]["methods"]["promp_rl"]
+    promp_runs = {"paper": results["paper"]} if same else results
     rows = []
     for c in ("interpolation", "extrapolation"):
-        for recipe, r in results.items():
-            n, s = r["seeds"], r["methods"]["acnmp"][c]
-            rows.append([c, f"ACNMP, {RECIPE_LABELS[recipe]}", frac(s["lfd_success_rate"], n), fmt(s["lfd_error_median"]),
-                         fmt(s["rollouts_median"]), f"{min(s['rollouts'])}-{max(s['rollouts'])}",
-                         frac(s["success_rate"], n), fmt(s["final_error_median"])])
-        p, n = results["paper"]["methods"]["promp_rl"][c], results["paper"]["seeds"]
-        rows.append([c, "ProMP + RL (REPS)", frac(p["lfd_success_rate"], n), fmt(p["lfd_error_median"]),
-                     fmt(p["rollouts_median"]), f"{min(p['rollouts'])}-{max(p['rollouts'])}", frac(p["success_rate"], n),
-                     fmt(p["final_error_median"])])
-    same = results["paper"]["methods"]["promp_rl"] == results["default"]["methods"]["promp_rl"]
-    notes = ["* ProMP + RL is no recipe's: "
-             + ("the default's run repeated it with the same numbers." if same
-                else "**the default's run of it differs from the paper's** (its row is the paper's run's).")]
+        for method in ("acnmp", "promp_rl"):
+            for recipe, r in (results if method == "acnmp" else promp_runs).items():
+                n, s = r["seeds"], r["methods"][method][c]
+                label = (f"ACNMP, {RECIPE_LABELS[recipe]}" if method == "acnmp" else
+                         "ProMP + RL (REPS)" + ("" if same else f", in {RECIPE_LABELS[recipe]}'s run"))
+                rows.append([c, label, frac(s["lfd_success_rate"], n), fmt(s["lfd_error_median"]),
+                             fmt(s["rollouts_median"]), f"{min(s['rollouts'])}-{max(s['rollouts'])}",
+                             frac(s["success_rate"], n), fmt(s["final_error_median"])])
+    commits = {recipe: (r.get("provenance") or {}).get("commit", "?")[:10] for recipe, r in results.items()}
+    notes = ["* ProMP + RL is no recipe's; each run ran it. "
+             + ("Both gave it the same numbers." if same else
+                "The two runs gave it different numbers: they ran at different commits "
+                f"({', '.join(f'{RECIPE_LABELS[k]} {v}' for k, v in commits.items())}), and the code of the "
+                "paper's method's run has changed since (`python benchmarks/currency.py`): this checkout no longer "
+                "gives its numbers. Its counts compare with the default's roughly, each ACNMP with its own run's "
+                "ProMP + RL exactly.")]
     for recipe, r in results.items():
         ratio = r["rollout_ratio_promp_over_acnmp"]
-        notes.append(f"* ProMP + RL / ACNMP roll-outs (ratio of the medians, where both succeed in more than half of the "
-                     f"seeds), {RECIPE_LABELS[recipe]}: "
+        notes.append(f"* ProMP + RL / ACNMP roll-outs in {RECIPE_LABELS[recipe]}'s run (ratio of the medians, where "
+                     "both succeed in more than half of the seeds): "
                      + "; ".join(f"{c} {'-' if v is None else f'{v:.2f}x'}" for c, v in ratio.items()) + ".")
     notes += [priors_line(chosen_priors(results["default"])),
               "* E2 has no decided target beyond the paper's figure (ACNMP ~130 roll-outs, ProMP + RL ~9x more)."]
