@@ -10,7 +10,7 @@ from typing import Callable
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from clients.experiments.common import add_run_arguments, seed_list  # noqa: E402
+from clients.experiments.common import add_run_arguments, output_path, seed_list  # noqa: E402
 from clients.provenance import provenance  # noqa: E402
 
 __all__ = ["RESULTS", "ROOT", "benchmark_args", "development_seeds", "provenance", "main_provenance", "save_result",
@@ -44,8 +44,9 @@ def development_seeds(text: str) -> tuple[int, ...]:
 
 def benchmark_args(doc: str, name: str, argv: list[str] | None, *, results: Path = RESULTS,
                    **options) -> argparse.Namespace:
-    """The parsed arguments of a benchmark's main. ``seeds``, ``seed``, ``envs``, ``eval_every`` and
-    ``jobs`` are the run options
+    """The parsed arguments of a benchmark's main. ``seeds``, ``seed``, ``envs``, ``eval_every``,
+    ``jobs`` and ``recipe`` (True: ``--recipe``, the method, its result's default name following it)
+    are the run options
     every experiment command line shares (:func:`clients.experiments.common.add_run_arguments`;
     ``seeds=5`` is ``--seeds``, a count or the seeds themselves, parsed to the list of seeds); every
     other keyword is ``--<option>`` from ``(default, help)`` (``train_steps=(400, "CNMP training
@@ -53,7 +54,7 @@ def benchmark_args(doc: str, name: str, argv: list[str] | None, *, results: Path
     ``--out`` (default ``<results>/<name>.json``: the product's ``benchmarks/results/`` unless a
     study's folder is given). The usage's description is ``doc``'s first line."""
     ap = argparse.ArgumentParser(description=doc.splitlines()[0])
-    shared = {k: options.pop(k) for k in ("seeds", "seed", "envs", "eval_every", "jobs") if k in options}
+    shared = {k: options.pop(k) for k in ("seeds", "seed", "envs", "eval_every", "jobs", "recipe") if k in options}
     for option, (default, help_text) in options.items():
         ap.add_argument("--" + option.replace("_", "-"), type=type(default), default=default,
                         help=f"{help_text} (default {default})")
@@ -61,6 +62,7 @@ def benchmark_args(doc: str, name: str, argv: list[str] | None, *, results: Path
     args = ap.parse_args(argv)
     if "seeds" in shared:
         args.seeds = seed_list(args, shared["seeds"])
+    args.out = output_path(args)
     return args
 
 

@@ -36,6 +36,7 @@ import numpy as np
 import zenoh
 
 from acnmp_core.adaptation.config import AdaptResult
+from acnmp_core.experiments.recipe import PAPER, Recipe
 from acnmp_core.experiments.viapoint import ViaPointRun, ViaPointSetup, run_viapoint
 from acnmp_core.jobs.adapt import AdaptJob, result_from_dict
 from clients.client import RETRY_CODES, ACNMPClient, ClientError
@@ -261,14 +262,19 @@ class DeployedSkill:
         #: (False: the deployment's skill was already what this training gives, and was reused)
         self.skill: dict | None = None
 
-    def train(self, demos, steps: int, seed: int) -> None:
+    def train(self, demos, steps: int, seed: int, prior: str = "none") -> dict:
         arrays = np.stack([d.values for d in demos])
-        # E1 reports the paper's method: its CNMP has no linear path (the deployment's default skill has one)
+        # the run's recipe says the model: the paper's CNMP has no linear path ("none"), the default
+        # chooses it at training ("auto"); said explicitly, whatever the deployment's default skill is
         reply = patiently(lambda: self.client.train(SKILL, demos[0].times, arrays, train={"steps": steps},
-                                                    model={"prior": "none"}, seed=seed, reuse=True, timeout=600),
+                                                    model={"prior": prior}, seed=seed, reuse=True, timeout=600),
                           "train", progress=self.progress)
         self.skill = {"name": SKILL, "version": int(reply["version"]), "trained": bool(reply.get("trained", True))}
         self._wait_version(reply["version"])
+        config = self.client.info(SKILL)["config"]  # the model service's: the prior it chose, and why
+        choice = config.get("prior_choice")
+        return {"prior": config["prior"], "errors": None if choice is None else choice["errors"],
+                "reason": None if choice is None else choice["reason"]}
 
     def predict(self, obs_times, obs_values, task_params, query_times):
         return patiently(lambda: self.client.predict(SKILL, obs_times, obs_values, task_params, query_times,
@@ -318,15 +324,16 @@ def e1_deployment(*, workers: int = 2, record: str | None = None, secure: bool =
 
 def run_viapoint_on(client: ACNMPClient, facts: DeploymentFacts, seed: int = 0, variant: str = "2d", *,
                     budget: int = 100, train_steps: int = 3000, progress: bool = True,
-                    adapt_overrides: dict | None = None) -> ViaPointRun:
+                    adapt_overrides: dict | None = None, recipe: Recipe = PAPER) -> ViaPointRun:
     """Run E1 on the deployment ``client`` reaches (:func:`e1_deployment`). Returns a
     :class:`ViaPointRun` like the in-process run, its summary with the ``deployment``'s ``facts``,
     the ``skill`` the run started from (its version, and ``trained``: False when the deployment's
     skill was already what this run's training gives and was used as it was) and each method's
-    job id."""
+    job id; ``recipe`` the method (the paper's, or the product's default: the model's prior and the
+    adaptation settings, :mod:`acnmp_core.experiments.recipe`)."""
     skill = DeployedSkill(client, progress=False)
     run = run_viapoint(seed, variant, budget=budget, train_steps=train_steps, backend=skill,
-                       progress=progress, adapt_overrides=adapt_overrides)
+                       progress=progress, adapt_overrides=adapt_overrides, recipe=recipe)
     run.summary.update(deployment=facts.to_dict(), skill=skill.skill)
     for method, job in skill.jobs.items():
         run.summary["methods"][method]["job"] = job

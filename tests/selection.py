@@ -46,6 +46,7 @@ HEAVY: tuple[str, ...] = tuple(f"tests/unit/{name}" for name in (
     "sim/test_ur10.py",
     "experiments/test_ur10.py",
     "experiments/test_viapoint.py",
+    "benchmarks/test_run_arguments.py::test_a_benchmark_run_of_the_default_writes_its_json_beside_the_papers",
     "experiments/test_wall.py",
     "tasks/wall/test_task.py::test_scoring_1000_environments_in_one_batch",
     "services/transport/test_wire.py::test_plain_messages_round_trip",

@@ -36,6 +36,7 @@ from ..data.demos import DemoSet, Demonstration
 from ..model.cnmp import CNMP, CNMPConfig
 from ..model.training import TrainConfig, train
 from ..rollout import RolloutBatch, RolloutEvaluator
+from .recipe import PAPER, Protocol, Recipe, model_prior
 
 #: The test: initial weight and target amount (g).
 TEST = {"weight_g": 1400.0, "target_g": 1322.0}
@@ -51,8 +52,17 @@ TRAIN_STEPS = 3000
 PAPER_ERRORS_G = (591, 447, 435, 175, 511, 604, 305, 42, 417, 284, 144, 194, 367, 364, 79, 177, 133, 27)
 
 
-def e6_adapt_config(max_rollouts: int = BUDGET) -> AdaptConfig:
-    """E6's adaptation settings: the library's defaults except these (candidate "T" of
+def protocol(budget: int = BUDGET) -> Protocol:
+    """E6's protocol, for any method: ``budget`` roll-outs, and the first executed roll-out that
+    pours within the tolerance ends the adaptation (``solution="any"``: the rig pours the same for
+    the same trajectory, and the paper's E6 ends at the roll-out that poured 27 g)."""
+    return Protocol(budget, solution="any")
+
+
+def e6_adapt_config(max_rollouts: int = BUDGET, recipe: Recipe = PAPER) -> AdaptConfig:
+    """E6's adaptation settings under ``recipe``, ``max_rollouts`` roll-outs: the product's default
+    is ``AdaptConfig()`` with the :func:`protocol`; the paper's method is the library's defaults
+    except these (candidate "T" of
     ``benchmarks/studies/e6_pour/e6_settings.py``: "S", the best on the tuning seeds 100-115, not the
     reported 0-4, exploring along the demonstrations; benchmarks/studies/e6_pour/README.md says how they were found). Its predecessor "F" (``lr`` 1e-3,
     ``max_reuse`` 50) was tuned on the rig with the pour wall flared 25 deg (seeds 100-103);
@@ -98,8 +108,9 @@ def e6_adapt_config(max_rollouts: int = BUDGET) -> AdaptConfig:
         :func:`e6_assimilation_config`, which assimilates into the model before the adaptation
         (``benchmarks/studies/e6_pour/e6_assimilation.py``, benchmarks/studies/e6_pour/README.md).
     """
-    return AdaptConfig.paper(max_rollouts=max_rollouts, explore_error_gain=1.5e-3, explore_cap=0.5, lr=3e-3,
-                             max_reuse=100, temperature=0.05, solution="any", noise="demos")
+    return recipe.adapt_config(protocol(max_rollouts), AdaptConfig.paper(
+        max_rollouts=max_rollouts, explore_error_gain=1.5e-3, explore_cap=0.5, lr=3e-3, max_reuse=100, temperature=0.05,
+        solution="any", noise="demos"))
 
 
 #: E6's assimilation starts from the LfD model before the adaptation (see :func:`e6_assimilation_config`).
@@ -168,10 +179,12 @@ def make_target(setup: PourSetup, task_params) -> AdaptTarget:
                        task_params=np.asarray(task_params, dtype=np.float64), query_times=setup.times.copy())
 
 
-def train_pour_cnmp(demos: DemoSet, seed: int, steps: int = TRAIN_STEPS, progress: bool = False) -> CNMP:
-    """The LfD model of E6: a default-size CNMP over the wrist angle with 2 task parameters."""
+def train_pour_cnmp(demos: DemoSet, seed: int, steps: int = TRAIN_STEPS, progress: bool = False,
+                    prior: str = "none") -> CNMP:
+    """The LfD model of E6: a default-size CNMP over the wrist angle with 2 task parameters;
+    ``prior`` its ``CNMPConfig.prior`` ("none": the paper's CNMP; "auto": chosen at training)."""
     model = CNMP(CNMPConfig(n_outputs=1, n_task_params=2, output_names=["wrist"],
-                            task_param_names=["initial_weight_g", "target_g"], prior="none"), seed=seed)
+                            task_param_names=["initial_weight_g", "target_g"], prior=prior), seed=seed)
     train(model, demos, TrainConfig(steps=steps), seed=seed, progress=progress)
     return model
 
@@ -250,27 +263,33 @@ def run_seed(model: CNMP, setup: PourSetup, evaluator: RolloutEvaluator, cfg: Ad
 
 def _one_seed(seed: int, setup: PourSetup, evaluator: RolloutEvaluator, train_steps: int, cfg: AdaptConfig,
               acfg: AssimilationConfig | None, progress: bool = False,
-              on_iteration: Callable | None = None, assimilate_from: str = ASSIMILATE_FROM_DEFAULT) -> tuple[dict, list[float]]:
-    """Train the LfD model of ``seed`` and run :func:`run_seed` on it. Returns the run's dict (with
-    ``seed`` and ``time_s``, wall s) and the CPU seconds per roll-out of each batch."""
+              on_iteration: Callable | None = None, assimilate_from: str = ASSIMILATE_FROM_DEFAULT,
+              prior: str = "none") -> tuple[dict, list[float]]:
+    """Train the LfD model of ``seed`` (its ``CNMPConfig.prior`` ``prior``) and run :func:`run_seed`
+    on it. Returns the run's dict (with ``seed``, ``model``: its prior,
+    :func:`~acnmp_core.experiments.recipe.model_prior`, and ``time_s``, wall s) and the CPU seconds
+    per roll-out of each batch."""
     t1 = time.perf_counter()
     ev = TimedEvaluator(evaluator)
-    model = train_pour_cnmp(setup.demos, seed, train_steps, progress)
+    model = train_pour_cnmp(setup.demos, seed, train_steps, progress, prior)
+    chosen = model_prior(model)  # before run_seed adapts the model in place
     r = run_seed(model, setup, ev, cfg, seed, acfg, on_iteration, assimilate_from)
-    return {"seed": seed, **r, "time_s": round(time.perf_counter() - t1, 2)}, ev.cpu_s
+    return {"seed": seed, **r, "model": chosen, "time_s": round(time.perf_counter() - t1, 2)}, ev.cpu_s
 
 
 def _seed_job(args: tuple) -> tuple[dict, list[float]]:
     """One seed in a child process of :func:`run_pour`: ``args`` = (seed, demo_path, train_steps,
-    AdaptConfig, AssimilationConfig or None); its own rig, one thread for torch."""
+    AdaptConfig, AssimilationConfig or None, assimilate_from, the model's prior); its own rig, one
+    thread for torch."""
     import torch
 
     from ..tasks.pour.task import PourTask
 
-    seed, demo_path, train_steps, cfg, acfg, assimilate_from = args
+    seed, demo_path, train_steps, cfg, acfg, assimilate_from, prior = args
     torch.set_num_threads(1)
     with PourTask(tolerance_g=TOLERANCE_G) as task:
-        return _one_seed(seed, make_setup(demo_path), task, train_steps, cfg, acfg, assimilate_from=assimilate_from)
+        return _one_seed(seed, make_setup(demo_path), task, train_steps, cfg, acfg, assimilate_from=assimilate_from,
+                         prior=prior)
 
 
 def run_pour(
@@ -287,6 +306,7 @@ def run_pour(
     progress: bool = False,
     log: Callable[[str], None] | None = None,
     jobs: int = 1,
+    recipe: Recipe = PAPER,
 ) -> dict:
     """Run E6 over several seeds and return the JSON-ready result.
 
@@ -295,7 +315,8 @@ def run_pour(
     seeds : a count N (seeds 0..N-1) or an explicit list; each seeds the CNMP's initialisation and
         training, the adaptation's exploration and the assimilation's sampling.
     train_steps : supervised CNMP training steps (batch 32).
-    adapt_config : adaptation settings (default: :func:`e6_adapt_config`); ``mode`` is set here.
+    adapt_config : adaptation settings (default: ``recipe``'s, :func:`e6_adapt_config`); ``mode`` is
+        set here.
     assimilation : settings of the continued training (default: :func:`e6_assimilation_config`).
     assimilate_solution : False skips the assimilation and its checks (shorter runs).
     assimilate_from : "skill" (the default) assimilates into the model as it was before the
@@ -308,10 +329,13 @@ def run_pour(
     progress : training progress bars. log : called with one line per finished seed.
     jobs : seeds run in this many processes at once (in-process evaluator and no ``on_iteration``
         only); the result is the serial one's, the seeds in order, apart from the timings.
+    recipe : the method (:mod:`~acnmp_core.experiments.recipe`): the paper's (the default here) or
+        the product's default, for the model and the adaptation settings; the assimilation is the
+        experiment's under both.
 
     Returns
     -------
-    dict with ``experiment`` "pour", ``seeds`` N, ``seed_list``, ``test`` {weight_g, target_g},
+    dict with ``experiment`` "pour", ``recipe``, ``seeds`` N, ``seed_list``, ``test`` {weight_g, target_g},
     ``lfd_only`` {error_g (median over seeds), errors_g (per seed)}, ``acnmp``
     {errors_g_per_rollout (per seed: every executed roll-out's error, g), rollouts_median,
     rollouts, success_rate (within the budget), success_within_20_rate, final_error_g_median,
@@ -330,7 +354,7 @@ def run_pour(
         raise ValueError(f"jobs: expected an integer >= 1, got {jobs!r}")
     if jobs > 1 and (evaluator_factory is not None or on_iteration is not None):
         raise ValueError("jobs: more than one process needs the in-process evaluator and no on_iteration")
-    cfg = adapt_config or e6_adapt_config()
+    cfg = adapt_config or e6_adapt_config(recipe=recipe)
     check_assimilate_from(assimilate_from)
     acfg = (assimilation or e6_assimilation_config()) if assimilate_solution else None
     t0 = time.perf_counter()
@@ -357,7 +381,7 @@ def run_pour(
         from concurrent.futures import ProcessPoolExecutor
         from multiprocessing import get_context
 
-        args = [(seed, demo_path, train_steps, cfg, acfg, assimilate_from) for seed in seed_list]
+        args = [(seed, demo_path, train_steps, cfg, acfg, assimilate_from, recipe.prior) for seed in seed_list]
         with ProcessPoolExecutor(min(jobs, len(seed_list)), mp_context=get_context("spawn")) as pool:
             for run, seed_cpu in pool.map(_seed_job, args):
                 done(run, seed_cpu)
@@ -369,7 +393,7 @@ def run_pour(
             for seed in seed_list:
                 ev = shared if shared is not None else evaluator_factory()
                 cb = on_iteration(seed) if on_iteration else None
-                done(*_one_seed(seed, setup, ev, train_steps, cfg, acfg, progress, cb, assimilate_from))
+                done(*_one_seed(seed, setup, ev, train_steps, cfg, acfg, progress, cb, assimilate_from, recipe.prior))
         finally:
             if shared is not None:
                 shared.close()
@@ -377,6 +401,7 @@ def run_pour(
     assim = [r["assimilation"] for r in runs if r["assimilation"] is not None]
     return {
         "experiment": "pour",
+        "recipe": recipe.to_dict(),
         "seeds": len(seed_list),
         "seed_list": seed_list,
         "test": dict(TEST),

@@ -43,6 +43,7 @@ from ..model.cnmp import CNMP, CNMPConfig
 from ..model.training import TrainConfig, train
 from ..rollout import RolloutEvaluator
 from ..tasks.push.settings import PAPER, PushSetting
+from .recipe import PAPER as PAPER_METHOD, Protocol, Recipe, model_prior
 
 METHODS = ("acnmp", "promp_rl")
 CASES = ("interpolation", "extrapolation")
@@ -120,11 +121,18 @@ def make_target(setup: PushSetup, case: str) -> AdaptTarget:
                        task_params=setup.targets[case].copy(), query_times=setup.times.copy())
 
 
-def train_push_cnmp(demos: DemoSet, seed: int, steps: int = 3000, progress: bool = False) -> CNMP:
-    """The LfD model of E2: a default-size CNMP over joint angles with 2 task parameters."""
+def adapt_settings(recipe: Recipe = PAPER_METHOD, budget: int = ACNMP_BUDGET) -> AdaptConfig:
+    """ACNMP's adaptation settings in E2 under ``recipe`` (the paper's method: ``AdaptConfig.paper``;
+    the default: ``AdaptConfig()``), with the protocol's ``budget`` roll-outs per target."""
+    return recipe.adapt_config(Protocol(budget))
+
+
+def train_push_cnmp(demos: DemoSet, seed: int, steps: int = 3000, progress: bool = False, prior: str = "none") -> CNMP:
+    """The LfD model of E2: a default-size CNMP over joint angles with 2 task parameters; ``prior``
+    its ``CNMPConfig.prior`` ("none": the paper's CNMP; "auto": chosen at training)."""
     model = CNMP(CNMPConfig(n_outputs=demos.n_outputs, n_task_params=demos.n_task_params,
                             output_names=[f"joint{i + 1}" for i in range(demos.n_outputs)],
-                            task_param_names=["target_x", "target_y"], prior="none"), seed=seed)
+                            task_param_names=["target_x", "target_y"], prior=prior), seed=seed)
     train(model, demos, TrainConfig(steps=steps), seed=seed, progress=progress)
     return model
 
@@ -252,6 +260,7 @@ def run_push(
     progress: bool = False,
     log: Callable[[str], None] | None = None,
     setting: PushSetting = PAPER,
+    recipe: Recipe = PAPER_METHOD,
 ) -> dict:
     """Run E2 over several seeds and return the JSON-ready result.
 
@@ -260,8 +269,7 @@ def run_push(
     seeds : a count N (seeds 0..N-1) or an explicit list; each seeds CNMP init/training,
         exploration and ProMP sampling.
     train_steps : supervised CNMP training steps (batch 32).
-    adapt_config : ACNMP settings (default: the paper's, ``AdaptConfig.paper(max_rollouts=ACNMP_BUDGET)``);
-        ``mode`` is set here.
+    adapt_config : ACNMP settings (default: ``recipe``'s, :func:`adapt_settings`); ``mode`` is set here.
     promp_config : ProMP + RL settings (default: PrompRLConfig(**PROMP_DEFAULTS)); its seed is
         replaced by each run's seed.
     cases, methods : subsets of CASES and METHODS to run.
@@ -272,6 +280,9 @@ def run_push(
     on_iteration : ``(method, case, seed) -> callback`` for adapt() (ACNMP only), e.g. to record.
     progress : training progress bars. log : called with one line per finished run.
     setting : the task setting (default :data:`~acnmp_core.tasks.push.settings.PAPER`).
+    recipe : ACNMP's method (:mod:`~acnmp_core.experiments.recipe`): the paper's (the default here)
+        or the product's default, for its model and its adaptation settings; ProMP + RL is the same
+        under both.
 
     Returns
     -------
@@ -279,7 +290,8 @@ def run_push(
     ``targets`` {case: [x, y]}, ``methods`` {method: {case: {rollouts_median, rollouts, success_rate,
     final_error_median, lfd_error_median, lfd_success_rate}}}, ``rollout_ratio_promp_over_acnmp``
     {case: ratio of medians, None unless both methods succeed in more than half of the seeds}, ``config`` (settings used) and ``runs`` (per seed, method and
-    case: rollouts, success, final_error, lfd_error, curve [[roll-outs, error], ...]).
+    case: rollouts, success, final_error, lfd_error, curve [[roll-outs, error], ...]; ACNMP's also
+    ``model``, its prior: :func:`~acnmp_core.experiments.recipe.model_prior`), ``recipe``.
     """
     seed_list = list(range(seeds)) if isinstance(seeds, int) else [int(s) for s in seeds]
     if not seed_list:
@@ -290,7 +302,7 @@ def run_push(
     for m in methods:
         if m not in METHODS:
             raise ValueError(f"methods: expected a subset of {METHODS}, got {m!r}")
-    acfg = adapt_config or AdaptConfig.paper(max_rollouts=ACNMP_BUDGET)
+    acfg = adapt_config or adapt_settings(recipe)
     pcfg = promp_config or PrompRLConfig(**PROMP_DEFAULTS)
     t0 = time.perf_counter()
     setup = make_setup(demo_path, setting=setting)
@@ -308,7 +320,7 @@ def run_push(
     runs: list[dict] = []
     try:
         for seed in seed_list:
-            model = train_push_cnmp(setup.demos, seed, train_steps, progress) if "acnmp" in methods else None
+            model = train_push_cnmp(setup.demos, seed, train_steps, progress, recipe.prior) if "acnmp" in methods else None
             for method in methods:
                 for case in cases:
                     t1 = time.perf_counter()
@@ -317,7 +329,8 @@ def run_push(
                         import copy
 
                         cb = on_iteration(method, case, seed) if on_iteration else None
-                        r = run_acnmp_case(copy.deepcopy(model), setup, case, ev, acfg, seed, cb)
+                        r = {**run_acnmp_case(copy.deepcopy(model), setup, case, ev, acfg, seed, cb),
+                             "model": model_prior(model)}
                     else:
                         r = run_promp_case(setup, case, ev, replace(pcfg, seed=seed))
                     record_run(runs, r, seed, method, case, t1, log)
@@ -337,6 +350,7 @@ def run_push(
     return {
         "experiment": "push",
         "setting": setting.name,
+        "recipe": recipe.to_dict(),
         "seeds": len(seed_list),
         "seed_list": seed_list,
         "wall_time_s": round(time.perf_counter() - t0, 2),

@@ -44,6 +44,7 @@ from ..data.demos import DemoSet
 from ..rollout import RolloutEvaluator
 from ..transfer.pair import TransferConfig, TransferPair, TransferredSkill, spread_observations, train_pair
 from ..validation import check_positive_int
+from .recipe import PAPER, Protocol, Recipe
 
 CONDITIONS = ("transfer", "no_alignment", "no_transfer")
 #: RL iterations at which the paper reports success: 23, 73, 90 and 100 %.
@@ -57,8 +58,15 @@ BLIND_TOLERANCE = 1e-4
 AUTHORS_DATA = Path(__file__).resolve().parents[3] / "shared" / "data" / "acnmp-paper" / "experiment4"
 
 
-def e4_adapt_config() -> AdaptConfig:
-    """E4's adaptation settings (the library defaults except where the authors' E4 differs).
+#: E4's protocol, for any method: 20 iterations of two roll-outs (the mean and one noisy, the authors'
+#: count; the paper's checkpoints are after 3/7/11/19 iterations), 40 roll-outs.
+PROTOCOL = Protocol(budget=40, noisy_per_iter=1)
+
+
+def e4_adapt_config(recipe: Recipe = PAPER) -> AdaptConfig:
+    """E4's adaptation settings under ``recipe``: the product's default is ``AdaptConfig()`` with
+    :data:`PROTOCOL`; the paper's method is these (the library defaults except where the authors'
+    E4 differs):
 
     noisy_per_iter 1 : one noisy roll-out and the mean per iteration (the authors' 2 per iteration).
     max_rollouts 40 : 20 iterations, the paper's last checkpoint being after 19.
@@ -79,8 +87,9 @@ def e4_adapt_config() -> AdaptConfig:
     untouched cube (chosen on fresh RL seeds 30..59 in the sweep; widening the std after such an
     iteration did no better there).
     """
-    return AdaptConfig.paper(noisy_per_iter=1, max_rollouts=40, n_knots=20, noise="cubic", sl_steps=1,
-                             sl_steps_reuse=0, explore_scale=0.35, signal_tolerance=BLIND_TOLERANCE)
+    return recipe.adapt_config(PROTOCOL, AdaptConfig.paper(
+        noisy_per_iter=1, max_rollouts=40, n_knots=20, noise="cubic", sl_steps=1, sl_steps_reuse=0, explore_scale=0.35,
+        signal_tolerance=BLIND_TOLERANCE))
 
 
 @dataclass
@@ -94,21 +103,29 @@ class TransferExperimentConfig:
     authors_pair : training of the pair of the authors' data check (their 12 demonstrations, their
         arms): the authors' weight 5e6, 10000 steps (the sweep: the only setting measured below
         both naive answers).
-    adapt : RL in robot B. n_obs : points of robot A's trajectory to condition on (the authors' 11).
+    adapt : RL in robot B (default: ``recipe``'s, :func:`e4_adapt_config`). n_obs : points of robot
+        A's trajectory to condition on (the authors' 11).
     pair_seeds : how many pairs (of each kind) are trained, seeds 0..pair_seeds-1; run r adapts a
         copy of pair r mod pair_seeds with RL seed r (as the authors, who trained one transfer model
         and repeated the RL; training a pair per run would cost more than all the RL on this machine).
+    recipe : the method (:mod:`~acnmp_core.experiments.recipe`): the paper's (the default here) or
+        the product's default. Its models are the same under both: a transfer pair trains its arms
+        as the network alone (robot B is decoded from robot A's observations, which a linear path
+        of B's cannot be conditioned on); the recipe sets the adaptation settings.
     """
 
     pair: TransferConfig = field(default_factory=lambda: TransferConfig(latent_weight=1e3, steps=6000,
                                                                         widths=(64, 64, 64)))
     authors_pair: TransferConfig = field(default_factory=lambda: TransferConfig(latent_weight=5e6, steps=10000,
                                                                                 widths=(64, 64, 64)))
-    adapt: AdaptConfig = field(default_factory=e4_adapt_config)
+    adapt: AdaptConfig | None = None
     n_obs: int = 11
     pair_seeds: int = 5
+    recipe: Recipe = PAPER
 
     def __post_init__(self) -> None:
+        if self.adapt is None:
+            self.adapt = e4_adapt_config(self.recipe)
         check_positive_int("n_obs", self.n_obs)
         check_positive_int("pair_seeds", self.pair_seeds)
 
@@ -116,7 +133,11 @@ class TransferExperimentConfig:
         """Plain JSON-ready dict."""
         return {"pair": self.pair.to_dict(), "authors_pair": self.authors_pair.to_dict(),
                 "adapt": self.adapt.to_dict(), "n_obs": self.n_obs,
-                "pair_seeds": self.pair_seeds}
+                "pair_seeds": self.pair_seeds, "recipe": self.recipe_dict()}
+
+    def recipe_dict(self) -> dict:
+        """The recipe as the result records it: the pairs' arms are the network alone under both."""
+        return self.recipe.to_dict(prior="none")
 
 
 @dataclass
@@ -400,6 +421,7 @@ def run_transfer(
     head = summary.get("transfer", {})
     return {
         "experiment": "transfer",
+        "recipe": cfg.recipe_dict(),
         "runs": len(done),
         "runs_requested": len(seed_list),
         "seed_list": done,

@@ -39,6 +39,7 @@ from ..data.demos import DemoSet
 from ..model.cnmp import CNMP, CNMPConfig
 from ..model.training import TrainConfig, train
 from ..rollout import RolloutEvaluator
+from .recipe import PAPER, Protocol, Recipe, model_prior
 
 #: Test cases: name -> (h_obj, h_obs) in metres: the paper's (8, 10) and (9, 11) cm, and (10, 12) cm,
 #: 4 cm beyond the demonstrated object and obstacle heights (issue 37: E5's headline case, chosen
@@ -99,16 +100,23 @@ def make_target(setup: UR10Setup, case: str) -> AdaptTarget:
                        task_params=np.asarray(CASES[case], dtype=np.float64), query_times=setup.times.copy())
 
 
+def adapt_settings(recipe: Recipe = PAPER, budget: int = BUDGET) -> AdaptConfig:
+    """ACNMP's adaptation settings in E5 under ``recipe`` (the paper's method: ``AdaptConfig.paper``;
+    the default: ``AdaptConfig()``), with the protocol's ``budget`` roll-outs per case."""
+    return recipe.adapt_config(Protocol(budget))
+
+
 def train_ur10_cnmp(demos: DemoSet, seed: int, steps: int = TRAIN_STEPS, progress: bool = False,
                     lr_final: float | None = TRAIN_LR_FINAL, task_param_jitter: float = 0.0,
-                    mixup: float = 0.0) -> CNMP:
+                    mixup: float = 0.0, prior: str = "none") -> CNMP:
     """The LfD model of E5: a default-size CNMP over the six joint angles with 2 task parameters,
     trained ``steps`` steps (batch 32) with the rate decaying along a half cosine to ``lr_final``
     (None: constant), the task parameters jittered by ``task_param_jitter`` (normalised std) and
     episodes blending two demonstrations with probability ``mixup`` (see
-    :class:`~acnmp_core.model.training.TrainConfig`)."""
+    :class:`~acnmp_core.model.training.TrainConfig`); ``prior`` its ``CNMPConfig.prior`` ("none":
+    the paper's CNMP; "auto": chosen at training)."""
     model = CNMP(CNMPConfig(n_outputs=demos.n_outputs, n_task_params=demos.n_task_params,
-                            task_param_names=["h_obj", "h_obs"], prior="none"), seed=seed)
+                            task_param_names=["h_obj", "h_obs"], prior=prior), seed=seed)
     train(model, demos, TrainConfig(steps=steps, lr_final=lr_final, task_param_jitter=task_param_jitter,
                                     mixup=mixup), seed=seed, progress=progress)
     return model
@@ -179,6 +187,7 @@ def run_ur10(
     on_iteration: Callable[[str, int], Callable] | None = None,
     progress: bool = False,
     log: Callable[[str], None] | None = None,
+    recipe: Recipe = PAPER,
 ) -> dict:
     """Run E5 over several seeds and return the JSON-ready result.
 
@@ -190,21 +199,24 @@ def run_ur10(
     train_lr_final : the rate the training's cosine decay ends at (None: constant 1e-3).
     train_task_param_jitter : std of the training's task-parameter jitter (normalised units; 0: none).
     train_mixup : probability of a training episode blending two demonstrations (0: none).
-    adapt_config : adaptation settings (default: ``AdaptConfig(max_rollouts=BUDGET)``, the project's
-        defaults otherwise); ``mode`` is set here.
+    adapt_config : adaptation settings (default: ``recipe``'s with :data:`BUDGET`,
+        :func:`adapt_settings`); ``mode`` is set here.
     cases : a subset of :data:`CASES`.
     demo_path : demonstration file (default: the cached generated set).
     evaluator_factory : ``case -> RolloutEvaluator``, called once per (seed, case); default: one
         in-process :class:`~acnmp_core.tasks.ur10_pick_place.task.UR10PickPlaceTask` shared by all runs.
     on_iteration : ``(case, seed) -> callback`` for adapt(), e.g. to record.
     progress : training progress bars. log : called with one line per finished run.
+    recipe : the method (:mod:`~acnmp_core.experiments.recipe`): the paper's (the default here) or
+        the product's default, for the model and the adaptation settings.
 
     Returns
     -------
-    dict with ``experiment`` "ur10", ``seeds`` N, ``seed_list``, ``cases`` {case: {"lfd_only"|"acnmp":
+    dict with ``experiment`` "ur10", ``recipe``, ``seeds`` N, ``seed_list``, ``cases`` {case: {"lfd_only"|"acnmp":
     {joint_error_deg [6] (median over seeds, deg), success_rate, rollouts_median, error_m_median}}},
     ``heights_m`` {case: [h_obj, h_obs]}, ``joint_names``, ``wall_time_s``, ``config``, ``runs`` (per
-    seed and case: both methods' joint errors, success, error (m); ACNMP's roll-outs and curve) and
+    seed and case: both methods' joint errors, success, error (m); ACNMP's roll-outs and curve; the
+    model's prior, :func:`~acnmp_core.experiments.recipe.model_prior`) and
     ``figure`` (seed ``seed_list[0]``: demonstrations, expert, LfD and ACNMP trajectories in deg,
     every :data:`FIGURE_STRIDE`-th row, for :func:`plot_ur10`).
     """
@@ -214,7 +226,7 @@ def run_ur10(
     for c in cases:
         if c not in CASES:
             raise ValueError(f"cases: expected a subset of {tuple(CASES)}, got {c!r}")
-    cfg = adapt_config or AdaptConfig.paper(max_rollouts=BUDGET)
+    cfg = adapt_config or adapt_settings(recipe)
     t0 = time.perf_counter()
     setup = make_setup(demo_path)
     shared = None
@@ -232,7 +244,7 @@ def run_ur10(
             experts_exec[case] = batch.states["joint_angles"][0]
         for seed in seed_list:
             model = train_ur10_cnmp(setup.demos, seed, train_steps, progress, train_lr_final, train_task_param_jitter,
-                                    train_mixup)
+                                    train_mixup, recipe.prior)
             for case in cases:
                 t1 = time.perf_counter()
                 ev = shared if shared is not None else evaluator_factory(case)
@@ -245,7 +257,8 @@ def run_ur10(
                                     "acnmp": np.rad2deg(r["acnmp"]["trajectory"][s]).round(3).tolist()}
                 for m in ("lfd", "acnmp"):
                     del r[m]["trajectory"]
-                runs.append({"seed": seed, "case": case, **r, "time_s": round(time.perf_counter() - t1, 2)})
+                runs.append({"seed": seed, "case": case, **r, "model": model_prior(model),
+                             "time_s": round(time.perf_counter() - t1, 2)})
                 if log:
                     a, lf = r["acnmp"], r["lfd"]
                     log(f"seed {seed} case {case}: LfD success {lf['success']} error {lf['error_m']:.4f} m "
@@ -261,6 +274,7 @@ def run_ur10(
     figure["seed"] = seed_list[0]
     return {
         "experiment": "ur10",
+        "recipe": recipe.to_dict(),
         "seeds": len(seed_list),
         "seed_list": seed_list,
         "cases": {c: _summarise([r for r in runs if r["case"] == c]) for c in cases},

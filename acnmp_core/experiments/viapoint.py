@@ -20,6 +20,7 @@ from ..model.cnmp import CNMP, CNMPConfig, Prediction
 from ..model.training import TrainConfig, reproduction_error, train
 from ..rollout import RolloutEvaluator
 from ..tasks.viapoint.task import ViaPointTask, extrapolation_conditions, obstacle_demos, shape_error, two_bump_demos
+from .recipe import PAPER, Protocol, Recipe, model_prior
 
 METHODS = ("lfd_only", "rl_only", "acnmp")
 #: Success: the via-point error is at most this fraction of the demonstrations' extent ...
@@ -78,15 +79,17 @@ class ViaPointRun:
     curves: dict[str, list[tuple[int, float]]] = field(default_factory=dict)
 
 
-def adapt_config(method: str, budget: int, **overrides) -> AdaptConfig:
-    """The adaptation settings of E1 for ``method``: the paper's method with E1's budget;
-    ``overrides`` replace AdaptConfig fields (for ablations and tuning)."""
-    return AdaptConfig.paper(**{"mode": method, "max_rollouts": budget, **overrides})
+def adapt_config(method: str, budget: int, recipe: Recipe = PAPER, **overrides) -> AdaptConfig:
+    """The adaptation settings of E1 for ``method`` under ``recipe`` (the paper's method, or the
+    product's defaults) with E1's budget, its protocol; ``overrides`` replace AdaptConfig fields
+    (for ablations and tuning)."""
+    return recipe.adapt_config(Protocol(budget), mode=method, **overrides)
 
 
-def train_lfd(demos: DemoSet, seed: int, steps: int, progress: bool = False) -> CNMP:
-    """The LfD model of E1: a default-size CNMP (the paper's: no linear path) trained ``steps`` steps on ``demos``."""
-    model = CNMP(CNMPConfig(n_outputs=demos.n_outputs, prior="none"), seed=seed)
+def train_lfd(demos: DemoSet, seed: int, steps: int, progress: bool = False, prior: str = "none") -> CNMP:
+    """The LfD model of E1: a default-size CNMP trained ``steps`` steps on ``demos``; ``prior`` its
+    ``CNMPConfig.prior`` ("none", the paper's: no linear path; "auto": chosen at training)."""
+    model = CNMP(CNMPConfig(n_outputs=demos.n_outputs, prior=prior), seed=seed)
     train(model, demos, TrainConfig(steps=steps), seed=seed, progress=progress)
     return model
 
@@ -96,8 +99,9 @@ class SkillBackend(Protocol):
     (``clients.distributed.DeployedSkill``). :func:`run_viapoint` measures through it only, so
     both give the same numbers from the same code."""
 
-    def train(self, demos: DemoSet, steps: int, seed: int) -> None:
-        """Train the LfD skill on ``demos`` (the first version)."""
+    def train(self, demos: DemoSet, steps: int, seed: int, prior: str = "none") -> dict:
+        """Train the LfD skill on ``demos`` (the first version), its ``CNMPConfig.prior`` ``prior``;
+        returns what its prior turned out to be (:func:`~acnmp_core.experiments.recipe.model_prior`)."""
 
     def predict(self, obs_times, obs_values, task_params, query_times) -> Prediction:
         """Condition the current skill; the :meth:`CNMP.predict` signature and result."""
@@ -118,8 +122,9 @@ class LocalSkill:
         self.model: CNMP | None = None
         self.demos: DemoSet | None = None
 
-    def train(self, demos: DemoSet, steps: int, seed: int) -> None:
-        self.model, self.demos = train_lfd(demos, seed, steps, self.progress), demos
+    def train(self, demos: DemoSet, steps: int, seed: int, prior: str = "none") -> dict:
+        self.model, self.demos = train_lfd(demos, seed, steps, self.progress, prior), demos
+        return model_prior(self.model)
 
     def predict(self, obs_times, obs_values, task_params, query_times) -> Prediction:
         return self.model.predict(obs_times, obs_values, task_params, query_times)
@@ -147,6 +152,7 @@ def run_viapoint(
     backend: SkillBackend | None = None,
     progress: bool = True,
     adapt_overrides: dict | None = None,
+    recipe: Recipe = PAPER,
 ) -> ViaPointRun:
     """Run E1 and return its measurements.
 
@@ -160,20 +166,22 @@ def run_viapoint(
     backend : where the skill lives (default :class:`LocalSkill`, in this process).
     progress : training progress bar (in-process). adapt_overrides : AdaptConfig fields to change
         for every method (see :func:`adapt_config`).
+    recipe : the method (:mod:`~acnmp_core.experiments.recipe`): the paper's (the default here) or
+        the product's default, for the model and every method's adaptation settings.
     """
     t0 = time.perf_counter()
     backend = backend if backend is not None else LocalSkill(progress=progress)
     setup = make_setup(variant)
     demos, target = setup.demos, setup.target
     times = target.query_times
-    backend.train(demos, train_steps, seed)
+    prior = backend.train(demos, train_steps, seed, recipe.prior)
     # "Before" is the LfD model, as the model service holds it before any job commits a solution.
     latents_before = demo_latents(backend, demos)
     repro_before = reproduction_error(backend, demos)
     methods, trajs, curves = {}, {}, {}
     assimilation = AssimilationConfig(steps=assimilation_steps) if assimilation_steps else None
     for method in METHODS:
-        cfg = adapt_config(method, budget, **(adapt_overrides or {}))
+        cfg = adapt_config(method, budget, recipe, **(adapt_overrides or {}))
         res = backend.adapt(setup, method, cfg, seed, assimilation if method == "acnmp" else None)
         methods[method] = {"rollouts": int(res.rollouts), **trajectory_metrics(setup, res.trajectory)}
         trajs[method] = res.trajectory
@@ -199,6 +207,8 @@ def run_viapoint(
         "experiment": "viapoint",
         "variant": variant,
         "seed": int(seed),
+        "recipe": recipe.to_dict(),
+        "model": prior,
         "wall_time_s": round(time.perf_counter() - t0, 2),
         "tolerance": np.asarray(setup.task.tolerance).tolist(),
         "demo_extent": demos.extent(),

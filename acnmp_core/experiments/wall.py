@@ -56,6 +56,7 @@ from ..rollout import RolloutEvaluator
 from ..tasks.wall import task as W
 from ..tasks.wall.settings import PAPER, WallSetting
 from ..validation import check_array, check_positive_int
+from .recipe import PAPER as PAPER_METHOD, Protocol, Recipe, model_prior
 
 #: The methods run by default (the pinned regression runs these).
 METHODS = ("acnmp", "promp_rl")
@@ -172,11 +173,18 @@ def promp_trajectories(lib: AdaptiveProMP, task_params, times) -> np.ndarray:
     return lib.promp.trajectories_from_weights(w, t)
 
 
-def make_wall_cnmp(seed: int) -> CNMP:
+def make_wall_cnmp(seed: int, prior: str = "none") -> CNMP:
     """E3's CNMP (outputs x, y; task parameters x_c, y_c, x_g, y_g), initialised from ``seed``:
-    the one the self-improvement loop trains, for scripts that train it outside the loop."""
+    the one the self-improvement loop trains, for scripts that train it outside the loop; ``prior``
+    its ``CNMPConfig.prior`` ("none": the paper's CNMP; "auto": chosen at its first training)."""
     return CNMP(CNMPConfig(n_outputs=2, n_task_params=4, output_names=["x", "y"],
-                           task_param_names=["x_c", "y_c", "x_g", "y_g"], prior="none"), seed=seed)
+                           task_param_names=["x_c", "y_c", "x_g", "y_g"], prior=prior), seed=seed)
+
+
+def adapt_settings(recipe: Recipe = PAPER_METHOD, budget: int = ACNMP_BUDGET) -> AdaptConfig:
+    """ACNMP's adaptation settings in E3 under ``recipe`` (the paper's method: ``AdaptConfig.paper``;
+    the default: ``AdaptConfig()``), with the protocol's ``budget`` roll-outs per environment."""
+    return recipe.adapt_config(Protocol(budget))
 
 
 def _promp_lib(demos: DemoSet, n_basis: int) -> AdaptiveProMP:
@@ -194,13 +202,13 @@ class _AcnmpLearner:
 
     def __init__(self, setup: WallSetup, seed: int, cfg: AdaptConfig, train_cfg: TrainConfig,
                  assimilation: AssimilationConfig, assimilate_from: str, progress: bool,
-                 keep_optimizer: bool = False, snap_solutions: bool = False) -> None:
+                 keep_optimizer: bool = False, snap_solutions: bool = False, prior: str = "none") -> None:
         self.demos, self.times, self.seed, self.cfg = setup.initial, setup.times, seed, cfg
         self.snap_solutions = snap_solutions
         #: snapped solutions executed, and how many of them succeeded (and were assimilated)
         self.snaps_tried, self.snaps_kept = 0, 0
         self.assimilation, self.assimilate_from = assimilation, assimilate_from
-        self.model = make_wall_cnmp(seed)
+        self.model = make_wall_cnmp(seed, prior)
         self.opt = None
         if keep_optimizer:
             # One Adam for the skill's whole life: a fresh one per assimilation moves every weight
@@ -468,6 +476,7 @@ def run_wall(
     evaluator_factory: Callable[[str], RolloutEvaluator] | None = None,
     progress: bool = False,
     log: Callable[[str], None] | None = None,
+    recipe: Recipe = PAPER_METHOD,
 ) -> dict:
     """Run E3 for each method on the same environments and return the JSON-ready result.
 
@@ -513,7 +522,7 @@ def run_wall(
         against 98.9 % snapped, its mean test error 0.18 against 0.0014; e3_snap_outputs.json).
         snap_rollouts : every executed path, the adaptations' roll-outs included, is moved the same
         way, as by a controller that holds the ends (2.7x the time at seed 0; not the default).
-    adapt_config : ACNMP adaptation (default the paper's, ``AdaptConfig.paper(max_rollouts=ACNMP_BUDGET)``).
+    adapt_config : ACNMP adaptation (default ``recipe``'s, :func:`adapt_settings`).
     promp_config : ProMP + RL (default ``PrompRLConfig(**PROMP_DEFAULTS)``); its seed is set per env.
     ewerton_config : the baseline after Ewerton et al. (default ``SelfImproveConfig(max_rollouts=
         ACNMP_BUDGET)``, the same budget per environment); its seed is set per env.
@@ -523,10 +532,14 @@ def run_wall(
     evaluator_factory : ``method -> RolloutEvaluator`` executing the roll-outs (e.g. remote workers);
         default an in-process :class:`~acnmp_core.tasks.wall.task.WallTask` of ``setting``.
     progress : training progress bars. log : called with one line per test evaluation.
+    recipe : ACNMP's method (:mod:`~acnmp_core.experiments.recipe`): the paper's (the default here)
+        or the product's default, for its model and its adaptation settings; the self-improvement
+        loop, its training and assimilation settings and the other methods are the same under both.
 
     Returns
     -------
-    dict with ``experiment`` "wall", ``seed``, ``wall_time_s``, ``envs``, ``n_initial``, ``n_test``,
+    dict with ``experiment`` "wall", ``recipe``, ACNMP's ``model`` (its prior after the first
+    training, :func:`~acnmp_core.experiments.recipe.model_prior`, in its ``methods`` entry), ``seed``, ``wall_time_s``, ``envs``, ``n_initial``, ``n_test``,
     ``setting``, ``methods`` {method: {test_success_rate, test_error_mean, trajectories_total,
     trajectories_per_env_max, trajectories_paper_style (envs x per-env max),
     trajectories_per_env_median, ... , time_s}},
@@ -539,7 +552,7 @@ def run_wall(
     check_positive_int("eval_every", eval_every)
     check_positive_int("consolidate_steps", consolidate_steps, minimum=0)
     check_assimilate_from(assimilate_from)
-    acfg = adapt_config or AdaptConfig.paper(max_rollouts=ACNMP_BUDGET)
+    acfg = adapt_config or adapt_settings(recipe)
     pcfg = promp_config or PrompRLConfig(**PROMP_DEFAULTS)
     ecfg = ewerton_config or SelfImproveConfig(max_rollouts=ACNMP_BUDGET)
     t0 = time.perf_counter()
@@ -555,7 +568,7 @@ def run_wall(
                 AssimilationConfig(steps=assimilate_steps, lr=assimilate_lr, batch_size=assimilate_batch_size,
                                    n_targets=assimilate_targets, anchor_weight=assimilate_anchor_weight,
                                    lr_final=assimilate_lr_final, targets_include_obs=targets_include_obs),
-                assimilate_from, progress, keep_optimizer, snap_solutions)
+                assimilate_from, progress, keep_optimizer, snap_solutions, recipe.prior)
         elif m == "ewerton":
             learner = _EwertonLearner(setup, ecfg, n_basis)
         else:
@@ -565,6 +578,8 @@ def run_wall(
         out = self_improve(_SnappedOutputs(learner, setup.times) if snap_outputs else learner, setup, ev,
                            seed=seed, eval_every=eval_every, log=log, name=m, setting=setting)
         extra = {}
+        if m == "acnmp":
+            extra["model"] = model_prior(learner.model)
         if m == "acnmp" and snap_solutions:
             extra.update(snaps_tried=learner.snaps_tried, snaps_kept=learner.snaps_kept)
         if m == "acnmp" and consolidate_steps > 0:
@@ -585,6 +600,7 @@ def run_wall(
     return {
         "experiment": "wall",
         "setting": setting.name,
+        "recipe": recipe.to_dict(),
         "seed": seed,
         "wall_time_s": round(time.perf_counter() - t0, 2),
         "envs": envs,

@@ -9,9 +9,12 @@ ProMP + RL baseline with the same stopping criterion, for a fair comparison). Ca
 processes, at most two at once (the machine is shared), on the same environments and seed; every
 variant keeps its own provenance, so candidates may be run in several invocations and merged into
 one file (``--merge`` into ``--out`` as it runs, or ``--combine`` files of earlier invocations without
-running anything). Writes ``benchmarks/studies/e3_wall/results/e3_budget.json``. Usage:
+running anything). ``--recipe default`` runs ACNMP as the product's default method instead of the
+paper's (acnmp_core/experiments/recipe.py; every variant records its recipe, and files of two recipes
+are not merged). Writes ``benchmarks/studies/e3_wall/results/e3_budget.json`` (``e3_budget_default.json``
+with ``--recipe default``). Usage:
 ``python benchmarks/experiments/e3_budget.py [--envs 300] [--seed 0] [--candidates NAME ...] [--methods M ...] [--merge]
-[--out FILE]``,
+[--recipe paper|default] [--out FILE]``,
 ``python benchmarks/experiments/e3_budget.py --combine A.json B.json ... [--out FILE]``,
 ``python benchmarks/experiments/e3_budget.py --combine-seeds S0.json S1.json ... --out FILE`` (several seeds).
 """
@@ -30,10 +33,11 @@ import torch
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
+from acnmp_core.experiments.recipe import Recipe  # noqa: E402
 from acnmp_core.experiments.wall import ALL_METHODS, TRAIN_DEFAULTS, run_wall  # noqa: E402
 from acnmp_core.tasks.wall.settings import PAPER, WallSetting  # noqa: E402
 from benchmarks._results import provenance, save_result, study_results  # noqa: E402
-from clients.experiments.common import add_run_arguments  # noqa: E402
+from clients.experiments.common import add_run_arguments, output_path, recipe_of  # noqa: E402
 
 #: name -> run_wall keyword arguments that differ from the defaults ("baseline": none).
 CANDIDATES = {
@@ -114,15 +118,16 @@ def candidate_setting(overrides: dict) -> WallSetting:
                    goal_clearance=overrides.get("stop_clearance", PAPER.goal_clearance))
 
 
-def _one(name: str, envs: int, seed: int, eval_every: int, methods: tuple[str, ...]) -> dict:
-    """One E3 run of candidate ``name`` with ``methods``; returns ACNMP's summary and curve (when it
-    ran), the other methods' under ``others``, the config and the provenance."""
+def _one(name: str, envs: int, seed: int, eval_every: int, methods: tuple[str, ...], recipe: Recipe) -> dict:
+    """One E3 run of candidate ``name`` with ``methods``, ACNMP's method ``recipe``; returns ACNMP's
+    summary and curve (when it ran), the other methods' under ``others``, the config, the recipe and
+    the provenance."""
     torch.set_num_threads(1)
     meta = provenance()
     kw = {k: v for k, v in CANDIDATES[name].items() if k not in STOP_KEYS}
     r = run_wall(envs, seed, eval_every=eval_every, methods=methods, setting=candidate_setting(CANDIDATES[name]),
-                 **kw)
-    out = {"provenance": meta, "overrides": CANDIDATES[name], "methods": list(methods)}
+                 recipe=recipe, **kw)
+    out = {"provenance": meta, "overrides": CANDIDATES[name], "methods": list(methods), "recipe": r["recipe"]}
     if "acnmp" in methods:
         out.update(summary=r["methods"]["acnmp"], curve=r["curves"]["acnmp"])
     others = {m: {"summary": r["methods"][m], "curve": r["curves"][m]} for m in methods if m != "acnmp"}
@@ -138,14 +143,26 @@ def _read_results(files: list[str]) -> list[dict]:
         sys.exit(f"e3_budget.py: cannot read an earlier result: {e}")
 
 
+def _recipe(parts: list[dict], option: str) -> dict:
+    """The one recipe of ``parts``' variants (the paper's for variants run before it was recorded);
+    ends the run naming ``option`` when they ran two."""
+    recipes = {json.dumps(v.get("recipe", Recipe("paper").to_dict()), sort_keys=True)
+               for p in parts for v in (p.get("variants") or {}).values()}
+    if len(recipes) > 1:
+        sys.exit(f"{option}: the variants ran different recipes ({', '.join(sorted(recipes))}); keep them apart")
+    return json.loads(recipes.pop()) if recipes else Recipe("paper").to_dict()
+
+
 def _combine(files: list[str], out: str, meta: dict) -> int:
     """Merge the variants of earlier e3_budget results (same envs and seed; each variant keeps its
     own provenance) into ``out``; the run time is the sum of theirs (they ran one after the other)."""
     parts = _read_results(files)
+    recipe = _recipe(parts, "--combine")
     if len({(p["envs"], p["seed"]) for p in parts}) != 1:
         sys.exit(f"--combine: the files differ in envs or seed: {files}")
     variants = {n: v for p in parts for n, v in p["variants"].items()}
     return save_result({"provenance": meta, "experiment": "e3_budget", "envs": parts[0]["envs"], "seed": parts[0]["seed"],
+                 "recipe": recipe,
                  "defaults": TRAIN_DEFAULTS, "variants": variants, "combined_from": [p["provenance"] for p in parts],
                  "wall_time_s": round(sum(p["wall_time_s"] for p in parts), 2)}, out)
 
@@ -154,6 +171,7 @@ def _combine_seeds(files: list[str], out: str, meta: dict) -> int:
     """Merge e3_budget results of the same envs but different seeds into ``out``:
     ``{"seeds": {seed: {variant: ...}}}``; a variant named twice for one seed is refused."""
     parts = _read_results(files)
+    recipe = _recipe(parts, "--combine-seeds")
     if len({p["envs"] for p in parts}) != 1:
         sys.exit(f"--combine-seeds: the files differ in envs: {files}")
     seeds: dict[str, dict] = {}
@@ -164,7 +182,7 @@ def _combine_seeds(files: list[str], out: str, meta: dict) -> int:
             sys.exit(f"--combine-seeds: seed {p['seed']} has {sorted(twice)} twice")
         mine.update(p["variants"])
     return save_result({"provenance": meta, "experiment": "e3_budget_seeds", "envs": parts[0]["envs"],
-                 "defaults": TRAIN_DEFAULTS, "seeds": seeds, "combined_from": [p["provenance"] for p in parts],
+                 "recipe": recipe, "defaults": TRAIN_DEFAULTS, "seeds": seeds, "combined_from": [p["provenance"] for p in parts],
                  "wall_time_s": round(sum(p["wall_time_s"] for p in parts), 2)}, out)
 
 
@@ -180,19 +198,22 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--combine", nargs="+", metavar="JSON", help="only merge these earlier results into --out")
     ap.add_argument("--combine-seeds", nargs="+", metavar="JSON",
                     help="only merge earlier results of several seeds (same envs) into --out")
-    add_run_arguments(ap, out=study_results("e3_wall") / "e3_budget.json")
+    add_run_arguments(ap, recipe=True, out=study_results("e3_wall") / "e3_budget.json")
     args = ap.parse_args(argv)
+    out, recipe = output_path(args), recipe_of(args)
     meta = provenance()
     if args.combine:
-        return _combine(args.combine, args.out, meta)
+        return _combine(args.combine, out, meta)
     if args.combine_seeds:
-        return _combine_seeds(args.combine_seeds, args.out, meta)
-    old = json.loads(Path(args.out).read_text()) if args.merge and Path(args.out).exists() else {}
+        return _combine_seeds(args.combine_seeds, out, meta)
+    old = json.loads(Path(out).read_text()) if args.merge and Path(out).exists() else {}
     if old and (old["envs"], old["seed"]) != (args.envs, args.seed):
-        ap.error(f"--merge: {args.out} holds envs {old['envs']}, seed {old['seed']}")
+        ap.error(f"--merge: {out} holds envs {old['envs']}, seed {old['seed']}")
+    if old and _recipe([old], "--merge") != recipe.to_dict():
+        ap.error(f"--merge: {out} holds variants of another recipe than --recipe {recipe.name}")
     t0 = time.perf_counter()
     with ProcessPoolExecutor(max_workers=2) as pool:
-        futures = {n: pool.submit(_one, n, args.envs, args.seed, args.eval_every, tuple(args.methods))
+        futures = {n: pool.submit(_one, n, args.envs, args.seed, args.eval_every, tuple(args.methods), recipe)
                    for n in args.candidates}
         variants = {n: f.result() for n, f in futures.items()}
     for n, r in variants.items():
@@ -203,9 +224,9 @@ def main(argv: list[str] | None = None) -> int:
                   f"goal error {s['test_goal_error_mean']:.3f}  trajectories {s['trajectories_total']}  "
                   f"max {s['trajectories_per_env_max']}  adaptations {s['adaptations']}  {s['time_s']:.0f} s")
     result = {"provenance": meta, "experiment": "e3_budget", "envs": args.envs, "seed": args.seed,
-              "defaults": TRAIN_DEFAULTS, "variants": {**old.get("variants", {}), **variants},
+              "recipe": recipe.to_dict(), "defaults": TRAIN_DEFAULTS, "variants": {**old.get("variants", {}), **variants},
               "wall_time_s": round(time.perf_counter() - t0, 2)}
-    return save_result(result, args.out)
+    return save_result(result, out)
 
 
 if __name__ == "__main__":

@@ -2,7 +2,9 @@
 
 Writes benchmarks/results/e5_ur10.json (with its provenance and the time of one roll-out) and
 e5_ur10.png (per-joint trajectories of the first seed, like the paper's supplementary figure).
-Usage: ``python benchmarks/experiments/e5_ur10.py [--seeds N] [--out FILE]``. The settings are the library's
+Usage: ``python benchmarks/experiments/e5_ur10.py [--seeds N] [--recipe paper|default] [--out FILE]``
+(``--recipe default``: the product's default method, acnmp_core/experiments/recipe.py, into
+e5_ur10_default.json). The settings are the library's
 defaults, the same as ``acnmp experiment ur10``, so the CLI's first N seeds give the benchmark's first N.
 """
 from __future__ import annotations
@@ -19,6 +21,7 @@ sys.path.insert(0, str(ROOT))
 
 from acnmp_core.experiments.ur10 import CASES, make_setup, plot_ur10, run_ur10  # noqa: E402
 from benchmarks._results import benchmark_args, provenance, save_result  # noqa: E402
+from clients.experiments.common import recipe_of  # noqa: E402
 
 
 def rollout_seconds(n: int = 5) -> dict:
@@ -42,10 +45,10 @@ def rollout_seconds(n: int = 5) -> dict:
 
 def main(argv: list[str] | None = None) -> int:
     """Run E5 with the default settings; print one line per run and the summary."""
-    args = benchmark_args(__doc__, "e5_ur10", argv, seeds=5)
+    args = benchmark_args(__doc__, "e5_ur10", argv, seeds=5, recipe=True)
     torch.set_num_threads(1)
     meta = provenance()
-    result = {"provenance": meta, **run_ur10(args.seeds, log=lambda s: print(s, flush=True)),
+    result = {"provenance": meta, **run_ur10(args.seeds, log=lambda s: print(s, flush=True), recipe=recipe_of(args)),
               "rollout": rollout_seconds()}
     return save_result(result, args.out, plot_ur10, ("cases", "rollout", "wall_time_s"))
 

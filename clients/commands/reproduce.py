@@ -1,10 +1,13 @@
 """``acnmp reproduce``: the paper's six experiments, one after the other, into one report.
 
 Each experiment runs as ``acnmp experiment NAME`` in a child process (its numbers exactly as that
-command gives them), writing ``OUT/<id>.json``, ``OUT/<id>.png`` and its printed table
-``OUT/<id>.txt``; ``OUT/report.md`` and a self-contained ``OUT/report.html`` (figures embedded)
-gather them with the paper's figure, the time and the provenance of each. A finished experiment is
-kept (``--force`` runs it again), so an interrupted run resumes where it stopped.
+command gives them) under each recipe: the paper's method (``--recipe paper``), judged against the
+paper's figure and the decided targets, writing ``OUT/<id>.json``, ``OUT/<id>.png`` and its printed
+table ``OUT/<id>.txt``; and the product's default beside it (``--recipe default``, the same
+targets), writing ``OUT/<id>_default.*``. ``OUT/report.md`` and a self-contained
+``OUT/report.html`` (figures embedded) gather them with the paper's figure, the time and the
+provenance of each. A finished run is kept (``--force`` runs it again), so an interrupted
+reproduction resumes where it stopped.
 """
 from __future__ import annotations
 
@@ -18,6 +21,7 @@ import sys
 import time
 from pathlib import Path
 
+from acnmp_core.experiments.recipe import RECIPES  # light: no torch
 from clients.experiments.catalog import OPTIONAL, PAPER, Experiment
 from clients.experiments.targets import quick_check
 from services.transport.argtypes import int_at_least, non_empty
@@ -30,6 +34,19 @@ QUICK_NOTE = ("Quick sizes: each experiment is checked to run, to keep its accou
 
 #: The paper's six experiments, as clients/experiments/catalog.py declares them (sizes, targets).
 STEPS = PAPER
+#: How the report names each recipe's column and section.
+RECIPE_TITLES = {"paper": "the paper's method", "default": "the default"}
+
+
+def runs_of(step: Experiment, recipes: tuple[str, ...]) -> tuple[str, ...]:
+    """The recipes ``step`` runs under: the chosen ones for the paper's six, the experiment's own
+    (it compares the methods itself: "paper" only) for an optional one."""
+    return recipes if step in STEPS else ("paper",)
+
+
+def stem(step: Experiment, recipe: str) -> str:
+    """The files of ``step`` under ``recipe``: ``<id>`` for the paper's method, ``<id>_default``."""
+    return step.ident if recipe == "paper" else f"{step.ident}_{recipe}"
 
 
 def register(subparsers) -> None:
@@ -39,7 +56,8 @@ def register(subparsers) -> None:
         description=__doc__.split(": ", 1)[1], formatter_class=argparse.RawDescriptionHelpFormatter,
         epilog="examples:\n  acnmp reproduce -o paper/                 # everything, at the documented sizes\n"
                "  acnmp reproduce -o quick/ --quick          # smaller sizes, the same report, marked quick\n"
-               "  acnmp reproduce -o paper/ --only E3,E5 --force")
+               "  acnmp reproduce -o paper/ --only E3,E5 --force\n"
+               "  acnmp reproduce -o paper/ --recipes paper  # the paper's method only, not the default beside it")
     p.add_argument("-o", "--out", required=True, type=non_empty, metavar="DIR", help="where the results and report go")
     p.add_argument("--only", default=None, metavar="E1,E3", help="these experiments only (default: all six)")
     p.add_argument("--with", dest="with_", default=None, metavar="NAME",
@@ -49,6 +67,9 @@ def register(subparsers) -> None:
     p.add_argument("--quick", action="store_true",
                    help="smaller sizes (minutes), a smoke test: each experiment runs, its accounting holds, the report "
                         "renders; judged against the decided targets only at the full sizes")
+    p.add_argument("--recipes", default=",".join(RECIPES), metavar="paper,default",
+                   help="the methods each of the six runs, comma-separated: 'paper' (the paper's method, judged "
+                        "against the paper) and 'default' (the product's default, beside it); default both")
     p.add_argument("--force", action="store_true", help="run again the experiments whose results are in DIR")
     p.add_argument("--jobs", type=int_at_least(1), default=min(2, os.cpu_count() or 1),
                    help="experiments run at once, each in its own process (default: 2 on two or more cores, "
@@ -78,37 +99,49 @@ def _extra(names: str | None) -> list[Experiment]:
     return [known[w] for w in wanted]
 
 
+def _recipes(text: str) -> tuple[str, ...]:
+    """The recipes ``--recipes`` names, in the report's order."""
+    wanted = {w.strip() for w in text.split(",") if w.strip()}
+    if not wanted or wanted - set(RECIPES):
+        raise ValueError(f"--recipes {text!r}: expected some of {', '.join(RECIPES)} separated by commas")
+    return tuple(r for r in RECIPES if r in wanted)
+
+
 def run(args) -> int:
-    """Run the chosen experiments (those without results in ``--out`` unless ``--force``), ``--jobs``
-    at once, then write the report; 1 when an experiment failed (the report says which)."""
+    """Run the chosen experiments under the chosen recipes (those without results in ``--out``
+    unless ``--force``), ``--jobs`` at once, then write the report; 1 when a run failed (the report
+    says which)."""
     from concurrent.futures import ThreadPoolExecutor
 
     from tqdm import tqdm
 
     steps = _chosen(args.only) + _extra(args.with_)
+    recipes = _recipes(args.recipes)
     out = Path(args.out).resolve()
     out.mkdir(parents=True, exist_ok=True)
     todo = []
     for step in steps:
-        done = out / f"{step.ident}.json"
-        if done.exists() and not args.force:
-            print(f"{step.ident}: kept {done} (--force runs it again)", flush=True)
-        else:
-            todo.append(step)
+        for recipe in runs_of(step, recipes):
+            done = out / f"{stem(step, recipe)}.json"
+            if done.exists() and not args.force:
+                print(f"{stem(step, recipe)}: kept {done} (--force runs it again)", flush=True)
+            else:
+                todo.append((step, recipe))
     failed = []
     t0 = time.perf_counter()
-    with tqdm(total=len(todo), desc="reproduce", unit="experiment", disable=None, position=0) as whole, \
+    with tqdm(total=len(todo), desc="reproduce", unit="run", disable=None, position=0) as whole, \
             ThreadPoolExecutor(max_workers=args.jobs) as pool:
-        futures = {pool.submit(_run_step, step, out, args.quick, row + 1): step for row, step in enumerate(todo)}
-        for future, step in futures.items():
+        futures = {pool.submit(_run_step, step, out, args.quick, row + 1, recipe): (step, recipe)
+                   for row, (step, recipe) in enumerate(todo)}
+        for future, (step, recipe) in futures.items():
             if not future.result():
-                failed.append(step.ident)
+                failed.append(stem(step, recipe))
             whole.update(1)
     if todo:
         (out / "reproduce.meta.json").write_text(json.dumps(
-            {"experiments": [s.ident for s in todo], "jobs": args.jobs, "quick": args.quick,
+            {"experiments": [stem(s, r) for s, r in todo], "jobs": args.jobs, "quick": args.quick,
              "wall_time_s": round(time.perf_counter() - t0, 1)}, indent=2) + "\n")
-    report = write_report(out, steps, quick=args.quick)
+    report = write_report(out, steps, quick=args.quick, recipes=recipes)
     print(f"wrote {report} and {report.with_suffix('.html')}")
     if failed:
         print(f"acnmp reproduce: {', '.join(failed)} failed (their logs: {out}/<id>.txt)", file=sys.stderr)
@@ -122,17 +155,20 @@ def _say(line: str) -> None:
     sys.stdout.flush()
 
 
-def _run_step(step: Experiment, out: Path, quick: bool, position: int = 1) -> bool:
-    """Run one experiment in a child process; its output goes to ``<id>.txt`` (and its last line to
-    a progress bar of its own on a terminal), its time to ``<id>.meta.json``."""
+def _run_step(step: Experiment, out: Path, quick: bool, position: int = 1, recipe: str = "paper") -> bool:
+    """Run one experiment under ``recipe`` in a child process; its output goes to ``<stem>.txt``
+    (:func:`stem`; and its last line to a progress bar of its own on a terminal), its time to
+    ``<stem>.meta.json``."""
     from tqdm import tqdm
 
+    name = stem(step, recipe)
     argv = [sys.executable, "-m", "clients.cli", "experiment", step.name, *(step.quick if quick else step.full),
-            "--json", str(out / f"{step.ident}.json"), "--plot", str(out / f"{step.ident}.png")]
-    _say(f"{step.ident}: acnmp {' '.join(argv[3:])}")
+            *(("--recipe", recipe) if step in STEPS else ()),
+            "--json", str(out / f"{name}.json"), "--plot", str(out / f"{name}.png")]
+    _say(f"{name}: acnmp {' '.join(argv[3:])}")
     t0 = time.perf_counter()
-    with open(out / f"{step.ident}.txt", "w") as log, \
-            tqdm(desc=step.ident, bar_format="{desc}: {elapsed} {postfix}", disable=None, position=position,
+    with open(out / f"{name}.txt", "w") as log, \
+            tqdm(desc=name, bar_format="{desc}: {elapsed} {postfix}", disable=None, position=position,
                  leave=False) as bar:
         child = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, bufsize=1)
         for line in child.stdout:
@@ -142,61 +178,85 @@ def _run_step(step: Experiment, out: Path, quick: bool, position: int = 1) -> bo
         code = child.wait()
     meta = {"command": "acnmp " + " ".join(argv[3:]), "wall_time_s": round(time.perf_counter() - t0, 1),
             "quick": quick, "exit_code": code}
-    (out / f"{step.ident}.meta.json").write_text(json.dumps(meta, indent=2) + "\n")
-    _say(f"{step.ident}: {'done' if code == 0 else f'failed (exit {code})'} in {meta['wall_time_s']} s")
+    (out / f"{name}.meta.json").write_text(json.dumps(meta, indent=2) + "\n")
+    _say(f"{name}: {'done' if code == 0 else f'failed (exit {code})'} in {meta['wall_time_s']} s")
     if code != 0:
-        (out / f"{step.ident}.json").unlink(missing_ok=True)  # not kept: the next run tries again
+        (out / f"{name}.json").unlink(missing_ok=True)  # not kept: the next run tries again
     return code == 0
 
 
-def write_report(out: Path, steps: list[Experiment], *, quick: bool) -> Path:
-    """``OUT/report.md`` and ``OUT/report.html`` from the results in ``out``; returns the .md path."""
+def _verdict(out: Path, step: Experiment, recipe: str) -> tuple[str, str, dict]:
+    """One run's verdict (PASS, FAIL, reported, ran (quick), ... or not run), its status line and its
+    meta file (``{}`` when absent), from ``out``'s files of ``step`` under ``recipe``."""
+    name = stem(step, recipe)
+    meta_path = out / f"{name}.meta.json"
+    meta = json.loads(meta_path.read_text()) if meta_path.exists() else {}
+    if not (out / f"{name}.json").exists():
+        return "not run", "not run (or failed: see its log)", meta
+    result = json.loads((out / f"{name}.json").read_text())
+    if meta.get("quick"):  # the targets are decided for the full sizes: a smoke test only
+        target, ok = quick_check(result, step.target)
+        verdict = "ran (quick)" if ok else "accounting wrong (quick)"
+    else:
+        target, passed = step.target(result) if step.target else ("no target a single run checks", None)
+        verdict = {True: "PASS", False: "FAIL", None: "reported"}[passed]
+    prov = result.get("provenance", {})
+    return verdict, f"{verdict}: {target}. {meta.get('wall_time_s', '?')} s; commit {str(prov.get('commit', '?'))[:10]}", meta
+
+
+def write_report(out: Path, steps: list[Experiment], *, quick: bool, recipes: tuple[str, ...] = RECIPES) -> Path:
+    """``OUT/report.md`` and ``OUT/report.html`` from the results in ``out``: per experiment, the
+    paper's method and the default beside it (those of ``recipes``); returns the .md path."""
     sections_md, sections_html, summary = [], [], []
     for step in steps:
-        result_path, meta_path = out / f"{step.ident}.json", out / f"{step.ident}.meta.json"
-        table = (out / f"{step.ident}.txt").read_text() if (out / f"{step.ident}.txt").exists() else ""
-        meta = json.loads(meta_path.read_text()) if meta_path.exists() else {}
-        if result_path.exists():
-            result = json.loads(result_path.read_text())
-            if meta.get("quick"):  # the targets are decided for the full sizes: a smoke test only
-                target, ok = quick_check(result, step.target)
-                verdict = "ran (quick)" if ok else "accounting wrong (quick)"
-            else:
-                target, passed = step.target(result) if step.target else ("no target a single run checks", None)
-                verdict = {True: "PASS", False: "FAIL", None: "reported"}[passed]
-            prov = result.get("provenance", {})
-            status = (f"{verdict}: {target}. {meta.get('wall_time_s', '?')} s; commit "
-                      f"{str(prov.get('commit', '?'))[:10]}")
-        else:
-            status, verdict = "not run (or failed: see its log)", "not run"
-        summary.append((step.ident, step.title, verdict, meta.get("wall_time_s")))
-        png = out / f"{step.ident}.png"
-        sections_md.append(f"## {step.ident}: {step.title}\n\nPaper: {step.paper}.\n\n{status}\n\n"
-                           f"`{meta.get('command', 'acnmp experiment ' + step.name)}`\n\n```\n{table.strip()}\n```\n"
-                           + (f"\n![{step.ident}]({png.name})\n" if png.exists() else ""))
-        image = (f'<img alt="{step.ident}" src="data:image/png;base64,{base64.b64encode(png.read_bytes()).decode()}">'
-                 if png.exists() else "")
-        sections_html.append(f"<h2>{html.escape(step.ident)}: {html.escape(step.title)}</h2>"
-                             f"<p>Paper: {html.escape(step.paper)}.</p><p>{html.escape(status)}</p>"
-                             f"<pre>{html.escape(table.strip())}</pre>{image}")
+        verdicts, times = {}, []
+        md_parts, html_parts = [f"## {step.ident}: {step.title}\n\nPaper: {step.paper}.\n"], [
+            f"<h2>{html.escape(step.ident)}: {html.escape(step.title)}</h2><p>Paper: {html.escape(step.paper)}.</p>"]
+        for recipe in runs_of(step, recipes):
+            name = stem(step, recipe)
+            verdict, status, meta = _verdict(out, step, recipe)
+            verdicts[recipe] = verdict
+            times.append(meta.get("wall_time_s"))
+            table = (out / f"{name}.txt").read_text() if (out / f"{name}.txt").exists() else ""
+            png = out / f"{name}.png"
+            head = f"### {RECIPE_TITLES[recipe][0].upper()}{RECIPE_TITLES[recipe][1:]}\n\n" if step in STEPS else ""
+            md_parts.append(f"{head}{status}\n\n`{meta.get('command', 'acnmp experiment ' + step.name)}`\n\n"
+                            f"```\n{table.strip()}\n```\n" + (f"\n![{name}]({png.name})\n" if png.exists() else ""))
+            image = (f'<img alt="{name}" src="data:image/png;base64,{base64.b64encode(png.read_bytes()).decode()}">'
+                     if png.exists() else "")
+            html_parts.append((f"<h3>{html.escape(RECIPE_TITLES[recipe])}</h3>" if step in STEPS else "")
+                              + f"<p>{html.escape(status)}</p><pre>{html.escape(table.strip())}</pre>{image}")
+        known = [t for t in times if t is not None]
+        summary.append((step.ident, step.title, [verdicts.get(r, "–") for r in recipes],
+                        sum(known) if known else None))
+        sections_md.append("\n".join(md_parts))
+        sections_html.append("".join(html_parts))
     title = "ACNMP: the paper reproduced" + (" (quick sizes)" if quick else "")
     whole = out / "reproduce.meta.json"
     last = json.loads(whole.read_text()) if whole.exists() else None
     lead = ("" if last is None else f"The last run: {', '.join(last['experiments'])} in {last['wall_time_s']:.0f} s "
             f"({last['jobs']} at once{', quick sizes' if last['quick'] else ''}).\n\n")
-    if quick or any(v.endswith("(quick)") for _, _, v, _ in summary):
+    if "default" in recipes:
+        lead += ("Each experiment runs the paper's method (judged against the paper and the decided targets) and, "
+                 "beside it, the product's default (the model chooses its linear path from the demonstrations, "
+                 "AdaptConfig()'s settings plus the experiment's protocol; `acnmp experiment NAME --recipe "
+                 "default`), judged against the same targets.\n\n")
+    quick_runs = quick or any(v.endswith("(quick)") for _, _, vs, _ in summary for v in vs)
+    if quick_runs:
         lead += QUICK_NOTE + "\n\n"
-    rows = "".join(f"| {i} | {t} | {v} | {'-' if w is None else f'{w:.0f} s'} |\n" for i, t, v, w in summary)
-    column = "decided target, or the quick check" if "(quick)" in rows else "decided target"
+    what = "decided target, or the quick check" if quick_runs else "decided target"
+    columns = [f"{RECIPE_TITLES[r]}: {what}" for r in recipes]
+    rows = "".join(f"| {i} | {t} | {' | '.join(vs)} | {'-' if w is None else f'{w:.0f} s'} |\n"
+                   for i, t, vs, w in summary)
     md = out / "report.md"
-    md.write_text(f"# {title}\n\n{lead}| id | experiment | {column} | time |\n| --- | --- | --- | --- |\n{rows}\n"
-                  + "\n".join(sections_md))
+    md.write_text(f"# {title}\n\n{lead}| id | experiment | {' | '.join(columns)} | time |\n"
+                  f"| --- | --- | {' | '.join('---' for _ in columns)} | --- |\n{rows}\n" + "\n".join(sections_md))
     md.with_suffix(".html").write_text(
         f"<!doctype html><html><head><meta charset='utf-8'><title>{html.escape(title)}</title>"
         f"<style>body{{font-family:sans-serif;max-width:60em;margin:auto}}img{{max-width:100%}}</style></head>"
         f"<body><h1>{html.escape(title)}</h1><p>{html.escape(lead.strip())}</p><table border=1 cellpadding=4>"
-        f"<tr><th>id</th><th>experiment</th><th>{column}</th><th>time</th></tr>"
-        + "".join(f"<tr><td>{i}</td><td>{html.escape(t)}</td><td>{v}</td><td>{'-' if w is None else f'{w:.0f} s'}</td></tr>"
-                  for i, t, v, w in summary)
+        f"<tr><th>id</th><th>experiment</th>{''.join(f'<th>{html.escape(c)}</th>' for c in columns)}<th>time</th></tr>"
+        + "".join(f"<tr><td>{i}</td><td>{html.escape(t)}</td>{''.join(f'<td>{v}</td>' for v in vs)}"
+                  f"<td>{'-' if w is None else f'{w:.0f} s'}</td></tr>" for i, t, vs, w in summary)
         + f"</table>{''.join(sections_html)}</body></html>\n")
     return md

@@ -80,6 +80,14 @@ def add_deployment_arguments(p, what: str) -> None:
                         "another host")
 
 
+#: --recipe's help, the same in every command line that has it (acnmp_core/experiments/recipe.py).
+RECIPE_HELP = ("the method run: 'paper' (the default: the paper's method as the experiment's page and `acnmp "
+               "reproduce` report it against the paper, the CNMP alone adapted with the experiment's own settings) "
+               "or 'default' (the product's default, what `acnmp up` serves: the model chooses at training between "
+               "the demonstrations' linear path beside the network and the network alone, and adapts with "
+               "AdaptConfig()'s settings plus only the experiment's protocol: its budget, its stopping rule)")
+
+
 #: --threads' help, the same in every command line that has it.
 THREADS_HELP = ("torch threads for the CNMP's training, adaptation and assimilation (default: $ACNMP_TORCH_THREADS "
                 "or 1). 2 threads run faster only while no other process uses a core, and several times slower "
@@ -90,8 +98,8 @@ THREADS_HELP = ("torch threads for the CNMP's training, adaptation and assimilat
 def add_run_arguments(p, *, seeds: int | None = None, seeds_what: str = "seeds", old_seeds: str | None = None,
                       seed: int | None = None, envs: int | None = None, eval_every: int | None = None,
                       quick: str | dict | None = None, jobs: int | None = None,
-                      threads: bool = False, out: str | Path | None = None, plot: str | None = None,
-                      deployment: str | None = None, quiet: str | None = None) -> None:
+                      threads: bool = False, recipe: bool = False, out: str | Path | None = None,
+                      plot: str | None = None, deployment: str | None = None, quiet: str | None = None) -> None:
     """Add to parser ``p`` the options of a run that the experiment commands (``acnmp experiment
     ...``) and the benchmarks' mains share, each whose keyword is given, in this order:
 
@@ -104,8 +112,11 @@ def add_run_arguments(p, *, seeds: int | None = None, seeds_what: str = "seeds",
       sets (``seeds``, ``train_steps``, ``budget`` or ``acnmp_budget``, ``promp_budget``), by them;
     - ``jobs=N``: ``--jobs N``, processes at once (1 to 64, default N);
     - ``threads=True``: ``--threads N`` (:data:`THREADS_HELP`), applied by :func:`apply_threads`;
-    - ``out=PATH``: ``--out FILE`` (also spelled ``--json``), the result's JSON (default PATH) with
-      its figure beside it;
+    - ``recipe=True``: ``--recipe paper|default`` (:data:`RECIPE_HELP`; default "paper"), read by
+      :func:`recipe_of`;
+    - ``out=PATH``: ``--out FILE`` (also spelled ``--json``), the result's JSON (default PATH; with
+      ``recipe``, PATH for the paper's method and ``<PATH's stem>_default.json`` beside it for the
+      default, resolved by :func:`output_path`) with its figure beside it;
     - ``plot=HELP``: ``--json FILE`` and ``--plot FILE`` (:func:`add_output_arguments`);
     - ``deployment=WHAT``: the deployment options (:func:`add_deployment_arguments`);
     - ``quiet=HELP``: ``--quiet``, described by HELP."""
@@ -126,11 +137,22 @@ def add_run_arguments(p, *, seeds: int | None = None, seeds_what: str = "seeds",
                        help=f"processes run at once, the same result (default {jobs})")
     if threads:
         p.add_argument("--threads", type=int_at_least(1), default=None, metavar="N", help=THREADS_HELP)
+    if recipe:
+        from acnmp_core.experiments.recipe import RECIPES  # light: no torch
+
+        p.add_argument("--recipe", choices=RECIPES, default=RECIPES[0], help=RECIPE_HELP)
     if out is not None:
         root = Path(__file__).resolve().parents[2]
         shown = Path(out).relative_to(root) if Path(out).is_relative_to(root) else out
-        p.add_argument("--out", "--json", dest="out", type=non_empty, default=str(out), metavar="FILE",
-                       help=f"write the result here as JSON, its figure (if any) beside it as .png (default {shown})")
+        if any(a.dest == "recipe" for a in p._actions):
+            # the default follows the recipe, so the default's result never overwrites the paper's
+            p.set_defaults(out_of_recipe=str(out))
+            p.add_argument("--out", "--json", dest="out", type=non_empty, default=None, metavar="FILE",
+                           help=f"write the result here as JSON, its figure (if any) beside it as .png (default {shown}; "
+                                f"with --recipe default, {Path(shown).stem}_default.json beside it)")
+        else:
+            p.add_argument("--out", "--json", dest="out", type=non_empty, default=str(out), metavar="FILE",
+                           help=f"write the result here as JSON, its figure (if any) beside it as .png (default {shown})")
     if plot is not None:
         add_output_arguments(p, plot)
     if deployment is not None:
@@ -154,6 +176,38 @@ def add_promp_budget_argument(p, per: str, default: int = 1500) -> None:
     iteration; None when not given, the help naming ``default``)."""
     p.add_argument("--promp-budget", type=int_at_least(3), default=None,
                    help=f"ProMP + RL roll-out budget per {per} (default {default})")
+
+
+def recipe_of(args):
+    """The :class:`~acnmp_core.experiments.recipe.Recipe` ``--recipe`` named (the paper's without
+    the option)."""
+    from acnmp_core.experiments.recipe import Recipe
+
+    return Recipe(getattr(args, "recipe", "paper"))
+
+
+def recipe_line(result: dict) -> str:
+    """A few words naming the method of an experiment's JSON ``result`` for its printed table: "the
+    paper's method", or "the default method" with the prior its model chose per seed."""
+    from acnmp_core.experiments.recipe import chosen_priors
+
+    recipe = (result.get("recipe") or {}).get("name", "paper")
+    if recipe == "paper":
+        return "the paper's method"
+    chosen = chosen_priors(result)
+    names = {"linear": "the linear path beside the network", "none": "the network alone"}
+    counts = [f"{names.get(p, p)} in {sum(v == p for v in chosen.values())}/{len(chosen)}"
+              for p in sorted(set(chosen.values()))]
+    return "the default method" + (f" (model: {', '.join(counts)} seeds)" if counts else "")
+
+
+def output_path(args) -> str:
+    """The result's JSON: ``--out`` when given, else the default of ``add_run_arguments(out=PATH)``
+    under ``--recipe`` (PATH, or ``<stem>_default.json`` beside it)."""
+    if args.out is not None:
+        return args.out
+    path = Path(args.out_of_recipe)
+    return str(path.with_name(recipe_of(args).result_name(path.stem) + path.suffix))
 
 
 def apply_threads(args) -> None:

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from services.transport.argtypes import int_at_least
 
-from .common import (add_run_arguments, add_size_arguments, check_deployment_arguments, seed_list, sizes,
-                     with_deployment, write_outputs)
+from .common import (add_run_arguments, add_size_arguments, check_deployment_arguments, recipe_line, recipe_of,
+                     seed_list, sizes, with_deployment, write_outputs)
 
 
 def add_arguments(p) -> None:
@@ -17,7 +17,7 @@ def add_arguments(p) -> None:
                         "the adapted model (default: run_pour's, the skill)")
     p.add_argument("--jobs", type=int_at_least(1, 64), default=1,
                    help="seeds run in this many processes at once, same result (not with --distributed; default 1)")
-    add_run_arguments(p, plot="write the error of every roll-out per seed (PNG)",
+    add_run_arguments(p, recipe=True, plot="write the error of every roll-out per seed (PNG)",
                       deployment="the roll-outs on pour PyBullet workers",
                       quiet="no per-seed lines")
 
@@ -33,7 +33,8 @@ def run(args) -> int:
     if args.jobs > 1 and args.distributed:
         raise ValueError("--jobs: expected 1 with --distributed")
     torch.set_num_threads(1)  # the CNMP is small; threads only contend with the simulator
-    kwargs = dict(train_steps=train_steps, adapt_config=e6_adapt_config(budget),
+    recipe = recipe_of(args)
+    kwargs = dict(train_steps=train_steps, adapt_config=e6_adapt_config(budget, recipe), recipe=recipe,
                   assimilate_solution=not args.no_assimilation, log=None if args.quiet else print,
                   **({} if args.assimilate_from is None else {"assimilate_from": args.assimilate_from}))
     if args.distributed:
@@ -46,7 +47,7 @@ def run(args) -> int:
     else:
         result = run_pour(seed_list(args, 5), jobs=args.jobs, **kwargs)
     a, s = result["acnmp"], result["assimilation"]
-    print(f"E6 pour {result['test']['target_g']:.0f} g from {result['test']['weight_g']:.0f} g, "
+    print(f"E6 pour {result['test']['target_g']:.0f} g from {result['test']['weight_g']:.0f} g, {recipe_line(result)}, "
           f"{result['seeds']} seed(s), {result['wall_time_s']:.1f} s")
     print(f"LfD only: error {result['lfd_only']['error_g']:.0f} g (median)")
     print(f"ACNMP: success {100 * a['success_rate']:.0f}% ({100 * a['success_within_20_rate']:.0f}% within 20 "

@@ -4,7 +4,7 @@ from __future__ import annotations
 from services.transport.argtypes import int_at_least
 
 from .common import (add_promp_budget_argument, add_run_arguments, add_seeds_argument,
-                     check_deployment_arguments, seed_list, with_deployment, write_outputs)
+                     check_deployment_arguments, recipe_line, recipe_of, seed_list, with_deployment, write_outputs)
 
 #: --quick: enough to see both methods run end to end in about a minute.
 QUICK = dict(train_steps=1500, acnmp_budget=60, promp_budget=150)
@@ -23,7 +23,7 @@ def add_arguments(p) -> None:
     p.add_argument("--acnmp-budget", type=int_at_least(1), default=None,
                    help="ACNMP roll-out budget per target (default 300)")
     add_promp_budget_argument(p, "target")
-    add_run_arguments(p, quick=QUICK,
+    add_run_arguments(p, quick=QUICK, recipe=True,
                       plot="write learning curves like the paper's Fig. 5(b) (PNG)",
                       deployment="the roll-outs on planar3 PyBullet workers",
                       quiet="no per-run lines, no progress bars")
@@ -33,9 +33,8 @@ def run(args) -> int:
     """Run E2 as asked by ``args`` and print a summary table; returns the exit code."""
     import torch
 
-    from acnmp_core.adaptation.config import AdaptConfig
     from acnmp_core.baselines.promp_rl import PrompRLConfig
-    from acnmp_core.experiments.push import ACNMP_BUDGET, PROMP_DEFAULTS, run_push, task_config
+    from acnmp_core.experiments.push import ACNMP_BUDGET, PROMP_DEFAULTS, adapt_settings, run_push, task_config
     from acnmp_core.tasks.push.settings import push_setting
 
     torch.set_num_threads(1)  # the CNMP is small; threads only contend with the simulator
@@ -44,9 +43,11 @@ def run(args) -> int:
     train_steps = args.train_steps or q.get("train_steps") or TRAIN_STEPS
     acnmp_budget = args.acnmp_budget or q.get("acnmp_budget") or ACNMP_BUDGET
     promp_budget = args.promp_budget or q.get("promp_budget") or PROMP_DEFAULTS["max_rollouts"]
+    recipe = recipe_of(args)
     kwargs = dict(
         train_steps=train_steps,
-        adapt_config=AdaptConfig.paper(max_rollouts=acnmp_budget),
+        adapt_config=adapt_settings(recipe, acnmp_budget),
+        recipe=recipe,
         promp_config=PrompRLConfig(**{**PROMP_DEFAULTS, "max_rollouts": promp_budget}),
         log=None if args.quiet else print,
         setting=push_setting(args.setting),
@@ -63,7 +64,8 @@ def run(args) -> int:
                 f"push-{method}-{case}", task_config(setup, method), method=method), **kwargs), make)
     else:
         result = run_push(seed_list(args, 3), **kwargs)
-    print(f"E2 push ({result['setting']} setting), {result['seeds']} seed(s), tolerance {result['tolerance']} m, {result['wall_time_s']:.1f} s")
+    print(f"E2 push ({result['setting']} setting, {recipe_line(result)}), {result['seeds']} seed(s), "
+          f"tolerance {result['tolerance']} m, {result['wall_time_s']:.1f} s")
     print(f"{'method':<9} {'case':<14} {'roll-outs (median)':>18} {'success':>8} {'error (m)':>10} {'initial (m)':>11}")
     for m, cases in result["methods"].items():
         for c, s in cases.items():

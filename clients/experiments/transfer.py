@@ -5,7 +5,8 @@ from pathlib import Path
 
 from services.transport.argtypes import int_at_least
 
-from .common import add_run_arguments, add_seeds_argument, check_deployment_arguments, seed_list, write_outputs
+from .common import (add_run_arguments, add_seeds_argument, check_deployment_arguments, recipe_line, recipe_of,
+                     seed_list, write_outputs)
 
 
 def add_arguments(p) -> None:
@@ -20,7 +21,7 @@ def add_arguments(p) -> None:
     p.add_argument("--authors-data", metavar="DIR", default=None,
                    help="directory of the authors' E4 arrays (3doftraining_joint_trajectories.npy, ...; "
                         "default: ../shared/data/acnmp-paper/experiment4 beside the repository)")
-    add_run_arguments(p, plot="write success vs RL iteration per condition, the paper's beside (PNG)",
+    add_run_arguments(p, recipe=True, plot="write success vs RL iteration per condition, the paper's beside (PNG)",
                       deployment="the pairs trained by the learner, the 4-DoF arm's first attempt from the model "
                                 "service's transfer query, its roll-outs on planar4 PyBullet workers",
                       quiet="no per-run lines")
@@ -39,7 +40,7 @@ def run(args) -> int:
     data_dir = AUTHORS_DATA if args.authors_data is None else Path(args.authors_data)
     if args.authors_data is not None and not args.no_authors_data and load_authors_data(data_dir) is None:
         raise ValueError(f"--authors-data {args.authors_data}: the authors' four E4 arrays are not all there")
-    cfg = TransferExperimentConfig()
+    cfg = TransferExperimentConfig(recipe=recipe_of(args))
     if args.pair_steps is not None:
         cfg.pair = replace(cfg.pair, steps=args.pair_steps)
     if args.budget is not None:
@@ -58,7 +59,7 @@ def run(args) -> int:
               f"{max(diffs) if diffs else 0.0:.3g} rad")
     else:
         result = run_transfer(seed_list(args, 30), **kwargs)
-    print(f"E4 transfer 3-DoF -> 4-DoF, {result['runs']} run(s), {result['wall_time_s']:.1f} s")
+    print(f"E4 transfer 3-DoF -> 4-DoF, {recipe_line(result)}, {result['runs']} run(s), {result['wall_time_s']:.1f} s")
     print(f"{'condition':<13} " + " ".join(f"{'after ' + k:>9}" for k in result["paper"]["success_by_iteration"])
           + f" {'iterations (median)':>20} {'initial error (m)':>18}")
     paper = result["paper"]["success_by_iteration"]

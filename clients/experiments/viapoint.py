@@ -8,7 +8,8 @@ import numpy as np
 
 from services.transport.argtypes import int_at_least
 
-from .common import add_run_arguments, add_seeds_argument, check_deployment_arguments, seed_list, write_json
+from .common import (add_run_arguments, add_seeds_argument, check_deployment_arguments, recipe_line, recipe_of,
+                     seed_list, write_json)
 
 
 def add_arguments(p) -> None:
@@ -21,7 +22,7 @@ def add_arguments(p) -> None:
                    help="supervised training steps (default 3000)")
     p.add_argument("--fresh", action="store_true",
                    help="with --distributed: always start a fresh deployment, even when one is running")
-    add_run_arguments(p, plot="write Fig. 3-like PNG (and FILE_latents.png like Fig. 4)",
+    add_run_arguments(p, recipe=True, plot="write Fig. 3-like PNG (and FILE_latents.png like Fig. 4)",
                       deployment="training and adaptation jobs on the learner, roll-outs on point2d workers",
                       quiet="no progress bars")
 
@@ -39,7 +40,8 @@ def run(args) -> int:
     torch.set_num_threads(1)
 
     seeds = seed_list(args, 1)
-    kwargs = dict(variant=args.variant, budget=args.budget, train_steps=args.train_steps, progress=not args.quiet)
+    kwargs = dict(variant=args.variant, budget=args.budget, train_steps=args.train_steps, progress=not args.quiet,
+                  recipe=recipe_of(args))
     check_deployment_arguments(args)
     if args.fresh and not args.distributed:
         raise ValueError("--fresh: only with --distributed")
@@ -67,8 +69,8 @@ def run(args) -> int:
         print(f"over seeds {', '.join(map(str, seeds))}: " + "; ".join(
             f"{m} {100 * r['success_rate']:.0f}% succeed, median {r['rollouts_median']:.0f} roll-outs"
             for m, r in agg["methods"].items()))
-        write_json({"experiment": "viapoint", "seeds": len(seeds), "seed_list": seeds, **agg, "runs": summaries},
-                   args.json)
+        write_json({"experiment": "viapoint", "recipe": kwargs["recipe"].to_dict(), "seeds": len(seeds), "seed_list": seeds,
+                    **agg, "runs": summaries}, args.json)
     if args.plot:
         from acnmp_core.experiments.plots import plot_viapoint
 
@@ -81,7 +83,7 @@ def run(args) -> int:
 def _print_run(s: dict) -> None:
     """One seed's table (a summary of :func:`~acnmp_core.experiments.viapoint.run_viapoint`)."""
     tol = ", ".join(f"{x:.4f}" for x in np.ravel(s["tolerance"]))
-    print(f"E1 via-point ({s['variant']}), seed {s['seed']}, tolerance (start, via-point, end) {tol}, "
+    print(f"E1 via-point ({s['variant']}), seed {s['seed']}, {recipe_line(s)}, tolerance (start, via-point, end) {tol}, "
           f"{s['wall_time_s']:.1f} s")
     print(f"{'method':<10} {'roll-outs':>9} {'success':>8} {'error':>8} {'via err':>8} {'end err':>8} {'shape err':>10}")
     for m, r in s["methods"].items():

@@ -6,8 +6,8 @@ import numpy as np
 
 from services.transport.argtypes import int_at_least
 
-from .common import (add_run_arguments, apply_threads, check_deployment_arguments, seed_list, with_deployment,
-                     write_json)
+from .common import (add_run_arguments, apply_threads, check_deployment_arguments, recipe_line, recipe_of, seed_list,
+                     with_deployment, write_json)
 
 
 def add_arguments(p) -> None:
@@ -34,7 +34,8 @@ def add_arguments(p) -> None:
                         "or scored, for every method alike: 'generated' (the default, \"boundary conditions "
                         "enforced\": the paths for new and test environments), 'none' (the paper's variant: "
                         "paths as generated) or 'all' (the adaptations' roll-outs too)")
-    add_run_arguments(p, threads=True, plot="write test error / success vs environments and trajectories (PNG)",
+    add_run_arguments(p, threads=True, recipe=True,
+                      plot="write test error / success vs environments and trajectories (PNG)",
                       deployment="the roll-outs on point2d workers",
                       quiet="no progress lines")
 
@@ -65,7 +66,7 @@ def run(args) -> int:
                   **({} if args.assimilate_from is None else {"assimilate_from": args.assimilate_from}),
                   **({"snap_solutions": False} if args.solutions_as_found else {}),
                   snap_outputs=args.snap_paths != "none", snap_rollouts=args.snap_paths == "all",
-                  log=None if args.quiet else (lambda s: print(s, flush=True)))
+                  log=None if args.quiet else (lambda s: print(s, flush=True)), recipe=recipe_of(args))
     check_deployment_arguments(args)
     seeds = seed_list(args, 1)
     results = []
@@ -88,7 +89,8 @@ def run(args) -> int:
         print(f"over seeds {', '.join(map(str, seeds))}: " + "; ".join(
             f"{m} mean test success {100 * np.mean([r['methods'][m]['test_success_rate'] for r in results]):.1f}%"
             for m in results[0]["methods"]))
-        write_json({"experiment": "wall", "seeds": len(seeds), "seed_list": seeds, "runs": results}, args.json)
+        write_json({"experiment": "wall", "recipe": kwargs["recipe"].to_dict(), "seeds": len(seeds), "seed_list": seeds,
+                    "runs": results}, args.json)
     if args.plot:
         from acnmp_core.experiments.plots import plot_wall
 
@@ -100,7 +102,7 @@ def _print_run(result: dict, snap_paths: str) -> None:
     """One seed's summary table (a result of :func:`~acnmp_core.experiments.wall.run_wall`)."""
     snapped = {"none": "paths as generated (the paper's variant)", "generated": "boundary conditions enforced",
                "all": "every executed path snapped"}[snap_paths]
-    print(f"E3 wall ({result['setting']} setting, {snapped}), seed {result['seed']}, {result['n_initial']} demonstrated + "
+    print(f"E3 wall ({result['setting']} setting, {snapped}, {recipe_line(result)}), seed {result['seed']}, {result['n_initial']} demonstrated + "
           f"{result['envs']} new environments, {result['n_test']} test, {result['wall_time_s']:.1f} s")
     print(f"{'method':<9} {'test success':>12} {'test error':>10} {'trajectories':>12} {'max/env':>8} "
           f"{'median/env':>10} {'paper-style':>11}")
