@@ -148,11 +148,21 @@ def _run_info(args) -> int:
         print(f"    {name}: [{a:g}, {b:g}]")
     print(f"  time range: [{info['time_range'][0]:g}, {info['time_range'][1]:g}]; latent dim {info['latent_dim']}")
     print(f"  trained on {info['n_demos']} demos, data hash {info['data_hash'][:16] or '-'}")
+    print(f"  model: {_model_line(info['config'])}")
     partner = info.get("partner")
     if partner:
         print(f"  paired skill: `acnmp query transfer` answers robot B's {partner['n_outputs']} outputs "
               f"({', '.join(partner['output_names'])}) for these {info['n_outputs']} of robot A")
     return 0
+
+
+def _model_line(config: dict) -> str:
+    """The skill's model in one line: which one and, when its demonstrations chose it, why."""
+    choice = config.get("prior_choice")
+    if choice:
+        return choice["reason"]
+    named = {"linear": "the linear path beside the network", "none": "the network alone (the paper's CNMP)"}
+    return f"{named.get(config.get('prior', 'none'), config.get('prior'))} (as the training request set it)"
 
 
 def _run_skills(args) -> int:

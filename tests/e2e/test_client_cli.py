@@ -40,9 +40,12 @@ def test_query_info_and_skills(live_service, capsys):
     code, out, _ = cli(capsys, "query", "info", "--skill", "reach", "-n", NS, "--connect", ep)
     assert code == 0
     assert "skill reach version 3" in out and "x, y" in out and "6 demos" in out and "cafe" in out
+    # the model E1's demonstrations chose, and why, in the skill's own words
+    assert f"model: {live_service[1].config.prior_choice.reason}" in out and "held-out error" in out
     code, out, _ = cli(capsys, "query", "info", "--skill", "reach", "-n", NS, "--connect", ep, "--json")
     info = json.loads(out)
     assert code == 0 and info["version"] == 3 and info["output_names"] == ["x", "y"]
+    assert info["config"]["prior"] == info["config"]["prior_choice"]["chosen"] == "linear"
     code, out, _ = cli(capsys, "query", "skills", "-n", NS, "--connect", ep, "--json")
     assert code == 0 and json.loads(out) == ["reach"]
 
