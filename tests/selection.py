@@ -21,6 +21,9 @@ import re
 #: training the first of them pays).
 HEAVY: tuple[str, ...] = tuple(f"tests/unit/{name}" for name in (
     "adaptation/test_loop.py",
+    "adaptation/test_assimilation_beyond.py",
+    "model/test_selection.py",
+    "model/test_prior.py",
     "benchmarks/test_merge_inputs.py",
     "model/test_cnmp.py",
     "benchmarks/test_e6_fit_trace.py",
