@@ -15,7 +15,6 @@ import torch
 from ..errors import InputError, ShapeError, UnreadableFileError
 from ..files import atomic_write_bytes
 from .cnmp import CNMP, CNMPConfig
-from .prior import SIZED_PRIOR_BUFFERS
 
 FORMAT_VERSION = 1
 
@@ -96,18 +95,13 @@ def model_from_arrays(config: dict, arrays: dict) -> CNMP:
     (:class:`~acnmp_core.errors.ShapeError` for an array of the wrong shape)."""
     model = CNMP(CNMPConfig.from_dict(config))
     expected = model.state_dict()
-    # the linear path's buffers sized by its demonstrations and solutions: any first size, and absent
-    # from a model sent before they existed (the path then holds none)
-    sized = {k for k in expected if k.rpartition(".")[2] in SIZED_PRIOR_BUFFERS}
-    if set(arrays) - set(expected) or set(expected) - set(arrays) - sized:
-        missing, extra = set(expected) - set(arrays) - sized, set(arrays) - set(expected)
+    if set(arrays) != set(expected):
+        missing, extra = set(expected) - set(arrays), set(arrays) - set(expected)
         raise InputError(f"arrays: parameter names do not match the config (missing {sorted(missing)}, extra {sorted(extra)})")
     state = {}
     for k, ref in expected.items():
-        if k not in arrays:
-            continue
         t = torch.as_tensor(np.asarray(arrays[k])).to(ref.dtype)
-        if t.shape != ref.shape and not (k in sized and t.ndim == ref.ndim and t.shape[1:] == ref.shape[1:]):
+        if t.shape != ref.shape:
             raise ShapeError(f"arrays[{k!r}]: expected shape {tuple(ref.shape)}, got {tuple(t.shape)}")
         state[k] = t
     model.load_state_dict(state)

@@ -12,9 +12,15 @@ skill without task parameters: on its observed points), and the network's mean i
 the network learns what the linear path misses. The linear path extrapolates demonstrations that vary linearly with their conditions; the
 network, which sees the conditions clipped to the range it was trained on (``prior_clip``; the
 range widens when a solution beyond it is assimilated, :meth:`CNMP.widen_range`), carries
-what is not linear. ``prior = "none"`` is the paper's CNMP. ``prior = "auto"`` (the default)
-chooses between the two when the model is trained, from the demonstrations' held-out error at the
-edges of their conditions (:mod:`acnmp_core.model.selection`); the config then records the choice.
+what is not linear. ``prior = "none"`` is the paper's CNMP.
+
+With ``prior = "trend"`` the network is the paper's CNMP inside the range it was trained on, and
+beyond it the linear path carries the change: the network answers the query clipped to that range,
+and the linear path's change from the clipped query to the query itself is added. Inside the range
+the trend adds nothing, so the network trains and predicts exactly as the paper's. ``prior =
+"auto"`` (the default) chooses between "trend" and "none" (one network: whether the trend is added
+beyond the range) when the model is trained, from the demonstrations' held-out error at the edges of
+their conditions (:mod:`acnmp_core.model.selection`); the config then records the choice.
 """
 from __future__ import annotations
 
@@ -34,9 +40,12 @@ from .prior import LinearPrior, choose_n_basis
 from .choice import PriorChoice
 
 #: What the mean is made of (``CNMPConfig.prior``): the network alone ("none", the paper's CNMP),
-#: the demonstrations' linear-Gaussian path plus the network's residual ("linear"), or the one of
-#: the two the demonstrations need, chosen when the model is trained ("auto", the default).
-PRIORS = ("auto", "none", "linear")
+#: the demonstrations' linear-Gaussian path plus the network's residual ("linear"), the network
+#: inside its trained range and the path's trend beyond it ("trend"), or the one of "trend" and
+#: "none" the demonstrations need, chosen when the model is trained ("auto", the default).
+PRIORS = ("auto", "none", "linear", "trend")
+#: the priors with a linear path
+PATH_PRIORS = ("linear", "trend")
 
 #: Times may exceed the trained range by this fraction of it before a query is rejected.
 TIME_RANGE_TOLERANCE = 0.05
@@ -52,19 +61,21 @@ class CNMPConfig:
       Defaults follow the paper's appendix table (3 layers of 128 in each).
     std_floor : the smallest std the decoder can output, in normalised units (avoids NLL blow-up).
     output_names, task_param_names : optional labels, carried in checkpoints and service info.
-    prior : "auto" (the default): "linear" or "none", chosen from the demonstrations when the model
+    prior : "auto" (the default): "trend" or "none", chosen from the demonstrations when the model
       is trained (:func:`~acnmp_core.model.selection.choose_prior`; the config then holds the
-      choice and ``prior_choice`` why); "linear": the mean is the demonstrations' linear-Gaussian
-      path plus the network's residual (module docstring); "none": the network alone (the paper's CNMP).
+      choice and ``prior_choice`` why); "trend": the network inside its trained range, the
+      demonstrations' linear trend added beyond it; "linear": the mean is the demonstrations'
+      linear-Gaussian path plus the network's residual (module docstring); "none": the network
+      alone (the paper's CNMP).
     prior_choice : what the "auto" choice measured (:class:`~acnmp_core.model.choice.PriorChoice`),
       None when the prior was given.
     prior_basis : basis functions per output of the linear path; 0 (the default) chooses it by
       leave-one-out error on the demonstrations when the model is fitted to them
       (:func:`~acnmp_core.model.prior.choose_n_basis`), and the config then records the choice.
-    prior_clip : with the linear path, the network sees task parameters and observed values
-      clipped to the range it was trained on (the demonstrations', widened by assimilated
+    prior_clip : with the linear path ("linear"), the network sees task parameters and observed
+      values clipped to the range it was trained on (the demonstrations', widened by assimilated
       solutions): beyond it the linear path carries the change and the network adds what it learnt
-      at the nearest edge, instead of extrapolating itself.
+      at the nearest edge, instead of extrapolating itself. "trend" always clips.
     """
 
     n_outputs: int
@@ -203,7 +214,7 @@ class CNMP(nn.Module):
         self.register_buffer("fitted", torch.zeros((), dtype=torch.bool))
         # the linear path; with prior_basis 0 it is made when the model is fitted to demonstrations
         self.prior: LinearPrior | None = (LinearPrior(d, p, config.prior_basis)
-                                          if config.prior == "linear" and config.prior_basis else None)
+                                          if config.prior in PATH_PRIORS and config.prior_basis else None)
         self._value_bounds: tuple[torch.Tensor, ...] | None = None
 
     def _load_from_state_dict(self, *args, **kwargs):
@@ -224,11 +235,11 @@ class CNMP(nn.Module):
         self.value_norm.fit(demos.all_values(), mode="standard")
         self.fitted.fill_(True)
         self._value_bounds = None
-        if self.config.prior == "linear":
+        if self.config.prior in PATH_PRIORS:
             self.fit_prior(demos)
 
     def fit_prior(self, demos: DemoSet) -> None:
-        """Fit the linear path (``config.prior == "linear"``) on ``demos`` in this model's
+        """Fit the linear path (``config.prior`` "linear" or "trend") on ``demos`` in this model's
         normalisation, choosing its basis count first when ``config.prior_basis`` is 0 (the config
         then records it). Called by :meth:`fit_normalization`."""
         packed = self.pack(demos)
@@ -309,11 +320,25 @@ class CNMP(nn.Module):
 
     def forward(self, obs_x, obs_mask, tgt_x):
         """(B,N,1+P+2D), (B,N), (B,M,1+P) -> mean (B,M,D), std (B,M,D), latent (B,L); normalised units.
-        With a linear path the mean is that path plus the network's residual (module docstring)."""
-        weights = self.prior_weights(obs_x, obs_mask)
-        latent = self.encode(self.network_obs(obs_x), obs_mask)
+        With a linear path the mean is that path plus the network's residual; with the trend, the
+        network's answer to the clipped query plus the path's change beyond it (module docstring)."""
+        net_obs = self.network_obs(obs_x)
+        weights = self.path_weights(obs_x, net_obs, obs_mask)
+        latent = self.encode(net_obs, obs_mask)
         mean, std = self.decode(latent, self.network_targets(tgt_x))
         return self._with_prior(mean, tgt_x, weights), std, latent
+
+    def path_weights(self, obs_x: torch.Tensor, net_obs: torch.Tensor, obs_mask: torch.Tensor) -> np.ndarray | None:
+        """The weights (B, D, K) of what the linear path adds to the network's mean for queries
+        ``obs_x`` (B, N, 1+P+2D) whose network inputs are ``net_obs`` (:meth:`network_obs`), normalised
+        units: "linear": the path's weights; "trend": the path's change from the clipped query to the
+        query (None when nothing was clipped: inside the range the trend adds nothing); None without
+        a linear path."""
+        if self.config.prior != "trend":
+            return self.prior_weights(obs_x, obs_mask)
+        if self.prior is None or torch.equal(net_obs, obs_x):
+            return None
+        return self.prior_weights(obs_x, obs_mask) - self.prior_weights(net_obs, obs_mask)
 
     # ----- the linear path ---------------------------------------------------------------------
     def prior_weights(self, obs_x: torch.Tensor, obs_mask: torch.Tensor) -> np.ndarray | None:
@@ -323,7 +348,7 @@ class CNMP(nn.Module):
         network then learns one residual per task parameters (what the path misses there), not one
         per set of observed points, which it could not tell apart from the points alone."""
         if self.prior is None:
-            if self.config.prior == "linear" and bool(self.fitted):
+            if self.config.prior in PATH_PRIORS and bool(self.fitted):
                 raise ValueError("model: its linear path is not fitted; fit the model to demonstrations first")
             return None
         d, p = self.config.n_outputs, self.config.n_task_params
@@ -343,11 +368,16 @@ class CNMP(nn.Module):
                                        for norm in (self.task_norm, self.value_norm) for b in (norm.low, norm.high))
         return self._value_bounds
 
+    def _clips(self) -> bool:
+        """Whether the network sees its inputs clipped to its trained range: with the trend always,
+        with the linear path as ``prior_clip`` says."""
+        return self.prior is not None and (self.config.prior == "trend" or self.config.prior_clip)
+
     def network_obs(self, obs_x: torch.Tensor) -> torch.Tensor:
-        """The encoder's observations: with a clipping linear path (``prior_clip``), their task
+        """The encoder's observations: with a clipping linear path (:meth:`_clips`), their task
         parameters and values clipped to the range the network was trained on, so it never sees a
         condition beyond it (the path carries what lies beyond); else ``obs_x``."""
-        if self.prior is None or not self.config.prior_clip:
+        if not self._clips():
             return obs_x
         d, p = self.config.n_outputs, self.config.n_task_params
         dims = obs_x[..., 1 + p + d:]
@@ -359,50 +389,38 @@ class CNMP(nn.Module):
     def network_targets(self, tgt_x: torch.Tensor) -> torch.Tensor:
         """The decoder's targets: with a clipping linear path, their task parameters clipped to the
         range the network was trained on; else ``tgt_x`` itself."""
-        if self.prior is None or not self.config.prior_clip or not self.config.n_task_params:
+        if not self._clips() or not self.config.n_task_params:
             return tgt_x
         p_lo, p_hi = (b.to(tgt_x.device) for b in self._bounds()[:2])
         return torch.cat([tgt_x[..., :1], torch.maximum(torch.minimum(tgt_x[..., 1:], p_hi), p_lo)], dim=-1)
 
     def follow_demos(self, demos: DemoSet) -> None:
-        """Continued training on ``demos`` (the demonstrations the model was fitted on, then the
-        solutions assimilated since, in that order), normalisation kept: the range the network sees
-        widens to every one's (:meth:`widen_range`), and the linear path, if any, takes the
-        solutions in. With task parameters it passes through them and stays where it was at the
-        demonstrations (:meth:`~.prior.LinearPrior.absorb`: a solution beyond the first range is
-        answered there, the demonstrations at the edge are not moved); without, they join its
-        statistics (it is fitted again on all of them, its basis count kept)."""
+        """Continued training on ``demos`` (the demonstrations and the solutions assimilated since),
+        normalisation kept: the range the network sees widens to every one's (:meth:`widen_range`),
+        so a solution beyond the first range is seen as it is, not as the old edge, and the linear
+        path, if any, is fitted again on all of them (a solution joins its statistics as a
+        demonstration), its basis count kept."""
         self._check_demos(demos)
-        # with task parameters the path carries the solutions: the network keeps its first range there
-        bent = self.prior is not None and bool(self.config.n_task_params)
         for demo in demos:
-            self.widen_range(demo, task_params=not bent)
-        if self.prior is None:
-            return
-        n_fitted = len(self.prior.demo_c)
-        if not self.config.n_task_params or not n_fitted or len(demos) < n_fitted:
+            self.widen_range(demo)
+        if self.prior is not None:
             self.fit_prior(demos)
-        elif len(demos) > n_fitted:
-            packed = self.pack(demos.subset(range(n_fitted, len(demos))))
-            self.prior.absorb(packed.times[..., 0].numpy(), packed.values.numpy(), packed.task_params.numpy(),
-                              packed.lengths.numpy())
 
-    def widen_range(self, demo, *, task_params: bool = True) -> None:
-        """Take a new demonstration's values (T, D) and, with ``task_params``, its task parameters
-        (P,) (raw units) into the range the network is trained on (the normalisers' ``low`` and
-        ``high``; their shift and scale, what the network's inputs mean, are kept): a solution
-        assimilated beyond the demonstrations is then seen by the network as it is, not clipped to
-        the old edge."""
+    def widen_range(self, demo) -> None:
+        """Take a new demonstration's values (T, D) and task parameters (P,) (raw units) into the
+        range the network is trained on (the normalisers' ``low`` and ``high``; their shift and
+        scale, what the network's inputs mean, are kept): a solution assimilated beyond the
+        demonstrations is then seen by the network as it is, not clipped to the old edge."""
         for norm, data in ((self.task_norm, np.asarray(demo.task_params, dtype=np.float64).reshape(1, -1)),
                            (self.value_norm, np.asarray(demo.values, dtype=np.float64))):
-            if norm.dim and (task_params or norm is self.value_norm):
+            if norm.dim:
                 norm.low.copy_(torch.minimum(norm.low, torch.as_tensor(data.min(axis=0))))
                 norm.high.copy_(torch.maximum(norm.high, torch.as_tensor(data.max(axis=0))))
         self._value_bounds = None
 
     def path_mean(self, query: Query) -> np.ndarray | None:
         """(T, D) the linear path alone for a prepared single :class:`Query`, raw units (None
-        without a linear path): what the network's residual is added to."""
+        without a linear path)."""
         weights = self.prior_weights(query.obs_x, query.obs_mask)
         if weights is None:
             return None
@@ -575,8 +593,9 @@ class CNMP(nn.Module):
         n_tgt = [q.tgt_x.shape[1] for q in queries]
         device = self.device
         with torch.no_grad():
-            weights = [self.prior_weights(q.obs_x, q.obs_mask) for q in queries]
-            obs = [self.network_obs(q.obs_x)[0] for q in queries]
+            net_obs = [self.network_obs(q.obs_x) for q in queries]
+            weights = [self.path_weights(q.obs_x, o, q.obs_mask) for q, o in zip(queries, net_obs)]
+            obs = [o[0] for o in net_obs]
             h = self.encoder(torch.cat(obs).to(device))
             # the same masked mean as encode() on each query (its mask is all ones)
             latents = [part.sum(0) / float(n) for part, n in zip(h.split(n_obs), n_obs)]

@@ -37,11 +37,6 @@ BASIS_CANDIDATES = (4, 6, 8, 10, 12, 15, 20)
 COV_RIDGE = 1e-4
 #: the variance given to task parameters when conditioning on them (normalised units): near-exact
 PARAM_VARIANCE = 1e-6
-#: how far (normalised task-parameter units, the demonstrations' range being 1) an assimilated
-#: solution bends the path around it before the path is the demonstrations' regression again
-ANCHOR_SCALE = 0.25
-#: the buffers of the path whose first size is the number of demonstrations or solutions it holds
-SIZED_PRIOR_BUFFERS = ("demo_c", "anchor_c", "anchor_r")
 
 
 class LinearPrior(nn.Module):
@@ -53,11 +48,8 @@ class LinearPrior(nn.Module):
 
     Buffers (float64, normalised units; they travel in checkpoints): ``centers`` (K,), ``mu``
     (D*K+P,), ``cov`` (D*K+P, D*K+P), ``noise`` (D,) the fit residual variance per output;
-    ``fitted`` (bool); ``demo_c`` (N, P) the task parameters of the demonstrations fitted;
-    ``anchor_c`` (S, P) and ``anchor_r`` (S, D*K) the task parameters of solutions assimilated
-    (:meth:`absorb`) and their weights' departure from the regression there. The arithmetic is
-    numpy's: its inputs are data (no gradient flows through the path), and on arrays this small a
-    numpy call costs a fraction of a torch one.
+    ``fitted`` (bool). The arithmetic is numpy's: its inputs are data (no gradient flows through the
+    path), and on arrays this small a numpy call costs a fraction of a torch one.
     """
 
     def __init__(self, n_outputs: int, n_task_params: int, n_basis: int) -> None:
@@ -71,17 +63,7 @@ class LinearPrior(nn.Module):
         self.register_buffer("cov", torch.eye(size, dtype=torch.float64))
         self.register_buffer("noise", torch.ones(self.n_outputs, dtype=torch.float64))
         self.register_buffer("fitted", torch.zeros((), dtype=torch.bool))
-        self._size_buffers(0, 0)
         self._derived: tuple | None = None
-
-    def _size_buffers(self, n_demos: int | None, n_anchors: int) -> None:
-        """(Re)make, zeroed, the buffers whose size is the number of demonstrations (unless
-        ``n_demos`` is None) and of solutions."""
-        p, m = self.n_task_params, self.n_outputs * self.n_basis
-        if n_demos is not None:
-            self.register_buffer("demo_c", torch.zeros(n_demos, p, dtype=torch.float64))
-        self.register_buffer("anchor_c", torch.zeros(n_anchors, p, dtype=torch.float64))
-        self.register_buffer("anchor_r", torch.zeros(n_anchors, m, dtype=torch.float64))
 
     def basis(self, t: np.ndarray) -> np.ndarray:
         """(..., K) normalised RBF activations at phases ``t`` (...); each row sums to 1."""
@@ -94,17 +76,9 @@ class LinearPrior(nn.Module):
     def _centers(self) -> np.ndarray:
         return self._numbers()[0]
 
-    def _load_from_state_dict(self, state_dict, prefix, local_metadata, strict, missing_keys, unexpected_keys,
-                              error_msgs):
+    def _load_from_state_dict(self, *args, **kwargs):
         self._derived = None  # the buffers change: what is computed from them is computed again
-        # the sized buffers take the checkpoint's sizes; a checkpoint from before they existed has none
-        sizes = [state_dict[prefix + k].shape[0] if prefix + k in state_dict else 0 for k in ("demo_c", "anchor_c")]
-        self._size_buffers(*sizes)
-        super()._load_from_state_dict(state_dict, prefix, local_metadata, strict, missing_keys, unexpected_keys,
-                                      error_msgs)
-        for k in SIZED_PRIOR_BUFFERS:
-            if prefix + k not in state_dict and prefix + k in missing_keys:
-                missing_keys.remove(prefix + k)
+        super()._load_from_state_dict(*args, **kwargs)
 
     def fit(self, times: np.ndarray, values: np.ndarray, task_params: np.ndarray,
             lengths: np.ndarray | None = None) -> "LinearPrior":
@@ -125,56 +99,15 @@ class LinearPrior(nn.Module):
         self.noise.copy_(torch.from_numpy(resid.sum((0, 1)) / valid.sum() + 1e-6))
         self.mu.copy_(torch.from_numpy(z.mean(axis=0)))
         self.cov.copy_(torch.from_numpy(cov + COV_RIDGE * np.eye(z.shape[1])))
-        self._size_buffers(n, 0)
-        self.demo_c.copy_(torch.from_numpy(np.asarray(task_params, dtype=np.float64).reshape(n, -1)))
         self.fitted.fill_(True)
         self._derived = None
         return self
 
-    def weights_of(self, times: np.ndarray, values: np.ndarray, lengths: np.ndarray | None = None) -> np.ndarray:
-        """(N, D*K) the least-squares weights of N paths (times (N, T), values (N, T, D), normalised;
-        ``lengths`` (N,) their valid rows), output-major as the joint Gaussian holds them."""
-        times, values = np.asarray(times, dtype=np.float64), np.asarray(values, dtype=np.float64)
-        n, t_max = times.shape
-        valid = (np.ones((n, t_max), dtype=bool) if lengths is None
-                 else np.arange(t_max)[None, :] < np.asarray(lengths)[:, None])
-        phi = self.basis(times) * valid[..., None]
-        gram = phi.transpose(0, 2, 1) @ phi + 1e-6 * np.eye(self.n_basis)
-        w = np.linalg.solve(gram, phi.transpose(0, 2, 1) @ (values * valid[..., None]))  # (N, K, D)
-        return w.transpose(0, 2, 1).reshape(n, -1)
-
-    def absorb(self, times: np.ndarray, values: np.ndarray, task_params: np.ndarray,
-               lengths: np.ndarray | None = None) -> "LinearPrior":
-        """Make the path pass through S assimilated solutions (times (S, T), values (S, T, D), task
-        parameters (S, P), normalised; they replace those absorbed before) and keep it where it was
-        at the demonstrations it was fitted on: the departure of each solution's weights from the
-        regression is interpolated over the task parameters (a Gaussian kernel of width
-        :data:`ANCHOR_SCALE`, zero at the demonstrations), so the path bends through the solutions
-        and is the demonstrations' regression again away from them. Without task parameters the
-        solutions join the statistics instead (:meth:`fit` on all of them is the caller's). Returns self."""
-        c = np.asarray(task_params, dtype=np.float64).reshape(len(values), -1)
-        _, mu_w, mu_c, a = self._numbers()[:4]
-        resid = self.weights_of(times, values, lengths) - (mu_w + (c - mu_c) @ a.T)
-        self._size_buffers(None, len(c))
-        self.anchor_c.copy_(torch.from_numpy(c))
-        self.anchor_r.copy_(torch.from_numpy(resid))
-        self._derived = None
-        return self
-
-    def _bend(self, c: np.ndarray) -> np.ndarray:
-        """(B, D*K) how far the assimilated solutions bend the weights at task parameters ``c`` (B, P)."""
-        alpha, points = self._numbers()[6:8]
-        if alpha is None:
-            return 0.0
-        k = np.exp(-0.5 * ((c[:, None, :] - points[None]) ** 2).sum(-1) / ANCHOR_SCALE**2)
-        return k @ alpha
-
-    def _numbers(self) -> tuple:
-        """numpy copies of what conditioning uses, computed once after each fit, absorb or load:
-        ``centers`` (K,), ``mu_w`` (D*K,), ``mu_c`` (P,), the regression ``A`` (D*K, P) with ``E[w | c] =
-        mu_w + A (c - mu_c)``, the weights' covariance given the parameters as (D, K, D, K), ``noise``
-        (D,), and the solutions' bend: kernel coefficients (N+S, D*K) and their points (N+S, P)
-        (None, None without solutions)."""
+    def _numbers(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """numpy copies of what conditioning uses, computed once after each fit or load: ``centers``
+        (K,), ``mu_w`` (D*K,), ``mu_c`` (P,), the regression ``A`` (D*K, P) with ``E[w | c] = mu_w +
+        A (c - mu_c)``, the weights' covariance given the parameters as (D, K, D, K), and ``noise``
+        (D,)."""
         if self._derived is None:
             m = self.n_outputs * self.n_basis
             mu, cov = self.mu.numpy(), self.cov.numpy()
@@ -183,14 +116,8 @@ class LinearPrior(nn.Module):
                  if self.n_task_params else np.zeros((m, 0)))
             given = cov[:m, :m] - a @ s_wc.T
             given = ((given + given.T) / 2).reshape(self.n_outputs, self.n_basis, self.n_outputs, self.n_basis)
-            alpha = points = None
-            if len(self.anchor_c) and self.n_task_params:
-                points = np.concatenate([self.demo_c.numpy(), self.anchor_c.numpy()])
-                targets = np.concatenate([np.zeros((len(self.demo_c), m)), self.anchor_r.numpy()])
-                gram = np.exp(-0.5 * ((points[:, None] - points[None]) ** 2).sum(-1) / ANCHOR_SCALE**2)
-                alpha = np.linalg.solve(gram + 1e-8 * np.eye(len(points)), targets)
             self._derived = (self.centers.numpy().copy(), mu[:m].copy(), mu[m:].copy(), a, given,
-                             self.noise.numpy().copy(), alpha, points)
+                             self.noise.numpy().copy())
         return self._derived
 
     def condition(self, obs_t: np.ndarray, obs_v: np.ndarray, obs_dims: np.ndarray, obs_mask: np.ndarray,
@@ -207,9 +134,8 @@ class LinearPrior(nn.Module):
         unit variance, so it changes nothing."""
         b, n = np.shape(obs_t)
         d, k = self.n_outputs, self.n_basis
-        _, mu_w, mu_c, a, cov, noise = self._numbers()[:6]
-        c = np.asarray(task_params, dtype=np.float64).reshape(b, -1)
-        w = (mu_w + (c - mu_c) @ a.T + self._bend(c)).reshape(b, d, k)
+        _, mu_w, mu_c, a, cov, noise = self._numbers()
+        w = (mu_w + (np.asarray(task_params, dtype=np.float64).reshape(b, -1) - mu_c) @ a.T).reshape(b, d, k)
         phi = self.basis(obs_t)  # (B, N, K)
         if n == 0:  # the task parameters alone
             return w, np.zeros((b, 0, d))

@@ -1,31 +1,34 @@
-"""Which model a skill's demonstrations need, chosen from them: the linear path beside the network,
-or the network alone (the paper's CNMP).
+"""Which model a skill's demonstrations need, chosen from them: the network alone (the paper's
+CNMP), or the same network with the demonstrations' linear trend beyond its range ("trend").
 
-The linear path (:mod:`.prior`) extrapolates demonstrations that vary linearly with their
-conditions and smears those that do not (a bump moving in time); the network alone interpolates
-both and extrapolates neither by construction, but follows a non-linear family further. Which one
-a skill needs shows in its own demonstrations, at the edges of their conditions' range:
+Inside the demonstrations' range both are one network: the paper's CNMP, trained and answering as
+the paper's. They differ beyond it. The network alone extrapolates as a network does: it follows a
+family that bends with its condition (a bump moving in time) some way, and stays short of a trend
+(a scripted arm's paths toward a goal). With the trend, the network answers the query clipped to
+its range and the demonstrations' linear path (:mod:`.prior`) adds its change from there, which
+extrapolates demonstrations that vary linearly with their conditions and smears those that do not.
+Which one a skill needs shows in its own demonstrations, at the edges of their conditions' range:
 
 * **Edge folds** (:func:`edge_folds`): for each task parameter, the demonstrations at its largest
   value are held out together, then those at its smallest (a grid's whole face: a real step beyond
   the others); without task parameters, the two demonstrations at the ends of the demonstrations'
   first principal component.
-* **Held-out error** (:func:`held_out_errors`): each candidate is fitted to the others -- the
-  network trained as the skill is, the folds of both candidates sharing as many steps as the
-  skill's own training (:func:`fold_steps`) -- and predicts each
-  held-out demonstration from what a query gives it (its task parameters and start; without task
-  parameters, its start, middle and end: :func:`~.prior.condition_marks`). The error is the RMS in
-  units of each output's spread over the demonstrations (outputs that do not vary left out), the
-  mean over the held-out demonstrations.
+* **Held-out error** (:func:`held_out_errors`): one network per fold is trained on the others as the
+  skill is (the folds sharing as many steps as the skill's own training: :func:`fold_steps`) and
+  predicts each held-out demonstration, alone and with the trend, from what a query gives it (its
+  task parameters and start; without task parameters, its start, middle and end:
+  :func:`~.prior.condition_marks`). The error is the RMS in units of each output's spread over the
+  demonstrations (outputs that do not vary left out), the mean over the held-out demonstrations.
 * **The choice** (:func:`choose_prior`): the candidate with the smaller error; a tie goes to the
   network alone (the paper's). With fewer than :data:`MIN_DEMOS` demonstrations nothing can be held
   out and leave enough to fit: the network alone, said in the choice's one-line reason.
 
 The choice, every candidate's error and the folds are recorded in the skill's config
-(:class:`PriorChoice`, ``CNMPConfig.prior_choice``).
+(:class:`~.choice.PriorChoice`, ``CNMPConfig.prior_choice``).
 """
 from __future__ import annotations
 
+import copy
 from dataclasses import replace
 from typing import Callable
 
@@ -42,12 +45,15 @@ from .prior import condition_marks, varying_outputs
 Fit = Callable[[CNMP, DemoSet, int], object]
 
 #: the candidates, in the order a tie is broken: the network alone first
-CANDIDATES = ("none", "linear")
+CANDIDATES = ("none", "trend")
+#: what the candidates and the study's diagnostics are, in a user's words
+NAMES = {"none": "the network alone (the paper's CNMP)", "trend": "the network with the demonstrations' linear trend "
+         "beyond its range", "linear": "the linear path beside the network", "path": "the linear path alone"}
 #: fewer demonstrations than this: no choice, the network alone
 MIN_DEMOS = 4
 #: a fold keeps at least this many demonstrations to fit
 MIN_KEPT = 3
-#: the folds' networks of both candidates train this many times the skill's steps between them ...
+#: the folds' networks train this many times the skill's steps between them ...
 CHOICE_STEP_SHARE = 1.0
 #: ... each at least this many steps
 MIN_FOLD_STEPS = 300
@@ -96,9 +102,10 @@ def held_out_errors(demos: DemoSet, config: CNMPConfig, fit: Fit, seed: int = 0,
                     candidates: tuple[str, ...] = CANDIDATES,
                     folds: list[tuple[int, ...]] | None = None) -> tuple[dict[str, float], list[tuple[int, ...]]]:
     """Every candidate's held-out error at the edges of ``demos``' conditions (module docstring) and
-    the folds: a CNMP of ``config`` (weights seeded by ``seed``) with ``prior`` the candidate
-    ("linear", "none", or "path": the linear path alone, nothing trained) fitted to each fold's
-    other demonstrations, its network trained by ``fit``. Empty errors when no fold exists."""
+    the folds. Candidates: "none" and "trend" (one network per fold, of ``config`` with weights
+    seeded by ``seed``, trained by ``fit``, predicting alone or with the trend), and for studies
+    "linear" (the linear path beside a network of its own) and "path" (the linear path alone,
+    nothing trained). Empty errors when no fold exists."""
     demo_list = list(demos)
     params = demos.all_task_params()
     _, grid_values = _on_grid(demos)
@@ -108,16 +115,24 @@ def held_out_errors(demos: DemoSet, config: CNMPConfig, fit: Fit, seed: int = 0,
     varying, std = varying_outputs(grid_values)
     if not varying.any():
         return {c: 0.0 for c in candidates}, folds
+    trained = {"trend": "trend", "none": "trend", "linear": "linear"}  # the network each candidate's prediction uses
+    n_fits = len(folds) * len({trained[c] for c in candidates if c in trained})
     errors: dict[str, list[float]] = {c: [] for c in candidates}
     for fold in folds:
         rest = demos.subset([i for i in range(len(demo_list)) if i not in fold])
-        for cand in candidates:
-            model = CNMP(replace(config, prior="linear" if cand == "path" else cand, prior_choice=None,
-                                 prior_basis=config.prior_basis if cand != "none" else 0), seed=seed)
-            if cand == "path":
+        models: dict[str, CNMP] = {}
+        for kind in sorted({trained.get(c, "path") for c in candidates}):
+            model = CNMP(replace(config, prior="linear" if kind == "path" else kind, prior_choice=None), seed=seed)
+            if kind == "path":
                 model.fit_normalization(rest)
             else:
-                fit(model, rest, len(folds) * sum(c != "path" for c in candidates))
+                fit(model, rest, n_fits)
+            models[kind] = model
+        for cand in candidates:
+            model = models[trained.get(cand, "path")]
+            if cand == "none":  # the same network without the trend: the paper's CNMP it is
+                model = copy.deepcopy(model)
+                model.config, model.prior = replace(model.config, prior="none"), None
             for k in fold:
                 d = demo_list[k]
                 marks = condition_marks(len(d.times), d.task_params.shape[0])
@@ -130,10 +145,9 @@ def held_out_errors(demos: DemoSet, config: CNMPConfig, fit: Fit, seed: int = 0,
 
 
 def choose_prior(demos: DemoSet, config: CNMPConfig, fit: Fit, seed: int = 0) -> PriorChoice:
-    """The model ``demos`` need (module docstring): :func:`held_out_errors` of the linear path with
-    the network's residual and of the network alone (trained by ``fit``), the smaller wins (a tie:
-    the network alone). Fewer than :data:`MIN_DEMOS` demonstrations, or no fold at the edges: the
-    network alone."""
+    """The model ``demos`` need (module docstring): :func:`held_out_errors` of the network alone and
+    with the trend (its fold networks trained by ``fit``), the smaller wins (a tie: the network
+    alone). Fewer than :data:`MIN_DEMOS` demonstrations, or no fold at the edges: the network alone."""
     n = len(demos)
     if n < MIN_DEMOS:
         return PriorChoice("none", {}, (), f"{n} demonstration(s): too few to hold any out and fit the rest "
@@ -143,8 +157,7 @@ def choose_prior(demos: DemoSet, config: CNMPConfig, fit: Fit, seed: int = 0) ->
         return PriorChoice("none", {}, (), "no demonstration stands at an edge of the others' conditions to hold "
                                            "out; the network alone (the paper's CNMP)")
     chosen = min(CANDIDATES, key=lambda c: (round(errors[c], 9), CANDIDATES.index(c)))
-    name = {"linear": "the linear path beside the network", "none": "the network alone (the paper's CNMP)"}
     shown = ", ".join(f"{c} {errors[c]:.3g}" for c in CANDIDATES)
     return PriorChoice(chosen, errors, tuple(folds),
-                       f"{name[chosen]}: held-out error at the edges of the demonstrations' conditions {shown} "
+                       f"{NAMES[chosen]}: held-out error at the edges of the demonstrations' conditions {shown} "
                        f"({len(folds)} folds)")

@@ -183,7 +183,7 @@ def train(
         if model.config.prior == "auto":
             from .selection import choose_prior
 
-            choice = choose_prior(demos, model.config, fold_trainer(cfg, seed), seed)
+            choice = choose_prior(demos, model.config, fold_trainer(cfg, seed, stop), seed)
             model.config.prior, model.config.prior_choice = choice.chosen, choice
         model.fit_normalization(demos)
     else:
@@ -235,16 +235,18 @@ def train(
     return result
 
 
-def fold_trainer(cfg: TrainConfig, seed: int) -> Callable[[CNMP, DemoSet, int], TrainResult]:
+def fold_trainer(cfg: TrainConfig, seed: int,
+                 stop: threading.Event | None = None) -> Callable[[CNMP, DemoSet, int], TrainResult]:
     """How the default's choice of model (:func:`~acnmp_core.model.selection.choose_prior`) trains a
     held-out fold's network, one of ``n_fits``: as the skill (``cfg``, ``seed``) for
-    :func:`~acnmp_core.model.selection.fold_steps` steps, no progress bar."""
+    :func:`~acnmp_core.model.selection.fold_steps` steps, no progress bar, interrupted as the skill's
+    own training by ``stop``."""
     from dataclasses import replace
 
     from .selection import fold_steps
 
     return lambda model, demos, n_fits: train(model, demos, replace(cfg, steps=fold_steps(cfg.steps, n_fits)),
-                                              seed=seed, progress=False)
+                                              seed=seed, progress=False, stop=stop)
 
 
 def check_stop(stop: threading.Event | None, what: str) -> None:

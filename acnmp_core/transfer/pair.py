@@ -179,7 +179,7 @@ class TransferredSkill(nn.Module):
             return self.model_a.encode(self.model_a.network_obs(query.obs_x), query.obs_mask)
 
     def _decode(self, query: Query) -> tuple[torch.Tensor, torch.Tensor]:
-        """B's decoder on A's latent, plus B's linear path (if any) conditioned on A's observations,
+        """B's decoder on A's latent, plus what B's linear path (if any) adds given A's observations,
         which are in B's outputs (:meth:`TransferPair.from_models`): mean, std (1, T, D_B) normalised."""
         b = self.model_b
         mean, std = b.decode(self.latent(query), b.network_targets(query.tgt_x))
@@ -193,7 +193,7 @@ class TransferredSkill(nn.Module):
         t = b.time_norm.normalize(a.time_norm.denormalize(x[..., :1]))
         v = b.value_norm.normalize(a.value_norm.denormalize(x[..., 1:1 + d])) * dims
         obs_b = torch.cat([t, v, dims], dim=-1).to(query.obs_x.dtype)
-        return b._with_prior(mean, query.tgt_x, b.prior_weights(obs_b, query.obs_mask)), std
+        return b._with_prior(mean, query.tgt_x, b.path_weights(obs_b, b.network_obs(obs_b), query.obs_mask)), std
 
     def mean_normalized(self, query: Query) -> torch.Tensor:
         """Differentiable (in B's decoder) mean (T, D_B), normalised units."""

@@ -47,10 +47,11 @@ def add_job_commands(sub) -> None:
     train.add_argument("--steps", type=int_at_least(1), default=None, metavar="N",
                        help="training steps (default: the learner's TrainConfig, 5000)")
     train.add_argument("--seed", type=int_at_least(0), default=0, help="training seed (default 0)")
-    train.add_argument("--prior", choices=("auto", "linear", "none"), default=None,
-                       help="the model: auto (the default) chosen from the demonstrations (held-out error at the "
-                            "edges of their conditions; `acnmp query info` says what and why), linear the "
-                            "demonstrations' linear path beside the CNMP, none the paper's CNMP alone "
+    train.add_argument("--prior", choices=("auto", "trend", "none", "linear"), default=None,
+                       help="the model: auto (the default) trend or none, chosen from the demonstrations (held-out "
+                            "error at the edges of their conditions; `acnmp query info` says which and why); trend "
+                            "the CNMP inside the demonstrations' range and their linear trend beyond it; none the "
+                            "paper's CNMP alone; linear the demonstrations' linear path beside the CNMP "
                             "(docs/ALGORITHM.md)")
     train.set_defaults(func=_run_train)
 

@@ -161,7 +161,8 @@ def _model_line(config: dict) -> str:
     choice = config.get("prior_choice")
     if choice:
         return choice["reason"]
-    named = {"linear": "the linear path beside the network", "none": "the network alone (the paper's CNMP)"}
+    named = {"linear": "the linear path beside the network", "none": "the network alone (the paper's CNMP)",
+             "trend": "the network with the demonstrations' linear trend beyond its range"}
     return f"{named.get(config.get('prior', 'none'), config.get('prior'))} (as the training request set it)"
 
 

@@ -1,7 +1,7 @@
 """Each method of the peers comparison on one task at one test condition, as a :class:`~.config.PeerRun`.
 
 * ``lfd``, ``acnmp``: the product's default model (a CNMP that chooses from its demonstrations
-  between the linear path beside the network and the network alone,
+  whether the demonstrations' linear trend carries it beyond their range or the network alone does,
   :class:`~acnmp_core.model.cnmp.CNMPConfig`'s defaults) conditioned on the test condition and executed
   once, then adapted with the default :class:`~acnmp_core.adaptation.config.AdaptConfig`;
 * ``lfd_paper``, ``acnmp_paper``: the paper's method (the CNMP alone, ``prior="none"``, adapted with
@@ -75,8 +75,10 @@ def _model(task: PeerTask, config: PeersConfig, seed: int, variant: Variant, sta
     model (kept in ``state``). The default's model ("auto") is the model of the prior its choice
     names, trained with the same seed: training "auto" chooses (its held-out folds), then trains
     exactly that model (the tests check it), so the choice is made here and the chosen model is
-    shared with the variant that names its prior; its time counts the choice and, if it trained
-    the model, the training."""
+    shared with the variant that names its prior. A "trend" model is the paper's network ("none",
+    the same seed) with the demonstrations' linear path fitted beside it: its training is the
+    paper's network's to the bit (the trend adds nothing inside the range it trains on). A model's
+    time counts what it needed that was not yet there."""
     key = (task.name, seed, variant.prior, variant.clip)
     if key not in state:
         for old in [k for k in state if k[:2] != key[:2]]:  # only this seed's models are kept
@@ -91,6 +93,11 @@ def _model(task: PeerTask, config: PeersConfig, seed: int, variant: Variant, sta
             chosen = _model(task, config, seed, Variant(choice.chosen, variant.adapt, variant.clip), state)[0]
             model = copy.deepcopy(chosen)
             model.config.prior_choice = choice
+            state[key] = (model, round(time.perf_counter() - t0, 2))
+        elif variant.prior == "trend":
+            model = copy.deepcopy(_model(task, config, seed, Variant("none", variant.adapt), state)[0])
+            model.config = model_config(task, "trend", variant.clip)
+            model.fit_prior(task.arrays.to_demo_set())
             state[key] = (model, round(time.perf_counter() - t0, 2))
         else:
             state[key] = (train_model(task, seed, config.train_steps, variant.prior, variant.clip),

@@ -5,8 +5,9 @@ Two parts:
 
 * ``--part errors`` (the demonstrations alone): for every task of the comparison, the held-out
   error at the edges of the demonstrations' conditions (acnmp_core/model/selection.py) of the
-  linear path alone, the linear path with the network's residual and the network alone, and what
-  the default chooses. It is the measured reason a task is or is not linear in its conditions.
+  linear path alone, the linear path with the network's residual (the previous default), the
+  network with the linear trend beyond its range and the network alone, and what the default
+  chooses (between the last two). It is the measured reason a task is or is not linear in its conditions.
   Writes ``results/selection_errors.json``.
 * ``--part runs`` (development seeds 0-4): the default model (``auto``) with each candidate search
   after a first trajectory that missed, at the comparison's test conditions and budget:
@@ -42,7 +43,7 @@ from acnmp_core.adaptation.config import AdaptConfig  # noqa: E402
 from acnmp_core.experiments.peers import PeerRun, PeersConfig, peer_task, run_line, summarise  # noqa: E402
 from acnmp_core.experiments.peers.config import TASK_NAMES  # noqa: E402
 from acnmp_core.experiments.peers.methods import Variant, _model, acnmp_run  # noqa: E402
-from acnmp_core.model.selection import held_out_errors  # noqa: E402
+from acnmp_core.model.selection import CANDIDATES as MODELS, held_out_errors  # noqa: E402
 from acnmp_core.model.training import TrainConfig, fold_trainer  # noqa: E402
 from benchmarks._results import development_seeds, provenance, study_results  # noqa: E402
 
@@ -69,8 +70,8 @@ def errors_part(tasks: list[str], steps: int, out: Path) -> None:
             cfg = CNMPConfig(n_outputs=a.values.shape[2], n_task_params=a.task_params.shape[1])
             t0 = time.perf_counter()
             errors, folds = held_out_errors(demos, cfg, fold_trainer(TrainConfig(steps=steps), 0), seed=0,
-                                            candidates=("path", "linear", "none"))
-            chosen = min(("none", "linear"), key=lambda c: (round(errors[c], 9), ("none", "linear").index(c)))
+                                            candidates=("path", "linear", "trend", "none"))
+            chosen = min(MODELS, key=lambda c: (round(errors[c], 9), MODELS.index(c)))
             rows[kind] = {"errors": errors, "folds": [list(f) for f in folds], "chosen": chosen,
                           "n_demos": len(demos), "time_s": round(time.perf_counter() - t0, 1)}
             print(kind, {k: round(v, 4) for k, v in errors.items()}, "->", chosen, flush=True)

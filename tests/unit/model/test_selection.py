@@ -1,6 +1,7 @@
 """The default model chooses itself from the demonstrations (acnmp_core/model/selection.py): the
-linear path where they are linear in their condition, the network alone where they are not (a bump
-moving in time), the network alone with too few to choose; the choice travels in the checkpoint."""
+linear trend beyond the range where they are linear in their condition, the network alone where
+they are not (a bump moving in time), the network alone with too few to choose; the choice travels
+in the checkpoint; inside the range the trend changes nothing."""
 from __future__ import annotations
 
 import numpy as np
@@ -37,26 +38,27 @@ def test_edge_folds_hold_out_each_parameter_s_ends_and_a_grid_s_whole_face():
     assert sorted(edge_folds(np.zeros((5, 0)), amps[:, None, None] * _shape(T)[None, :, None])) == [(1,), (3,)]
 
 
-def test_a_linear_family_picks_the_path_and_extrapolates_it_exactly(tmp_path):
+def test_a_linear_family_picks_the_trend_and_extrapolates_it(tmp_path):
     demos = DemoSet.from_arrays(T, np.stack([a * _shape(T)[:, None] for a in (0.2, 0.4, 0.6, 0.8, 1.0)]),
                                 np.array([[0.2], [0.4], [0.6], [0.8], [1.0]]))
-    model = _trained(demos, "auto", steps=600)
+    model = CNMP(CNMPConfig(n_outputs=1, n_task_params=1), seed=0)  # the default size: it fits the edge closely
+    train(model, demos, TrainConfig(steps=2000), seed=0, progress=False)
     choice = model.config.prior_choice
-    assert model.config.prior == choice.chosen == "linear" and choice.errors["linear"] < choice.errors["none"]
-    assert choice.folds == ((4,), (0,)) and "linear path" in choice.reason
+    assert model.config.prior == choice.chosen == "trend" and choice.errors["trend"] < choice.errors["none"]
+    assert choice.folds == ((4,), (0,)) and "linear trend" in choice.reason
     for amp in (1.6, -0.4):  # beyond the demonstrations on both sides
         truth = amp * _shape(T)[:, None]
         assert np.abs(model.predict([0.0], truth[:1], [amp], T).mean - truth).max() < 0.03 * abs(amp)
     save_checkpoint(model, tmp_path / "m.pt")
     loaded, _ = load_checkpoint(tmp_path / "m.pt")
-    assert loaded.config.prior_choice == choice and loaded.config.prior == "linear"
+    assert loaded.config.prior_choice == choice and loaded.config.prior == "trend"
 
 
 def test_a_bump_moving_in_time_picks_the_network_and_is_the_paper_s_cnmp_within_1_2x():
     demos = DemoSet.from_arrays(*BUMP.demonstrations())
     default, paper = _trained(demos, "auto", steps=1500), _trained(demos, "none", steps=1500)
     choice = default.config.prior_choice
-    assert default.config.prior == "none" and choice.errors["none"] < choice.errors["linear"] / 3, choice
+    assert default.config.prior == "none" and choice.errors["none"] < choice.errors["trend"] / 3, choice
 
     def error(model, c):
         truth = BUMP.path(T, np.array([c]))
@@ -88,3 +90,13 @@ def test_training_auto_trains_exactly_the_model_of_the_prior_it_chose():
     chosen = _trained(demos, auto.config.prior, steps=200, seed=3)
     q = auto.make_query([0.0], [[0.0]], [0.7], T)
     np.testing.assert_array_equal(auto.predict_query(q).mean, chosen.predict_query(q).mean)
+
+
+def test_inside_the_range_the_trend_is_the_paper_s_network_to_the_bit():
+    demos = DemoSet.from_arrays(T, np.stack([a * _shape(T)[:, None] for a in (0.2, 0.4, 0.6, 0.8, 1.0)]),
+                                np.array([[0.2], [0.4], [0.6], [0.8], [1.0]]))
+    trend, paper = _trained(demos, "trend", steps=100), _trained(demos, "none", steps=100)
+    inside = trend.make_query([0.0], [[0.0]], [0.7], T)
+    np.testing.assert_array_equal(trend.predict_query(inside).mean, paper.predict_query(inside).mean)
+    beyond = trend.make_query([0.0], [[0.0]], [1.5], T)
+    assert not np.allclose(trend.predict_query(beyond).mean, paper.predict_query(beyond).mean)

@@ -188,11 +188,12 @@ def test_checkpoints_beyond_the_iterations_run_are_not_reported(tmp_path):
     assert shown["xmax"] == 2
 
 
-def test_a_pair_of_default_models_decodes_with_each_arm_s_path_as_the_arms_predict():
-    """A pair whose arms are one default model (here its linear path is chosen: E1's shape times an
-    amplitude) transfers exactly what the model predicts itself: robot A's observations encoded as
-    A encodes them, robot B's path conditioned on them; a linear-path robot B with other outputs
-    than A's is refused (its path needs observations of its own outputs)."""
+@pytest.mark.parametrize("prior", ["auto", "trend"])
+def test_a_pair_of_default_models_decodes_with_each_arm_s_path_as_the_arms_predict(prior):
+    """A pair whose arms are one default model (``auto``; and ``trend``, whose path adds beyond the
+    range: a via-point above every demonstration) transfers exactly what the model predicts itself:
+    robot A's observations encoded as A encodes them, robot B's path given them; a robot B with a
+    path and other outputs than A's is refused (its path needs observations of its own outputs)."""
     from acnmp_core.errors import InputError
     from acnmp_core.model.cnmp import CNMP, CNMPConfig
     from acnmp_core.model.training import TrainConfig, train
@@ -200,18 +201,18 @@ def test_a_pair_of_default_models_decodes_with_each_arm_s_path_as_the_arms_predi
     from acnmp_core.transfer.pair import TransferPair
 
     demos = obstacle_demos()
-    model = CNMP(CNMPConfig(n_outputs=2, encoder_widths=(32, 32), decoder_widths=(32, 32)), seed=0)
+    model = CNMP(CNMPConfig(n_outputs=2, encoder_widths=(32, 32), decoder_widths=(32, 32), prior=prior), seed=0)
     train(model, demos, TrainConfig(steps=200), seed=0, progress=False)
-    assert model.config.prior == "linear" and model.prior is not None
+    assert model.config.prior in ("trend", "none") and (model.prior is not None) == (model.config.prior == "trend")
     pair = TransferPair.from_models(model, model)
-    times, obs = np.array([0.0, 0.25, 1.0]), np.array([[0.0, 0.0], [0.25, 0.7], [1.0, 0.0]])
+    times, obs = np.array([0.0, 0.25, 1.0]), np.array([[0.0, 0.0], [0.25, 0.9], [1.0, 0.0]])
     query_times = np.linspace(0.0, 1.0, 50)
     mine = model.predict(times, obs, None, query_times)
     moved = pair.transfer(times, obs, query_times)
     np.testing.assert_allclose(moved.mean, mine.mean, atol=1e-6)
     np.testing.assert_allclose(moved.latent, mine.latent, atol=1e-6)
     other = CNMP(CNMPConfig(n_outputs=2, output_names=("q1", "q2"), encoder_widths=(32, 32),
-                            decoder_widths=(32, 32), prior="linear"), seed=1)
+                            decoder_widths=(32, 32), prior="trend"), seed=1)
     other.fit_normalization(demos)
     with pytest.raises(InputError, match="linear path is conditioned on observations of its own outputs"):
         TransferPair.from_models(model, other)
