@@ -605,7 +605,8 @@ class LearnerCore:
     @staticmethod
     def _progress_event(job: JobRecord, state: str) -> dict:
         # events carry no lists: the excluded workers as one text, "<worker>: <why>; ..."
-        excluded = {"excluded_workers": "; ".join(e.line() for e in job.excluded_workers)} if job.excluded_workers else {}
+        now = job.exclusions()
+        excluded = {"excluded_workers": "; ".join(e.line() for e in now)} if now else {}
         ev = job_progress_event(job.job, job.iteration, job.rollouts, job.best_return, state=state, skill=job.skill,
                                 **excluded)
         ev["attempt"] = int(job.attempt)
@@ -613,9 +614,11 @@ class LearnerCore:
 
     def _note_exclusions(self, job: JobRecord, evaluator: RolloutEvaluator) -> dict:
         """The record changes that add the workers ``evaluator`` excluded (its ``excluded``, if it
-        has one) to ``job``'s ``excluded_workers``: ``{}`` when there is none new."""
-        known = {e.worker for e in job.excluded_workers}
-        new = tuple(e for e in getattr(evaluator, "excluded", ()) if e.worker not in known)
+        has one: the evaluator of the job's current attempt) to ``job``'s ``excluded_workers``,
+        stamped with that attempt: ``{}`` when there is none new."""
+        known = {e.worker for e in job.exclusions()}
+        new = tuple(dataclasses.replace(e, attempt=job.attempt) for e in getattr(evaluator, "excluded", ())
+                    if e.worker not in known)
         return {"excluded_workers": job.excluded_workers + new} if new else {}
 
     def _run_job(self, job_id: str, runner: AdaptRunner) -> None:
