@@ -241,7 +241,8 @@ class LearnerCore:
         for job in self.jobs.values():  # a version a job record names is never given again
             for version in (job.committed_version, getattr(job.result, "version", None)):
                 if isinstance(version, int):
-                    self.skill_store.note_version(job.skill, version)
+                    self.skill_store.note_version(job.skill, version, f"job {job.job}")
+        self.skill_store.note_missing(self.skills)  # a newest version deleted by hand is said aloud
         self._active: set[str] = set()  # jobs a loop thread runs
         self._stop = threading.Event()
         self._started = False
