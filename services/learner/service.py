@@ -43,6 +43,7 @@ from acnmp_core.jobs.transfer import PairTrainJob
 from acnmp_core.model.cnmp import CNMPConfig
 from acnmp_core.model.training import TrainConfig
 from services.model.weights import encode_weights
+from services.recording.event_ids import IndexRanges
 from services.recording.publisher import EventPublisher
 from services.transport import Keyspace, Ready, WireError, declare_rpc
 from services.transport.errors import wire_error
@@ -215,24 +216,29 @@ class LearnerService:
         """The core's skills by name."""
         return self.core.skills
 
-    # ----- finished jobs' journals -----------------------------------------------------------
-    def _recorded(self, jobs: list[str]) -> set[str]:
-        """Those of ``jobs`` whose roll-outs the recorder holds (every one this learner published);
-        all of them when the learner does not record (no recorder to wait for)."""
-        return set(jobs) if self.wait_recorder <= 0 else self.events.recorded(jobs)
+    # ----- the jobs' journals ----------------------------------------------------------------
+    def _held(self, jobs: list[str]) -> dict[str, IndexRanges]:
+        """Per job of ``jobs``, the roll-out indices the recording's files hold (the recorder's
+        status, services/recording/publisher.py); every index when the learner does not record
+        (no recorder to wait for)."""
+        if self.wait_recorder <= 0:
+            return {job: IndexRanges.everything() for job in jobs}
+        return self.events.held(jobs)
 
     def _settle_loop(self) -> None:
-        """Remove the journals of finished jobs once the recorder holds their roll-outs (looked at
-        every second, backing off to :data:`SETTLE_MAX` s while the recorder does not confirm
-        some), so a later session publishes no fragment of them into its recording."""
+        """Drop from the jobs' journals the roll-outs the recorder holds, and remove the journals of
+        finished jobs left with none (so a later session publishes no fragment of them into its
+        recording): every second while the recorder confirms some or none waits, backing off to
+        :data:`SETTLE_MAX` s while it confirms none (it is unreachable)."""
         delay = SETTLE_FIRST
         while not self.core.stopping.wait(delay):
             try:
-                _removed, kept = self.core.settle_journals(self._recorded)
+                settled = self.core.settle_journals(self._held)
+                progress = settled.confirmed > 0 or not settled.waiting
             except Exception:  # a session closing under us: tried again
-                log.debug("settling the finished jobs' journals failed", exc_info=True)
-                kept = ["?"]
-            delay = min(2 * delay, SETTLE_MAX) if kept else SETTLE_FIRST
+                log.debug("settling the jobs' journals failed", exc_info=True)
+                progress = False
+            delay = SETTLE_FIRST if progress else min(2 * delay, SETTLE_MAX)
 
     # ----- what the core calls ---------------------------------------------------------------
     def _evaluator(self, job: AdaptJob) -> RemoteEvaluator:
@@ -389,20 +395,22 @@ class LearnerService:
 
     def _wait_recorded(self) -> None:
         """With a recorder (``wait_recorder`` > 0): wait up to :data:`RECORDED_WAIT` s until it holds
-        every roll-out this learner published; then (or without a recorder) remove the journals of
-        the finished jobs, whose roll-outs are all recorded (or never will be)."""
+        every roll-out this learner published; then drop from the journals what its files hold
+        (every roll-out without a recorder), removing the finished jobs' journals left empty."""
         started = time.monotonic()
         if self.wait_recorder > 0 and not self.events.wait_recorded(RECORDED_WAIT):
             waited = time.monotonic() - started
             if waited < RECORDED_WAIT:  # said at once: nothing answered
                 log.warning("no recorder answered (after %.1f s; the router may be gone with the launcher that held "
                             "it): this learner's last events may be missing from the recording, its job records "
-                            "hold the jobs' states", waited)
+                            "hold the jobs' states and its journals the roll-outs, published at its next start",
+                            waited)
             else:
                 log.warning("the recorder did not confirm every roll-out of this learner within %.0f s", RECORDED_WAIT)
-            self.core.settle_journals(self._recorded)  # those of the jobs it did confirm
-            return
-        self.core.settle_journals(lambda jobs: set(jobs))
+        try:
+            self.core.settle_journals(self._held)
+        except Exception:  # the session closing under us: the journals stay, published at the next start
+            log.debug("settling the jobs' journals at the stop failed", exc_info=True)
 
     def __enter__(self) -> "LearnerService":
         return self

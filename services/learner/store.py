@@ -619,7 +619,7 @@ class JobStore:
         return names
 
     def journal_path(self, job_id: str) -> Path:
-        """The journal of job ``job_id``: its latest roll-out events (``<job>.rollouts``)."""
+        """The journal of job ``job_id``: its roll-out events the recorder has not confirmed (``<job>.rollouts``)."""
         return self.root / f"{check_name('job', job_id)}.rollouts"
 
     def save_journal(self, job_id: str, events: list[dict]) -> None:
