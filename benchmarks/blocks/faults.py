@@ -27,6 +27,20 @@ def model_memory() -> str:
                  "A raw get over the bound is dropped by zenoh's filter: it ends with no reply at once.")
 
 
+def _kills_measured(k: dict) -> str:
+    """What one kills part of bench_faults.json measured, in a few words."""
+    text = (f"{k['jobs']} jobs done: {k['lost']} roll-outs lost, {k['duplicated']} duplicated of {k['reserved']} "
+            f"reserved; {k['segments']} recording files")
+    if "excluded_at_end" in k:
+        text += f"; {k['excluded_at_end']} jobs naming an excluded worker at the end"
+    return text
+
+
+def _kills_met(k: dict) -> str:
+    ok = k["lost"] == 0 and k["duplicated"] == 0 and k.get("excluded_at_end", 0) == 0
+    return "yes" if ok else "**no**"
+
+
 @renderer("faults")
 def faults() -> str:
     """Kills of the learner, restarts on the same recording, a bad worker per mode (bench_faults.json)."""
@@ -37,9 +51,14 @@ def faults() -> str:
     rows = [["kill -9 of the learner between reserving and publishing a batch",
              f"{k['kills']} kills ({', '.join(f'{n} {w}' for w, n in sorted(k['where'].items()))}), "
              f"{k['restarts_same_record']} of them with the launcher killed too and started again on the same --record",
-             f"{k['jobs']} jobs done: {k['lost']} roll-outs lost, {k['duplicated']} duplicated of "
-             f"{k['reserved']} reserved; {k['segments']} recording files",
-             "0 lost, 0 duplicated", "yes" if k["lost"] == 0 and k["duplicated"] == 0 else "**no**"]]
+             _kills_measured(k), "0 lost, 0 duplicated", _kills_met(k)]]
+    if "joint" in r:
+        j = r["joint"]
+        rows.append(["kill -9 of the learner with the recorder, or with the launcher and the recorder, at the same "
+                     "moment, between writing a batch's journal and its roll-outs reaching the recorder",
+                     f"{j['kills']} joint kills ({', '.join(f'{n} {w}' for w, n in sorted(j['with'].items()) if n)}; "
+                     f"{', '.join(f'{n} {w}' for w, n in sorted(j['where'].items()))})",
+                     _kills_measured(j), "0 lost, 0 duplicated, no worker named at the end", _kills_met(j)])
     for mode, m in r["workers"].items():
         avoided = m["jobs"] - m["named"]
         rows.append([f"a worker answering {m['what']} beside 2 healthy ones", f"{m['jobs']} jobs at once",
