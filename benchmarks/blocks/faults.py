@@ -1,8 +1,9 @@
 """The docs blocks of docs/FAULTS.md: the model service's memory under payloads at the predict
-bound (bench_model_memory.json) and the fault benchmark (bench_faults.json)."""
+bound (bench_model_memory.json), the fault benchmark (bench_faults.json) and the cross-checks of
+roll-out chunks (bench_cross_check.json)."""
 from __future__ import annotations
 
-from benchmarks.report_kit import block, has_result, load, renderer
+from benchmarks.report_kit import block, has_result, load, renderer, source, table
 
 
 @renderer("model-memory")
@@ -68,3 +69,36 @@ def faults() -> str:
                      "every job done, the worker named, none of its roll-outs used",
                      "yes" if m["done"] == m["jobs"] and m["named"] >= 1 and m["rollouts_by_bad"] == 0 else "**no**"])
     return block(r, "bench_faults", ["fault", "runs", "measured", "target", "met"], rows, r.get("note", ""))
+
+
+@renderer("cross-check")
+def cross_check() -> str:
+    """What cross-checks of roll-out chunks cost on E1 jobs and how soon they find a liar (bench_cross_check.json)."""
+    if not has_result("bench_cross_check"):
+        return "*Not measured yet: `python benchmarks/performance/bench_cross_check.py`.*"
+    r = load("bench_cross_check")
+    skills = {"default": "E1, the default skill", "paper": "E1, the paper's CNMP"}
+    rows = []
+    for skill, settings in r["overhead"].items():
+        for key, o in settings.items():
+            if o["cross_check"] == 0:
+                continue
+            rows.append([skills.get(skill, skill), f"{o['cross_check']:g} and every success",
+                         f"{o['rollouts']} in {r['config']['jobs']} jobs", f"{o['check_rollouts']:g} "
+                         f"(**{o['check_rollouts_ratio']:.1%}**); {o['chunks_checked']:.1%} of the chunks",
+                         f"**{o['wall_ratio']:.2f}x** (rounds: {', '.join(f'{x:.2f}' for x in o['wall_ratios'])})",
+                         "yes" if o["same_rollouts_as_baseline"] and o["disagreements"] == 0 else "**no**"])
+    over = table(["jobs", "cross-check", "roll-outs the jobs used", "roll-outs checked on top", "wall time against none",
+                  "results unchanged"], rows)
+    rows = []
+    for skill, d in r["detection"].items():
+        u = d["unchecked"]
+        rows.append([skills.get(skill, skill), f"{d['cross_check']:g}", f"{d['found']} of {d['of']}",
+                     "-" if d["liar_chunks_median"] is None else
+                     f"median **{d['liar_chunks_median']:g}**, at most {d['liar_chunks_max']}",
+                     f"median {d['jobs_median']:g}",
+                     f"{u['successes']} of {u['jobs']} jobs succeed; the liar never named ({u['liar_chunks']} of its chunks used)"
+                     if not u["excluded"] else f"{u['successes']} of {u['jobs']} jobs succeed"])
+    detect = table(["jobs", "cross-check", "liar found", "its chunks answered until then", "jobs until then",
+                    "without cross-checks"], rows)
+    return "\n\n".join([over, detect, r.get("note", ""), source(r, "bench_cross_check")])

@@ -164,13 +164,15 @@ class LearnerService:
         (:class:`~services.learner.core.LearnerCore`, services/learner/runner.py).
     learners : the ids of every learner of the deployment when it runs several (``learner_id``
         among them): this one answers only for the skills it owns (services/learner/ownership.py).
+    cross_check : the fraction of roll-out chunks run again on a second worker (besides every
+        chunk whose success would end its job when > 0); services/worker/remote.py.
     """
 
     def __init__(self, session: zenoh.Session, keys: Keyspace, state_dir: str | os.PathLike, *,
                  learner_id: str | None = None, wait_recorder: float = 0.0, chunk_timeout: float = 60.0,
                  limits: LearnerLimits = LearnerLimits(), device: str = "cpu",
                  state_limits: StateLimits = StateLimits(), demos: Sequence[str] = (), ready: Ready | None = None,
-                 jobs: int = 1, job_runner: str = "thread", learners: Sequence[str] = ()):
+                 jobs: int = 1, job_runner: str = "thread", learners: Sequence[str] = (), cross_check: float = 0.0):
         self.session, self.keys = session, keys
         self.limits = limits
         self.learner_id = check_name("learner id", learner_id or f"learner-{os.getpid()}")
@@ -178,6 +180,7 @@ class LearnerService:
         self.events = EventPublisher(session, keys)
         self.wait_recorder = float(wait_recorder)
         self.chunk_timeout = float(chunk_timeout)
+        self.cross_check = float(cross_check)
         #: workers a job excluded lately: the other jobs avoid them for a while (services/worker/exclusion.py)
         self.exclusions = WorkerExclusions()
         self._recorder_checked = wait_recorder <= 0
@@ -242,8 +245,11 @@ class LearnerService:
 
     # ----- what the core calls ---------------------------------------------------------------
     def _evaluator(self, job: AdaptJob) -> RemoteEvaluator:
+        # a job that stops on success ends on one chunk's word: that chunk is always checked
         return RemoteEvaluator(self.session, self.keys, job.robot, job.task, dict(job.task_config),
-                               timeout=self.chunk_timeout, stop=self.core.stopping, exclusions=self.exclusions)
+                               timeout=self.chunk_timeout, stop=self.core.stopping, exclusions=self.exclusions,
+                               cross_check=self.cross_check,
+                               check_success=self.cross_check > 0 and job.config.stop_on_success)
 
     def _publish(self, event: dict) -> None:
         if not self._recorder_checked:
@@ -516,7 +522,8 @@ class LearnerConfig(LearnerOptions):
                             limits=LearnerLimits(max_train_steps=self.max_train_steps,
                                                  max_rollouts=self.max_rollouts), device=self.device,
                             state_limits=state_limits, demos=self.demos, ready=ready, jobs=self.jobs,
-                            job_runner=self.job_runner, learners=self.learners) as learner:
+                            job_runner=self.job_runner, learners=self.learners,
+                            cross_check=self.cross_check) as learner:
             # a stop interrupts what the core runs at once (training included), not after it
             threading.Thread(target=lambda: (stop.wait(), learner.core.interrupt()), name="stop-watch",
                              daemon=True).start()
