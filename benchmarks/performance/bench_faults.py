@@ -97,9 +97,10 @@ def joint_lives(kills: int) -> list[dict]:
              "with": list(JOINT[(k // len(POINTS)) % len(JOINT)]), "launcher_after": False} for k in range(kills)]
 
 
-def part_kills(lives: list[dict], jobs: int, budget: int, tmp: Path) -> dict:
+def part_kills(lives: list[dict], jobs: int, budget: int, tmp: Path, env: dict | None = None) -> dict:
     """Run ``jobs`` E1 jobs through the learner ``lives`` (each ends by its kill; see the module
-    docstring), then to their end; count what the recording lost or holds twice."""
+    docstring), then to their end; count what the recording lost or holds twice. ``env``: the
+    processes' environment (default fault_points.ENV)."""
     from acnmp_core.experiments.viapoint import make_setup
     from benchmarks.performance.fault_points import Launcher, count_rollouts, start_learner
     from services.recording.segments import recording_segments
@@ -110,7 +111,7 @@ def part_kills(lives: list[dict], jobs: int, budget: int, tmp: Path) -> dict:
     ns = f"faults-{uuid.uuid4().hex[:6]}"
     keys = Keyspace(ns)
     record, state = tmp / "faults.rrd", tmp / "learner-state"
-    launcher = Launcher(ns, record, tmp / "deployment-state")
+    launcher = Launcher(ns, record, tmp / "deployment-state", env=env)
     log = open(tmp / "learner.log", "w")
     where: dict[str, int] = {}
     job_ids: list[str] = []
@@ -122,7 +123,8 @@ def part_kills(lives: list[dict], jobs: int, budget: int, tmp: Path) -> dict:
         for k, life in enumerate([*lives, {"point": "none", "batch": 1, "with": [], "launcher_after": False}]):
             recorder = launcher.children["recorder"]
             also = tuple(launcher.proc.pid if who == "launcher" else recorder for who in life["with"])
-            learner = start_learner(ns, launcher.anchor, state, life["point"], life["batch"], log, also, jobs=2)
+            learner = start_learner(ns, launcher.anchor, state, life["point"], life["batch"], log, also, jobs=2,
+                                    env=env)
             with open_session("peer", connect=[launcher.anchor]) as session:
                 _wait(lambda: alive_tokens(session, keys.learner_token("learner")), 120, "the learner's token")
                 if k == 0:

@@ -130,6 +130,17 @@ class Gated(Recorded):
         return super().evaluate(trajectories, times, task_params)
 
 
+def _close_in_a_batch(core: LearnerCore, gated: Gated) -> None:
+    """Close ``core`` (SIGTERM's way) while its job waits in ``gated``'s batch: the job is saved interrupted."""
+    assert gated.started.wait(60)
+    closing = threading.Thread(target=core.close)
+    closing.start()
+    assert core.stopping.wait(10)
+    gated.gate.set()
+    closing.join(30)
+    assert not closing.is_alive()
+
+
 def _gated_core(tmp_path, setup, events):
     gated = Gated(setup.task)
     core = LearnerCore(tmp_path, evaluator_for=lambda job: gated, publish=events.append)
@@ -179,13 +190,7 @@ def test_close_saves_the_running_job_as_interrupted_and_a_restart_resumes_it(tmp
     core, gated = _gated_core(tmp_path, setup, events)
     job = core.submit("e1", _job(setup, max_rollouts=6, stop_on_success=False))
     core.start()
-    assert gated.started.wait(60)
-    closing = threading.Thread(target=core.close)
-    closing.start()
-    assert core.stopping.wait(10)
-    gated.gate.set()
-    closing.join(30)
-    assert not closing.is_alive()
+    _close_in_a_batch(core, gated)
     saved = JobStore(tmp_path).load_all()[job.job]
     assert saved.state == "interrupted"
     assert [e["state"] for e in events if e["kind"] == "job_progress"][-1] == "interrupted"
@@ -223,13 +228,7 @@ def test_a_resumed_job_shows_the_exclusions_of_its_own_attempt(tmp_path, setup):
     core.train_skill("e1", TrainSpec(setup.demos, CNMPConfig(n_outputs=2, **SMALL), TrainConfig(steps=50), seed=3))
     job = core.submit("e1", _job(setup, max_rollouts=8, stop_on_success=False)).job
     core.start()
-    assert dying.started.wait(60)  # the second batch is in: the first one's exclusion is on disk
-    closing = threading.Thread(target=core.close)
-    closing.start()
-    assert core.stopping.wait(10)
-    dying.gate.set()
-    closing.join(30)
-    assert not closing.is_alive()
+    _close_in_a_batch(core, dying)  # the second batch's: the first one's exclusion is on disk
     assert core.status(job)["excluded_workers"][0]["attempt"] == 0  # while attempt 0 ran, it was its own
 
     healthy = Excluding(setup.task, "point2d-2", "answered for roll-outs 2..3: rewards: a value of magnitude 1e+308")
