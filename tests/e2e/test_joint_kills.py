@@ -12,6 +12,8 @@ file holds it, and every reserved index is in the recording exactly once.
 """
 from __future__ import annotations
 
+import pytest
+
 from benchmarks.performance.bench_faults import part_kills
 from benchmarks.performance.fault_points import ENV
 
@@ -21,6 +23,7 @@ LIVES = [{"point": point, "batch": 3, "with": list(who), "launcher_after": False
                             ("journalled", ("recorder",)), ("reserved", ("launcher", "recorder")))]
 
 
+@pytest.mark.slow  # a minute of kills and restarts; tests/unit/services/learner/test_journal.py keeps the rule
 def test_every_reserved_rollout_is_recorded_once_when_the_learner_dies_with_the_recorder(tmp_path):
     counts = part_kills(LIVES, jobs=1, budget=120, tmp=tmp_path, env=dict(ENV, RERUN_FLUSH_TICK_SECS="5"))
     (job,) = counts["per_job"].values()
