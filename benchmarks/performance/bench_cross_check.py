@@ -3,9 +3,9 @@ worker that lies with finite numbers.
 
 A local deployment of ``--workers`` healthy point2d workers (default 2; no learner, no model
 service) and two E1 skills trained in this process from E1's six demonstrations
-(``--train-steps``): ``default``, the skill ``acnmp up`` serves (with the demonstrations' linear
-path: its first mean already passes the extrapolated via-point), and ``paper``, the paper's CNMP
-(no linear path: it adapts for tens of roll-outs, docs/experiments/e1.md). Each job is an adaptation
+(``--train-steps``): ``default``, the model ``acnmp up`` trains (``CNMPConfig``'s defaults), and
+``paper``, the paper's CNMP (no linear path: it adapts for tens of roll-outs,
+docs/experiments/e1.md). Each job is an adaptation
 to E1's extrapolated via-point with the default settings (stop on success), run in this process
 through a :class:`~services.worker.remote.RemoteEvaluator` over the workers: the learner's own
 path, without its bookkeeping (which is the same either way).
@@ -164,11 +164,11 @@ def main(argv: list[str] | None = None) -> int:
     t0 = time.perf_counter()
     setup = make_setup()
     models = {}
-    for name, prior in (("default", "linear"), ("paper", "none")):
-        models[name] = CNMP(CNMPConfig(n_outputs=2, prior=prior), seed=0)
+    for name, config in (("default", CNMPConfig(n_outputs=2)), ("paper", CNMPConfig(n_outputs=2, prior="none"))):
+        models[name] = CNMP(config, seed=0)
         train(models[name], setup.demos, TrainConfig(steps=args.train_steps), seed=0, progress=False)
     result = {"benchmark": "cross_check", "provenance": prov, "config": {k: v for k, v in vars(args).items() if k != "out"},
-              "overhead": {}, "detection": {}}
+              "priors": {name: m.config.prior for name, m in models.items()}, "overhead": {}, "detection": {}}
     ns = f"xcheck-{uuid.uuid4().hex[:6]}"
     with LocalDeployment(ns, workers=args.workers, model=False, learner=False, record=None) as dep:
         _wait_workers(_evaluator(dep.session, dep.keys, setup), args.workers)
