@@ -53,7 +53,7 @@ def install(point: str, batch: int, also: tuple[int, ...] = ()) -> None:
     from services.learner.journals import Journals
     from services.recording.publisher import EventPublisher
 
-    state = {"reserved": 0, "published": 0}
+    state = {"reserved": 0, "published": 0, "job": None}
 
     def die() -> None:
         sys.stderr.write(f"fault_points: SIGKILL at {point} of batch {batch}"
@@ -78,12 +78,15 @@ def install(point: str, batch: int, also: tuple[int, ...] = ()) -> None:
         persist(self, job, **changes)
         if "next_index" in changes and "iteration" in changes:  # a batch's reservation (not a start's)
             state["reserved"] += 1
-            state["published"] = 0
-            if point == "reserved" and state["reserved"] == batch:
-                die()
+            if state["reserved"] == batch:
+                # the job whose batch it is: another job's reservation may come before this one's
+                # events are out (two jobs' steps interleave), and must not move the point
+                state["job"] = job.job
+                if point == "reserved":
+                    die()
 
     def put(self, msg):
-        here = state["reserved"] == batch
+        here = msg.get("job") is not None and msg.get("job") == state.get("job")
         if here and point == "published" and msg.get("kind") == "job_progress" and msg.get("state") == "running":
             die()
         publish(self, msg)
