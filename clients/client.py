@@ -73,7 +73,7 @@ class JobSummary:
     rollouts : roll-outs used by the current (final) attempt (training steps for ``train_pair``),
     of ``budget``. rollouts_executed : roll-outs executed by all its attempts (what the recording
     holds of it; None from a learner that does not say). attempt : 0, +1 per restart.
-    excluded_workers : the workers excluded from the job and why (docs/PROTOCOL.md). best_return :
+    excluded_workers : the workers its current attempt excluded and why (docs/PROTOCOL.md). best_return :
     best return seen (None before the first). success : the result's (None until it finished).
     committed_version : the skill version holding its solution, if assimilated. created, updated :
     wall time (s since the epoch).

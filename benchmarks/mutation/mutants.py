@@ -61,7 +61,7 @@ MUTANTS: tuple[Mutant, ...] = (
            "            if False:\n                return job.status()",
            "a finished job stays as it ended when cancelled", issue=2),
     Mutant("core-job-record-versions-ignored", CORE,
-           "                    self.skill_store.note_version(job.skill, version)",
+           "                    self.skill_store.note_version(job.skill, version, f\"job {job.job}\")",
            "                    pass",
            "a version a job record names is never given again", issue=5),
     Mutant("core-prune-keeps-one-more", CORE,
@@ -103,7 +103,7 @@ MUTANTS: tuple[Mutant, ...] = (
            "            self.jobs[job.job] = job\n            self.job_store.save(job)",
            "a job is accepted only once its record is on disk"),
     Mutant("core-no-journal", CORE,
-           "            self.journals.save(job.job, previous + events)",
+           "            self.journals.save(job.job, events)",
            "            pass",
            "a batch's roll-out events are journalled before their indices are reserved"),
     Mutant("core-indices-overlap", CORE,
@@ -139,8 +139,9 @@ MUTANTS: tuple[Mutant, ...] = (
     Mutant("store-versions-from-file-names-only", STORE,
            "        used = [v for v in files] + [int(m.group(2)) for m in map(_VERSIONED.match, "
            "self.state.quarantined_names(rel_dir))\n                                     if m]\n"
-           "        for v in used + ([recorded] if recorded is not None else []):",
-           "        used = [v for v in files]\n        for v in used:",
+           "        for v in used:\n            self.note_version(name, v)\n        if recorded is not None:",
+           "        used = [v for v in files]\n        for v in used:\n            self.note_version(name, v)\n"
+           "        if False:",
            "a plain restart after a quarantine never reuses a version number", issue=3),
     Mutant("store-quarantined-names-ignored", STORE,
            "        used = [v for v in files] + [int(m.group(2)) for m in map(_VERSIONED.match, "
@@ -148,8 +149,8 @@ MUTANTS: tuple[Mutant, ...] = (
            "        used = [v for v in files]",
            "a quarantined version's number is never given again", issue=4),
     Mutant("store-version-record-ignored", STORE,
-           "        for v in used + ([recorded] if recorded is not None else []):",
-           "        for v in used:",
+           "        if recorded is not None:\n            self.note_version(name, recorded, VERSIONS_FILE)",
+           "        if False:\n            self.note_version(name, recorded, VERSIONS_FILE)",
            "versions.json's high-water mark is never given again"),
     Mutant("store-version-record-not-written", STORE,
            "        self.note_version(skill.name, v)\n        self._write_versions(d, skill.name)",

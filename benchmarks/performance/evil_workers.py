@@ -13,6 +13,8 @@ stale     the reply of its previous request (another chunk's tag and roll-outs)
 slow      a correct reply after ``slow_s`` seconds (or once ``release`` is set)
 failing   ``internal`` every time
 refusing  ``bad_request`` every time (the request is fine: the healthy workers run it)
+liar      every reward -1.0: finite, the right shape, its own chunk's tag (issue 73: only a
+          cross-check, services/worker/remote.py, sees it)
 ========  ====================================================================================
 
 As a process (the benchmark's worker beside a deployment's healthy ones)::
@@ -34,7 +36,9 @@ if __name__ == "__main__":
 from services.transport import Keyspace, WireError, declare_rpc, encode  # noqa: E402
 from services.worker.core import Worker  # noqa: E402
 
+#: The modes a reply's checks catch (services/worker/remote.py); ``liar`` needs a cross-check.
 MODES = ("nan", "inf", "huge", "shape", "stale", "slow", "failing", "refusing")
+ALL_MODES = (*MODES, "liar")
 
 
 class EvilWorker:
@@ -42,8 +46,8 @@ class EvilWorker:
 
     def __init__(self, mode: str, robot_kind: str, worker_id: str, *, slow_s: float = 30.0,
                  release: threading.Event | None = None):
-        if mode not in MODES:
-            raise ValueError(f"mode: expected one of {MODES}, got {mode!r}")
+        if mode not in ALL_MODES:
+            raise ValueError(f"mode: expected one of {ALL_MODES}, got {mode!r}")
         self.mode, self.slow_s = mode, float(slow_s)
         self.release = release if release is not None else threading.Event()
         self.worker = Worker(robot_kind, worker_id)
@@ -65,6 +69,8 @@ class EvilWorker:
             rewards[:] = np.inf
         elif self.mode == "huge":
             rewards[:] = -1e308
+        elif self.mode == "liar":
+            rewards[:] = -1.0
         elif self.mode == "shape":
             rewards = rewards[:, :-1]
         elif self.mode == "slow":
@@ -90,7 +96,7 @@ def main(argv: list[str] | None = None) -> int:
     from services.transport import install_shutdown_handlers, open_session, wait_until_stopped
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--mode", choices=MODES, required=True, help="how it answers badly (the module docstring)")
+    p.add_argument("--mode", choices=ALL_MODES, required=True, help="how it answers badly (the module docstring)")
     p.add_argument("--id", default="evil", help="worker id (default: %(default)s)")
     p.add_argument("--robot", default="point2d", help="its robot kind (default: %(default)s)")
     p.add_argument("--namespace", "-n", default="default", help="the deployment's namespace (default: %(default)s)")

@@ -3,6 +3,7 @@ learner arguments): torch-free, so a command line is built and checked without i
 learner runs; :class:`~services.learner.service.LearnerConfig` adds what runs it (services/learner/service.py)."""
 from __future__ import annotations
 
+import argparse
 import os
 from dataclasses import dataclass
 from typing import ClassVar
@@ -64,6 +65,22 @@ def load_demos_spec(spec: str) -> DemoArrays:
     return arrays
 
 
+#: The learner's default ``--cross-check``: the fraction of roll-out chunks run again on a second
+#: worker (services/worker/remote.py; measured in benchmarks/results/bench_cross_check.json).
+DEFAULT_CROSS_CHECK = 0.05
+
+
+def fraction(text: str) -> float:
+    """An argparse type: a number in [0, 1]."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not 0.0 <= value <= 1.0:
+        raise argparse.ArgumentTypeError(f"expected a fraction in [0, 1], got {text!r}")
+    return value
+
+
 @dataclass
 class LearnerOptions(Service):
     """The learner's options; :meth:`serve` runs it on an open session."""
@@ -111,6 +128,11 @@ class LearnerOptions(Service):
                                            "(the same list on each, --id among them): each skill is served by one "
                                            "of them, the same whichever learner computes it (docs/DEPLOYMENT.md, "
                                            "'Several learners')", metavar="ID,ID,...", type=learner_ids)
+    cross_check: float = option(DEFAULT_CROSS_CHECK,
+                                "the fraction of roll-out chunks run again on a second worker and compared, besides "
+                                "every chunk whose success would end its job; a worker whose results disagree is "
+                                "excluded; 0: none; a deployment of one worker checks nothing (default: "
+                                "%(default)s; docs/FAULTS.md)", metavar="F", type=fraction)
     keep_versions: int = option(StateLimits.keep_versions,
                                 "checkpoints kept per skill, the newest (default: %(default)s)", metavar="N",
                                 type=int_at_least(1))

@@ -21,12 +21,13 @@ Restart: skills reload with their demonstrations (hash-checked); a job that was 
 **from its beginning with the same seed** under a new ``attempt`` number (adapt() cannot be resumed
 mid-way). Roll-out indices stay global over attempts: an attempt's events continue after the
 indices the earlier attempts reserved, so a recording never holds one index twice. A batch's
-roll-out events are written to the job's journal (with the batch before) before their indices are
-reserved, and published after; a start publishes every journal again, one by one, before any job
-runs (services/learner/journals.py: one that cannot be published is quarantined, one whose
-publishing fails is kept and tried again, and neither holds up the others), so a kill -9 anywhere
-in between costs the recording no roll-out (the recorder drops the ones it holds by job and
-index). A finished job's journal goes once the recorder holds its roll-outs. Every event of
+roll-out events are written to the job's journal (beside those the recorder has not confirmed
+yet) before their indices are reserved, and published after; a roll-out leaves the journal once
+the recorder says its file holds it, and a start publishes every journal again, one by one,
+before any job runs (services/learner/journals.py: one that cannot be published is quarantined,
+one whose publishing fails is kept and tried again, and neither holds up the others), so a kill
+-9 anywhere, of the recorder too, costs the recording no roll-out (the recorder drops the ones it
+holds by job and index). A finished job's journal goes once the recorder holds its roll-outs. Every event of
 a job carries ``attempt``; the job status reports ``rollouts`` (what the final attempt used) and
 ``rollouts_executed`` (all attempts). A job whose adaptation had finished but whose assimilation
 had not is only re-assimilated (once).
@@ -80,12 +81,13 @@ from acnmp_core.model.cnmp import CNMP, CNMPConfig
 from acnmp_core.model.training import TrainConfig, train
 from acnmp_core.rollout import RolloutBatch, RolloutEvaluator
 from acnmp_core.transfer.pair import PairTrainResult, TransferPair, latent_plane, train_pair
+from services.recording.event_ids import IndexRanges
 from services.recording.events import (batch_rollout_events, job_event, job_progress_event, latent_event,
                                        model_version_event, robot_drawing)
 from services.transport.state_dir import DirectoryLock
 
 from .jobs import TERMINAL, UNFINISHED, JobRecord
-from .journals import RETRY_S as JOURNAL_RETRY_S, Journals, PendingJournal
+from .journals import RETRY_S as JOURNAL_RETRY_S, Journals, PendingJournal, Settled
 from .limits import StateLimits, busy_message
 from .runner import AdaptRunner, AdaptTask, make_runner
 from .metrics import MetricsReporter
@@ -241,7 +243,8 @@ class LearnerCore:
         for job in self.jobs.values():  # a version a job record names is never given again
             for version in (job.committed_version, getattr(job.result, "version", None)):
                 if isinstance(version, int):
-                    self.skill_store.note_version(job.skill, version)
+                    self.skill_store.note_version(job.skill, version, f"job {job.job}")
+        self.skill_store.note_missing(self.skills)  # a newest version deleted by hand is said aloud
         self._active: set[str] = set()  # jobs a loop thread runs
         self._stop = threading.Event()
         self._started = False
@@ -290,13 +293,14 @@ class LearnerCore:
         while self.journals.pending() and not self._stop.wait(JOURNAL_RETRY_S):
             self.journals.retry()
 
-    def settle_journals(self, recorded: Callable[[list[str]], set[str]]) -> tuple[list[str], list[str]]:
-        """Remove the journals of finished jobs whose roll-outs the recorder holds: ``recorded``
-        gets the ids of such jobs that have one and returns those it confirmed. Returns the ids
-        removed and those kept (services/learner/journals.py)."""
+    def settle_journals(self, held: Callable[[list[str]], dict[str, IndexRanges]]) -> Settled:
+        """Drop from the jobs' journals the roll-outs the recorder holds (``held`` gets the ids of
+        the jobs with journalled roll-outs and returns, per job, the indices the recording's files
+        hold), and remove the journals of finished jobs left with none
+        (:meth:`services.learner.journals.Journals.settle`)."""
         with self._lock:
             finished = [j.job for j in self.jobs.values() if j.state in TERMINAL]
-        return self.journals.settle(finished, recorded)
+        return self.journals.settle(finished, held)
 
     @property
     def stopping(self) -> threading.Event:
@@ -605,7 +609,8 @@ class LearnerCore:
     @staticmethod
     def _progress_event(job: JobRecord, state: str) -> dict:
         # events carry no lists: the excluded workers as one text, "<worker>: <why>; ..."
-        excluded = {"excluded_workers": "; ".join(e.line() for e in job.excluded_workers)} if job.excluded_workers else {}
+        now = job.exclusions()
+        excluded = {"excluded_workers": "; ".join(e.line() for e in now)} if now else {}
         ev = job_progress_event(job.job, job.iteration, job.rollouts, job.best_return, state=state, skill=job.skill,
                                 **excluded)
         ev["attempt"] = int(job.attempt)
@@ -613,9 +618,11 @@ class LearnerCore:
 
     def _note_exclusions(self, job: JobRecord, evaluator: RolloutEvaluator) -> dict:
         """The record changes that add the workers ``evaluator`` excluded (its ``excluded``, if it
-        has one) to ``job``'s ``excluded_workers``: ``{}`` when there is none new."""
-        known = {e.worker for e in job.excluded_workers}
-        new = tuple(e for e in getattr(evaluator, "excluded", ()) if e.worker not in known)
+        has one: the evaluator of the job's current attempt) to ``job``'s ``excluded_workers``,
+        stamped with that attempt: ``{}`` when there is none new."""
+        known = {e.worker for e in job.exclusions()}
+        new = tuple(dataclasses.replace(e, attempt=job.attempt) for e in getattr(evaluator, "excluded", ())
+                    if e.worker not in known)
         return {"excluded_workers": job.excluded_workers + new} if new else {}
 
     def _run_job(self, job_id: str, runner: AdaptRunner) -> None:
@@ -725,8 +732,6 @@ class LearnerCore:
         # a drawn robot shows its own states; a point robot shows the conditioning points instead
         condition = None if drawing is not None else {"times": target.obs_times, "values": target.obs_values}
 
-        previous: list[dict] = []  # the batch before, perhaps still in flight: journalled once more
-
         def on_iteration(it_log: IterationLog, trajectories: np.ndarray, batch: RolloutBatch) -> None:
             if self._stop.is_set():
                 raise InterruptedError("learner is shutting down")
@@ -738,15 +743,15 @@ class LearnerCore:
             for ev in events:
                 ev["attempt"] = int(job.attempt)
                 ev["model_version"] = int(model_version)
-            # the events on disk, then their indices reserved, then published: a learner killed
-            # anywhere in between publishes them at its next start (a failed write fails the job)
-            self.journals.save(job.job, previous + events)
+            # the events on disk (beside those the recorder has not confirmed yet), then their indices
+            # reserved, then published: a learner killed anywhere, the recorder with it or not,
+            # publishes them at its next start (a failed write fails the job)
+            self.journals.save(job.job, events)
             self._persist(job, next_index=first + len(batch), iteration=it_log.iteration, rollouts=it_log.rollouts,
                           best_return=best if job.best_return is None else max(job.best_return, best),
                           **self._note_exclusions(job, evaluator))
             for ev in events:
                 self.publish(ev)
-            previous[:] = events
             self.publish(self._progress_event(job, "running"))
             std = float(np.mean(it_log.explore_std)) if len(it_log.explore_std) else None
             self.metrics.report(

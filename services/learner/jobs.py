@@ -51,8 +51,9 @@ class JobRecord:
     cancel_requested : a ``cancel`` query arrived while the job ran; it stops at its next
         iteration (also after a restart) and ends ``cancelled``.
     committed_version : the skill version holding the assimilated solution.
-    excluded_workers : the workers excluded from the job (any attempt), each with why
-        (services/worker/exclusion.py), in the order they were.
+    excluded_workers : the workers excluded from the job, each with why and in which attempt
+        (services/worker/exclusion.py), in the order they were; the status shows the current
+        attempt's (:meth:`exclusions`).
     created, updated : wall time (s since the epoch).
     """
 
@@ -119,6 +120,12 @@ class JobRecord:
             raise ValueError(f"field 'state': {values.get('state')!r} is not one of {list(JOB_STATES)}")
         return cls(**values)
 
+    def exclusions(self) -> tuple[Exclusion, ...]:
+        """The workers excluded by the current (or final) attempt: an earlier attempt's ended with
+        its learner (a kill -9 of a launcher takes its workers down with it), so they are not this
+        attempt's; the record keeps them all."""
+        return tuple(e for e in self.excluded_workers if e.attempt == self.attempt)
+
     def summary(self) -> dict[str, Any]:
         """One row of the job list (docs/PROTOCOL.md, ``jobs``): the status without the result's
         arrays, with whether it succeeded and the wall times."""
@@ -135,7 +142,7 @@ class JobRecord:
                   "attempt": self.attempt, "iteration": self.iteration, "rollouts": self.rollouts,
                   "rollouts_executed": self.next_index, "best_return": self.best_return, "error": self.error,
                   "committed_version": self.committed_version, "cancel_requested": self.cancel_requested,
-                  "excluded_workers": [e.to_dict() for e in self.excluded_workers], "result": self._result_dict()}
+                  "excluded_workers": [e.to_dict() for e in self.exclusions()], "result": self._result_dict()}
         if isinstance(req, PairTrainJob):  # iteration counts training steps, of steps
             status.update(task="train_pair", robot=req.robot_b, commit=True, steps=req.config.steps,
                           budget=req.config.steps)

@@ -1,25 +1,30 @@
-"""The roll-out journals of a learner's jobs, published again one by one at a start (issue 66).
+"""The roll-out journals of a learner's jobs: kept until the recorder holds them, published again
+one by one at a start (issues 66 and 73).
 
-A running job writes each batch's roll-out events to its journal (``jobs/<job>.rollouts``, with
-the batch before) before their indices are reserved and before they are published
-(services/learner/core.py), so a learner killed anywhere in between publishes them at its next
-start. :class:`Journals` does that publishing, each journal on its own:
+A running job writes each batch's roll-out events to its journal (``jobs/<job>.rollouts``) before
+their indices are reserved and before they are published (services/learner/core.py). A roll-out
+leaves the journal only once the recorder says its file holds it (``held`` in the recorder's
+status reply: the recorder flushes its file before it answers, so what it says it holds survives
+its kill -9; :meth:`Journals.settle`, called every second by the learner service): so a learner
+killed anywhere, the recorder with it or not, publishes at its next start every roll-out the
+recording may lack. Until issue 73 a journal kept the last two batches only, and a recorder
+killed with the learner lost the events it had received but not yet written.
+
+At a start :class:`Journals` publishes every journal again, each on its own:
 
 * a journal holding events that cannot be published (a return of -inf, a bad field: what
   :func:`services.recording.events.validate_event` and the wire refuse) is **quarantined** like
   any unusable state file (moved to ``quarantine/``, named in the learner's health, hence
-  ``acnmp status`` exits 1), and its other events are published;
-* a journal whose publishing fails for another reason (the session) is **held**: kept on disk,
-  its events kept in memory and written into every later journal of its job (a job that runs
-  again never overwrites them), tried again every :data:`RETRY_S` seconds, and named in the
-  learner's health until published;
+  ``acnmp status`` exits 1), and its other events are published (and journalled again);
+* a journal whose publishing fails for another reason (the session) is **held**: its events
+  stay in memory and in every later journal of its job, are tried again every :data:`RETRY_S`
+  seconds, and the job is named in the learner's health until they are published;
 * one journal never keeps the others from being published.
 
-A finished job's journal is removed once the recorder confirms it holds the job's roll-outs
-(:meth:`Journals.settle`, called by the learner service), so a later session publishes no
-fragment of an old job into a new recording; one whose confirmation never came (a learner killed
-right after its job ended) is published again at the next start, to lose nothing (the recorder
-keeps each roll-out once).
+A finished job's journal is removed once the recorder holds all of its roll-outs, so a later
+session publishes no fragment of an old job into a new recording; one never confirmed (a learner
+killed right after its job ended) is published again at the next start, to lose nothing (the
+recorder keeps each roll-out once).
 """
 from __future__ import annotations
 
@@ -28,15 +33,21 @@ import threading
 from dataclasses import dataclass
 from typing import Callable, Iterable
 
+from services.recording.event_ids import IndexRanges
 from services.recording.events import validate_event
 from services.transport.wire import WireError, encode
 
-from .store import JobStore
+from .store import JobStore, StateWriteError
 
 log = logging.getLogger(__name__)
 
 #: Seconds between tries to publish a held journal.
 RETRY_S = 5.0
+
+#: Roll-out events a job's journal keeps at most while the recorder does not confirm them (it is
+#: unreachable): beyond, the oldest go, as a publisher's cache of that many events would lose them
+#: (services/recording/publisher.py); a journal is written again with every batch.
+MAX_UNCONFIRMED = 1000
 
 
 @dataclass(frozen=True)
@@ -53,6 +64,16 @@ class PendingJournal:
                 f"tried again every {RETRY_S:g} s")
 
 
+@dataclass(frozen=True)
+class Settled:
+    """What one :meth:`Journals.settle` did: the jobs whose journals it removed, the roll-outs the
+    recorder confirmed (dropped from the journals), the jobs whose journals still wait for it."""
+
+    removed: tuple[str, ...] = ()
+    confirmed: int = 0
+    waiting: tuple[str, ...] = ()
+
+
 def unpublishable(event: dict) -> str | None:
     """Why ``event`` cannot be published (its wire code and message), or None when it can."""
     try:
@@ -63,6 +84,11 @@ def unpublishable(event: dict) -> str | None:
     except (TypeError, ValueError, KeyError) as exc:
         return f"{type(exc).__name__}: {exc}"
     return None
+
+
+def _index(event: dict) -> int | None:
+    index = event.get("rollout_index")
+    return index if isinstance(index, int) and not isinstance(index, bool) else None
 
 
 class Journals:
@@ -76,7 +102,7 @@ class Journals:
         self.store, self.publish, self.stop = store, publish, stop
         self._unpublished: dict[str, list[dict]] = {}  # read at the start, not yet published
         self._held: dict[str, tuple[list[dict], str]] = {}  # job -> (events, why): publishing failed
-        self._written: set[str] = set()  # jobs that wrote their journal since the start
+        self._open: dict[str, dict[int, dict]] = {}  # job -> {index: event} journalled, not confirmed held
         self._lock = threading.Lock()
 
     def read(self) -> dict[str, int]:
@@ -91,8 +117,7 @@ class Journals:
                 self.store.drop_journal(job_id)
                 continue
             self._unpublished[job_id] = events
-            indices = [ev.get("rollout_index") for ev in events]
-            indices = [i for i in indices if isinstance(i, int) and not isinstance(i, bool)]
+            indices = [i for i in map(_index, events) if i is not None]
             if indices:
                 tops[job_id] = 1 + max(indices)
         return tops
@@ -109,7 +134,8 @@ class Journals:
     def retry(self) -> bool:
         """Try once more to publish every held journal; True when none is held any more."""
         with self._lock:
-            held = {job: events for job, (events, _) in self._held.items()}
+            held = {job: [ev for ev in events if _index(ev) in self._open.get(job, {})]
+                    for job, (events, _) in self._held.items()}
         for job_id, events in held.items():
             if self.stop.is_set():
                 break
@@ -119,13 +145,22 @@ class Journals:
 
     def _publish(self, job_id: str, events: list[dict], *, first: bool) -> None:
         bad = {i: why for i, ev in enumerate(events) if (why := unpublishable(ev)) is not None}
+        good = [ev for i, ev in enumerate(events) if i not in bad]
+        if first:
+            with self._lock:  # until the recorder holds them
+                self._open.setdefault(job_id, {}).update((_index(ev), ev) for ev in good if _index(ev) is not None)
         if bad and first:  # the file as it was, for the operator; the events that can be published, published
             i, why = next(iter(bad.items()))
             self.store.state.quarantine(
                 self.store.journal_path(job_id),
                 f"{len(bad)} of its {len(events)} roll-out events cannot be published (event {i}: {why}); "
                 f"the other {len(events) - len(bad)} were published")
-        good = [ev for i, ev in enumerate(events) if i not in bad]
+            if good:  # journalled again: kept until the recorder holds them
+                try:
+                    self.store.save_journal(job_id, good)
+                except StateWriteError as exc:
+                    log.warning("job %s: %s; its %d publishable journalled events are kept in memory only",
+                                job_id, exc, len(good))
         try:
             for ev in good:
                 self.publish(ev)
@@ -140,35 +175,64 @@ class Journals:
             return
         with self._lock:
             self._held.pop(job_id, None)
-            rewritten = job_id in self._written
-        if not bad and not rewritten:  # a journal its job wrote since holds that job's latest batch
-            self.store.drop_journal(job_id)
         log.info("job %s: published its %d journalled roll-out event(s) again", job_id, len(good))
 
     def save(self, job_id: str, events: list[dict]) -> None:
-        """Write job ``job_id``'s journal: its held events (if any), then ``events``;
-        :class:`~services.learner.store.StateWriteError` when it cannot be written."""
+        """Write job ``job_id``'s journal: its roll-outs the recorder has not confirmed yet (held
+        ones included), then ``events``, which join them; :class:`~services.learner.store.StateWriteError`
+        when it cannot be written (nothing changes then)."""
         with self._lock:
-            held = self._held.get(job_id, ([], ""))[0]
-            self._written.add(job_id)
-        self.store.save_journal(job_id, held + events)
+            opened = self._open.get(job_id, {})
+            kept = [opened[i] for i in sorted(opened)]
+        over = len(kept) + len(events) - MAX_UNCONFIRMED
+        if over > 0:
+            log.warning("job %s: the recorder has not confirmed %d of its roll-outs; its journal keeps the newest "
+                        "%d", job_id, len(kept), MAX_UNCONFIRMED)
+            dropped, kept = kept[:over], kept[over:]
+        else:
+            dropped = []
+        self.store.save_journal(job_id, kept + events)
+        with self._lock:
+            opened = self._open.setdefault(job_id, {})
+            for ev in dropped:
+                opened.pop(_index(ev), None)
+            opened.update((_index(ev), ev) for ev in events if _index(ev) is not None)
 
     def pending(self) -> tuple[PendingJournal, ...]:
         """The held journals (publishing them failed), for the learner's health."""
         with self._lock:
             return tuple(PendingJournal(job, len(events), why) for job, (events, why) in sorted(self._held.items()))
 
-    def settle(self, finished: Iterable[str], recorded: Callable[[list[str]], set[str]]) -> tuple[list[str], list[str]]:
-        """Remove the journals of the ``finished`` jobs that ``recorded`` (given the job ids that
-        have a journal, held ones and those not yet published again left out) says the recorder
-        holds every published roll-out of;
-        returns ``(removed, kept)``: the ids removed and those left for a later look."""
+    def unconfirmed(self) -> dict[str, int]:
+        """``{job: n}``: the journalled roll-outs of each job the recorder has not confirmed yet."""
+        with self._lock:
+            return {job: len(opened) for job, opened in self._open.items() if opened}
+
+    def settle(self, finished: Iterable[str], held: Callable[[list[str]], dict[str, IndexRanges]]) -> Settled:
+        """Drop from the journals the roll-outs the recorder holds: ``held`` gets the ids of the jobs
+        with journalled roll-outs (those not published again yet left out) and returns, per job it
+        knows, the indices its files hold. A ``finished`` job's journal is removed once none of its
+        roll-outs waits any more."""
         with self._lock:  # a journal read at the start and not published yet is not the recorder's to confirm
-            held = set(self._held) | set(self._unpublished)
-        candidates = sorted(set(finished) & set(self.store.journals()) - held)
+            candidates = sorted(set(self._open) - set(self._unpublished))
         if not candidates:
-            return [], []
-        done = sorted(set(recorded(candidates)) & set(candidates))
-        for job_id in done:
-            self.store.drop_journal(job_id)
-        return done, [j for j in candidates if j not in done]
+            return Settled()
+        asked = [job for job in candidates if self._open.get(job)]
+        holds = held(asked) if asked else {}
+        done, removed, confirmed = set(finished), [], 0
+        with self._lock:
+            for job in candidates:
+                opened = self._open.get(job, {})
+                indices = holds.get(job)
+                if indices is not None:
+                    gone = [i for i in opened if i in indices]
+                    for i in gone:
+                        del opened[i]
+                    confirmed += len(gone)
+                if job in done and not opened and job not in self._held:
+                    self._open.pop(job, None)
+                    removed.append(job)
+            waiting = tuple(job for job in candidates if self._open.get(job))
+        for job in removed:
+            self.store.drop_journal(job)
+        return Settled(tuple(removed), confirmed, waiting)

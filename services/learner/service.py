@@ -43,6 +43,7 @@ from acnmp_core.jobs.transfer import PairTrainJob
 from acnmp_core.model.cnmp import CNMPConfig
 from acnmp_core.model.training import TrainConfig
 from services.model.weights import encode_weights
+from services.recording.event_ids import IndexRanges
 from services.recording.publisher import EventPublisher
 from services.transport import Keyspace, Ready, WireError, declare_rpc
 from services.transport.errors import wire_error
@@ -163,13 +164,15 @@ class LearnerService:
         (:class:`~services.learner.core.LearnerCore`, services/learner/runner.py).
     learners : the ids of every learner of the deployment when it runs several (``learner_id``
         among them): this one answers only for the skills it owns (services/learner/ownership.py).
+    cross_check : the fraction of roll-out chunks run again on a second worker (besides every
+        chunk whose success would end its job when > 0); services/worker/remote.py.
     """
 
     def __init__(self, session: zenoh.Session, keys: Keyspace, state_dir: str | os.PathLike, *,
                  learner_id: str | None = None, wait_recorder: float = 0.0, chunk_timeout: float = 60.0,
                  limits: LearnerLimits = LearnerLimits(), device: str = "cpu",
                  state_limits: StateLimits = StateLimits(), demos: Sequence[str] = (), ready: Ready | None = None,
-                 jobs: int = 1, job_runner: str = "thread", learners: Sequence[str] = ()):
+                 jobs: int = 1, job_runner: str = "thread", learners: Sequence[str] = (), cross_check: float = 0.0):
         self.session, self.keys = session, keys
         self.limits = limits
         self.learner_id = check_name("learner id", learner_id or f"learner-{os.getpid()}")
@@ -177,6 +180,7 @@ class LearnerService:
         self.events = EventPublisher(session, keys)
         self.wait_recorder = float(wait_recorder)
         self.chunk_timeout = float(chunk_timeout)
+        self.cross_check = float(cross_check)
         #: workers a job excluded lately: the other jobs avoid them for a while (services/worker/exclusion.py)
         self.exclusions = WorkerExclusions()
         self._recorder_checked = wait_recorder <= 0
@@ -215,29 +219,37 @@ class LearnerService:
         """The core's skills by name."""
         return self.core.skills
 
-    # ----- finished jobs' journals -----------------------------------------------------------
-    def _recorded(self, jobs: list[str]) -> set[str]:
-        """Those of ``jobs`` whose roll-outs the recorder holds (every one this learner published);
-        all of them when the learner does not record (no recorder to wait for)."""
-        return set(jobs) if self.wait_recorder <= 0 else self.events.recorded(jobs)
+    # ----- the jobs' journals ----------------------------------------------------------------
+    def _held(self, jobs: list[str]) -> dict[str, IndexRanges]:
+        """Per job of ``jobs``, the roll-out indices the recording's files hold (the recorder's
+        status, services/recording/publisher.py); every index when the learner does not record
+        (no recorder to wait for)."""
+        if self.wait_recorder <= 0:
+            return {job: IndexRanges.everything() for job in jobs}
+        return self.events.held(jobs)
 
     def _settle_loop(self) -> None:
-        """Remove the journals of finished jobs once the recorder holds their roll-outs (looked at
-        every second, backing off to :data:`SETTLE_MAX` s while the recorder does not confirm
-        some), so a later session publishes no fragment of them into its recording."""
+        """Drop from the jobs' journals the roll-outs the recorder holds, and remove the journals of
+        finished jobs left with none (so a later session publishes no fragment of them into its
+        recording): every second while the recorder confirms some or none waits, backing off to
+        :data:`SETTLE_MAX` s while it confirms none (it is unreachable)."""
         delay = SETTLE_FIRST
         while not self.core.stopping.wait(delay):
             try:
-                _removed, kept = self.core.settle_journals(self._recorded)
+                settled = self.core.settle_journals(self._held)
+                progress = settled.confirmed > 0 or not settled.waiting
             except Exception:  # a session closing under us: tried again
-                log.debug("settling the finished jobs' journals failed", exc_info=True)
-                kept = ["?"]
-            delay = min(2 * delay, SETTLE_MAX) if kept else SETTLE_FIRST
+                log.debug("settling the jobs' journals failed", exc_info=True)
+                progress = False
+            delay = SETTLE_FIRST if progress else min(2 * delay, SETTLE_MAX)
 
     # ----- what the core calls ---------------------------------------------------------------
     def _evaluator(self, job: AdaptJob) -> RemoteEvaluator:
+        # a job that stops on success ends on one chunk's word: that chunk is always checked
         return RemoteEvaluator(self.session, self.keys, job.robot, job.task, dict(job.task_config),
-                               timeout=self.chunk_timeout, stop=self.core.stopping, exclusions=self.exclusions)
+                               timeout=self.chunk_timeout, stop=self.core.stopping, exclusions=self.exclusions,
+                               cross_check=self.cross_check,
+                               check_success=self.cross_check > 0 and job.config.stop_on_success)
 
     def _publish(self, event: dict) -> None:
         if not self._recorder_checked:
@@ -389,20 +401,22 @@ class LearnerService:
 
     def _wait_recorded(self) -> None:
         """With a recorder (``wait_recorder`` > 0): wait up to :data:`RECORDED_WAIT` s until it holds
-        every roll-out this learner published; then (or without a recorder) remove the journals of
-        the finished jobs, whose roll-outs are all recorded (or never will be)."""
+        every roll-out this learner published; then drop from the journals what its files hold
+        (every roll-out without a recorder), removing the finished jobs' journals left empty."""
         started = time.monotonic()
         if self.wait_recorder > 0 and not self.events.wait_recorded(RECORDED_WAIT):
             waited = time.monotonic() - started
             if waited < RECORDED_WAIT:  # said at once: nothing answered
                 log.warning("no recorder answered (after %.1f s; the router may be gone with the launcher that held "
                             "it): this learner's last events may be missing from the recording, its job records "
-                            "hold the jobs' states", waited)
+                            "hold the jobs' states and its journals the roll-outs, published at its next start",
+                            waited)
             else:
                 log.warning("the recorder did not confirm every roll-out of this learner within %.0f s", RECORDED_WAIT)
-            self.core.settle_journals(self._recorded)  # those of the jobs it did confirm
-            return
-        self.core.settle_journals(lambda jobs: set(jobs))
+        try:
+            self.core.settle_journals(self._held)
+        except Exception:  # the session closing under us: the journals stay, published at the next start
+            log.debug("settling the jobs' journals at the stop failed", exc_info=True)
 
     def __enter__(self) -> "LearnerService":
         return self
@@ -508,7 +522,8 @@ class LearnerConfig(LearnerOptions):
                             limits=LearnerLimits(max_train_steps=self.max_train_steps,
                                                  max_rollouts=self.max_rollouts), device=self.device,
                             state_limits=state_limits, demos=self.demos, ready=ready, jobs=self.jobs,
-                            job_runner=self.job_runner, learners=self.learners) as learner:
+                            job_runner=self.job_runner, learners=self.learners,
+                            cross_check=self.cross_check) as learner:
             # a stop interrupts what the core runs at once (training included), not after it
             threading.Thread(target=lambda: (stop.wait(), learner.core.interrupt()), name="stop-watch",
                              daemon=True).start()

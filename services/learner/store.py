@@ -292,15 +292,49 @@ class SkillStore:
         self.keep_versions = int(keep_versions)
         self.notes: list[str] = []
         self._highest: dict[str, int] = {}
+        #: per skill, the versions a record says were committed (versions.json, a job record), and which
+        self._committed: dict[str, dict[int, list[str]]] = {}
+        #: per skill, the newest version any of its files (quarantined ones included) had at the start
+        self._present: dict[str, int] = {}
 
     # ----- version numbers -------------------------------------------------------------------
     def highest(self, skill: str) -> int:
         """The highest version of ``skill`` ever committed or named (-1: none)."""
         return self._highest.get(skill, -1)
 
-    def note_version(self, skill: str, version: int) -> None:
-        """Count ``version`` of ``skill`` as used: no later version gets its number."""
+    def note_version(self, skill: str, version: int, witness: str | None = None) -> None:
+        """Count ``version`` of ``skill`` as used: no later version gets its number. ``witness``:
+        the record saying that version was committed (``versions.json``, ``job <id>``), for
+        :meth:`note_missing`."""
         self._highest[skill] = max(self.highest(skill), int(version))
+        if witness is not None:
+            self._committed.setdefault(skill, {}).setdefault(int(version), []).append(witness)
+
+    def note_missing(self, served: dict[str, "SkillState"]) -> list[str]:
+        """After :meth:`load_all` and the job records' :meth:`note_version` calls: one line per
+        skill whose newest committed version (as a record witnesses it) has no file left, not even
+        a quarantined one (deleted by hand: nothing else removes a skill's newest version), added
+        to ``notes`` and logged. ``served``: the skills loaded, by name. Returns the new lines."""
+        lines = []
+        for name, committed in sorted(self._committed.items()):
+            present = self._present.get(name, -1)
+            gone = sorted(v for v in committed if v > present)
+            if not gone:
+                continue
+            who = list(dict.fromkeys(w for v in gone for w in committed[v]))  # versions.json first, then jobs
+            what = (f"skill {name}: version(s) {', '.join(map(str, gone))} missing (no file of "
+                    f"{'them' if len(gone) > 1 else 'it'} is left; {' and '.join(who)} record"
+                    f"{'s' if len(who) == 1 else ''} {'them' if len(gone) > 1 else 'it'} committed); ")
+            state = served.get(name)
+            if state is not None:
+                what += (f"serving version {state.version}, the newest present; its next version will be "
+                         f"{self.highest(name) + 1}")
+            else:
+                what += f"no version of it is served; it is served again once trained, as version {self.highest(name) + 1}"
+            lines.append(what)
+            log.warning("%s", what)
+        self.notes += lines
+        return lines
 
     def next_version(self, skill: str) -> int:
         """Reserve and return the next version number of ``skill`` (one above every number used)."""
@@ -398,8 +432,11 @@ class SkillStore:
         rel_dir = self.state.rel(d)
         used = [v for v in files] + [int(m.group(2)) for m in map(_VERSIONED.match, self.state.quarantined_names(rel_dir))
                                      if m]
-        for v in used + ([recorded] if recorded is not None else []):
+        for v in used:
             self.note_version(name, v)
+        if recorded is not None:
+            self.note_version(name, recorded, VERSIONS_FILE)
+        self._present[name] = max(used, default=-1)
         chosen, unusable = None, []
         for v in sorted((v for v, parts in files.items() if "model" in parts), reverse=True):
             try:
@@ -582,7 +619,7 @@ class JobStore:
         return names
 
     def journal_path(self, job_id: str) -> Path:
-        """The journal of job ``job_id``: its latest roll-out events (``<job>.rollouts``)."""
+        """The journal of job ``job_id``: its roll-out events the recorder has not confirmed (``<job>.rollouts``)."""
         return self.root / f"{check_name('job', job_id)}.rollouts"
 
     def save_journal(self, job_id: str, events: list[dict]) -> None:

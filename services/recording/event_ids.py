@@ -37,6 +37,40 @@ def marks_path(recording: str | Path) -> Path:
     return recording.with_name(recording.name + ".seen.json")
 
 
+@dataclass(frozen=True)
+class IndexRanges:
+    """Numbers (a job's roll-out indices) as sorted, disjoint, inclusive ``(lo, hi)`` ranges: what a
+    recorder's status says its files hold of one job (services/recording/recorder.py, ``held``)."""
+
+    ranges: tuple[tuple[int, int], ...] = ()
+
+    def __contains__(self, index: object) -> bool:
+        if isinstance(index, bool) or not isinstance(index, int):
+            return False
+        i = bisect.bisect_right(self.ranges, (index, float("inf")))
+        return i > 0 and self.ranges[i - 1][0] <= index <= self.ranges[i - 1][1]
+
+    @classmethod
+    def everything(cls) -> "IndexRanges":
+        """Every index (a learner that records nowhere has nothing to wait for)."""
+        return cls(((0, 2**63 - 1),))
+
+    @classmethod
+    def from_wire(cls, value: object) -> "IndexRanges":
+        """From ``[[lo, hi], ...]`` (sorted, disjoint, 0 <= lo <= hi); ValueError for anything else."""
+        if not isinstance(value, list):
+            raise ValueError(f"expected a list of [lo, hi] ranges, got {type(value).__name__}")
+        out, above = [], -1
+        for pair in value:
+            if (not isinstance(pair, list) or len(pair) != 2
+                    or not all(isinstance(x, int) and not isinstance(x, bool) for x in pair)
+                    or not above < pair[0] <= pair[1]):
+                raise ValueError(f"not a sorted, disjoint [lo, hi] range: {pair!r}")
+            out.append((pair[0], pair[1]))
+            above = pair[1]
+        return cls(tuple(out))
+
+
 def split_event_id(event_id: str) -> tuple[str, int]:
     """``"<zid>/<eid>/<sn>"`` -> (``"<zid>/<eid>"``, sn). ValueError for another shape."""
     publisher, sep, sn = event_id.rpartition("/")
@@ -132,6 +166,19 @@ class SeenEvents:
     def missed(self) -> int:
         """Events not held although a later one of the same publisher is (see the module docstring)."""
         return sum(p.missed() for p in self._pubs.values())
+
+    def ranges(self, publisher: str) -> list[list[int]]:
+        """The sequence numbers of ``publisher`` held (given-up gaps included), as sorted, disjoint
+        ``[lo, hi]`` ranges ([] for a publisher never seen)."""
+        state = self._pubs.get(publisher)
+        if state is None:
+            return []
+        out = [[0, state.mark]] if state.mark >= 0 else []
+        return out + [[lo, hi] for lo, hi in zip(state.runs[::2], state.runs[1::2])]
+
+    def copy(self) -> "SeenEvents":
+        """An independent copy (same ``max_runs``)."""
+        return SeenEvents.from_json(self.to_json(), self.max_runs)
 
     def publishers(self) -> int:
         """Publishers seen."""

@@ -6,6 +6,7 @@ cache, the events it missed (services/recording/recorder.py, docs/EVENTS.md).
 """
 from __future__ import annotations
 
+import logging
 import threading
 import time
 from collections import Counter, OrderedDict
@@ -15,7 +16,10 @@ import zenoh.ext as zext
 
 from services.transport import Keyspace, WireError, call, encode, wait_for_liveliness
 
+from .event_ids import IndexRanges
 from .events import event_key, validate_event
+
+log = logging.getLogger(__name__)
 
 #: Events each publisher (one per event key, e.g. one job's roll-outs) keeps for late or restarted
 #: recorders. Beyond it the oldest cached event of that key is dropped: a recorder down while more
@@ -95,15 +99,18 @@ class EventPublisher:
             held[job] = held.get(job, 0) + n
         return held
 
-    def recorded(self, jobs: list[str], timeout: float = 5.0) -> set[str]:
-        """Those of ``jobs`` whose every rollout event this publisher put the recorder holds (one
-        status query; an empty set when no recorder answers)."""
-        wanted = self.rollouts_published()
+    def held(self, jobs: list[str], timeout: float = 5.0) -> dict[str, IndexRanges]:
+        """``{job: indices}``: the roll-outs of each of ``jobs`` that the recording's files hold (one
+        status query; the recorder flushes its file before it answers, so they survive its kill -9).
+        ``{}`` when no recorder answers or its reply cannot be read."""
+        if not jobs:
+            return {}
         try:
-            have = self._held_by_recorder(timeout)
-        except WireError:
-            return set()
-        return {job for job in jobs if have.get(job, 0) >= wanted.get(job, 0)}
+            status = call(self.session, self.keys.recorder_status(), {"v": 1, "jobs": list(jobs)}, timeout=timeout)
+            return {job: IndexRanges.from_wire(status["held"][job]) for job in jobs if job in status["held"]}
+        except (WireError, KeyError, TypeError, ValueError) as exc:
+            log.debug("the recorder's held roll-outs are unknown: %s", exc)
+            return {}
 
     def wait_recorded(self, timeout: float = 10.0) -> bool:
         """Block until the recorder's counts (its status queryable) hold every rollout event this

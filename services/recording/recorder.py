@@ -17,9 +17,13 @@ there is exactly one writer and shutdown is ordered:
 
 Declared entities: advanced subscriber ``acnmp/<ns>/event/**`` (zenoh-ext: history from the
 publishers' caches, late publisher detection, heartbeat recovery), queryable
-``acnmp/<ns>/recorder/status`` (reply: ``{"v":1,"path","events":{kind:n},"rollouts":{job:n},
-"rejected":n,"duplicates":n,"republished":{job:n},"missed":n}``; ``republished``: roll-outs a
-learner published again, from its journal, that the recording already held), then, once both
+``acnmp/<ns>/recorder/status`` (request: none, or ``{"v":1,"jobs":[job, ...]}``; reply:
+``{"v":1,"path","events":{kind:n},"rollouts":{job:n},"rejected":n,"duplicates":n,
+"republished":{job:n},"missed":n}``, with ``"held":{job:[[lo, hi], ...]}`` for the jobs asked: the
+roll-out indices of each that the recording's files hold; ``republished``: roll-outs a learner
+published again, from its journal, that the recording already held). The recorder flushes its
+file before it answers, so what a reply counts or holds survives a kill -9 of the recorder: a
+learner drops a roll-out from its journal only once ``held`` says so (issue 73). Then, once both
 exist, liveliness token
 ``acnmp/<ns>/recorder/<zid>``: a publisher that sees the token knows its events will be recorded.
 
@@ -57,6 +61,7 @@ from services.transport.argtypes import check_output_path
 from services.transport.auth import write_private
 from services.transport.keys import is_concrete
 from services.transport.lifetime import launcher_gone
+from services.transport.wire import field
 
 from .config import RecorderOptions
 from .event_ids import SeenEvents, marks_path
@@ -209,15 +214,27 @@ def record(session: zenoh.Session, keys: Keyspace, path: str, stop: threading.Ev
             live += f" or {web.url}"
     try:
         write_marks(path, ids)  # before any event: the next recorder starts from these plus this file's ids
+        durable = ids.copy()  # roll-outs in the files: the earlier ones', and this one's once flushed
         sub = zext.declare_advanced_subscriber(
             session, keys.events(), on_sample,
             history=zext.HistoryConfig(detect_late_publishers=True),
             recovery=zext.RecoveryConfig(heartbeat=True), subscriber_detection=True)
         misses = sub.sample_miss_listener(on_miss)
-        status = declare_rpc(session, keys.recorder_status(),
-                             lambda _req, _q: {"v": 1, "path": str(path), "rejected": rejected[0],
-                                               "duplicates": duplicates[0], "republished": dict(republished),
-                                               "missed": missed(), **writer.stats()})
+
+        def status_reply(request: dict | None, _query) -> dict:
+            # counted first, then flushed: every roll-out the reply counts or holds is in the file
+            asked = status_jobs(request)
+            reply = {"v": 1, "path": str(path), "rejected": rejected[0], "duplicates": duplicates[0],
+                     "republished": dict(republished), "missed": missed(), **writer.stats()}
+            flushed = writer.flush()
+            with lock:
+                durable.update(flushed)
+                if asked:
+                    reply["held"] = {job: durable.ranges(f"rollout/{job}") for job in asked}
+            return reply
+
+        # its own thread: a flush waits for the disk, never on one of zenoh's
+        status = declare_rpc(session, keys.recorder_status(), status_reply, workers=1)
         token_key = keys.recorder_token(str(session.zid()))
         token = session.liveliness().declare_token(token_key)
         log.info("recording %s into %s", keys.events(), path)
@@ -243,6 +260,19 @@ def record(session: zenoh.Session, keys: Keyspace, path: str, stop: threading.Ev
     final = {**writer.stats(), "rejected": rejected[0], "duplicates": duplicates[0], "missed": missed()}
     log.info("recording closed: %s", final)
     return final
+
+
+#: Jobs one status request may ask about (``jobs``).
+MAX_STATUS_JOBS = 1000
+
+
+def status_jobs(request: dict | None) -> list[str]:
+    """The jobs a status request asks which roll-outs the recording holds of (``{"v": 1, "jobs":
+    [job, ...]}``; none without a payload); WireError ``bad_request`` for another ``jobs``."""
+    jobs = field(request or {}, "jobs", list, default=[])
+    if len(jobs) > MAX_STATUS_JOBS or not all(isinstance(j, str) and j for j in jobs):
+        raise WireError("bad_request", f"field 'jobs': expected at most {MAX_STATUS_JOBS} job ids (strings)")
+    return jobs
 
 
 def _wait_learners_gone(session: zenoh.Session, keys: Keyspace) -> None:

@@ -172,6 +172,7 @@ class RrdWriter:
         self.rollouts_per_job: Counter = Counter()
         self._lock = threading.Lock()
         self._closed = False
+        self._unflushed: list[str] = []  # roll-out keys logged since the last flush
 
     # -- dispatch ---------------------------------------------------------------------------
 
@@ -207,6 +208,21 @@ class RrdWriter:
         """Counts so far: ``{"events": {kind: n}, "rollouts": {job: n}}``."""
         with self._lock:
             return {"events": dict(self.counts), "rollouts": dict(self.rollouts_per_job)}
+
+    def flush(self, timeout: float = 10.0) -> list[str]:
+        """Write everything logged so far into the file (Rerun's batcher otherwise holds it up to
+        its flush tick, and a kill -9 loses it); returns the roll-out keys (events.rollout_key)
+        logged since the last flush, now in the file. [] once closed."""
+        with self._lock:
+            if self._closed:
+                return []
+            keys, self._unflushed = self._unflushed, []
+            try:
+                self.rec.flush(timeout_sec=timeout)
+            except BaseException:
+                self._unflushed = keys + self._unflushed
+                raise
+            return keys
 
     # -- kinds -------------------------------------------------------------------------------
 
@@ -268,6 +284,8 @@ class RrdWriter:
         self._show(view, *(("arm",) if draw is not None else ()),
                    *(("poured",) if draw is not None and msg.get("poured_g_t") is not None else ()))
         self.rollouts_per_job[msg["job"]] += 1
+        if key is not None:  # in the file at the next flush
+            self._unflushed.append(key)
 
     def _latent(self, msg: dict) -> None:
         self.rec.set_time("model_version", sequence=int(msg["version"]))

@@ -60,7 +60,7 @@ REQUEST_LIMITS: tuple[RequestLimit, ...] = (
     RequestLimit("acnmp/*/job/*/status", SMALL_BYTES, "nothing"),
     RequestLimit("acnmp/*/job/*/cancel", SMALL_BYTES, "nothing"),
     RequestLimit("acnmp/*/jobs", SMALL_BYTES, "a limit"),
-    RequestLimit("acnmp/*/recorder/status", SMALL_BYTES, "nothing"),
+    RequestLimit("acnmp/*/recorder/status", SMALL_BYTES, "nothing, or the job ids whose roll-outs it holds"),
     RequestLimit("acnmp/*/process/**", SMALL_BYTES, "nothing"),
     RequestLimit("acnmp/*/skill/*/train", DEFAULT_MAX_BYTES, "demonstrations (up to 10 M values)"),
     RequestLimit("acnmp/*/skill/*/train_pair", DEFAULT_MAX_BYTES, "two robots' demonstrations"),

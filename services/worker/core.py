@@ -106,6 +106,41 @@ def batch_from_reply(reply: dict) -> RolloutBatch:
         raise WireError("internal", f"worker {reply.get('worker')!r} sent a bad reply: {exc}") from None
 
 
+#: Two executions of the same roll-outs agree when their floats are this close (relative, absolute):
+#: a simulator given the same trajectory gives the same numbers (bit for bit on one machine; the
+#: margin is for another CPU's rounding), a lying worker numbers of its own.
+AGREE_RTOL, AGREE_ATOL = 1e-6, 1e-9
+
+
+def disagreement(a: RolloutBatch, b: RolloutBatch) -> str | None:
+    """What differs between two executions of the same roll-outs, ``a`` and ``b``, beyond the
+    simulators' determinism (:data:`AGREE_RTOL`, :data:`AGREE_ATOL`; success must be the same), in
+    one line; None when they agree. Two workers given the same trajectories agree unless one of
+    them lies (services/worker/remote.py, cross-checks)."""
+    def close(x, y) -> bool:
+        return x.shape == y.shape and bool(np.allclose(x, y, rtol=AGREE_RTOL, atol=AGREE_ATOL))
+
+    if len(a) != len(b):
+        return f"{len(a)} roll-outs against {len(b)}"
+    if not np.array_equal(a.success, b.success):
+        i = int(np.argmax(a.success != b.success))
+        return f"success {bool(a.success[i])} against {bool(b.success[i])} (roll-out {i})"
+    if not close(a.rewards, b.rewards):
+        if a.rewards.shape != b.rewards.shape:
+            return f"rewards of shape {a.rewards.shape} against {b.rewards.shape}"
+        i = int(np.argmax(~np.all(np.isclose(a.rewards, b.rewards, rtol=AGREE_RTOL, atol=AGREE_ATOL), axis=1)))
+        return f"return {a.returns[i]:.6g} against {b.returns[i]:.6g} (roll-out {i})"
+    if (a.errors is None) != (b.errors is None) or (a.errors is not None and not close(a.errors, b.errors)):
+        return "errors differ"
+    if set(a.states) != set(b.states):
+        return f"states {sorted(a.states)} against {sorted(b.states)}"
+    for name in sorted(a.states):
+        x, y = np.asarray(a.states[name]), np.asarray(b.states[name])
+        if not (close(x, y) if x.dtype.kind == "f" and y.dtype.kind == "f" else np.array_equal(x, y)):
+            return f"states[{name!r}] differ"
+    return None
+
+
 class Worker:
     """Executes roll-out requests for one robot kind; the zenoh-free core of the worker process.
 

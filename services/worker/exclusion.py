@@ -22,26 +22,32 @@ EXCLUDE_S = 120.0
 
 @dataclass(frozen=True)
 class Exclusion:
-    """Worker ``worker`` excluded, and why (one line: what it answered, for which roll-outs)."""
+    """Worker ``worker`` excluded, and why (one line: what it answered, for which roll-outs), by
+    ``attempt`` of its job (the learner stamps it: an evaluator runs one attempt; a worker going
+    down with a launcher that died is that attempt's, not the resumed one's)."""
 
     worker: str
     reason: str
+    attempt: int = 0
 
     def line(self) -> str:
         """``<worker>: <reason>``, for a log, an error message and an event."""
         return f"{self.worker}: {self.reason}"
 
     def to_dict(self) -> dict[str, Any]:
-        """The map a job status and a job record carry: ``{"worker", "reason"}``."""
-        return {"worker": self.worker, "reason": self.reason}
+        """The map a job status and a job record carry: ``{"worker", "reason", "attempt"}``."""
+        return {"worker": self.worker, "reason": self.reason, "attempt": self.attempt}
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> "Exclusion":
-        """Inverse of :meth:`to_dict`; TypeError/KeyError for another map."""
-        worker, reason = d["worker"], d["reason"]
+        """Inverse of :meth:`to_dict` (a map without ``attempt``, written before it existed, is of
+        attempt 0); TypeError/KeyError for another map."""
+        worker, reason, attempt = d["worker"], d["reason"], d.get("attempt", 0)
         if not isinstance(worker, str) or not isinstance(reason, str):
             raise TypeError(f"an exclusion needs strings 'worker' and 'reason', got {d!r}")
-        return cls(worker, reason)
+        if isinstance(attempt, bool) or not isinstance(attempt, int) or attempt < 0:
+            raise TypeError(f"an exclusion's 'attempt' must be an integer >= 0, got {attempt!r}")
+        return cls(worker, reason, attempt)
 
 
 class WorkerExclusions:

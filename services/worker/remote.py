@@ -33,6 +33,17 @@ re-sent to healthy workers, when it
   then runs. The same refusal from a second worker means the request is at fault: ValueError, as an
   in-process evaluator would raise, and nobody is excluded for it.
 
+**Cross-checks** (issue 73: a worker that lies with finite numbers, right shapes and the right
+tag passes every check above). With ``cross_check`` = f, each chunk a worker answered is, with
+probability f, run again on another healthy worker, and with ``check_success`` so is every chunk
+reporting a success (what would end a job that stops on success); the two results must agree
+within the simulators' determinism (:func:`services.worker.core.disagreement`). When they do not, a
+third healthy worker runs the chunk too and each worker that disagrees with it is excluded
+(``its results for roll-outs i..j disagree with ...``) and its chunk's results replaced by the
+third's; with no third worker, both are excluded, so the batch never rests on one worker alone.
+With no second healthy worker (a one-worker deployment) nothing is checked. ``checks``,
+``check_rollouts`` and ``disagreements`` count them.
+
 Every exclusion also goes to the learner's :class:`~services.worker.exclusion.WorkerExclusions`
 (``exclusions``), so its other jobs avoid the worker for a while. The job fails (RuntimeError
 naming every excluded worker and why) only when no healthy worker of its kind is left for
@@ -60,7 +71,7 @@ from services.transport import Keyspace, WireError, alive_tokens, call
 from services.transport.keys import check_name, token_id
 from services.transport.rpc import UnreadableReply
 
-from .core import ExecutedBatch, batch_from_reply, rollout_request, take
+from .core import ExecutedBatch, batch_from_reply, disagreement, rollout_request, take
 from .exclusion import Exclusion, WorkerExclusions
 
 log = logging.getLogger(__name__)
@@ -93,6 +104,7 @@ class _Chunk:
     sent: float  # time.monotonic() when queried
     copy_of: int | None = None  # the attempt this one copies (sent because that one was slow)
     copied: bool = False  # a copy of this one was sent
+    role: str = "run"  # "run": its results are the batch's; "check", "referee": a cross-check's
 
     @property
     def span(self) -> str:
@@ -116,6 +128,9 @@ class RemoteEvaluator:
     exclusions : the learner's registry of workers its jobs excluded lately (shared by its
         evaluators; None: this evaluator's own).
     slow_min_s : the least seconds a chunk runs before it counts as slow (:data:`SLOW_MIN_S`).
+    cross_check : the fraction of answered chunks run again on another worker (0: none; the module
+        docstring). check_success : also every chunk reporting a success. check_seed : seeds the
+        choice of the chunks checked (None: from the system).
 
     ``excluded`` lists the workers this evaluator excluded (its job's), in order.
     """
@@ -123,7 +138,8 @@ class RemoteEvaluator:
     def __init__(self, session: zenoh.Session, keys: Keyspace | str, robot: str, task: str,
                  task_config: dict | None = None, *, timeout: float = 60.0, discover_timeout: float = 10.0,
                  max_attempts: int = 20, stop: threading.Event | None = None,
-                 exclusions: WorkerExclusions | None = None, slow_min_s: float = SLOW_MIN_S):
+                 exclusions: WorkerExclusions | None = None, slow_min_s: float = SLOW_MIN_S,
+                 cross_check: float = 0.0, check_success: bool = False, check_seed: int | None = None):
         self.session = session
         self.keys = keys if isinstance(keys, Keyspace) else Keyspace(keys)
         self.robot = check_name("robot", robot)
@@ -144,6 +160,13 @@ class RemoteEvaluator:
         self.excluded: list[Exclusion] = []
         self._failures: dict[str, int] = {}
         self._per_rollout: deque[float] = deque(maxlen=DURATIONS_KEPT)  # seconds per roll-out, recent chunks
+        if not 0.0 <= cross_check <= 1.0:
+            raise ValueError(f"cross_check: expected a fraction in [0, 1], got {cross_check!r}")
+        self.cross_check, self.check_success = float(cross_check), bool(check_success)
+        self._check_rng = random.Random(check_seed)
+        #: chunks answered (their results used), chunks run again to check them, the roll-outs
+        #: those ran, and the checks whose results disagreed
+        self.chunks = self.checks = self.check_rollouts = self.disagreements = 0
 
     def workers(self) -> list[str]:
         """Ids of the workers of this robot kind alive now (one liveliness query)."""
@@ -271,10 +294,11 @@ class RemoteEvaluator:
                 outcomes.append((chunk, *outcome))
                 cond.notify_all()
 
-        def send(start: int, stop: int, worker: str, group: int | None = None, copy_of: int | None = None) -> _Chunk:
+        def send(start: int, stop: int, worker: str, group: int | None = None, copy_of: int | None = None,
+                 role: str = "run") -> _Chunk:
             counter[0] += 1
             chunk = _Chunk(start, stop, worker, counter[0], counter[0] if group is None else group, time.monotonic(),
-                           copy_of)
+                           copy_of, role=role)
             inflight[chunk.attempt] = chunk
             threading.Thread(target=run_chunk, args=(chunk,), daemon=True, name=f"rollout-{worker}").start()
             return chunk
@@ -310,7 +334,10 @@ class RemoteEvaluator:
             mine = [c for c in inflight.values() if c.worker == worker]
             for c in mine:
                 inflight.pop(c.attempt)
-            return [c for c in mine if not any(o.group == c.group for o in inflight.values())]
+            for c in mine:
+                if c.role != "run":
+                    abandon_check(c)
+            return [c for c in mine if c.role == "run" and not any(o.group == c.group for o in inflight.values())]
 
         resends = [0]
 
@@ -325,6 +352,9 @@ class RemoteEvaluator:
             """Act on one query's outcome (caller holds ``cond``)."""
             if chunk.attempt not in inflight:
                 return  # abandoned (its worker excluded or gone, or a copy answered first)
+            if chunk.role != "run":
+                settle_check(chunk, kind, detail)
+                return
             if kind == "ok":
                 batch, host = detail
                 for c in [c for c in inflight.values() if c.group == chunk.group]:
@@ -343,6 +373,9 @@ class RemoteEvaluator:
                     if refused.start < chunk.stop and chunk.start < refused.stop and refused.worker != chunk.worker:
                         refusals.remove((refused, why))
                         self._exclude(refused.worker, f"refused {refused.span} ({why}), which {chunk.worker} ran")
+                self.chunks += 1
+                if self._check_rng.random() < self.cross_check or (self.check_success and bool(batch.success.any())):
+                    check(chunk, batch, host)
                 return
             inflight.pop(chunk.attempt)
             copy_running = any(c.group == chunk.group for c in inflight.values())
@@ -374,6 +407,96 @@ class RemoteEvaluator:
             for c in pending:
                 again(c, str(detail), {chunk.worker})
 
+        # cross-checks: the group of a check (or referee) chunk -> what it checks: the original chunk,
+        # its results and host, and for a referee the checker's chunk and results
+        checking: dict[int, tuple] = {}
+
+        def others(*but: str) -> list[str]:
+            """Healthy workers other than ``but``, those no other job excluded lately first."""
+            pool = [w for w in healthy() if w not in but]
+            avoided = self.exclusions.excluded()
+            return [w for w in pool if w not in avoided] or pool
+
+        def check(chunk: _Chunk, batch: RolloutBatch, host: str) -> None:
+            """Run ``chunk``'s roll-outs again on another healthy worker (none: no check)."""
+            pool = others(chunk.worker)
+            if not pool:
+                return
+            worker = pool[self._check_rng.randrange(len(pool))]
+            c = send(chunk.start, chunk.stop, worker, role="check")
+            checking[c.group] = (chunk, batch, host)
+            self.checks += 1
+            self.check_rollouts += chunk.stop - chunk.start
+
+        def referee(chunk: _Chunk, batch: RolloutBatch, host: str, checker: _Chunk, checked: RolloutBatch,
+                    why: str) -> None:
+            """A third worker runs the roll-outs two workers disagree on; none: both are excluded."""
+            pool = others(chunk.worker, checker.worker)
+            if pool:
+                c = send(chunk.start, chunk.stop, pool[self._check_rng.randrange(len(pool))], role="referee")
+                checking[c.group] = (chunk, batch, host, checker, checked, why)
+                self.check_rollouts += chunk.stop - chunk.start
+                return
+            for worker, other in ((chunk.worker, checker.worker), (checker.worker, chunk.worker)):
+                exclude_liar(worker, f"its results for {chunk.span} disagree with {other}'s ({why}); no third "
+                                     "worker to tell which is right")
+            # the batch must not rest on either: the roll-outs run again elsewhere (or the job fails, naming both)
+            again(chunk, "its results are disputed", {chunk.worker, checker.worker})
+
+        def exclude_liar(worker: str, reason: str) -> None:
+            if self._is_excluded(worker):
+                return
+            self._exclude(worker, reason)
+            for left in drop_worker(worker):
+                again(left, "excluded", {worker})
+
+        def settle_check(c: _Chunk, kind: str, detail) -> None:
+            """Act on a check's or referee's outcome (caller holds ``cond``)."""
+            inflight.pop(c.attempt)
+            if kind != "ok":  # the checking worker failed: its own bookkeeping, and the check given up
+                if kind in ("bad", "slow"):
+                    exclude_liar(c.worker, f"{'answered' if kind == 'bad' else 'too slow'} for {c.span}: {detail}")
+                else:
+                    self._failures[c.worker] = self._failures.get(c.worker, 0) + 1
+                    if self._failures[c.worker] >= MAX_FAILURES:
+                        exclude_liar(c.worker, f"failed {self._failures[c.worker]} times; last for {c.span}: {detail}")
+                abandon_check(c)
+                return
+            got, host = detail
+            what = checking.pop(c.group, None)
+            if what is None:
+                return
+            if c.role == "check":
+                chunk, batch, orig_host = what
+                why = disagreement(batch, got)
+                if why is not None:
+                    self.disagreements += 1
+                    log.warning("workers %s and %s disagree on %s (%s)", chunk.worker, c.worker, chunk.span, why)
+                    referee(chunk, batch, orig_host, c, got, why)
+                return
+            chunk, batch, _orig_host, checker, checked, _why = what
+            for worker, theirs in ((chunk.worker, batch), (checker.worker, checked)):
+                why = disagreement(theirs, got)
+                if why is not None:
+                    exclude_liar(worker, f"its results for {chunk.span} disagree with {c.worker}'s and "
+                                         f"{checker.worker if worker == chunk.worker else chunk.worker}'s ({why})")
+            if disagreement(batch, got) is not None:  # the batch takes the referee's results instead
+                for i in range(chunk.start, chunk.stop):
+                    results[i] = take(got, i - chunk.start, i - chunk.start + 1)
+                    done_by[i], host_of[i] = c.worker, host
+
+        def abandon_check(c: _Chunk) -> None:
+            """A check or referee chunk that will not answer (caller holds ``cond``): a check is given
+            up; a referee is asked of another worker (none: both disputed workers are excluded)."""
+            what = checking.pop(c.group, None)
+            if what is None or c.role == "check":
+                if what is not None:
+                    log.warning("the check of %s on %s was given up (%s did not answer it)", c.span, what[0].worker,
+                                c.worker)
+                return
+            chunk, batch, host, checker, checked, why = what
+            referee(chunk, batch, host, checker, checked, why)
+
         def copy_slow_chunks() -> None:
             """Send each chunk running far longer than its peers to an idle healthy worker too."""
             busy = {c.worker for c in inflight.values()}
@@ -383,7 +506,8 @@ class RemoteEvaluator:
                 if not idle:
                     return
                 limit = self._slow_after(c.stop - c.start)
-                if c.copied or c.copy_of is not None or limit is None or time.monotonic() - c.sent < limit:
+                if c.role != "run" or c.copied or c.copy_of is not None or limit is None \
+                        or time.monotonic() - c.sent < limit:
                     continue
                 c.copied = True
                 worker = idle.pop(0)

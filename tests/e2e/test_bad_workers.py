@@ -160,3 +160,63 @@ def test_a_job_beside_a_bad_worker_completes_naming_it_in_its_status_and_events(
         assert again.status(job)["excluded_workers"] == status["excluded_workers"]
     finally:
         again.close()
+
+
+def test_a_worker_lying_with_finite_numbers_is_found_by_a_cross_check_and_its_results_replaced(pool, setup):
+    """Issue 73: a worker answering rewards of -1.0 (finite, the right shape, its own chunk's tag)
+    passes every check of a reply; with cross-checks a second worker runs its chunk again, a third
+    tells which of the two is right, the liar is excluded and named and the batch holds the healthy
+    workers' results only (equal to the task run in-process). Without cross-checks it goes unseen."""
+    learner, workers, _ = pool
+    evil, rpc, token = serve_evil(workers, KEYS, "liar", "point2d", "evil-liar")
+    try:
+        trajs = _trajectories(setup)
+        expected = setup.task.evaluate(trajs, setup.target.query_times)
+        unseen = _evaluator(learner, setup)
+        _wait_workers(unseen, 3)
+        batch = unseen.evaluate(trajs, setup.target.query_times)
+        assert "evil-liar" in batch.workers and unseen.excluded == [] and unseen.checks == 0
+        assert not np.array_equal(batch.rewards, expected.rewards)  # its lie is in the batch
+
+        ev = _evaluator(learner, setup, cross_check=1.0)
+        batch = ev.evaluate(trajs, setup.target.query_times)
+        np.testing.assert_array_equal(batch.rewards, expected.rewards)
+        assert set(batch.workers) <= {"w0", "w1"}
+        (excluded,) = ev.excluded
+        assert excluded.worker == "evil-liar" and "disagree with" in excluded.reason, excluded
+        assert ev.disagreements >= 1 and ev.checks == ev.chunks == 3 and ev.check_rollouts >= 6
+    finally:
+        token.undeclare()
+        rpc.close()
+
+
+def test_two_workers_that_disagree_with_no_third_are_both_excluded_and_a_single_one_is_never_checked(setup):
+    """The batch never rests on one worker alone: with a liar and one healthy worker and no third to
+    tell which is right, both are excluded and the batch fails naming both; a deployment of one
+    worker checks nothing (there is no second to ask)."""
+    ep = loopback_endpoint(free_port())
+    with open_session("peer", [ep]) as learner, open_session("peer", connect=[ep]) as workers:
+        worker = Worker("point2d", "w0")
+        rpc0 = declare_rpc(workers, KEYS.worker_rollout("point2d", "w0"), lambda req, _q: worker.handle(req), workers=1)
+        token0 = workers.liveliness().declare_token(KEYS.worker_token("point2d", "w0"))
+        try:
+            alone = RemoteEvaluator(learner, KEYS, "point2d", "viapoint", setup.task_config, discover_timeout=0.5,
+                                    cross_check=1.0, check_success=True)
+            _wait_workers(alone, 1)
+            alone.evaluate(_trajectories(setup), setup.target.query_times)
+            assert alone.checks == 0 and alone.chunks == 1 and alone.excluded == []
+            evil, rpc, token = serve_evil(workers, KEYS, "liar", "point2d", "evil-liar")
+            try:
+                ev = RemoteEvaluator(learner, KEYS, "point2d", "viapoint", setup.task_config, discover_timeout=0.5,
+                                     cross_check=1.0)
+                _wait_workers(ev, 2)
+                with pytest.raises(RuntimeError, match="no healthy point2d worker left") as info:
+                    ev.evaluate(_trajectories(setup), setup.target.query_times)
+                assert {e.worker for e in ev.excluded} == {"w0", "evil-liar"}
+                assert "no third worker to tell which is right" in str(info.value)
+            finally:
+                token.undeclare()
+                rpc.close()
+        finally:
+            token0.undeclare()
+            rpc0.close()

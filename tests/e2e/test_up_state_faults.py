@@ -44,14 +44,22 @@ def test_up_quarantines_bad_files_serves_the_rest_and_is_up_once_the_changed_fil
     save_demos(new, demo_set_to_arrays(demos_b))
     state = tmp_path / "state"
     core = LearnerCore(state, evaluator_for=lambda job: None)
-    try:  # e1 from a.npz at versions 0 and 1, e2 at version 0, one job record
+    try:  # e1 from a.npz at versions 0 and 1, e2 at version 0, e3 at versions 0 and 1, two job records
         bootstrap(core, [f"e1={old}"], 5)
         core.train_skill("e1", TrainSpec(demos_a, CNMPConfig(n_outputs=2), TrainConfig(steps=5)))
         core.train_skill("e2", TrainSpec(demos_a, CNMPConfig(n_outputs=2), TrainConfig(steps=5)))
+        for _ in range(2):
+            core.train_skill("e3", TrainSpec(demos_a, CNMPConfig(n_outputs=2), TrainConfig(steps=5)))
         setup = make_setup()
         job = core.submit("e2", AdaptJob(setup.target, "viapoint", "point2d", setup.task_config))
+        assimilated = core.submit("e3", AdaptJob(setup.target, "viapoint", "point2d", setup.task_config))
+        core._persist(assimilated, state="done", committed_version=1)  # as if its solution made e3 v1
     finally:
         core.close()
+    # e3's newest version deleted by hand, its version record too: its job record alone remembers it
+    # (issue 73, defect 3: before, version 0 was served without a word and `acnmp status` said ok)
+    for name in ("model-v1.pt", "demos-v1.npz", "versions.json"):
+        (state / "skills/e3" / name).unlink()
     (state / "skills/e1/model-v1.pt").write_bytes(b"\x80\x02" + bytes(range(256)) * 40)  # garbage
     ckpt = state / "skills/e2/model-v0.pt"
     ckpt.write_bytes(ckpt.read_bytes()[:1000])  # truncated: e2 has no usable version left
@@ -75,6 +83,9 @@ def test_up_quarantines_bad_files_serves_the_rest_and_is_up_once_the_changed_fil
         assert "weights_only" not in said and "before going live" not in said
         # which version is served instead, on acnmp up's output too (issue 66: the learner's log alone)
         assert "acnmp up: learner: skill e1: version(s) 1 unusable (quarantined); serving version 0" in said, said
+        missing = (f"skill e3: version(s) 1 missing (no file of it is left; job {assimilated.job} records it "
+                   "committed); serving version 0, the newest present; its next version will be 2")
+        assert f"acnmp up: learner: {missing}" in said, said
         with ACNMPClient(namespace=ns, timeout=10) as client:
             info = client.info("e1")  # right after "up": the new file's skill, above every version used
             assert info["version"] == 2 and info["data_hash"] == demos_b.content_hash(), info
@@ -88,6 +99,7 @@ def test_up_quarantines_bad_files_serves_the_rest_and_is_up_once_the_changed_fil
         learner = [ln for ln in status.stdout.splitlines() if ln.split()[:1] == ["learner"]]
         assert learner and learner[0].split()[-1] == "problems", status.stdout
         assert "quarantined skills/e2/model-v0.pt: not a readable checkpoint" in status.stdout
+        assert missing in status.stdout, status.stdout
         # the launcher killed: each child stops by itself, the learner saves the job interrupted and
         # the recorder records that before it closes the file (issue 49, point 6)
         proc.kill()

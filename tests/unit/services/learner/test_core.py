@@ -17,6 +17,7 @@ from services.learner.store import JobStore
 from services.recording.events import job_names, validate_event
 from services.transport.wire import jsonable
 from services.worker.core import ExecutedBatch
+from services.worker.exclusion import Exclusion
 
 SMALL = dict(encoder_widths=(32, 32), decoder_widths=(32, 32))
 
@@ -129,6 +130,17 @@ class Gated(Recorded):
         return super().evaluate(trajectories, times, task_params)
 
 
+def _close_in_a_batch(core: LearnerCore, gated: Gated) -> None:
+    """Close ``core`` (SIGTERM's way) while its job waits in ``gated``'s batch: the job is saved interrupted."""
+    assert gated.started.wait(60)
+    closing = threading.Thread(target=core.close)
+    closing.start()
+    assert core.stopping.wait(10)
+    gated.gate.set()
+    closing.join(30)
+    assert not closing.is_alive()
+
+
 def _gated_core(tmp_path, setup, events):
     gated = Gated(setup.task)
     core = LearnerCore(tmp_path, evaluator_for=lambda job: gated, publish=events.append)
@@ -178,13 +190,7 @@ def test_close_saves_the_running_job_as_interrupted_and_a_restart_resumes_it(tmp
     core, gated = _gated_core(tmp_path, setup, events)
     job = core.submit("e1", _job(setup, max_rollouts=6, stop_on_success=False))
     core.start()
-    assert gated.started.wait(60)
-    closing = threading.Thread(target=core.close)
-    closing.start()
-    assert core.stopping.wait(10)
-    gated.gate.set()
-    closing.join(30)
-    assert not closing.is_alive()
+    _close_in_a_batch(core, gated)
     saved = JobStore(tmp_path).load_all()[job.job]
     assert saved.state == "interrupted"
     assert [e["state"] for e in events if e["kind"] == "job_progress"][-1] == "interrupted"
@@ -196,6 +202,49 @@ def test_close_saves_the_running_job_as_interrupted_and_a_restart_resumes_it(tmp
     finally:
         again.close()
     assert st["state"] == "done" and st["attempt"] == 1 and st["rollouts"] == 6
+
+
+class Excluding(Gated):
+    """The in-process task whose first batch reports ``worker`` excluded (as a remote evaluator
+    whose worker went down with its launcher does); later batches wait for the gate."""
+
+    def __init__(self, task, worker: str, reason: str):
+        super().__init__(task)
+        self.excluded = [Exclusion(worker, reason)]
+        self.gate_from = 2
+
+    def evaluate(self, trajectories, times, task_params=None):
+        if self.calls + 1 >= self.gate_from:
+            return super().evaluate(trajectories, times, task_params)
+        return Recorded.evaluate(self, trajectories, times, task_params)
+
+
+def test_a_resumed_job_shows_the_exclusions_of_its_own_attempt(tmp_path, setup):
+    """Issue 73, defect 4: a worker excluded by an attempt that ended with its learner (it was only
+    going down with its launcher) is not the resumed job's; each exclusion says its attempt."""
+    events = []
+    dying = Excluding(setup.task, "point2d-1", "failed 2 times; last for roll-outs 0..1: unavailable: gone")
+    core = LearnerCore(tmp_path, evaluator_for=lambda job: dying, publish=events.append)
+    core.train_skill("e1", TrainSpec(setup.demos, CNMPConfig(n_outputs=2, **SMALL), TrainConfig(steps=50), seed=3))
+    job = core.submit("e1", _job(setup, max_rollouts=8, stop_on_success=False)).job
+    core.start()
+    _close_in_a_batch(core, dying)  # the second batch's: the first one's exclusion is on disk
+    assert core.status(job)["excluded_workers"][0]["attempt"] == 0  # while attempt 0 ran, it was its own
+
+    healthy = Excluding(setup.task, "point2d-2", "answered for roll-outs 2..3: rewards: a value of magnitude 1e+308")
+    healthy.gate.set()
+    again = LearnerCore(tmp_path, evaluator_for=lambda job: healthy, publish=events.append).start()
+    try:
+        assert again.wait_idle(120)
+        status = again.status(job)
+    finally:
+        again.close()
+    assert status["state"] == "done" and status["attempt"] == 1, status["error"]
+    assert status["excluded_workers"] == [{"worker": "point2d-2", "reason": healthy.excluded[0].reason, "attempt": 1}]
+    assert events[-1]["kind"] == "job_progress" and events[-1]["excluded_workers"].startswith("point2d-2: answered")
+    # the record keeps both, each with its attempt
+    kept = JobStore(tmp_path).load_all()[job].excluded_workers
+    assert [(e.worker, e.attempt) for e in kept] == [("point2d-1", 0), ("point2d-2", 1)]
 
 
 def test_a_cancel_asked_before_a_crash_ends_the_job_on_restart(tmp_path, setup):

@@ -9,7 +9,9 @@ import numpy as np
 import pytest
 
 from services.learner.core import LearnerCore
+from services.learner.journals import Settled
 from services.learner.store import JobStore
+from services.recording.event_ids import IndexRanges
 
 from .test_concurrent_jobs import WAIT, Gate, _core, _job, setup, trained  # noqa: F401 (fixtures)
 
@@ -111,7 +113,8 @@ def test_a_journal_that_cannot_be_published_is_quarantined_and_named_and_never_b
     (line,) = [p for p in problems if "a0-0000000000.rollouts" in p]
     assert line.startswith("quarantined jobs/a0-0000000000.rollouts: 1 of its 2 roll-out events cannot be "
                            "published (event 1: non_finite"), line
-    assert status["state"] == "done" and not store.journal_path("a0-0000000000").exists()
+    # its publishable event is journalled again, until the recorder holds it
+    assert status["state"] == "done" and [ev["rollout_index"] for ev in store.take_journal("a0-0000000000")] == [0]
 
 
 def test_a_journal_whose_publishing_fails_is_kept_named_and_published_once_it_can_be(
@@ -157,8 +160,36 @@ def test_a_finished_jobs_journal_goes_once_the_recorder_holds_its_rollouts(train
         assert core.wait_idle(WAIT)
         path = core.job_store.journal_path(job)
         assert path.exists()
-        assert core.settle_journals(lambda jobs: set()) == ([], [job]) and path.exists()  # not confirmed: kept
-        assert core.settle_journals(lambda jobs: set(jobs)) == ([job], []) and not path.exists()
+        assert core.settle_journals(lambda jobs: {}) == Settled((), 0, (job,)) and path.exists()  # not confirmed
+        every = lambda jobs: {j: IndexRanges.everything() for j in jobs}  # noqa: E731
+        assert core.settle_journals(every) == Settled((job,), 10, ()) and not path.exists()
+    finally:
+        core.close()
+
+
+def test_a_journal_keeps_every_rollout_until_the_recorder_holds_it(trained, tmp_path, setup):
+    """Issue 73, defect 1: a journal kept the last two batches of a running job, so a recorder
+    killed with the learner lost the roll-outs it had received but not yet written. Now a job's
+    journal holds every roll-out the recorder has not confirmed, whatever the batches, and drops
+    exactly those it confirms."""
+    events: list[dict] = []
+    gate = Gate(setup.task)
+    core = _core(trained, tmp_path, gate, events)
+    try:
+        job = core.submit("e1", _job(setup, 5, rollouts=20)).job
+        assert core.wait_idle(WAIT)
+        path = core.job_store.journal_path(job)
+        published = sorted(ev["rollout_index"] for ev in events if ev["kind"] == "rollout")
+        batches = {ev["iteration"] for ev in events if ev["kind"] == "rollout"}
+        assert len(batches) > 2 and published == list(range(core.status(job)["rollouts_executed"]))
+        # nothing confirmed: the journal holds every batch's roll-outs, not the last two
+        assert [ev["rollout_index"] for ev in core.job_store.take_journal(job)] == published
+        held = IndexRanges(((0, 6), (9, 11)))
+        settled = core.settle_journals(lambda jobs: {job: held})
+        assert settled == Settled((), 10, (job,)) and path.exists()
+        assert core.journals.unconfirmed() == {job: len(published) - 10}
+        every = lambda jobs: {j: IndexRanges.everything() for j in jobs}  # noqa: E731
+        assert core.settle_journals(every).removed == (job,) and not path.exists()
     finally:
         core.close()
 

@@ -206,6 +206,36 @@ def test_a_restart_after_a_quarantine_never_reuses_the_quarantined_version_numbe
         again.close()
 
 
+@pytest.mark.parametrize("witness", ["version record", "job record"])
+def test_a_deleted_newest_version_is_named_and_its_number_never_given_again(witness, baseline, tmp_path):
+    """Issue 73, defect 3: every file of e1's newest version deleted by hand (``rm model-v1.pt
+    demos-v1.npz``, and ``versions.json`` too when the job record alone remembers it): e1 is served
+    at version 0 with a line in the learner's health naming version 1 as missing (so ``acnmp
+    status`` exits 1), and the next version is 2; once version 2 is committed nothing is missing."""
+    base, done_job = baseline
+    state = tmp_path / "state"
+    shutil.copytree(base, state)
+    for name in ("model-v1.pt", "demos-v1.npz") + (("versions.json",) if witness == "job record" else ()):
+        (state / "skills/e1" / name).unlink()
+    if witness == "version record":  # the record alone remembers it (the job's was pruned)
+        (state / f"jobs/{done_job}.json").unlink()
+    says = "versions.json" if witness == "version record" else f"job {done_job}"
+    core = _core(state)
+    try:
+        assert core.skills["e1"].version == 0 and core.state.found == []
+        line = (f"skill e1: version(s) 1 missing (no file of it is left; {says} records it committed); serving "
+                "version 0, the newest present; its next version will be 2")
+        assert line in core.health().problems(), core.health().problems()
+        assert core.train_skill("e1", _spec()).version == 2
+    finally:
+        core.close()
+    again = _core(state)
+    try:
+        assert again.skills["e1"].version == 2 and again.health().problems() == []
+    finally:
+        again.close()
+
+
 @pytest.mark.parametrize("case", ["checkpoint", "demonstrations", "job record"])
 def test_a_readable_file_in_the_place_of_another_is_quarantined(case, tmp_path):
     """A well-formed file under another file's name (restored from the wrong backup, copied by

@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from services.recording.event_ids import SeenEvents, split_event_id
+from services.recording.event_ids import IndexRanges, SeenEvents, split_event_id
 
 PUBLISHERS = ("z1/1", "z1/2", "z2/7")
 
@@ -100,3 +100,21 @@ def test_a_malformed_id_is_refused(bad):
 def test_a_corrupt_state_is_refused(data):
     with pytest.raises(ValueError):
         SeenEvents.from_json(data)
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.integers(0, 300), max_size=300))
+def test_the_ranges_a_recorder_reports_hold_exactly_the_indices_recorded(indices):
+    """What a recorder's status says it holds of a job (``held``), through the wire form and back."""
+    seen = SeenEvents(max_runs=1000)
+    for i in indices:
+        seen.add(f"rollout/e1-0123456789/{i}")
+    held = IndexRanges.from_wire(seen.ranges("rollout/e1-0123456789"))
+    assert {i for i in range(-2, 305) if i in held} == set(indices)
+    assert seen.ranges("rollout/another") == [] and 0 not in IndexRanges() and 10**12 in IndexRanges.everything()
+
+
+@pytest.mark.parametrize("bad", [[[3, 2]], [[0, 2], [2, 4]], [[0, True]], [[0]], [(0, 1)], "0-1", [[-1, 0]]])
+def test_ranges_that_are_not_sorted_disjoint_pairs_are_refused(bad):
+    with pytest.raises(ValueError):
+        IndexRanges.from_wire(bad)

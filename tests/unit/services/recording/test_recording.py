@@ -73,3 +73,21 @@ def test_a_recording_is_readable_by_its_owner_only(tmp_path):
         with RrdWriter(out) as writer:
             writer.log_event(rollout_event("j", 0, np.zeros((3, 2)), [0, 0.5, 1], [0, 0, 1.0], worker="w"))
         assert stat.S_IMODE(out.stat().st_mode) == 0o600, out
+
+
+def test_a_flush_writes_what_was_logged_and_names_the_learner_rollouts_now_in_the_file(tmp_path):
+    """Issue 73: the recorder says which roll-outs its file holds only once they are in it (a copy
+    of the open file, what a recorder killed now would leave, holds them)."""
+    import shutil
+
+    out = tmp_path / "flushed.rrd"
+    with RrdWriter(out) as writer:
+        for i in range(3):  # a learner job's roll-outs carry their attempt; an experiment's none
+            writer.log_event({**rollout_event("e1-0123456789", i, np.zeros((3, 2)), [0, 0.5, 1], [0, 0, 1.0]),
+                              "attempt": 0})
+        writer.log_event(rollout_event("j", 0, np.zeros((3, 2)), [0, 0.5, 1], [0, 0, 1.0]))
+        assert writer.flush() == [f"rollout/e1-0123456789/{i}" for i in range(3)]
+        shutil.copyfile(out, tmp_path / "left.rrd")
+        assert writer.flush() == []  # nothing logged since
+    assert summarize(tmp_path / "left.rrd")["jobs"]["e1-0123456789"]["unique_rollouts"] == 3
+    assert writer.flush() == []  # closed

@@ -8,7 +8,8 @@ import pytest
 from acnmp_core.experiments.viapoint import make_setup
 from acnmp_core.rollout import RolloutBatch
 from services.transport import WireError, decode, encode, wire_error
-from services.worker.core import ExecutedBatch, Worker, batch_from_reply, rollout_reply, rollout_request, take
+from services.worker.core import (ExecutedBatch, Worker, batch_from_reply, disagreement, rollout_reply,
+                                  rollout_request, take)
 
 
 @pytest.fixture(scope="module")
@@ -59,3 +60,21 @@ def test_the_worker_answers_in_process_and_refuses_by_code(setup):
         worker.close()
     with pytest.raises(ValueError, match="ur11"):
         Worker("ur11", "w0")
+
+
+def test_two_runs_of_the_same_rollouts_agree_unless_a_number_differs_beyond_the_simulators_determinism():
+    """Issue 73: what a cross-check compares (services/worker/remote.py)."""
+    rng = np.random.default_rng(0)
+    rewards = rng.normal(size=(3, 5))
+    states = {"xy": rng.normal(size=(3, 5, 2)), "contact": np.array([[0, 1]] * 3)}
+    honest = RolloutBatch(rewards, np.array([True, False, False]), states, np.array([0.01, 0.2, 0.3]))
+    again = RolloutBatch(rewards * (1 + 1e-12), honest.success, {k: v.copy() for k, v in states.items()}, honest.errors)
+    assert disagreement(honest, again) is None
+    liar = RolloutBatch(np.full((3, 5), -1.0), honest.success, states, honest.errors)
+    assert disagreement(honest, liar).startswith("return ") and "-5 (roll-out 0)" in disagreement(honest, liar)
+    assert disagreement(honest, RolloutBatch(rewards, ~honest.success, states, honest.errors)) == \
+        "success True against False (roll-out 0)"
+    assert disagreement(honest, RolloutBatch(rewards, honest.success, states, honest.errors + 0.1)) == "errors differ"
+    moved = {**states, "xy": states["xy"] + 1e-3}
+    assert disagreement(honest, RolloutBatch(rewards, honest.success, moved, honest.errors)) == "states['xy'] differ"
+    assert disagreement(honest, RolloutBatch(rewards[:2], honest.success[:2])) == "3 roll-outs against 2"
