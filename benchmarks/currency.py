@@ -12,6 +12,11 @@ publish) is *stale* when
 * its command names a script that is not in the repository (it moved), or a file outside the
   repository (a scratch file only the machine that made it had).
 
+A result of record may be *pending* (:data:`PENDING`): not made at this commit, for the reason
+given, its file absent; the pages then publish none of its numbers (its blocks say it is pending
+and name its command; tests/unit/benchmarks/test_currency.py reads every block to check that), and
+it is listed, not counted stale. Once its file exists it is checked as any other.
+
 ``python benchmarks/currency.py`` lists each stale result with why and the command that makes it
 again; the test suite runs the same check (tests/unit/benchmarks/test_currency.py), so a change to
 the code behind a published number fails the suite until the number is made again.
@@ -33,6 +38,10 @@ PACKAGES = ("acnmp_core", "services", "clients", "benchmarks")
 #: the results of record: what the README and the experiment pages' headline tables publish
 RECORD = ("e1_viapoint", "e2_push", "e3_wall", "e3_seeds", "e4_transfer", "e5_ur10", "e6_pour", "pusher", "peers",
           "bench_predict", "bench_predict_routed")
+
+#: results of record not made at this commit, and why: no page publishes their numbers meanwhile
+PENDING = {"peers": "the comparison of record on the report seeds 5-14 takes about 11 hours of CPU on the "
+                    "project's 2-core machine; not run since the default's model changed"}
 
 
 @dataclass(frozen=True)
@@ -115,16 +124,26 @@ def check(name: str, results: Path = RESULTS) -> Stale | None:
     return None
 
 
+def pending(results: Path = RESULTS) -> list[str]:
+    """The results of :data:`PENDING` whose file is absent: not made, and published nowhere."""
+    return [n for n in PENDING if not (results / f"{n}.json").exists()]
+
+
 def stale_results(names: tuple[str, ...] = RECORD, results: Path = RESULTS) -> list[Stale]:
-    """Every stale result among ``names``."""
-    return [s for s in (check(n, results) for n in names) if s is not None]
+    """Every stale result among ``names`` (a pending one, :func:`pending`, is not stale)."""
+    waiting = set(pending(results))
+    return [s for s in (check(n, results) for n in names if n not in waiting) if s is not None]
 
 
 def main() -> int:
     stale = stale_results()
     for s in stale:
         print(f"{s.name}: {s.why}\n    made by: {s.command or '-'}")
-    print(f"{len(RECORD) - len(stale)} of {len(RECORD)} results of record current")
+    waiting = pending()
+    for name in waiting:
+        print(f"{name}: pending: {PENDING[name]}")
+    print(f"{len(RECORD) - len(stale) - len(waiting)} of {len(RECORD)} results of record current"
+          + (f", {len(waiting)} pending" if waiting else ""))
     return 1 if stale else 0
 
 

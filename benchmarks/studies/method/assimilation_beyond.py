@@ -3,8 +3,9 @@ there afterwards, and the demonstrations at the edge kept.
 
 One task parameter: seven demonstrations, an amplitude ``0.5 + c`` times one shape for c in
 [0, 0.6]; a solution at c = 0.9 that is not the family's linear extrapolation (a bump more, as an
-adaptation finds). Per model kind (the default's choice, the linear path beside the network, the
-network alone) and training seed: the error of the skill's prediction at c = 0.9 against the
+adaptation finds). Per model kind (the default's choice, the network with the demonstrations'
+trend beyond its range, the network alone, and the previous default: the linear path beside the
+network) and training seed: the error of the skill's prediction at c = 0.9 against the
 solution and at the edge demonstration (c = 0.6) against it, before and after ``assimilate`` with
 the library's defaults (1000 steps, the anchor on the adaptation's conditions).
 
@@ -55,13 +56,14 @@ def rms(model: CNMP, c: float, truth: np.ndarray) -> float:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", default="0,1", help="comma-separated training seeds (default 0,1)")
-    ap.add_argument("--out", default=str(study_results("method") / "assimilation_beyond.json"))
+    ap.add_argument("--out", default=str(study_results("method") / "assimilation_beyond.json"),
+                    help="the result JSON (default: the study's results/assimilation_beyond.json)")
     args = ap.parse_args(argv)
     torch.set_num_threads(1)
     demos, solution = family()
     edge = demos[-1].values
     rows = []
-    for prior in ("auto", "linear", "none"):
+    for prior in ("auto", "trend", "none", "linear"):
         for seed in (int(s) for s in args.seeds.split(",")):
             model = CNMP(CNMPConfig(n_outputs=1, n_task_params=1, prior=prior), seed=seed)
             train(model, demos, TrainConfig(steps=3000), seed=seed, progress=False)

@@ -52,3 +52,27 @@ def test_a_result_is_stale_after_its_code_changes_or_when_its_command_cannot_be_
                                                                      "commit": head},
                                                       "parts": [{"provenance": {"commit": first}}]}))
     assert "changed since" in currency.check("merged", tmp_path).why
+
+
+def test_a_pending_result_is_published_nowhere(monkeypatch):
+    """A result of record not made at this commit (currency.PENDING, its file absent) is no stale
+    result only as long as no block of any page reads it: each block says it is pending instead."""
+    from benchmarks import report, report_kit
+
+    waiting = set(currency.pending())
+    read: list[str] = []
+    where = report_kit.result_path
+    monkeypatch.setattr(report_kit, "result_path", lambda name: (read.append(name), where(name))[1])
+    for page in report.pages():
+        for m in report.BLOCK.finditer(page.read_text()):
+            report.RENDERERS[m.group(2)]()
+    assert not waiting & set(read)
+
+
+def test_a_pending_result_is_checked_once_its_file_exists(tmp_path):
+    assert currency.pending(tmp_path) == list(currency.PENDING)
+    assert currency.stale_results(tuple(currency.PENDING), tmp_path) == []
+    for name in currency.PENDING:
+        (tmp_path / f"{name}.json").write_text(json.dumps({"provenance": {"command": "x.py", "commit": "0" * 40}}))
+    assert currency.pending(tmp_path) == []
+    assert {s.name for s in currency.stale_results(tuple(currency.PENDING), tmp_path)} == set(currency.PENDING)

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import re
 
-from benchmarks import report, report_kit
+from benchmarks import currency, report, report_kit
 from tests.paths import ROOT
 
 #: a result file named by its path from the repository root
@@ -49,9 +49,16 @@ def _named_paths(text: str) -> list[str]:
     return RESULT_PATH.findall(report.BLOCK.sub("", text)) + [p for p in froms if RESULT_PATH.fullmatch(p)]
 
 
+def _pending(path: str) -> bool:
+    """Whether ``path`` is a file of a pending result of record (its JSON, figure or parts), which
+    the command a page names makes: benchmarks/currency.py's PENDING."""
+    name = path.rsplit("/", 1)[-1]
+    return path.startswith("benchmarks/results/") and any(name.startswith(n) for n in currency.pending())
+
+
 def test_every_result_path_a_page_or_script_names_exists():
     texts = [ROOT / "README.md", *(ROOT / "docs").rglob("*.md"), *(ROOT / "benchmarks").rglob("*.md"),
              *(ROOT / "benchmarks").rglob("*.py")]
     missing = sorted(f"{path.relative_to(ROOT)}: {p}" for path in texts for p in _named_paths(path.read_text())
-                     if not (ROOT / p).exists())
+                     if not (ROOT / p).exists() and not _pending(p))
     assert not missing, "\n".join(missing)
