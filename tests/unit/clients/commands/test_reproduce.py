@@ -5,6 +5,9 @@ from __future__ import annotations
 
 import copy
 import json
+import re
+
+import numpy as np
 
 from clients.cli import main
 
@@ -74,7 +77,7 @@ def test_the_targets_follow_from_the_published_json():
     assert passed is False and "[missed] ACNMP at 9_11 succeeds within 2 deg in 2/5 (>= 3/5)" in text
     text, passed = _step("E6").target(e6)
     assert passed is True and "[ok] after assimilation all 16 demonstrations within 50 g in 4/5 seeds" in text
-    assert "[ok] median within 30 g after assimilation 14 >= LfD-only's 13 - 1" in text
+    assert re.search(r"\[ok\] median within 30 g after assimilation \d+ >= LfD-only's \d+ - 1", text), text
     worse = copy.deepcopy(e6)
     worse["runs"][0]["assimilation"]["demo_errors_g"][0] = 51.0
     assert "[missed] after assimilation all 16 demonstrations within 50 g in 3/5" in _step("E6").target(worse)[0]
@@ -82,7 +85,8 @@ def test_the_targets_follow_from_the_published_json():
     for r in worse["runs"]:
         r["assimilation"]["demos_within_30g"] = r["lfd_demos_within_30g"] - 2
     text, passed = _step("E6").target(worse)
-    assert passed is False and "[missed] median within 30 g after assimilation 11 >= LfD-only's 13 - 1" in text
+    lfd = int(np.median([r["lfd_demos_within_30g"] for r in worse["runs"]]))
+    assert passed is False and f"[missed] median within 30 g after assimilation {lfd - 2} >= LfD-only's {lfd} - 1" in text
 
 
 def test_the_predict_target_is_two_processes_against_the_ceiling_with_one_beside_it():
@@ -166,7 +170,7 @@ def test_a_quick_run_whose_counts_do_not_add_up_says_so():
     assert ok and "the accounting holds" in text and "missed" not in text
     r["runs"][0]["rollouts"] += 1
     text, ok = quick_check(r, _step("E6").target)
-    assert not ok and "the accounting does not hold: acnmp: roll-outs [20, 20, 20, 25, 10] are not its runs'" in text
+    assert not ok and f"the accounting does not hold: acnmp: roll-outs {r['acnmp']['rollouts']} are not its runs'" in text
     del r["runs"][0]["assimilation"]["demo_errors_g"]
     assert "a field the targets read is missing (KeyError('demo_errors_g'))" in quick_check(r, _step("E6").target)[0]
 
