@@ -15,12 +15,10 @@ Writes benchmarks/studies/method/results/assimilation_beyond.json.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
 import numpy as np
-import torch
 
 ROOT = Path(__file__).resolve().parents[3]
 sys.path.insert(0, str(ROOT))
@@ -30,7 +28,7 @@ from acnmp_core.adaptation.config import AdaptTarget, AssimilationConfig  # noqa
 from acnmp_core.data.demos import DemoSet, Demonstration  # noqa: E402
 from acnmp_core.model.cnmp import CNMP, CNMPConfig  # noqa: E402
 from acnmp_core.model.training import TrainConfig, train  # noqa: E402
-from benchmarks._results import provenance, study_results  # noqa: E402
+from benchmarks._results import save_result, start_run, study_results  # noqa: E402
 
 T = np.linspace(0.0, 1.0, 60)
 CS = np.linspace(0.0, 0.6, 7)
@@ -58,8 +56,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seeds", default="0,1", help="comma-separated training seeds (default 0,1)")
     ap.add_argument("--out", default=str(study_results("method") / "assimilation_beyond.json"),
                     help="the result JSON (default: the study's results/assimilation_beyond.json)")
-    args = ap.parse_args(argv)
-    torch.set_num_threads(1)
+    args, made = start_run(ap, argv, __file__)
     demos, solution = family()
     edge = demos[-1].values
     rows = []
@@ -74,10 +71,7 @@ def main(argv: list[str] | None = None) -> int:
             after = {"solution": rms(model, C_SOLUTION, solution), "edge": rms(model, 0.6, edge)}
             rows.append({"prior": prior, "chosen": model.config.prior, "seed": seed, "before": before, "after": after})
             print(rows[-1], flush=True)
-    out = Path(args.out)
-    out.write_text(json.dumps({"provenance": provenance(), "c_solution": C_SOLUTION, "rows": rows}, indent=1) + "\n")
-    print(f"wrote {out}")
-    return 0
+    return save_result({"provenance": made, "c_solution": C_SOLUTION, "rows": rows}, args.out)
 
 
 if __name__ == "__main__":

@@ -14,12 +14,10 @@ Writes benchmarks/studies/method/results/family_errors.json.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
 import numpy as np
-import torch
 
 ROOT = Path(__file__).resolve().parents[3]
 sys.path.insert(0, str(ROOT))
@@ -28,7 +26,7 @@ from acnmp_core.data.demos import DemoSet  # noqa: E402
 from acnmp_core.model.cnmp import CNMP, CNMPConfig  # noqa: E402
 from acnmp_core.model.training import TrainConfig, train  # noqa: E402
 from acnmp_core.tasks.families import FAMILIES, PathFamily  # noqa: E402
-from benchmarks._results import provenance, study_results  # noqa: E402
+from benchmarks._results import save_result, start_run, study_results  # noqa: E402
 
 STEPS = 3000
 
@@ -52,8 +50,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--conditions", type=int, default=5, help="conditions per case, evenly spaced (default 5)")
     ap.add_argument("--out", default=str(study_results("method") / "family_errors.json"),
                     help="the result JSON (default: the study's results/family_errors.json)")
-    args = ap.parse_args(argv)
-    torch.set_num_threads(1)
+    args, made = start_run(ap, argv, __file__)
     rows = []
     for fam in FAMILIES.values():
         times, values, params = fam.demonstrations()
@@ -70,10 +67,7 @@ def main(argv: list[str] | None = None) -> int:
                                  "rmse": float(np.mean([error(model, fam, c) for c in cs]))})
                     print(rows[-1]["family"], prior, model.config.prior, seed, case, f"{rows[-1]['rmse']:.4g}",
                           flush=True)
-    out = Path(args.out)
-    out.write_text(json.dumps({"provenance": provenance(), "train_steps": STEPS, "rows": rows}, indent=1) + "\n")
-    print(f"wrote {out}")
-    return 0
+    return save_result({"provenance": made, "train_steps": STEPS, "rows": rows}, args.out)
 
 
 if __name__ == "__main__":
